@@ -1,0 +1,63 @@
+#include "args.h"
+
+#include "core/error.h"
+
+namespace rangex::cli {
+
+Args::Args(int argc, char** argv, int first, std::set<std::string> flags,
+           std::set<std::string> values) {
+  for (int i = first; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a.rfind("--", 0) == 0) {
+      const std::string name = a.substr(2);
+      if (flags.count(name)) {
+        flags_.insert(name);
+      } else if (values.count(name)) {
+        if (i + 1 >= argc) fail("option --", name, " needs a value");
+        values_[name] = argv[++i];
+      } else {
+        std::string known;
+        for (const auto& f : flags) known += " --" + f;
+        for (const auto& v : values) known += " --" + v;
+        fail("unknown option ", a, " (known:", known.empty() ? " none" : known, ")");
+      }
+    } else {
+      pos_.push_back(a);
+    }
+  }
+}
+
+std::string Args::positional(size_t i, const char* what) const {
+  if (i >= pos_.size()) fail("missing ", what);
+  return pos_[i];
+}
+
+std::string Args::get(const std::string& name, const std::string& def) const {
+  auto it = values_.find(name);
+  return it == values_.end() ? def : it->second;
+}
+
+std::string Args::require(const std::string& name) const {
+  auto it = values_.find(name);
+  if (it == values_.end()) fail("missing option --", name);
+  return it->second;
+}
+
+long Args::integer(const std::string& name, long def) const {
+  auto it = values_.find(name);
+  if (it == values_.end()) return def;
+  try {
+    size_t used = 0;
+    const long v = std::stol(it->second, &used);
+    if (used != it->second.size()) throw std::invalid_argument("trailing");
+    return v;
+  } catch (const std::exception&) {
+    fail("option --", name, " expects an integer (got '", it->second, "')");
+  }
+}
+
+void Args::expect_positionals(size_t n, const char* usage) const {
+  if (pos_.size() != n) fail("expected ", n, " argument", n == 1 ? "" : "s", ": ", usage);
+}
+
+}  // namespace rangex::cli

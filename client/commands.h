@@ -1,0 +1,20 @@
+// rangexctl subcommands; each takes the arguments after its name and returns an exit code.
+#pragma once
+#include <string>
+
+#include "core/plant_config.h"
+
+namespace rangex::cli {
+
+int cmd_simulate(int argc, char** argv);
+int cmd_extract(int argc, char** argv);
+int cmd_process(int argc, char** argv);
+int cmd_eval(int argc, char** argv);
+int cmd_calib(int argc, char** argv);
+int cmd_bench(int argc, char** argv);
+
+// --config, else $RANGEX_CONFIG, else ./config/plant.yaml, else the source tree's default.
+std::string config_path(const std::string& option_value);
+PlantConfig load_config(const std::string& option_value);
+
+}  // namespace rangex::cli

@@ -1,0 +1,103 @@
+#include "replay.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "core/error.h"
+
+namespace rangex {
+
+std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const PlantConfig& plant,
+                                         const ReplayOptions& opt,
+                                         const ReplayProgress& progress) {
+  const RecordingInfo& info = rec.info();
+  if (info.calibration_id != plant.calibration_id)
+    fail("calibration mismatch: the recording was made with calibration '", info.calibration_id,
+         "' but the plant configuration holds '", plant.calibration_id, "'");
+  if (opt.batch_lines <= 0) fail("batch size must be > 0 (got ", opt.batch_lines, ")");
+  std::vector<int> lanes = opt.lanes.empty() ? info.lanes : opt.lanes;
+  for (int id : lanes)
+    if (std::find(info.lanes.begin(), info.lanes.end(), id) == info.lanes.end())
+      fail("lane ", id, " is not in the recording (it holds lanes ", info.lanes.size(), ")");
+
+  const int64_t total = info.lines * int64_t(lanes.size());
+  int64_t done = 0;
+  std::vector<LaneReplay> out;
+  for (int id : lanes) {
+    LaneConfig lc = plant.lane(id);
+    if (lc.frame_width != info.width || lc.frame_height != info.height)
+      fail("lane ", id, ": recording frames are ", info.width, "x", info.height,
+           " but the plant configuration says ", lc.frame_width, "x", lc.frame_height);
+    if (lc.xray.pixels != info.xray_pixels)
+      fail("lane ", id, ": recording X-ray lines have ", info.xray_pixels,
+           " pixels but the plant configuration says ", lc.xray.pixels);
+    if (std::abs(lc.encoder_step_mm - info.encoder_step_mm) > 1e-9)
+      fail("lane ", id, ": recording encoder step is ", info.encoder_step_mm,
+           " mm but the plant configuration says ", lc.encoder_step_mm, " mm");
+    if (opt.method) lc.stripe.method = *opt.method;
+    const LinePipeline pipe({lc});
+    LaneReplay r;
+    r.lane = id;
+    r.lines = info.lines;
+    r.width = info.width;
+    r.pixels = info.xray_pixels;
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    r.thickness.assign(size_t(r.lines) * r.pixels, nan);
+    for (auto& s : r.stripe_rows) s.assign(size_t(r.lines) * r.width, nan);
+    const int delay = lc.xray.delay_lines;
+    const size_t frame = size_t(info.width) * info.height;
+    LineBatch batch;
+    LineResults res;
+    std::vector<uint8_t> cam0, cam1;
+    std::vector<int64_t> enc;
+    int64_t last_encoder = std::numeric_limits<int64_t>::min();
+    for (int64_t n0 = 0; n0 < info.lines; n0 += opt.batch_lines) {
+      const int count = int(std::min<int64_t>(opt.batch_lines, info.lines - n0));
+      cam0.resize(frame * count);
+      cam1.resize(frame * count);
+      enc.resize(count);
+      rec.read(id, n0, count, cam0.data(), cam1.data(), nullptr, enc.data());
+      for (int k = 0; k < count; ++k) {
+        if (enc[k] <= last_encoder)
+          fail("lane ", id, ": encoder count ", enc[k], " at line ", n0 + k,
+               enc[k] == last_encoder ? " repeats the previous line" : " goes backwards");
+        if (last_encoder != std::numeric_limits<int64_t>::min() && enc[k] != last_encoder + 1)
+          fail("lane ", id, ": encoder jumps from ", last_encoder, " to ", enc[k], " at line ",
+               n0 + k, " (lines are missing)");
+        last_encoder = enc[k];
+      }
+      batch.lines = count;
+      batch.lane_slot.assign(count, 0);
+      batch.frames.resize(frame * 2 * count);
+      for (int k = 0; k < count; ++k) {
+        std::copy_n(&cam0[frame * k], frame, &batch.frames[frame * (2 * k)]);
+        std::copy_n(&cam1[frame * k], frame, &batch.frames[frame * (2 * k + 1)]);
+      }
+      const auto t0 = std::chrono::steady_clock::now();
+      pipe.run(batch, res);
+      r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      for (int k = 0; k < count; ++k) {
+        const int64_t n = n0 + k;
+        for (int c = 0; c < 2; ++c)
+          std::copy_n(&res.stripes.row[size_t(2 * k + c) * r.width], r.width,
+                      &r.stripe_rows[c][size_t(n) * r.width]);
+        // Camera line n images the slice the X-ray sees at line n + delay.
+        const int64_t xl = n + delay;
+        if (xl >= r.lines) continue;
+        for (int i = 0; i < r.pixels; ++i) {
+          const size_t o = size_t(k) * r.pixels + i;
+          r.thickness[size_t(xl) * r.pixels + i] = res.thickness_valid[o] ? res.thickness[o] : nan;
+        }
+      }
+      done += count;
+      if (progress) progress(done, total);
+    }
+    r.fusion = res.fusion;
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+}  // namespace rangex

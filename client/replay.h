@@ -1,0 +1,40 @@
+// Offline replay: a recording through the same CPU line pipeline the server runs, batch by
+// batch, with the thickness lines registered to the X-ray lines by the calibrated delay.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/plant_config.h"
+#include "core/recording.h"
+#include "pipeline/line_pipeline.h"
+
+namespace rangex {
+
+struct ReplayOptions {
+  int batch_lines = 64;
+  std::optional<StripeMethod> method;  // overrides plant.yaml's stripe method
+  std::vector<int> lanes;              // empty: every lane of the recording
+};
+
+struct LaneReplay {
+  int lane = 0;
+  int64_t lines = 0;
+  int width = 0, pixels = 0;
+  // X-ray path thickness registered to X-ray line k (from the camera line k - delay), mm;
+  // NaN where there is no valid thickness.
+  std::vector<float> thickness;
+  std::vector<float> stripe_rows[2];  // per camera, lines x width, NaN where invalid
+  FusionStats fusion;
+  double seconds = 0;  // pipeline time, reading excluded
+};
+
+using ReplayProgress = std::function<void(int64_t done, int64_t total)>;
+
+std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const PlantConfig& plant,
+                                         const ReplayOptions& opt,
+                                         const ReplayProgress& progress = {});
+
+}  // namespace rangex

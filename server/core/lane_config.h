@@ -1,0 +1,46 @@
+// Everything the pipeline needs to know about one lane: sensor sizes, the calibrated rig
+// geometry and the processing thresholds.
+#pragma once
+#include <array>
+#include <string>
+
+#include "core/camera_model.h"
+#include "core/fan_beam.h"
+#include "core/laser_plane.h"
+#include "core/stripe_params.h"
+
+namespace rangex {
+
+struct LaneCamera {
+  std::string name;
+  CameraModel model;
+  ScatterConstants scatter;
+};
+
+struct FusionParams {
+  double grid_pitch_mm = 0.2;     // fused profile sample spacing across the belt
+  double grid_x0_mm = -100.0;     // x of the first fused sample
+  int grid_samples = 1001;        // covers x0 .. x0 + pitch * (n - 1)
+  double agree_tol_mm = 1.0;      // both cameras valid and closer than this: averaged
+  double max_gap_mm = 3.0;        // shorter gaps are interpolated, longer ones stay invalid
+  double max_column_step_mm = 2.0;  // neighbouring columns further apart are not joined
+};
+
+struct LaneConfig {
+  int id = 0;
+  int frame_width = 640;
+  int frame_height = 200;
+  double encoder_step_mm = 0.4;
+  std::array<LaneCamera, 2> cameras;
+  LaserPlane laser;
+  FanBeam xray;
+  StripeParams stripe;
+  int lut_step_px = 2;  // rectification table node spacing on the sensor
+  FusionParams fusion;
+};
+
+// The rig of the dissertation: cameras of appendices D and E, the second mirrored to the
+// other side of the laser plane, both centred over the lane.
+LaneConfig default_lane_config(int id);
+
+}  // namespace rangex

@@ -1,0 +1,291 @@
+#include "core/plant_config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <optional>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace rangex {
+
+namespace {
+
+// A YAML node with the dotted path that led to it, so that every error names its key.
+struct Node {
+  YAML::Node node;
+  std::string path;
+  const std::string* origin;
+
+  [[noreturn]] void bad(const std::string& why) const { fail(*origin, ": ", path, ": ", why); }
+
+  bool has(const char* key) const { return node.IsMap() && node[key]; }
+  Node at(const std::string& key) const {
+    return {node[key], path.empty() ? key : path + "." + key, origin};
+  }
+  Node item(size_t i) const { return {node[i], path + "[" + std::to_string(i) + "]", origin}; }
+
+  void only_keys(std::initializer_list<const char*> keys) const {
+    if (!node.IsMap()) bad("expected a mapping");
+    std::set<std::string> ok(keys.begin(), keys.end());
+    for (const auto& kv : node) {
+      const auto k = kv.first.as<std::string>();
+      if (!ok.count(k)) {
+        std::string list;
+        for (const auto& s : ok) list += (list.empty() ? "" : ", ") + s;
+        bad("unknown key '" + k + "' (expected: " + list + ")");
+      }
+    }
+  }
+
+  double num() const {
+    double v;
+    try {
+      v = node.as<double>();
+    } catch (const YAML::Exception&) {
+      bad("expected a number");
+    }
+    if (!std::isfinite(v)) bad("must be finite");
+    return v;
+  }
+  int integer() const {
+    try {
+      return node.as<int>();
+    } catch (const YAML::Exception&) {
+      bad("expected an integer");
+    }
+  }
+  std::string str() const {
+    if (!node.IsScalar()) bad("expected a string");
+    return node.as<std::string>();
+  }
+  std::vector<double> numbers(size_t n) const {
+    if (!node.IsSequence() || node.size() != n)
+      bad("expected a list of " + std::to_string(n) + " numbers");
+    std::vector<double> v;
+    for (size_t i = 0; i < n; ++i) v.push_back(item(i).num());
+    return v;
+  }
+
+  // Optional scalar members; absent keys keep the default already in `out`.
+  void get(const char* key, double& out) const {
+    if (has(key)) out = at(key).num();
+  }
+  void get(const char* key, int& out) const {
+    if (has(key)) out = at(key).integer();
+  }
+  void get(const char* key, std::string& out) const {
+    if (has(key)) out = at(key).str();
+  }
+  void positive(const char* key, double& out) const {
+    get(key, out);
+    if (!(out > 0)) at(key).bad("must be > 0");
+  }
+  void positive(const char* key, int& out) const {
+    get(key, out);
+    if (out <= 0) at(key).bad("must be > 0");
+  }
+};
+
+void read_camera(const Node& n, LaneCamera& cam, int w, int h) {
+  n.only_keys({"name", "intrinsics", "distortion", "rotation", "center_mm", "scatter"});
+  n.get("name", cam.name);
+  Intrinsics k = cam.model.intrinsics();
+  Distortion d = cam.model.distortion();
+  Mat3 R = cam.model.rotation();
+  Vec3 c = cam.model.center();
+  if (n.has("intrinsics")) {
+    const Node in = n.at("intrinsics");
+    in.only_keys({"fx", "fy", "cx", "cy", "skew"});
+    in.positive("fx", k.fx);
+    in.positive("fy", k.fy);
+    in.get("cx", k.cx);
+    in.get("cy", k.cy);
+    in.get("skew", k.skew);
+  }
+  if (n.has("distortion")) {
+    const auto v = n.at("distortion").numbers(5);
+    d = {v[0], v[1], v[2], v[3], v[4]};
+  }
+  if (n.has("rotation")) {
+    const auto v = n.at("rotation").numbers(9);
+    std::copy(v.begin(), v.end(), R.m.begin());
+    const Mat3 I = R * R.transposed();
+    double err = 0;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) err = std::max(err, std::abs(I(i, j) - (i == j ? 1.0 : 0.0)));
+    if (err > 1e-4 || R.det() < 0)
+      n.at("rotation").bad("is not a proper rotation (R*R^T deviates from I by " +
+                           std::to_string(err) + ", det " + std::to_string(R.det()) + ")");
+  }
+  if (n.has("center_mm")) {
+    const auto v = n.at("center_mm").numbers(3);
+    c = {v[0], v[1], v[2]};
+  }
+  if (n.has("scatter")) {
+    const Node s = n.at("scatter");
+    s.only_keys({"k1", "k2", "k2_offset"});
+    s.get("k1", cam.scatter.k1);
+    s.get("k2", cam.scatter.k2);
+    s.get("k2_offset", cam.scatter.k2_offset);
+  }
+  cam.model = CameraModel(k, d, R, (R * c) * -1.0, w, h);
+}
+
+// Reads one lane from its own node, falling back section by section to lane_defaults.
+LaneConfig read_lane(const Node& lane, const Node* defaults) {
+  lane.only_keys({"id", "frame", "encoder_step_mm", "cameras", "laser_plane", "xray", "stripe",
+                  "rectify", "fusion"});
+  if (!lane.has("id")) lane.bad("missing key 'id'");
+  LaneConfig c = default_lane_config(lane.at("id").integer());
+  if (c.id < 0) lane.at("id").bad("must be >= 0");
+  auto section = [&](const char* key) -> std::optional<Node> {
+    if (lane.has(key)) return lane.at(key);
+    if (defaults && defaults->has(key)) return defaults->at(key);
+    return std::nullopt;
+  };
+  if (auto n = section("frame")) {
+    n->only_keys({"width", "height"});
+    n->positive("width", c.frame_width);
+    n->positive("height", c.frame_height);
+    if (c.frame_width > 8192 || c.frame_height > 4096 || c.frame_height < 8)
+      n->bad("frame size " + std::to_string(c.frame_width) + "x" +
+             std::to_string(c.frame_height) + " is out of range (8..8192 x 8..4096)");
+  }
+  if (lane.has("encoder_step_mm")) lane.positive("encoder_step_mm", c.encoder_step_mm);
+  else if (defaults && defaults->has("encoder_step_mm"))
+    defaults->positive("encoder_step_mm", c.encoder_step_mm);
+  // The cameras' image size always follows the frame size.
+  for (auto& cam : c.cameras)
+    cam.model = CameraModel(cam.model.intrinsics(), cam.model.distortion(), cam.model.rotation(),
+                            cam.model.translation(), c.frame_width, c.frame_height);
+  if (auto n = section("cameras")) {
+    if (!n->node.IsSequence() || n->node.size() != 2) n->bad("expected a list of 2 cameras");
+    for (size_t i = 0; i < 2; ++i)
+      read_camera(n->item(i), c.cameras[i], c.frame_width, c.frame_height);
+  }
+  if (auto n = section("laser_plane")) {
+    n->only_keys({"normal", "offset_mm"});
+    if (n->has("normal")) {
+      const auto v = n->at("normal").numbers(3);
+      const Vec3 nv{v[0], v[1], v[2]};
+      if (nv.norm() < 1e-9) n->at("normal").bad("must not be the zero vector");
+      c.laser.normal = nv.normalized();
+    }
+    n->get("offset_mm", c.laser.offset_mm);
+  }
+  if (auto n = section("xray")) {
+    n->only_keys({"pixels", "pitch_mm", "first_pixel_x_mm", "detector_z_mm", "source_mm",
+                  "delay_lines", "bits"});
+    n->positive("pixels", c.xray.pixels);
+    n->positive("pitch_mm", c.xray.pitch_mm);
+    n->get("first_pixel_x_mm", c.xray.first_pixel_x_mm);
+    n->get("detector_z_mm", c.xray.detector_z_mm);
+    if (c.xray.detector_z_mm > 0) n->at("detector_z_mm").bad("the detector must be below the belt (z <= 0)");
+    if (n->has("source_mm")) {
+      const auto v = n->at("source_mm").numbers(2);
+      c.xray.source_x_mm = v[0];
+      c.xray.source_z_mm = v[1];
+    }
+    if (c.xray.source_z_mm < 100) n->at("source_mm").bad("the source must be at least 100 mm above the belt");
+    n->get("delay_lines", c.xray.delay_lines);
+    if (c.xray.delay_lines < 0) n->at("delay_lines").bad("must be >= 0");
+    n->get("bits", c.xray.bits);
+    if (c.xray.bits < 8 || c.xray.bits > 16) n->at("bits").bad("must be 8..16");
+  }
+  if (auto n = section("stripe")) {
+    n->only_keys({"method", "min_peak", "threshold_rel", "max_width"});
+    if (n->has("method")) {
+      try {
+        c.stripe.method = parse_stripe_method(n->at("method").str());
+      } catch (const Error& e) {
+        n->at("method").bad(e.what());
+      }
+    }
+    n->positive("min_peak", c.stripe.min_peak);
+    if (c.stripe.min_peak > 255) n->at("min_peak").bad("must be <= 255 for Mono8 frames");
+    n->get("threshold_rel", c.stripe.threshold_rel);
+    if (!(c.stripe.threshold_rel > 0 && c.stripe.threshold_rel < 1))
+      n->at("threshold_rel").bad("must be in (0, 1)");
+    n->positive("max_width", c.stripe.max_width);
+  }
+  if (auto n = section("rectify")) {
+    n->only_keys({"lut_step_px"});
+    n->positive("lut_step_px", c.lut_step_px);
+    if (c.lut_step_px > 64) n->at("lut_step_px").bad("must be <= 64");
+  }
+  if (auto n = section("fusion")) {
+    n->only_keys({"grid_pitch_mm", "grid_x0_mm", "grid_samples", "agree_tol_mm", "max_gap_mm",
+                  "max_column_step_mm"});
+    n->positive("grid_pitch_mm", c.fusion.grid_pitch_mm);
+    n->get("grid_x0_mm", c.fusion.grid_x0_mm);
+    n->positive("grid_samples", c.fusion.grid_samples);
+    n->positive("agree_tol_mm", c.fusion.agree_tol_mm);
+    n->get("max_gap_mm", c.fusion.max_gap_mm);
+    if (c.fusion.max_gap_mm < 0) n->at("max_gap_mm").bad("must be >= 0");
+    n->positive("max_column_step_mm", c.fusion.max_column_step_mm);
+  }
+  return c;
+}
+
+}  // namespace
+
+const LaneConfig& PlantConfig::lane(int id) const {
+  for (const auto& l : lanes)
+    if (l.id == id) return l;
+  fail("unknown lane ", id, " (plant '", name, "' has ", lanes.size(), " lanes)");
+}
+
+PlantConfig parse_plant_config(const std::string& text, const std::string& origin) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    fail(origin, ": not valid YAML: ", e.what());
+  }
+  const Node top{root, "", &origin};
+  top.only_keys({"plant", "lane_defaults", "lanes"});
+  PlantConfig p;
+  if (top.has("plant")) {
+    const Node n = top.at("plant");
+    n.only_keys({"name", "calibration_id", "backend", "listen", "storage"});
+    n.get("name", p.name);
+    n.get("calibration_id", p.calibration_id);
+    n.get("backend", p.backend);
+    if (p.backend != "auto" && p.backend != "cpu" && p.backend != "opencl" && p.backend != "vulkan")
+      n.at("backend").bad("must be one of auto, cpu, opencl, vulkan (got '" + p.backend + "')");
+    n.get("listen", p.listen);
+    n.get("storage", p.storage);
+  }
+  std::optional<Node> defaults;
+  if (top.has("lane_defaults")) defaults = top.at("lane_defaults");
+  if (!top.has("lanes")) top.bad("missing key 'lanes'");
+  const Node lanes = top.at("lanes");
+  if (!lanes.node.IsSequence() || lanes.node.size() == 0) lanes.bad("expected a non-empty list");
+  std::set<int> seen;
+  for (size_t i = 0; i < lanes.node.size(); ++i) {
+    LaneConfig l = read_lane(lanes.item(i), defaults ? &*defaults : nullptr);
+    if (!seen.insert(l.id).second) lanes.item(i).at("id").bad("duplicate lane id " + std::to_string(l.id));
+    p.lanes.push_back(std::move(l));
+  }
+  return p;
+}
+
+PlantConfig load_plant_config(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) fail(path, ": cannot open plant configuration");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_plant_config(ss.str(), path);
+}
+
+PlantConfig default_plant_config(int lanes) {
+  PlantConfig p;
+  for (int i = 0; i < lanes; ++i) p.lanes.push_back(default_lane_config(i));
+  return p;
+}
+
+}  // namespace rangex

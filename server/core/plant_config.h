@@ -1,0 +1,26 @@
+// Plant configuration (config/plant.yaml): lanes, sensors, geometry, thresholds, backend,
+// storage and listen address. Loading validates every value and names the key at fault.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/lane_config.h"
+
+namespace rangex {
+
+struct PlantConfig {
+  std::string name = "plant";
+  std::string calibration_id = "dissertation-default";
+  std::string backend = "auto";  // auto | cpu | opencl | vulkan
+  std::string listen = "127.0.0.1:50051";
+  std::string storage = "rangex-data";
+  std::vector<LaneConfig> lanes;
+
+  const LaneConfig& lane(int id) const;  // throws Error for an unknown lane
+};
+
+PlantConfig load_plant_config(const std::string& path);
+PlantConfig parse_plant_config(const std::string& yaml_text, const std::string& origin);
+PlantConfig default_plant_config(int lanes);
+
+}  // namespace rangex

@@ -1,0 +1,69 @@
+#include "core/ray_path.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rangex {
+
+namespace {
+// Positive part length of a linear function f over [a, b] given its end values.
+double positive_span(double a, double b, double fa, double fb) {
+  if (fa <= 0 && fb <= 0) return 0;
+  if (fa >= 0 && fb >= 0) return b - a;
+  const double root = a + (b - a) * fa / (fa - fb);
+  return fa > 0 ? root - a : b - root;
+}
+}  // namespace
+
+PathResult ray_path_length(const ProfileGrid& g, double xd, double zd, double xs, double zs) {
+  PathResult out;
+  const double zspan = zs - zd;
+  const double slope = (xs - xd) / zspan;  // dx/dz along the ray
+  const double sec = std::sqrt(1 + slope * slope);
+  // At least the cell under the ray's foot is visited, so that its validity is checked.
+  const double ztop = std::max<double>(g.max_height_mm, 1e-6);
+  auto x_at = [&](double z) { return xd + slope * (z - zd); };
+  auto sample = [&](int i) -> double {
+    if (i < 0 || i >= g.n) return 0.0;
+    if (g.valid && !g.valid[i]) {
+      out.valid = false;
+      return 0.0;
+    }
+    return g.height[i];
+  };
+
+  double z = 0;
+  double len = 0;
+  // Walk the cells the ray crosses between the belt and the highest sample.
+  for (int guard = 0; guard < g.n + 4 && z < ztop; ++guard) {
+    const double x = x_at(z);
+    const double fc = (x - g.x0_mm) / g.pitch_mm;
+    int cell = static_cast<int>(std::floor(fc));
+    // On a boundary moving left, the cell is the one to the left.
+    if (slope < 0 && fc == std::floor(fc)) cell -= 1;
+    double zexit = ztop;
+    if (slope > 0) {
+      const double xb = g.x0_mm + (cell + 1) * g.pitch_mm;
+      zexit = std::min(ztop, zd + (xb - xd) / slope);
+    } else if (slope < 0) {
+      const double xb = g.x0_mm + cell * g.pitch_mm;
+      zexit = std::min(ztop, zd + (xb - xd) / slope);
+    }
+    if (cell < -1 || cell >= g.n) {
+      // Outside the grid there is no meat; keep walking only if the ray can come back.
+      if ((cell < -1 && slope <= 0) || (cell >= g.n && slope >= 0)) break;
+    }
+    const double h0 = sample(cell), h1 = sample(cell + 1);
+    auto h_at = [&](double zz) {
+      const double t = (x_at(zz) - (g.x0_mm + cell * g.pitch_mm)) / g.pitch_mm;
+      return h0 + (h1 - h0) * t;
+    };
+    len += positive_span(z, zexit, h_at(z) - z, h_at(zexit) - zexit);
+    if (zexit <= z) zexit = z + 1e-9;  // numerical guard: always advance
+    z = zexit;
+  }
+  out.length_mm = len * sec;
+  return out;
+}
+
+}  // namespace rangex

@@ -1,0 +1,74 @@
+// Recordings (SPEC "Interfaces"): a folder with recording.yaml and raw little-endian arrays
+// per lane: lane<ID>/cam0.u8, cam1.u8 (N x H x W), xray.u16 (N x D), encoder.i64 (N), and
+// optionally lane<ID>/truth/ from the simulator.
+#pragma once
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace rangex {
+
+struct RecordingInfo {
+  std::vector<int> lanes;
+  int width = 640;
+  int height = 200;
+  int xray_pixels = 480;
+  int64_t lines = 0;  // per lane
+  double encoder_step_mm = 0.4;
+  std::string calibration_id;
+  bool has_truth = false;
+  uint64_t seed = 0;
+};
+
+// One line of one lane as stored: both camera frames, the X-ray line and the encoder count.
+struct LineView {
+  const uint8_t* cam0;
+  const uint8_t* cam1;
+  const uint16_t* xray;
+  int64_t encoder;
+};
+
+class RecordingWriter {
+ public:
+  // Creates dir (and lane folders); refuses a folder that already holds a recording.
+  RecordingWriter(const std::string& dir, RecordingInfo info);
+  ~RecordingWriter();
+  void append(int lane, const LineView& line);
+  // Truth arrays are appended as raw bytes to lane<ID>/truth/<name>.
+  void append_truth(int lane, const std::string& name, const void* data, size_t bytes);
+  void write_truth_text(int lane, const std::string& name, const std::string& text);
+  void close();  // writes recording.yaml with the final line count
+
+ private:
+  struct LaneFiles;
+  std::string dir_;
+  RecordingInfo info_;
+  std::vector<std::unique_ptr<LaneFiles>> lanes_;
+  bool closed_ = false;
+  LaneFiles& files(int lane);
+};
+
+class RecordingReader {
+ public:
+  // Reads recording.yaml and checks that every array holds exactly `lines` records; a
+  // truncated or oversized file is refused with the lane, file and sizes in the message.
+  explicit RecordingReader(const std::string& dir);
+  const RecordingInfo& info() const { return info_; }
+  const std::string& dir() const { return dir_; }
+
+  // Reads `count` lines from `first` of one lane into the caller's buffers.
+  void read(int lane, int64_t first, int64_t count, uint8_t* cam0, uint8_t* cam1, uint16_t* xray,
+            int64_t* encoder) const;
+  // Truth arrays (float32 unless stated); empty when the recording has no truth.
+  std::vector<float> truth_f32(int lane, const std::string& name, size_t per_line) const;
+  std::string truth_text(int lane, const std::string& name) const;
+  std::string lane_dir(int lane) const;
+
+ private:
+  std::string dir_;
+  RecordingInfo info_;
+};
+
+}  // namespace rangex

@@ -1,0 +1,55 @@
+// The CPU reference of the per-line stages over one batch: stripe extraction, rectification,
+// two-camera fusion and fan-beam projection. Lines of any lanes may share a batch as long as
+// the lanes agree on frame size, fusion grid size and detector pixels.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "core/lane_config.h"
+#include "pipeline/profile_fusion.h"
+#include "pipeline/rectify_table.h"
+#include "pipeline/stripe_extract.h"
+
+namespace rangex {
+
+struct LineBatch {
+  int lines = 0;
+  std::vector<uint8_t> frames;  // [line][camera][row][column]
+  std::vector<int> lane_slot;   // per line: index of its lane in the pipeline's lane list
+};
+
+struct LineResults {
+  StripeOutput stripes;             // [line][camera][column]
+  std::vector<float> x, z;          // rectified, [line][camera][column]
+  std::vector<uint8_t> xz_valid;
+  std::vector<float> profile;       // fused height, [line][grid]
+  std::vector<uint8_t> profile_valid;
+  std::vector<float> thickness;     // X-ray path thickness, [line][detector pixel]
+  std::vector<uint8_t> thickness_valid;
+  FusionStats fusion;
+};
+
+class LinePipeline {
+ public:
+  explicit LinePipeline(std::vector<LaneConfig> lanes);
+
+  int slot_of(int lane_id) const;  // throws Error for an unknown lane
+  const LaneConfig& lane(int slot) const { return lanes_[slot]; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int grid_samples() const { return grid_n_; }
+  int pixels() const { return pixels_; }
+  const RectifyTable& table(int slot, int camera) const { return tables_[slot * 2 + camera]; }
+
+  void run(const LineBatch& batch, LineResults& out) const;
+
+ private:
+  std::vector<LaneConfig> lanes_;
+  std::vector<StripeSlot> stripe_slots_;  // [lane][camera]
+  std::vector<RectifyTable> tables_;      // [lane][camera]
+  std::vector<FusionParams> fusion_;
+  std::vector<FanBeam> beams_;
+  int width_ = 0, height_ = 0, grid_n_ = 0, pixels_ = 0;
+};
+
+}  // namespace rangex

@@ -1,0 +1,158 @@
+#include "sim/camera_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/error.h"
+
+namespace rangex::sim {
+
+namespace {
+constexpr double kSqrt2 = 1.41421356237309515;
+constexpr double kSqrt2Pi = 2.50662827463100024;
+
+// Exponentially modified Gaussian density (tail toward +x), unit area.
+double emg(double x, double sigma, double lambda) {
+  const double a = sigma / lambda;
+  return 0.5 / lambda * std::exp(0.5 * a * a - x / lambda) * std::erfc((a - x / sigma) / kSqrt2);
+}
+
+struct Hit {
+  double v = 0;
+  Vec3 p;       // world point on the stripe
+  Vec3 normal;  // surface normal (object frame == world frame up to the y flip)
+  bool meat = false;
+};
+}  // namespace
+
+CameraRenderer::CameraRenderer(const LaneConfig& lane, int camera, CameraRenderParams p)
+    : cam_(lane.cameras[camera].model),
+      laser_y_(lane.laser.offset_mm),
+      width_(lane.frame_width),
+      height_(lane.frame_height),
+      p_(p) {
+  if (std::abs(lane.laser.normal.y) < 0.9999)
+    fail("the simulator renders a laser plane perpendicular to the belt only (normal ",
+         lane.laser.normal.x, ", ", lane.laser.normal.y, ", ", lane.laser.normal.z, ")");
+  // Scattered light leaves the meat on the side away from the camera; find which way
+  // that runs in this camera's image.
+  const Vec3 c = cam_.center();
+  const Vec3 p0{0, laser_y_, 0};
+  const Vec3 away{0, c.y > laser_y_ ? -1.0 : 1.0, 0};
+  tail_sign_ = cam_.project(p0 + away).y > cam_.project(p0).y ? 1 : -1;
+  Rng rng(0x0153, camera);
+  noise_.resize(1 << 16);
+  for (auto& n : noise_)
+    n = uint8_t(std::clamp(std::lround(p_.background + p_.read_noise * rng.normal()), 0L, 255L));
+}
+
+void CameraRenderer::render(const LaneScene& scene, double s, Rng& rng, uint8_t* frame,
+                            float* truth_row) const {
+  const size_t npx = size_t(width_) * height_;
+  // Background and read noise from the pre-drawn table at random offsets.
+  for (size_t i = 0; i < npx;) {
+    const uint64_t r = rng.next();
+    size_t off = r & 0xffff;
+    const size_t n = std::min<size_t>(256 + ((r >> 16) & 0xff), npx - i);
+    for (size_t k = 0; k < n; ++k) frame[i + k] = noise_[(off + k * 7) & 0xffff];
+    i += n;
+  }
+  std::fill(truth_row, truth_row + width_, std::numeric_limits<float>::quiet_NaN());
+
+  const double b_laser = s - laser_y_;
+  constexpr int kN = 1101;  // slice samples over the lane, kLaneX0Mm .. +220 mm
+  std::vector<float> h(kN);
+  scene.slice(b_laser, h.data(), kN);
+  std::vector<Vec2> px(kN);
+  for (int k = 0; k < kN; ++k)
+    px[k] = cam_.project({kLaneX0Mm + k * kRasterPitchMm, laser_y_, double(h[k])});
+
+  const Vec3 cc = cam_.center();
+  const bool fillets_near = scene.any_fillet(b_laser - 100, b_laser + 100);
+  std::vector<Hit> hits(width_);
+  std::vector<uint8_t> has(width_, 0);
+  for (int k = 0; k + 1 < kN; ++k) {
+    const double ua = px[k].x, ub = px[k + 1].x;
+    if (ua == ub) continue;
+    const int c0 = int(std::ceil(std::min(ua, ub))), c1 = int(std::floor(std::max(ua, ub)));
+    for (int c = std::max(c0, 0); c <= std::min(c1, width_ - 1); ++c) {
+      if (c == std::max(ua, ub)) continue;  // each column belongs to one segment
+      // Point on the straight surface segment that projects exactly onto column c: secant
+      // refinement of the linear guess through the exact projection.
+      const Vec3 A{kLaneX0Mm + k * kRasterPitchMm, laser_y_, double(h[k])};
+      const Vec3 B{A.x + kRasterPitchMm, laser_y_, double(h[k + 1])};
+      double t0 = 0, t1 = 1, f0 = ua - c, f1 = ub - c;
+      double t = f0 / (f0 - f1);
+      for (int it = 0; it < 4; ++it) {
+        const double ft = cam_.project(A + (B - A) * t).x - c;
+        if (std::abs(ft) < 1e-9) break;
+        if ((ft < 0) == (f0 < 0)) t0 = t, f0 = ft;
+        else t1 = t, f1 = ft;
+        t = t0 + (t1 - t0) * f0 / (f0 - f1);
+      }
+      const Vec3 P = A + (B - A) * t;
+      const Vec2 q = cam_.project(P);
+      if (q.y < -0.5 || q.y > height_ - 0.5) continue;
+      // Occlusion: walk from the point toward the camera over the scene's surface.
+      bool visible = true;
+      if (fillets_near) {
+        const Vec3 d = (cc - P).normalized();
+        for (double step = 0.4;; step += 0.4) {
+          const Vec3 Q = P + d * step;
+          if (Q.z > scene.max_height() + 0.1) break;
+          if (scene.height(Q.x, s - Q.y) > Q.z + 1e-3) {
+            visible = false;
+            break;
+          }
+        }
+      }
+      if (!visible) continue;
+      if (has[c] && hits[c].p.z >= P.z) continue;
+      const double slope = (double(h[k + 1]) - h[k]) / kRasterPitchMm;
+      // Along-belt slope from the neighbouring slices sets how the surface faces the camera.
+      const double dhdb = (scene.height(P.x, b_laser + 0.4) - scene.height(P.x, b_laser - 0.4)) / 0.8;
+      Hit hit;
+      hit.v = q.y;
+      hit.p = P;
+      hit.normal = Vec3{-slope, dhdb, 1.0}.normalized();  // world y = s - b flips d/db
+      hit.meat = P.z > 0.05;
+      hits[c] = hit;
+      has[c] = 1;
+    }
+  }
+
+  for (int c = 0; c < width_; ++c) {
+    if (!has[c]) continue;
+    const Hit& hit = hits[c];
+    truth_row[c] = float(hit.v);
+    const Vec3 view = (cc - hit.p).normalized();
+    const double facing = std::clamp(hit.normal.dot(view), 0.0, 1.0);
+    double amp, tail, lambda;
+    if (hit.meat) {
+      amp = p_.meat_amplitude * (0.75 + 0.25 * facing);
+      tail = p_.meat_tail_base + p_.meat_tail_gain * (1 - facing);
+      lambda = p_.meat_tail_px;
+    } else {
+      amp = p_.belt_amplitude;
+      tail = p_.belt_tail;
+      lambda = p_.belt_tail_px;
+    }
+    amp *= std::exp(p_.column_speckle * rng.normal());
+    const double sg = p_.core_sigma_px;
+    const double energy = amp * sg * kSqrt2Pi;
+    const int y0 = std::max(0, int(std::floor(hit.v - 6 * sg - (tail_sign_ < 0 ? 8 * lambda : 0))));
+    const int y1 = std::min(height_ - 1, int(std::ceil(hit.v + 6 * sg + (tail_sign_ > 0 ? 8 * lambda : 0))));
+    for (int y = y0; y <= y1; ++y) {
+      const double dy = y - hit.v;
+      const double core = 0.5 * (std::erf((dy + 0.5) / (kSqrt2 * sg)) - std::erf((dy - 0.5) / (kSqrt2 * sg)));
+      const double sc = emg(tail_sign_ * dy, sg, lambda);
+      double val = energy * (core + tail * sc) * (1 + p_.speckle * rng.normal());
+      uint8_t& pix = frame[size_t(y) * width_ + c];
+      val += pix;
+      pix = uint8_t(std::clamp(std::lround(val), 0L, 255L));
+    }
+  }
+}
+
+}  // namespace rangex::sim

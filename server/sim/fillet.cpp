@@ -1,0 +1,189 @@
+#include "sim/fillet.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rangex::sim {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+
+Mat3 rotation_zx(double yaw, double tilt) {
+  const double cy = std::cos(yaw), sy = std::sin(yaw), ct = std::cos(tilt), st = std::sin(tilt);
+  Mat3 rz, rx;
+  rz.m = {cy, -sy, 0, sy, cy, 0, 0, 0, 1};
+  rx.m = {1, 0, 0, 0, ct, -st, 0, st, ct};
+  return rz * rx;
+}
+
+// Shape of one fillet in its own frame (s along its length, t across).
+struct Shape {
+  double L, W, H, p, taper, thick_end;
+  double harm_a[4], harm_p[4];
+  double irr_a[3], irr_ks[3], irr_kt[3], irr_p[3];
+
+  double height(double s, double t) const {
+    const double sn = s / (0.5 * L);
+    const double half_w = 0.5 * W * (1 + taper * sn);
+    const double tn = t / half_w;
+    const double r = std::sqrt(sn * sn + tn * tn);
+    const double phi = std::atan2(tn, sn);
+    double R = 1;
+    for (int k = 0; k < 4; ++k) R += harm_a[k] * std::cos((k + 2) * phi + harm_p[k]);
+    const double rho = r / R;
+    if (rho >= 1) return 0;
+    double irr = 1;
+    for (int k = 0; k < 3; ++k) irr += irr_a[k] * std::sin(irr_ks[k] * s + irr_kt[k] * t + irr_p[k]);
+    return std::max(0.0, H * std::pow(1 - rho * rho, p) * (1 + thick_end * sn) * irr /
+                             (1 + thick_end));
+  }
+};
+}  // namespace
+
+double Inclusion::chord(const Vec3& o, const Vec3& d) const {
+  const Vec3 lo = to_local * (o - center), ld = to_local * d;
+  const Vec3 q{lo.x / semi.x, lo.y / semi.y, lo.z / semi.z};
+  const Vec3 e{ld.x / semi.x, ld.y / semi.y, ld.z / semi.z};
+  const double a = e.dot(e), b = 2 * q.dot(e), c = q.dot(q) - 1;
+  const double disc = b * b - 4 * a * c;
+  if (disc <= 0) return 0;
+  return std::sqrt(disc) / a;  // (t2 - t1) with |d| = 1
+}
+
+float Fillet::height_at(double x, double b) const {
+  const double fx = (x - kLaneX0Mm) / kRasterPitchMm - ix0;
+  const double fb = b / kRasterPitchMm - ib0;
+  if (fx < 0 || fb < 0 || fx >= nx - 1 || fb >= nb - 1) return 0;
+  const int i = int(fx), j = int(fb);
+  const float u = float(fx - i), v = float(fb - j);
+  const float* r0 = &height[size_t(j) * nx + i];
+  const float* r1 = r0 + nx;
+  return (1 - v) * ((1 - u) * r0[0] + u * r0[1]) + v * ((1 - u) * r1[0] + u * r1[1]);
+}
+
+double Fillet::mu_at(double x, double b) const {
+  return mu * (1 + texture_amp * std::sin(texture_kx * x + texture_phase) *
+                       std::cos(texture_kb * b - texture_phase));
+}
+
+Fillet make_fillet(Rng& rng, int id, double b_start, double x_center, const FilletParams& prm) {
+  Shape sh;
+  sh.L = rng.uniform(120, 200);
+  sh.W = rng.uniform(60, 100);
+  sh.H = rng.uniform(12, 45);
+  sh.p = rng.uniform(0.9, 1.2);
+  sh.taper = rng.uniform(0.1, 0.3) * (rng.chance(0.5) ? 1 : -1);
+  sh.thick_end = rng.uniform(0.0, 0.25) * (sh.taper > 0 ? 1 : -1);
+  for (int k = 0; k < 4; ++k) {
+    sh.harm_a[k] = rng.uniform(0, 0.05);
+    sh.harm_p[k] = rng.uniform(0, 2 * kPi);
+  }
+  for (int k = 0; k < 3; ++k) {
+    sh.irr_a[k] = rng.uniform(0.01, 0.035);
+    sh.irr_ks[k] = 2 * kPi / rng.uniform(20, 60) * (rng.chance(0.5) ? 1 : -1);
+    sh.irr_kt[k] = 2 * kPi / rng.uniform(20, 60) * (rng.chance(0.5) ? 1 : -1);
+    sh.irr_p[k] = rng.uniform(0, 2 * kPi);
+  }
+  const double yaw = rng.uniform(-25, 25) * kPi / 180;  // long axis against the belt axis
+  const double cy = std::cos(yaw), sy = std::sin(yaw);
+  // Extent of the rotated outline (with room for the harmonics).
+  const double ra = 0.5 * sh.L * 1.25, rb = 0.5 * sh.W * 1.35 * (1 + std::abs(sh.taper));
+  const double ext_b = std::abs(cy) * ra + std::abs(sy) * rb;
+  const double ext_x = std::abs(sy) * ra + std::abs(cy) * rb;
+
+  Fillet f;
+  f.id = id;
+  f.x_center = x_center;
+  f.b_center = b_start + ext_b;
+  f.ix0 = int(std::floor((x_center - ext_x - kLaneX0Mm) / kRasterPitchMm));
+  f.ib0 = int(std::floor(b_start / kRasterPitchMm));
+  f.nx = int(std::ceil(2 * ext_x / kRasterPitchMm)) + 3;
+  f.nb = int(std::ceil(2 * ext_b / kRasterPitchMm)) + 3;
+  f.x_min = kLaneX0Mm + f.ix0 * kRasterPitchMm;
+  f.x_max = f.x_min + (f.nx - 1) * kRasterPitchMm;
+  f.b_min = f.ib0 * kRasterPitchMm;
+  f.b_max = f.b_min + (f.nb - 1) * kRasterPitchMm;
+  f.height.assign(size_t(f.nx) * f.nb, 0.f);
+  auto local = [&](double x, double b, double& s, double& t) {
+    const double dx = x - f.x_center, db = b - f.b_center;
+    s = cy * db + sy * dx;
+    t = -sy * db + cy * dx;
+  };
+  int j_lo = f.nb, j_hi = -1;
+  for (int j = 0; j < f.nb; ++j)
+    for (int i = 0; i < f.nx; ++i) {
+      double s, t;
+      local(f.x_min + i * kRasterPitchMm, f.b_min + j * kRasterPitchMm, s, t);
+      // Raster edges stay zero so that the fillet ends inside its box.
+      const float h = (i == 0 || j == 0 || i == f.nx - 1 || j == f.nb - 1)
+                          ? 0.f
+                          : float(sh.height(s, t));
+      f.height[size_t(j) * f.nx + i] = h;
+      if (h > 0) {
+        j_lo = std::min(j_lo, j);
+        j_hi = std::max(j_hi, j);
+      }
+    }
+  // Slide the raster so that the meat itself (not its box) starts at b_start: the gaps
+  // between fillets are then the sampled ones.
+  if (j_hi >= 0) {
+    f.ib0 -= j_lo;
+    f.b_min = f.ib0 * kRasterPitchMm;
+    f.b_center -= j_lo * kRasterPitchMm;
+    f.b_max = (f.ib0 + j_hi + 1) * kRasterPitchMm;
+  }
+  f.mu = rng.uniform(0.028, 0.032);
+  f.texture_amp = rng.uniform(0.005, 0.02);
+  f.texture_kx = 2 * kPi / rng.uniform(15, 40);
+  f.texture_kb = 2 * kPi / rng.uniform(15, 40);
+  f.texture_phase = rng.uniform(0, 2 * kPi);
+
+  // Inclusions sit where the meat is thick enough to hold them.
+  auto place = [&](Inclusion::Kind kind, double size, double semi_y_frac, double semi_z_frac,
+                   double dmu, double calc) {
+    for (int attempt = 0; attempt < 200; ++attempt) {
+      const double x = rng.uniform(f.x_min, f.x_max), b = rng.uniform(f.b_min, f.b_max);
+      const double h = f.height_at(x, b);
+      Inclusion in;
+      in.kind = kind;
+      in.semi = {0.5 * size, 0.5 * size * semi_y_frac, 0.5 * size * semi_z_frac};
+      const double zext = std::max(in.semi.y, in.semi.z) + 0.5;
+      if (h < 2 * zext + 1.0) continue;
+      in.center = {x, b, rng.uniform(zext, h - zext)};
+      // Lying roughly flat: the meat holds fragments along its muscle layers.
+      in.to_local = rotation_zx(rng.uniform(0, 2 * kPi), rng.uniform(-0.3, 0.3)).transposed();
+      in.dmu = dmu;
+      in.calcification = calc;
+      in.size_mm = size;
+      f.inclusions.push_back(in);
+      return;
+    }
+  };
+  constexpr double kBoneMuFull = 0.12;  // fully calcified bone, 1/mm
+  if (rng.chance(prm.bone_probability)) {
+    const int n = rng.chance(0.3) ? 2 : 1;
+    static constexpr double kBins[5] = {1, 2, 3, 5, 10};
+    for (int k = 0; k < n; ++k) {
+      const int bin = rng.integer(0, 3);
+      const double size = rng.uniform(kBins[bin], kBins[bin + 1]);
+      const double calc = rng.uniform(0.3, 1.0);
+      place(Inclusion::kBone, size, rng.uniform(0.35, 0.7), rng.uniform(0.3, 0.6),
+            calc * (kBoneMuFull - f.mu), calc);
+    }
+  }
+  if (rng.chance(prm.air_probability)) {
+    const int n = rng.integer(1, 3);
+    for (int k = 0; k < n; ++k)
+      place(Inclusion::kAir, rng.uniform(2, 6), rng.uniform(0.6, 1.0), rng.uniform(0.5, 0.9),
+            -f.mu, 0);
+  }
+  if (rng.chance(prm.fat_probability)) {
+    const int n = rng.integer(1, 2);
+    for (int k = 0; k < n; ++k)
+      place(Inclusion::kFat, rng.uniform(10, 30), rng.uniform(0.4, 0.7), rng.uniform(0.1, 0.25),
+            -0.15 * f.mu, 0);
+  }
+  return f;
+}
+
+}  // namespace rangex::sim

@@ -1,0 +1,56 @@
+// A simulated chicken-breast fillet: outline, thickness field (a height raster on the belt)
+// and the inclusions the X-ray sees (bone fragments, air pockets, fat).
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "core/vec.h"
+#include "sim/rng.h"
+
+namespace rangex::sim {
+
+// Object coordinates: x across the belt, b along the belt (mm, grows against the travel
+// direction so that the laser sees b = line * step), z up from the belt.
+constexpr double kRasterPitchMm = 0.2;
+constexpr double kLaneX0Mm = -110.0;  // raster nodes sit at kLaneX0Mm + k * pitch
+
+struct Inclusion {
+  enum Kind { kBone, kAir, kFat } kind;
+  Vec3 center;    // (x, b, z)
+  Vec3 semi;      // semi-axes in the inclusion's own frame, mm
+  Mat3 to_local;  // object -> inclusion frame rotation
+  double dmu;     // attenuation difference to meat, 1/mm
+  double calcification = 0;  // bones: 0..1
+  double size_mm = 0;        // longest dimension
+
+  // Length of the chord of a line p(t) = o + t d (|d| = 1) through the ellipsoid.
+  double chord(const Vec3& o, const Vec3& d) const;
+};
+
+struct Fillet {
+  int id = 0;
+  double x_center = 0, b_center = 0;
+  double b_min = 0, b_max = 0, x_min = 0, x_max = 0;  // raster extent
+  int nx = 0, nb = 0;
+  int ix0 = 0, ib0 = 0;          // raster origin in global node indices
+  std::vector<float> height;     // nb * nx, mm
+  std::vector<Inclusion> inclusions;
+  double mu = 0.03;              // meat attenuation, 1/mm
+  double texture_amp = 0, texture_kx = 0, texture_kb = 0, texture_phase = 0;
+
+  // Height at an object point (bilinear on the raster), 0 outside.
+  float height_at(double x, double b) const;
+  double mu_at(double x, double b) const;
+};
+
+struct FilletParams {
+  double bone_probability = 0.5;
+  double air_probability = 0.2;
+  double fat_probability = 0.4;
+};
+
+// Builds a fillet whose leading edge (smallest b) is at b_start; x_center is its centre
+// across the belt. Returns with b_max set, so the next fillet can follow.
+Fillet make_fillet(Rng& rng, int id, double b_start, double x_center, const FilletParams& p);
+
+}  // namespace rangex::sim

@@ -1,0 +1,51 @@
+#include "sim/lane_scene.h"
+
+#include <algorithm>
+
+namespace rangex::sim {
+
+LaneScene::LaneScene(uint64_t seed, int lane, const SceneParams& p) {
+  Rng rng(seed, 0x5ce9e, uint64_t(lane));
+  double b = p.lead_in_mm;
+  for (int i = 0; i < p.fillets; ++i) {
+    const double x = rng.uniform(-25, 25);
+    fillets_.push_back(make_fillet(rng, i, b, x, p.fillet));
+    const Fillet& f = fillets_.back();
+    for (float h : f.height) max_height_ = std::max(max_height_, h);
+    const double gap = rng.chance(p.close_gap_probability) ? rng.uniform(2, 10) : rng.uniform(30, 150);
+    b = f.b_max + gap;
+  }
+  end_b_ = b;
+}
+
+template <typename F>
+void LaneScene::for_fillets(double b_lo, double b_hi, F&& f) const {
+  for (const Fillet& fl : fillets_) {
+    const double box_hi = (fl.ib0 + fl.nb - 1) * kRasterPitchMm;
+    if (fl.b_min > b_hi) break;  // ordered by b: nothing further can overlap
+    if (box_hi >= b_lo) f(fl);
+  }
+}
+
+float LaneScene::height(double x, double b) const {
+  float h = 0;
+  for_fillets(b, b, [&](const Fillet& f) { h = std::max(h, f.height_at(x, b)); });
+  return h;
+}
+
+void LaneScene::slice(double b, float* out, int n) const {
+  std::fill(out, out + n, 0.f);
+  for_fillets(b, b, [&](const Fillet& f) {
+    const int k0 = std::max(0, f.ix0), k1 = std::min(n - 1, f.ix0 + f.nx - 1);
+    for (int k = k0; k <= k1; ++k)
+      out[k] = std::max(out[k], f.height_at(kLaneX0Mm + k * kRasterPitchMm, b));
+  });
+}
+
+bool LaneScene::any_fillet(double b_lo, double b_hi) const {
+  bool any = false;
+  for_fillets(b_lo, b_hi, [&](const Fillet&) { any = true; });
+  return any;
+}
+
+}  // namespace rangex::sim

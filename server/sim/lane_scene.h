@@ -1,0 +1,38 @@
+// What lies on one lane's belt: a row of fillets with gaps, in object coordinates
+// (x across, b along the belt; the laser plane sees b = belt_offset - y_laser).
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "sim/fillet.h"
+
+namespace rangex::sim {
+
+struct SceneParams {
+  int fillets = 5;
+  double lead_in_mm = 40;         // empty belt before the first fillet
+  double close_gap_probability = 0.2;  // fillets almost touching
+  FilletParams fillet;
+};
+
+class LaneScene {
+ public:
+  LaneScene(uint64_t seed, int lane, const SceneParams& p);
+
+  float height(double x, double b) const;  // highest fillet surface at (x, b), 0 on the belt
+  // Heights at x = kLaneX0Mm + k * kRasterPitchMm, k < n, on the slice b.
+  void slice(double b, float* out, int n) const;
+  bool any_fillet(double b_lo, double b_hi) const;
+  double end_b() const { return end_b_; }
+  const std::vector<Fillet>& fillets() const { return fillets_; }
+  float max_height() const { return max_height_; }
+
+ private:
+  std::vector<Fillet> fillets_;  // ordered by b
+  double end_b_ = 0;
+  float max_height_ = 0;
+  template <typename F>
+  void for_fillets(double b_lo, double b_hi, F&& f) const;
+};
+
+}  // namespace rangex::sim

@@ -1,0 +1,131 @@
+#include "sim/plant_simulator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+#include "core/error.h"
+#include "core/recording.h"
+
+namespace rangex::sim {
+
+LaneSimulator::LaneSimulator(const LaneConfig& lane, const SimulationParams& p)
+    : lane_(lane),
+      seed_(p.seed),
+      scene_(p.seed, lane.id, p.scene),
+      cam0_(lane, 0, p.camera),
+      cam1_(lane, 1, p.camera),
+      xray_(lane, p.xray),
+      encoder_start_(p.encoder_start) {
+  const double xray_y = lane.laser.offset_mm + lane.xray.delay_lines * lane.encoder_step_mm;
+  lines_ = int64_t(std::ceil((scene_.end_b() + std::max(0.0, xray_y) + 20) / lane.encoder_step_mm));
+}
+
+void LaneSimulator::render(int64_t n, uint8_t* cam0, uint8_t* cam1, uint16_t* xray,
+                           float* truth_row0, float* truth_row1, float* truth_thickness) const {
+  const double s = double(n) * lane_.encoder_step_mm;
+  std::vector<float> scratch_rows(lane_.frame_width), scratch_t(lane_.xray.pixels);
+  Rng r0(seed_, uint64_t(lane_.id) * 3 + 0, uint64_t(n), 0xc0);
+  Rng r1(seed_, uint64_t(lane_.id) * 3 + 1, uint64_t(n), 0xc1);
+  Rng rx(seed_, uint64_t(lane_.id) * 3 + 2, uint64_t(n), 0x7a);
+  cam0_.render(scene_, s, r0, cam0, truth_row0 ? truth_row0 : scratch_rows.data());
+  cam1_.render(scene_, s, r1, cam1, truth_row1 ? truth_row1 : scratch_rows.data());
+  xray_.render(scene_, s, rx, xray, truth_thickness ? truth_thickness : scratch_t.data());
+}
+
+std::string LaneSimulator::fragments_csv() const {
+  std::ostringstream os;
+  os << "fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification\n";
+  const double xray_y = lane_.laser.offset_mm + lane_.xray.delay_lines * lane_.encoder_step_mm;
+  for (const Fillet& f : scene_.fillets())
+    for (const Inclusion& in : f.inclusions) {
+      if (in.kind == Inclusion::kFat) continue;
+      // The X-ray sees b = line * step - xray_y.
+      const double line = (in.center.y + xray_y) / lane_.encoder_step_mm;
+      os << f.id << "," << (in.kind == Inclusion::kBone ? "bone" : "air") << "," << in.center.x
+         << "," << in.center.y << "," << in.center.z << "," << line << "," << in.size_mm << ","
+         << in.calcification << "\n";
+    }
+  return os.str();
+}
+
+std::string LaneSimulator::fillets_csv() const {
+  std::ostringstream os;
+  os << "fillet,x_center_mm,b_start_mm,b_end_mm,max_height_mm,bones\n";
+  for (const Fillet& f : scene_.fillets()) {
+    float hmax = 0;
+    for (float h : f.height) hmax = std::max(hmax, h);
+    int bones = 0;
+    for (const Inclusion& in : f.inclusions) bones += in.kind == Inclusion::kBone;
+    os << f.id << "," << f.x_center << "," << f.b_min << "," << f.b_max << "," << hmax << ","
+       << bones << "\n";
+  }
+  return os.str();
+}
+
+void simulate_recording(const PlantConfig& plant, const SimulationParams& p,
+                        const std::string& dir, const Progress& progress) {
+  if (p.lanes <= 0 || p.lanes > int(plant.lanes.size()))
+    fail("cannot simulate ", p.lanes, " lanes: the plant configuration has ", plant.lanes.size());
+  if (p.scene.fillets <= 0) fail("number of fillets per lane must be > 0 (got ", p.scene.fillets, ")");
+  std::vector<LaneSimulator> sims;
+  RecordingInfo info;
+  const LaneConfig& first = plant.lanes.front();
+  for (int i = 0; i < p.lanes; ++i) {
+    const LaneConfig& l = plant.lanes[i];
+    if (l.frame_width != first.frame_width || l.frame_height != first.frame_height ||
+        l.xray.pixels != first.xray.pixels || l.encoder_step_mm != first.encoder_step_mm)
+      fail("lane ", l.id, ": a recording needs equal frame sizes, detector pixels and encoder step on every lane");
+    sims.emplace_back(l, p);
+    info.lanes.push_back(l.id);
+  }
+  int64_t lines = 0;
+  for (const auto& s : sims) lines = std::max(lines, s.lines());
+  info.width = first.frame_width;
+  info.height = first.frame_height;
+  info.xray_pixels = first.xray.pixels;
+  info.encoder_step_mm = first.encoder_step_mm;
+  info.calibration_id = plant.calibration_id;
+  info.has_truth = true;
+  info.seed = p.seed;
+  RecordingWriter writer(dir, info);
+
+  const int W = info.width, H = info.height, D = info.xray_pixels;
+  const size_t frame = size_t(W) * H;
+  constexpr int kBlock = 32;  // lines rendered in parallel before they are written in order
+  const unsigned workers = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<uint8_t> cam0(frame * kBlock), cam1(frame * kBlock);
+  std::vector<uint16_t> xray(size_t(D) * kBlock);
+  std::vector<float> row0(size_t(W) * kBlock), row1(size_t(W) * kBlock), thick(size_t(D) * kBlock);
+  const int64_t total = lines * int64_t(sims.size());
+  int64_t done = 0;
+  for (size_t li = 0; li < sims.size(); ++li) {
+    const LaneSimulator& sim = sims[li];
+    for (int64_t n0 = 0; n0 < lines; n0 += kBlock) {
+      const int count = int(std::min<int64_t>(kBlock, lines - n0));
+      std::vector<std::thread> pool;
+      for (unsigned w = 0; w < workers; ++w)
+        pool.emplace_back([&, w] {
+          for (int k = int(w); k < count; k += int(workers))
+            sim.render(n0 + k, &cam0[frame * k], &cam1[frame * k], &xray[size_t(D) * k],
+                       &row0[size_t(W) * k], &row1[size_t(W) * k], &thick[size_t(D) * k]);
+        });
+      for (auto& t : pool) t.join();
+      for (int k = 0; k < count; ++k)
+        writer.append(info.lanes[li], {&cam0[frame * k], &cam1[frame * k], &xray[size_t(D) * k],
+                                       sim.encoder(n0 + k)});
+      writer.append_truth(info.lanes[li], "stripe_cam0.f32", row0.data(), size_t(W) * count * 4);
+      writer.append_truth(info.lanes[li], "stripe_cam1.f32", row1.data(), size_t(W) * count * 4);
+      writer.append_truth(info.lanes[li], "thickness.f32", thick.data(), size_t(D) * count * 4);
+      done += count;
+      if (progress) progress(done, total);
+    }
+    writer.write_truth_text(info.lanes[li], "fragments.csv", sim.fragments_csv());
+    writer.write_truth_text(info.lanes[li], "fillets.csv", sim.fillets_csv());
+  }
+  writer.close();
+}
+
+}  // namespace rangex::sim
