@@ -1,6 +1,7 @@
 // calib scatter: the scattering constants K1, K2 per camera (seed §5.4.2), fitted from a
 // recording with truth, where the simulator's true stripe stands in for the coated
 // reference profiles of the dissertation.
+#include <cmath>
 #include <cstdio>
 
 #include "args.h"
@@ -8,6 +9,7 @@
 #include "commands.h"
 #include "core/error.h"
 #include "core/recording.h"
+#include "pipeline/rectify_table.h"
 #include "pipeline/stripe_extract.h"
 
 namespace rangex::cli {
@@ -15,13 +17,16 @@ namespace rangex::cli {
 int cmd_calib(int argc, char** argv) {
   if (argc < 3 || std::string(argv[2]) != "scatter")
     fail("usage: calib scatter DIR [--lines N] [--config PLANT.yaml]");
-  const Args a(argc, argv, 3, {}, {"lines", "config"});
+  const Args a(argc, argv, 3, {}, {"lines", "config", "min-height-mm"});
   a.expect_positionals(1, "calib scatter DIR [--lines N]");
   const RecordingReader rec(a.positional(0, "recording folder"));
   const RecordingInfo& info = rec.info();
   if (!info.has_truth) fail(rec.dir(), " has no truth/: scattering constants need reference rows");
   const PlantConfig plant = load_config(a.get("config", ""));
   const int64_t lines = std::min<int64_t>(a.integer("lines", info.lines), info.lines);
+  // The constants describe scattering in meat: only columns whose reference point lies on
+  // the fillet (above this height) take part; the belt barely scatters.
+  const double min_height = std::stod(a.get("min-height-mm", "1.0"));
   const int W = info.width, H = info.height;
   const size_t frame = size_t(W) * H;
   std::printf("# scattering constants from %s (%lld lines per lane)\n", rec.dir().c_str(),
@@ -33,6 +38,13 @@ int cmd_calib(int argc, char** argv) {
       StripeSlot slot{lc.stripe, {}};
       slot.params.method = StripeMethod::kCentroid;
       const auto truth = rec.truth_f32(lane, "stripe_cam" + std::to_string(cam) + ".f32", W);
+      const RectifyTable table = build_rectify_table(lc.cameras[cam].model, lc.laser, lc.lut_step_px);
+      std::vector<float> tx(truth.size()), tz(truth.size());
+      std::vector<uint8_t> tvalid(truth.size()), tv2(truth.size());
+      for (size_t i = 0; i < truth.size(); ++i) tvalid[i] = std::isfinite(truth[i]);
+      const std::vector<int> tslot(size_t(info.lines), 0);
+      rectify(truth.data(), tvalid.data(), int(info.lines), W, tslot.data(), &table, tx.data(),
+              tz.data(), tv2.data());
       std::vector<uint8_t> frames(frame * 64);
       std::vector<int> slots(64, 0);
       StripeOutput so;
@@ -42,7 +54,8 @@ int cmd_calib(int argc, char** argv) {
                  cam == 1 ? frames.data() : nullptr, nullptr, nullptr);
         extract_stripes(frames.data(), count, W, H, slots.data(), &slot, so);
         for (size_t i = 0; i < size_t(count) * W; ++i) {
-          if (!so.valid[i]) continue;
+          if (!so.valid[i] || !tv2[size_t(n0) * W + i] || !(tz[size_t(n0) * W + i] > min_height))
+            continue;
           ref.push_back(truth[size_t(n0) * W + i]);
           cen.push_back(so.centroid[i]);
           asym.push_back(so.asym[i]);

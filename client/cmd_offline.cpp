@@ -163,11 +163,12 @@ int cmd_process(int argc, char** argv) {
 }
 
 int cmd_eval(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"json"}, {});
+  const Args a(argc, argv, 2, {"json"}, {"config"});
   a.expect_positionals(2, "eval DIR OUT [--json]");
   const RecordingReader rec(a.positional(0, "recording folder"));
   const fs::path out = a.positional(1, "output folder");
   const RecordingInfo& info = rec.info();
+  const PlantConfig plant = load_config(a.get("config", ""));
   std::vector<LaneEvaluation> evs;
   for (int lane : info.lanes) {
     const fs::path ld = out / ("lane" + std::to_string(lane));
@@ -175,7 +176,7 @@ int cmd_eval(int argc, char** argv) {
     std::vector<float> rows[2] = {read_f32(ld / "stripe_cam0.f32", size_t(info.lines) * info.width),
                                   read_f32(ld / "stripe_cam1.f32", size_t(info.lines) * info.width)};
     const auto t = read_f32(ld / "thickness.f32", size_t(info.lines) * info.xray_pixels);
-    evs.push_back(evaluate_lane(rec, lane, rows, t));
+    evs.push_back(evaluate_lane(rec, plant.lane(lane), rows, t));
   }
   if (evs.empty()) fail(out.string(), " holds no processed lane of ", rec.dir());
   std::fputs(a.flag("json") ? (evaluations_json(evs) + "\n").c_str() : evaluations_table(evs).c_str(), stdout);

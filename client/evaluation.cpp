@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "pipeline/rectify_table.h"
 
 namespace rangex {
 
@@ -27,10 +28,11 @@ ErrorStats error_stats(std::vector<double> e) {
   return s;
 }
 
-LaneEvaluation evaluate_lane(const RecordingReader& rec, int lane,
+LaneEvaluation evaluate_lane(const RecordingReader& rec, const LaneConfig& lc,
                              const std::vector<float> stripe_rows[2],
                              const std::vector<float>& thickness) {
   const RecordingInfo& info = rec.info();
+  const int lane = lc.id;
   if (!info.has_truth) fail("recording ", rec.dir(), " has no truth/ to evaluate against");
   LaneEvaluation ev;
   ev.lane = lane;
@@ -39,7 +41,15 @@ LaneEvaluation evaluate_lane(const RecordingReader& rec, int lane,
     if (truth.size() != stripe_rows[c].size())
       fail("lane ", lane, " camera ", c, ": ", stripe_rows[c].size(), " measured columns for ",
            truth.size(), " truth columns");
-    std::vector<double> err;
+    // Height of each true stripe point, from the exact rectification of its row.
+    const RectifyTable table = build_rectify_table(lc.cameras[c].model, lc.laser, lc.lut_step_px);
+    std::vector<float> tx(truth.size()), tz(truth.size());
+    std::vector<uint8_t> tv(truth.size()), tv2(truth.size());
+    for (size_t i = 0; i < truth.size(); ++i) tv[i] = std::isfinite(truth[i]);
+    const std::vector<int> slots(size_t(info.lines), 0);
+    rectify(truth.data(), tv.data(), int(info.lines), info.width, slots.data(), &table, tx.data(),
+            tz.data(), tv2.data());
+    std::vector<double> err, err_fillet;
     size_t with = 0, found = 0, without = 0, false_pos = 0;
     for (size_t i = 0; i < truth.size(); ++i) {
       const bool t = std::isfinite(truth[i]), m = std::isfinite(stripe_rows[c][i]);
@@ -48,6 +58,7 @@ LaneEvaluation evaluate_lane(const RecordingReader& rec, int lane,
         if (m) {
           ++found;
           err.push_back(double(stripe_rows[c][i]) - truth[i]);
+          if (tz[i] > kFilletColumnMinMm) err_fillet.push_back(err.back());
         }
       } else {
         ++without;
@@ -55,6 +66,7 @@ LaneEvaluation evaluate_lane(const RecordingReader& rec, int lane,
       }
     }
     ev.stripe[c] = error_stats(std::move(err));
+    ev.stripe_fillet[c] = error_stats(std::move(err_fillet));
     ev.stripe_detected[c] = with ? double(found) / double(with) : 0;
     ev.stripe_false[c] = without ? double(false_pos) / double(without) : 0;
   }
@@ -90,6 +102,10 @@ std::string evaluations_json(const std::vector<LaneEvaluation>& evs) {
     stats_json(os, "stripe_px_cam0", e.stripe[0]);
     os << ", ";
     stats_json(os, "stripe_px_cam1", e.stripe[1]);
+    os << ", ";
+    stats_json(os, "stripe_px_fillet_cam0", e.stripe_fillet[0]);
+    os << ", ";
+    stats_json(os, "stripe_px_fillet_cam1", e.stripe_fillet[1]);
     os << ", \"stripe_detected\": [" << e.stripe_detected[0] << ", " << e.stripe_detected[1]
        << "], \"stripe_false\": [" << e.stripe_false[0] << ", " << e.stripe_false[1] << "], ";
     stats_json(os, "thickness_mm", e.thickness);
@@ -101,22 +117,26 @@ std::string evaluations_json(const std::vector<LaneEvaluation>& evs) {
 
 std::string evaluations_table(const std::vector<LaneEvaluation>& evs) {
   std::ostringstream os;
-  char buf[256];
-  std::snprintf(buf, sizeof buf, "%-5s %-24s %-24s %-26s %s\n", "lane", "stripe cam0 px",
-                "stripe cam1 px", "thickness mm (fillet px)", "coverage");
-  os << buf;
-  std::snprintf(buf, sizeof buf, "%-5s %-24s %-24s %-26s\n", "", "mean|err|  p99  found",
-                "mean|err|  p99  found", "mean|err|  p99    bias");
-  os << buf;
+  char buf[320];
+  os << "lane  stripe error px, fillet columns (all columns)          thickness error mm, fillet pixels\n";
+  os << "      cam0 mean|e|  p99            cam1 mean|e|  p99            mean|e|   p99     bias  coverage\n";
   for (const LaneEvaluation& e : evs) {
     std::snprintf(buf, sizeof buf,
-                  "%-5d %7.3f %7.3f %6.1f%%   %7.3f %7.3f %6.1f%%   %7.3f %7.3f %7.3f   %6.2f%%\n",
-                  e.lane, e.stripe[0].mean_abs, e.stripe[0].p99_abs, 100 * e.stripe_detected[0],
-                  e.stripe[1].mean_abs, e.stripe[1].p99_abs, 100 * e.stripe_detected[1],
-                  e.thickness.mean_abs, e.thickness.p99_abs, e.thickness.bias,
-                  100 * e.fillet_coverage);
+                  "%-5d %5.3f (%5.3f) %5.3f (%5.3f)  %5.3f (%5.3f) %5.3f (%5.3f)  %7.3f %7.3f %7.3f  %6.2f%%\n",
+                  e.lane, e.stripe_fillet[0].mean_abs, e.stripe[0].mean_abs, e.stripe_fillet[0].p99_abs,
+                  e.stripe[0].p99_abs, e.stripe_fillet[1].mean_abs, e.stripe[1].mean_abs,
+                  e.stripe_fillet[1].p99_abs, e.stripe[1].p99_abs, e.thickness.mean_abs,
+                  e.thickness.p99_abs, e.thickness.bias, 100 * e.fillet_coverage);
     os << buf;
   }
+  char tail[160];
+  std::string found;
+  for (const LaneEvaluation& e : evs) {
+    std::snprintf(tail, sizeof tail, "%slane %d %.2f%%/%.2f%%", found.empty() ? "" : ", ", e.lane,
+                  100 * e.stripe_detected[0], 100 * e.stripe_detected[1]);
+    found += tail;
+  }
+  os << "stripe columns found (cam0/cam1): " << found << "\n";
   return os.str();
 }
 

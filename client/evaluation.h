@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "core/lane_config.h"
 #include "core/recording.h"
 #include "replay.h"
 
@@ -19,6 +20,7 @@ ErrorStats error_stats(std::vector<double> signed_errors);
 struct LaneEvaluation {
   int lane = 0;
   ErrorStats stripe[2];           // px, columns valid in both truth and measurement
+  ErrorStats stripe_fillet[2];    // px, the same restricted to columns on a fillet
   double stripe_detected[2] = {0, 0};  // fraction of truth stripe columns found
   double stripe_false[2] = {0, 0};     // fraction of no-stripe columns reported valid
   ErrorStats thickness;           // mm, fillet pixels with a valid measurement
@@ -26,9 +28,11 @@ struct LaneEvaluation {
 };
 
 constexpr double kFilletPixelMinMm = 0.5;  // truth path thickness that counts as fillet
+constexpr double kFilletColumnMinMm = 1.0;  // truth stripe height that counts as fillet
 
-// The lane's measured stripe rows and registered thickness against truth/ of `rec`.
-LaneEvaluation evaluate_lane(const RecordingReader& rec, int lane,
+// The lane's measured stripe rows and registered thickness against truth/ of `rec`; the
+// lane's geometry tells which stripe columns lie on a fillet.
+LaneEvaluation evaluate_lane(const RecordingReader& rec, const LaneConfig& lane,
                              const std::vector<float> stripe_rows[2],
                              const std::vector<float>& thickness);
 

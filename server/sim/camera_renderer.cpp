@@ -5,19 +5,11 @@
 #include <limits>
 
 #include "core/error.h"
+#include "sim/stripe_profile.h"
 
 namespace rangex::sim {
 
 namespace {
-constexpr double kSqrt2 = 1.41421356237309515;
-constexpr double kSqrt2Pi = 2.50662827463100024;
-
-// Exponentially modified Gaussian density (tail toward +x), unit area.
-double emg(double x, double sigma, double lambda) {
-  const double a = sigma / lambda;
-  return 0.5 / lambda * std::exp(0.5 * a * a - x / lambda) * std::erfc((a - x / sigma) / kSqrt2);
-}
-
 struct Hit {
   double v = 0;
   Vec3 p;       // world point on the stripe
@@ -139,19 +131,8 @@ void CameraRenderer::render(const LaneScene& scene, double s, Rng& rng, uint8_t*
       lambda = p_.belt_tail_px;
     }
     amp *= std::exp(p_.column_speckle * rng.normal());
-    const double sg = p_.core_sigma_px;
-    const double energy = amp * sg * kSqrt2Pi;
-    const int y0 = std::max(0, int(std::floor(hit.v - 6 * sg - (tail_sign_ < 0 ? 8 * lambda : 0))));
-    const int y1 = std::min(height_ - 1, int(std::ceil(hit.v + 6 * sg + (tail_sign_ > 0 ? 8 * lambda : 0))));
-    for (int y = y0; y <= y1; ++y) {
-      const double dy = y - hit.v;
-      const double core = 0.5 * (std::erf((dy + 0.5) / (kSqrt2 * sg)) - std::erf((dy - 0.5) / (kSqrt2 * sg)));
-      const double sc = emg(tail_sign_ * dy, sg, lambda);
-      double val = energy * (core + tail * sc) * (1 + p_.speckle * rng.normal());
-      uint8_t& pix = frame[size_t(y) * width_ + c];
-      val += pix;
-      pix = uint8_t(std::clamp(std::lround(val), 0L, 255L));
-    }
+    add_stripe(frame + c, height_, width_,
+               {hit.v, amp, p_.core_sigma_px, tail, lambda, tail_sign_, p_.speckle}, rng);
   }
 }
 

@@ -21,7 +21,7 @@ struct CameraRenderParams {
   double belt_tail = 0.03;
   double meat_tail_px = 2.5;     // tail decay length in the image
   double belt_tail_px = 1.5;
-  double speckle = 0.06;         // multiplicative, per pixel
+  double speckle = 0.15;         // multiplicative, per pixel
   double column_speckle = 0.10;  // multiplicative, per column (lognormal sigma)
   double background = 6;         // DN
   double read_noise = 1.5;       // DN

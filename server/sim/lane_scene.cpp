@@ -12,10 +12,10 @@ LaneScene::LaneScene(uint64_t seed, int lane, const SceneParams& p) {
     fillets_.push_back(make_fillet(rng, i, b, x, p.fillet));
     const Fillet& f = fillets_.back();
     for (float h : f.height) max_height_ = std::max(max_height_, h);
+    end_b_ = f.b_max;
     const double gap = rng.chance(p.close_gap_probability) ? rng.uniform(2, 10) : rng.uniform(30, 150);
     b = f.b_max + gap;
   }
-  end_b_ = b;
 }
 
 template <typename F>

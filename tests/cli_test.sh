@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# rangexctl end to end through its command line: a small recording is simulated,
+# extracted, processed and evaluated; bad input must fail with exit code 1 and a message
+# that names the problem.
+set -u
+ctl="$1"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fails=0
+check() {  # check NAME CONDITION-COMMAND...
+  local name=$1; shift
+  if "$@"; then echo "ok   $name"; else echo "FAIL $name"; fails=$((fails + 1)); fi
+}
+expect_error() {  # expect_error NAME PATTERN COMMAND...
+  local name=$1 pattern=$2; shift 2
+  local out rc
+  out=$("$@" 2>&1); rc=$?
+  if [ $rc -eq 1 ] && grep -q -- "$pattern" <<<"$out"; then echo "ok   $name"
+  else echo "FAIL $name (exit $rc): $out"; fails=$((fails + 1)); fi
+}
+
+"$ctl" simulate --lanes 1 --fillets 1 --seed 5 --out "$work/rec" >/dev/null || { echo "FAIL simulate"; exit 1; }
+check "recording.yaml written" test -f "$work/rec/recording.yaml"
+check "truth written" test -f "$work/rec/lane0/truth/fragments.csv"
+
+"$ctl" extract "$work/rec" --lane 0 --camera 1 --method gaussian3 --out "$work/peaks.csv" || fails=$((fails + 1))
+check "extract header" grep -qx "frame,column,row" "$work/peaks.csv"
+lines=$(awk -F'"' '/^lines:/{print}' "$work/rec/recording.yaml" | awk '{print $2}')
+check "extract one row per column" test "$(($(wc -l <"$work/peaks.csv") - 1))" -eq "$((lines * 640))"
+check "extract has empty rows where no stripe" grep -q ",$" "$work/peaks.csv"
+
+"$ctl" process "$work/rec" --out "$work/out" >/dev/null || fails=$((fails + 1))
+check "thickness png" test -s "$work/out/lane0/thickness.png"
+check "summary json" grep -q '"valid_thickness_fraction"' "$work/out/summary.json"
+json=$("$ctl" eval "$work/rec" "$work/out" --json)
+mae=$(sed -E 's/.*"thickness_mm": \{[^}]*"mean_abs": ([0-9.e+-]+).*/\1/' <<<"$json")
+check "eval thickness mean |error| <= 0.3 mm (got $mae)" awk -v m="$mae" 'BEGIN{exit !(m <= 0.3)}'
+
+expect_error "unknown method" "unknown stripe method 'median'" \
+  "$ctl" process "$work/rec" --out "$work/o2" --method median
+printf 'lanes:\n  - id: 0\n    frame: {width: 320, height: 200}\n' >"$work/small.yaml"
+expect_error "wrong frame size" "recording frames are 640x200 but the plant configuration says 320x200" \
+  "$ctl" process "$work/rec" --out "$work/o3" --config "$work/small.yaml"
+printf 'lanes: [ {id: 0\n' >"$work/bad.yaml"
+expect_error "bad yaml" "not valid YAML" "$ctl" process "$work/rec" --out "$work/o4" --config "$work/bad.yaml"
+expect_error "unknown lane" "unknown lane 7" "$ctl" extract "$work/rec" --lane 7 --camera 0 --out "$work/p.csv"
+expect_error "unknown option" "unknown option --fillet" "$ctl" simulate --fillet 3 --out "$work/x"
+truncate -s -1000 "$work/rec/lane0/xray.u16"
+expect_error "truncated recording" "xray.u16 is truncated" "$ctl" process "$work/rec" --out "$work/o5"
+
+[ $fails -eq 0 ] && echo "cli: all checks passed" || echo "cli: $fails checks failed"
+exit $((fails > 0))

@@ -1,0 +1,71 @@
+// plant.yaml loading: the shipped default parses; bad values are refused naming the key.
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "core/plant_config.h"
+
+using namespace rangex;
+
+namespace {
+std::string error_of(const std::string& yaml) {
+  try {
+    parse_plant_config(yaml, "test.yaml");
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(PlantConfig, ShippedDefaultLoads) {
+  const PlantConfig p = load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml");
+  ASSERT_EQ(p.lanes.size(), 4u);
+  EXPECT_EQ(p.listen.rfind("127.0.0.1:", 0), 0u) << "listens on loopback by default";
+  const LaneConfig& l = p.lane(2);
+  EXPECT_DOUBLE_EQ(l.cameras[0].model.intrinsics().fx, 1780.10076);
+  EXPECT_DOUBLE_EQ(l.cameras[1].model.distortion().k2, 5.38559);
+  EXPECT_EQ(l.stripe.method, StripeMethod::kModified);
+  // The two cameras sit on opposite sides of the laser plane.
+  EXPECT_GT(l.cameras[0].model.center().y * l.cameras[1].model.center().y, -1e9);
+  EXPECT_LT(l.cameras[0].model.center().y * l.cameras[1].model.center().y, 0);
+  EXPECT_THROW(p.lane(9), Error);
+}
+
+TEST(PlantConfig, LaneOverridesSectionOfDefaults) {
+  const PlantConfig p = parse_plant_config(R"(
+lane_defaults:
+  stripe: {method: gaussian3, min_peak: 50}
+lanes:
+  - id: 0
+  - id: 1
+    stripe: {method: binary}
+)",
+                                           "t");
+  EXPECT_EQ(p.lane(0).stripe.method, StripeMethod::kGaussian3);
+  EXPECT_EQ(p.lane(0).stripe.min_peak, 50);
+  EXPECT_EQ(p.lane(1).stripe.method, StripeMethod::kBinary);
+  EXPECT_EQ(p.lane(1).stripe.min_peak, 40);  // the lane's own section replaces the default
+}
+
+TEST(PlantConfig, BadInputNamesKeyAndReason) {
+  EXPECT_NE(error_of("lanes: [ {id: 0} \n foo").find("not valid YAML"), std::string::npos);
+  EXPECT_NE(error_of("lanes:\n  - id: 0\n  - id: 1\n    cameras:\n      - intrinsics: {fx: -5}\n      - {}\n")
+                .find("lanes[1].cameras[0].intrinsics.fx: must be > 0"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes:\n  - id: 0\n    cameras:\n      - intrinsics: {fx: .nan}\n      - {}\n")
+                .find("intrinsics.fx: must be finite"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes:\n  - id: 0\n    stripe: {method: median}\n").find("stripe.method"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes:\n  - id: 0\n    strpe: {}\n").find("unknown key 'strpe'"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes:\n  - id: 0\n  - id: 0\n").find("duplicate lane id 0"), std::string::npos);
+  EXPECT_NE(error_of("lanes:\n  - id: 0\n    cameras:\n      - rotation: [1,0,0,0,1,0,0,0,2]\n      - {}\n")
+                .find("not a proper rotation"),
+            std::string::npos);
+  EXPECT_NE(error_of("plant: {backend: cuda}\nlanes: [{id: 0}]\n").find("plant.backend"),
+            std::string::npos);
+  EXPECT_NE(error_of("plant: {name: x}\n").find("missing key 'lanes'"), std::string::npos);
+  EXPECT_NE(error_of("lanes:\n  - id: 0\n    frame: {width: 640, height: 3}\n").find("out of range"),
+            std::string::npos);
+}
