@@ -41,7 +41,16 @@ struct StripeOutput {
 
 // frames: `count` Mono8 frames of height x width, row-major, back to back; slot[i] selects
 // frame i's settings in `slots`. Output holds count * width columns.
+//
+// The CPU path: the frame is streamed row by row once for the column maxima, then the
+// window sums run over small bands of rows for groups of neighbouring columns so that the
+// compiler vectorises them across columns.
 void extract_stripes(const uint8_t* frames, int count, int width, int height, const int* slot,
                      const StripeSlot* slots, StripeOutput& out);
+
+// The same result computed one column at a time, exactly as a GPU kernel work-item does it;
+// the reference the CPU path and the GPU kernels are tested against.
+void extract_stripes_reference(const uint8_t* frames, int count, int width, int height,
+                               const int* slot, const StripeSlot* slots, StripeOutput& out);
 
 }  // namespace rangex
