@@ -5,6 +5,7 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <thread>
 
 #include "args.h"
 #include "commands.h"
@@ -110,13 +111,15 @@ int cmd_extract(int argc, char** argv) {
 }
 
 int cmd_process(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"out", "method", "batch", "config"});
+  const Args a(argc, argv, 2, {}, {"out", "method", "batch", "config", "threads"});
   a.expect_positionals(1, "process DIR --out OUT");
   const RecordingReader rec(a.positional(0, "recording folder"));
   const PlantConfig plant = load_config(a.get("config", ""));
   ReplayOptions opt;
   if (a.has("method")) opt.method = parse_stripe_method(a.get("method", ""));
   opt.batch_lines = int(a.integer("batch", 64));
+  opt.threads = int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
+  if (opt.threads < 1) fail("--threads must be >= 1 (got ", opt.threads, ")");
   const fs::path out = a.require("out");
   fs::create_directories(out);
   ProgressBar bar("process");
@@ -151,9 +154,9 @@ int cmd_process(int argc, char** argv) {
        << ", \"conflict\": " << r.fusion.conflict << ", \"filled\": " << r.fusion.filled
        << ", \"missing\": " << r.fusion.missing << "}, \"pipeline_seconds\": " << r.seconds
        << ", \"lines_per_second\": " << lines_per_s << "}";
-    std::printf("lane %d: %lld lines, %.1f%% of thickness pixels valid, %.0f lines/s (CPU, 1 thread)\n",
+    std::printf("lane %d: %lld lines, %.1f%% of thickness pixels valid, %.0f lines/s (CPU, %d threads)\n",
                 r.lane, (long long)r.lines, 100.0 * double(valid) / double(std::max<size_t>(1, png.size())),
-                lines_per_s);
+                lines_per_s, opt.threads);
   }
   js << "]}\n";
   std::ofstream(out / "summary.json") << js.str();

@@ -37,7 +37,7 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
       fail("lane ", id, ": recording encoder step is ", info.encoder_step_mm,
            " mm but the plant configuration says ", lc.encoder_step_mm, " mm");
     if (opt.method) lc.stripe.method = *opt.method;
-    const LinePipeline pipe({lc});
+    const LinePipeline pipe({lc}, opt.threads);
     LaneReplay r;
     r.lane = id;
     r.lines = info.lines;

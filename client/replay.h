@@ -17,6 +17,7 @@ struct ReplayOptions {
   int batch_lines = 64;
   std::optional<StripeMethod> method;  // overrides plant.yaml's stripe method
   std::vector<int> lanes;              // empty: every lane of the recording
+  int threads = 1;                     // stripe-stage workers
 };
 
 struct LaneReplay {

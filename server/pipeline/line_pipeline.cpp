@@ -1,11 +1,14 @@
 #include "pipeline/line_pipeline.h"
 
+#include <algorithm>
+
 #include "core/error.h"
 #include "pipeline/fan_projection.h"
 
 namespace rangex {
 
-LinePipeline::LinePipeline(std::vector<LaneConfig> lanes) : lanes_(std::move(lanes)) {
+LinePipeline::LinePipeline(std::vector<LaneConfig> lanes, int threads)
+    : lanes_(std::move(lanes)), threads_(std::max(1, threads)) {
   if (lanes_.empty()) fail("pipeline needs at least one lane");
   const LaneConfig& first = lanes_.front();
   width_ = first.frame_width;
@@ -48,7 +51,7 @@ void LinePipeline::run(const LineBatch& b, LineResults& out) const {
   const int frames = b.lines * 2;
   const size_t cols = size_t(frames) * width_;
   extract_stripes(b.frames.data(), frames, width_, height_, frame_slot.data(),
-                  stripe_slots_.data(), out.stripes);
+                  stripe_slots_.data(), out.stripes, threads_);
   out.x.resize(cols);
   out.z.resize(cols);
   out.xz_valid.resize(cols);

@@ -31,7 +31,8 @@ struct LineResults {
 
 class LinePipeline {
  public:
-  explicit LinePipeline(std::vector<LaneConfig> lanes);
+  // threads: workers for the stripe stage, the one that reads every pixel.
+  explicit LinePipeline(std::vector<LaneConfig> lanes, int threads = 1);
 
   int slot_of(int lane_id) const;  // throws Error for an unknown lane
   const LaneConfig& lane(int slot) const { return lanes_[slot]; }
@@ -50,6 +51,7 @@ class LinePipeline {
   std::vector<FusionParams> fusion_;
   std::vector<FanBeam> beams_;
   int width_ = 0, height_ = 0, grid_n_ = 0, pixels_ = 0;
+  int threads_ = 1;
 };
 
 }  // namespace rangex

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <thread>
 
 #include "pipeline/stripe_column.h"
 
@@ -56,61 +58,92 @@ inline int at(const uint8_t* f, int width, int height, int c, int y) {
   return f[size_t(std::clamp(y, 0, height - 1)) * width + c];
 }
 
-struct Scratch {
-  std::vector<uint8_t> mx, arg8;
-  std::vector<uint16_t> arg16;
-  std::vector<int> lo, hi, p, pe;
-  std::vector<float> T, gauss, parab;
-  std::vector<float> s0, s1, q0, q1, below;  // window sums, one lane per column
-  std::vector<int> lo_in, hi_in;             // window bounds, empty when invalid
-  void resize(int w) {
-    mx.resize(w);
-    arg8.resize(w);
-    arg16.resize(w);
-    lo.resize(w);
-    hi.resize(w);
-    p.resize(w);
-    pe.resize(w);
-    T.resize(w);
-    gauss.resize(w);
-    parab.resize(w);
-    for (auto* v : {&s0, &s1, &q0, &q1, &below}) v->resize(w);
-    lo_in.resize(w);
-    hi_in.resize(w);
-  }
-};
-
-// stripe::accumulate for one pixel, over the flat per-column arrays.
-inline void sum_pixel(Scratch& s, int c, int r, float g) {
-  const float w = g - s.T[c], y = float(r);
-  const float frac = std::clamp(s.gauss[c] - (y - 0.5f), 0.0f, 1.0f);
-  s.s0[c] += w;
-  s.s1[c] += w * y;
-  s.q0[c] += w * w;
-  s.q1[c] += w * w * y;
-  s.below[c] += w * frac;
-}
-
-// The window sums of N neighbouring columns: rows r0..r1 cover every window in the group;
-// with N fixed the per-column state stays in vector registers across the rows.
+// All stages after the column maxima for N neighbouring columns at once. Every loop runs
+// across the N lanes with fixed trip count and no branches, so that the compiler keeps the
+// per-column state in vector registers; rows are walked only where some window lies.
 template <int N>
-void sum_group(const uint8_t* f, int width, int r0, int r1, int c0, Scratch& s) {
-  int lo[N], hi[N];
-  float T[N], gp[N], s0[N] = {}, s1[N] = {}, q0[N] = {}, q1[N] = {}, bl[N] = {};
+void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t* mx,
+                  const int* peak_row, const StripeSlot& sl, StripeOutput& out, size_t o0) {
+  const float rel = float(sl.params.threshold_rel);
+  const int max_width = sl.params.max_width;
+  int p[N], lo[N], hi[N], live[N], valid[N];
+  float m[N], T[N], a[N], c[N];
+  int pmin = height, pmax = -1;
   for (int k = 0; k < N; ++k) {
-    lo[k] = s.lo_in[c0 + k];
-    hi[k] = s.hi_in[c0 + k];
-    T[k] = s.T[c0 + k];
-    gp[k] = s.gauss[c0 + k];
+    p[k] = peak_row[c0 + k];
+    m[k] = float(mx[c0 + k]);
+    T[k] = rel * m[k];
+    valid[k] = mx[c0 + k] >= sl.params.min_peak;
+    lo[k] = hi[k] = p[k];
+    a[k] = c[k] = m[k];  // the 3-point neighbours, clamped at the frame's edge
   }
+  for (int k = 0; k < N; ++k)
+    if (valid[k]) pmin = std::min(pmin, p[k]), pmax = std::max(pmax, p[k]);
+
+  if (pmax >= 0) {
+    // Window bounds: walking away from the peaks, a lane stays connected while its pixels
+    // exceed its threshold; the walk ends when every lane has left its window.
+    for (int k = 0; k < N; ++k) live[k] = 1;
+    for (int r = pmin + 1; r < height && r <= pmax + max_width; ++r) {
+      const uint8_t* row = f + size_t(r) * width + c0;
+      int any = 0;
+      for (int k = 0; k < N; ++k) {
+        const int beyond = r > p[k], above = float(row[k]) > T[k];
+        hi[k] = (live[k] & beyond & above) ? r : hi[k];
+        c[k] = r == p[k] + 1 ? float(row[k]) : c[k];
+        live[k] &= !beyond | above;
+        any |= live[k];
+      }
+      if (!any) break;
+    }
+    for (int k = 0; k < N; ++k) live[k] = 1;
+    for (int r = pmax - 1; r >= 0 && r >= pmin - max_width; --r) {
+      const uint8_t* row = f + size_t(r) * width + c0;
+      int any = 0;
+      for (int k = 0; k < N; ++k) {
+        const int beyond = r < p[k], above = float(row[k]) > T[k];
+        lo[k] = (live[k] & beyond & above) ? r : lo[k];
+        a[k] = r == p[k] - 1 ? float(row[k]) : a[k];
+        live[k] &= !beyond | above;
+        any |= live[k];
+      }
+      if (!any) break;
+    }
+  }
+
+  // 3-point peaks; a saturated plateau (rare) is found column by column.
+  float gauss[N], parab[N];
+  const stripe::LnTable& ln = stripe::ln_table();
+  for (int k = 0; k < N; ++k) {
+    const float la = ln.v[int(a[k])], lb = ln.v[int(m[k])], lc = ln.v[int(c[k])];
+    const float dg = la - 2 * lb + lc, dp = a[k] - 2 * m[k] + c[k];
+    gauss[k] = dg < 0 ? float(p[k]) + 0.5f * (la - lc) / dg : float(p[k]);
+    parab[k] = dp < 0 ? float(p[k]) + 0.5f * (a[k] - c[k]) / dp : float(p[k]);
+  }
+  for (int k = 0; k < N; ++k)
+    if (valid[k] && mx[c0 + k] == 255) {
+      int pe = p[k];
+      while (pe < hi[k] && f[size_t(pe + 1) * width + c0 + k] == 255) ++pe;
+      if (pe != p[k]) gauss[k] = parab[k] = 0.5f * float(p[k] + pe);
+    }
+
+  // Window sums over the band of rows that holds every valid window of the group.
+  int r0 = height, r1 = -1;
+  for (int k = 0; k < N; ++k) {
+    valid[k] &= hi[k] - lo[k] < max_width;
+    if (!valid[k]) lo[k] = 1, hi[k] = 0;  // empty window
+  }
+  for (int k = 0; k < N; ++k)
+    if (lo[k] <= hi[k]) r0 = std::min(r0, lo[k]), r1 = std::max(r1, hi[k]);
+  float s0[N] = {}, s1[N] = {}, q0[N] = {}, q1[N] = {}, bl[N] = {};
   for (int r = r0; r <= r1; ++r) {
     const uint8_t* row = f + size_t(r) * width + c0;
     const float y = float(r);
     for (int k = 0; k < N; ++k) {
-      // Branch-free so that the compiler keeps the loop in vector lanes.
+      // stripe::accumulate, spelled out over the lanes.
       const float in = float((r >= lo[k]) & (r <= hi[k]));
       const float w = in * (float(row[k]) - T[k]);
-      const float frac = std::min(std::max(gp[k] - (y - 0.5f), 0.0f), 1.0f);
+      const float frac = std::min(std::max(gauss[k] - (y - 0.5f), 0.0f), 1.0f);
       s0[k] += w;
       s1[k] += w * y;
       q0[k] += w * w;
@@ -118,163 +151,73 @@ void sum_group(const uint8_t* f, int width, int r0, int r1, int c0, Scratch& s) 
       bl[k] += w * frac;
     }
   }
+
+  constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+  const StripeMethod method = sl.params.method;
   for (int k = 0; k < N; ++k) {
-    s.s0[c0 + k] = s0[k];
-    s.s1[c0 + k] = s1[k];
-    s.q0[c0 + k] = q0[k];
-    s.q1[c0 + k] = q1[k];
-    s.below[c0 + k] = bl[k];
-  }
-}
-
-// Window bounds of N neighbouring columns found row by row instead of column by column:
-// walking away from the peaks, each lane stays connected while its pixels exceed its
-// threshold; the walk stops once every lane has left its window (or passed max_width).
-template <int N>
-void window_group(const uint8_t* f, int width, int height, int c0, int max_width, Scratch& s) {
-  int p[N], lo[N], hi[N], live[N];
-  float T[N];
-  int pmin = height, pmax = -1;
-  for (int k = 0; k < N; ++k) {
-    p[k] = s.p[c0 + k];
-    T[k] = s.T[c0 + k];
-    lo[k] = hi[k] = p[k];
-    const bool valid = s.lo[c0 + k] >= 0;
-    if (valid) pmin = std::min(pmin, p[k]), pmax = std::max(pmax, p[k]);
-  }
-  if (pmax < 0) return;
-  for (int k = 0; k < N; ++k) live[k] = 1;
-  for (int r = pmin + 1; r < height && r <= pmax + max_width; ++r) {
-    const uint8_t* row = f + size_t(r) * width + c0;
-    int any = 0;
-    for (int k = 0; k < N; ++k) {
-      const int beyond = r > p[k];
-      const int above = float(row[k]) > T[k];
-      const int grow = live[k] & beyond & above;
-      hi[k] = grow ? r : hi[k];
-      live[k] = live[k] & (!beyond | above);
-      any |= live[k];
-    }
-    if (!any) break;
-  }
-  for (int k = 0; k < N; ++k) live[k] = 1;
-  for (int r = pmax - 1; r >= 0 && r >= pmin - max_width; --r) {
-    const uint8_t* row = f + size_t(r) * width + c0;
-    int any = 0;
-    for (int k = 0; k < N; ++k) {
-      const int beyond = r < p[k];
-      const int above = float(row[k]) > T[k];
-      const int grow = live[k] & beyond & above;
-      lo[k] = grow ? r : lo[k];
-      live[k] = live[k] & (!beyond | above);
-      any |= live[k];
-    }
-    if (!any) break;
-  }
-  for (int k = 0; k < N; ++k)
-    if (s.lo[c0 + k] >= 0) {
-      s.lo[c0 + k] = lo[k];
-      s.hi[c0 + k] = hi[k];
-    }
-}
-
-void peaks(const uint8_t* f, int width, int height, Scratch& s) {
-  // Rows fit a byte for the usual sensor heights, which keeps the scan in 8-bit lanes.
-  if (height <= 256) {
-    column_max(f, width, height, s.mx.data(), s.arg8.data());
-    for (int c = 0; c < width; ++c) s.p[c] = s.arg8[c];
-  } else {
-    column_max(f, width, height, s.mx.data(), s.arg16.data());
-    for (int c = 0; c < width; ++c) s.p[c] = s.arg16[c];
-  }
-}
-
-// Everything after the sums: validity, the method's row, outputs.
-void finish(const uint8_t* f, int width, int height, const StripeSlot& sl, const Scratch& s,
-            StripeOutput& out, size_t o0) {
-  for (int c = 0; c < width; ++c) {
-    const size_t o = o0 + c;
-    const int m = s.mx[c];
-    out.peak[o] = float(m);
-    out.row[o] = kNaN;
-    out.valid[o] = 0;
-    if (s.lo[c] < 0) continue;  // no stripe
-    const int w = s.hi[c] - s.lo[c] + 1;
-    out.width[o] = float(w);
-    if (w > sl.params.max_width) continue;
-    const float binary = sl.params.method == StripeMethod::kBinary
-                             ? stripe::half_max_midpoint(f, width, height, c, m, s.p[c])
+    const size_t o = o0 + c0 + k;
+    const stripe::Sums sums{s0[k], s1[k], q0[k], q1[k], bl[k]};
+    const float binary = method == StripeMethod::kBinary && valid[k]
+                             ? stripe::half_max_midpoint(f, width, height, c0 + k, int(m[k]), p[k])
                              : 0.f;
-    float centroid, asym;
-    const stripe::Sums sums{s.s0[c], s.s1[c], s.q0[c], s.q1[c], s.below[c]};
-    out.row[o] = stripe::method_row(sl.params.method, sums, {s.gauss[c], s.parab[c]}, binary,
-                                    sl.scatter, centroid, asym);
+    float centroid = 0, asym = 0;
+    const float row = valid[k] ? stripe::method_row(method, sums, {gauss[k], parab[k]}, binary,
+                                                    sl.scatter, centroid, asym)
+                               : kNaNf;
+    out.row[o] = row;
+    out.peak[o] = m[k];
+    out.width[o] = mx[c0 + k] >= sl.params.min_peak ? float(hi[k] - lo[k] + 1) : 0.f;
     out.centroid[o] = centroid;
     out.asym[o] = asym;
-    out.valid[o] = 1;
+    out.valid[o] = uint8_t(valid[k]);
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// Frames [first, last) of the batch; `out` is already sized for the whole batch.
+void extract_range(const uint8_t* frames, int first, int last, int width, int height,
+                   const int* slot, const StripeSlot* slots, StripeOutput& out) {
+  constexpr int kGroup = 16;
+  std::vector<uint8_t> mx(width, 0), arg8(width, 0);
+  std::vector<uint16_t> arg16(width, 0);
+  std::vector<int> p(width, 0);
+  const size_t frame = size_t(width) * height;
+  for (int i = first; i < last; ++i) {
+    const uint8_t* f = frames + frame * i;
+    const StripeSlot& sl = slots[slot[i]];
+    // Rows fit a byte for the usual sensor heights, which keeps the scan in 8-bit lanes.
+    if (height <= 256) {
+      column_max(f, width, height, mx.data(), arg8.data());
+      for (int c = 0; c < width; ++c) p[c] = arg8[c];
+    } else {
+      column_max(f, width, height, mx.data(), arg16.data());
+      for (int c = 0; c < width; ++c) p[c] = arg16[c];
+    }
+    const int whole = width / kGroup * kGroup;
+    for (int c0 = 0; c0 < whole; c0 += kGroup)
+      column_group<kGroup>(f, width, height, c0, mx.data(), p.data(), sl, out, size_t(i) * width);
+    // A ragged last group runs one column at a time (N = 1).
+    for (int c0 = whole; c0 < width; ++c0)
+      column_group<1>(f, width, height, c0, mx.data(), p.data(), sl, out, size_t(i) * width);
   }
 }
 
 }  // namespace
 
 void extract_stripes(const uint8_t* frames, int count, int width, int height, const int* slot,
-                     const StripeSlot* slots, StripeOutput& out) {
+                     const StripeSlot* slots, StripeOutput& out, int threads) {
   out.resize(size_t(count) * width);
-  Scratch s;
-  s.resize(width);
-  const size_t frame = size_t(width) * height;
-  constexpr int kGroup = 16;  // neighbouring columns whose windows are summed together
-  for (int i = 0; i < count; ++i) {
-    const uint8_t* f = frames + frame * i;
-    const StripeSlot& sl = slots[slot[i]];
-    peaks(f, width, height, s);
-    for (int c = 0; c < width; ++c) {
-      s.s0[c] = s.s1[c] = s.q0[c] = s.q1[c] = s.below[c] = 0;
-      s.lo_in[c] = 1, s.hi_in[c] = 0;  // empty unless the window is valid
-      s.T[c] = float(sl.params.threshold_rel) * float(s.mx[c]);
-      s.gauss[c] = 0;
-      s.lo[c] = s.hi[c] = s.mx[c] < sl.params.min_peak ? -1 : s.p[c];
-    }
-    for (int c0 = 0; c0 < width; c0 += kGroup) {
-      if (c0 + kGroup <= width) {
-        window_group<kGroup>(f, width, height, c0, sl.params.max_width, s);
-      } else {
-        for (int c = c0; c < width; ++c)  // ragged last group
-          if (s.lo[c] >= 0) window(f, width, height, c, s.p[c], s.mx[c], s.T[c], s.lo[c], s.hi[c], s.pe[c]);
-      }
-    }
-    for (int c = 0; c < width; ++c) {
-      if (s.lo[c] < 0) continue;
-      const int m = s.mx[c], p = s.p[c];
-      int pe = p;
-      if (m == 255)  // saturated: find the end of the plateau
-        while (pe < s.hi[c] && f[size_t(pe + 1) * width + c] == m) ++pe;
-      const stripe::Peaks k = stripe::three_point_peaks(at(f, width, height, c, p - 1), m,
-                                                        at(f, width, height, c, p + 1), p, pe);
-      s.gauss[c] = k.gauss;
-      s.parab[c] = k.parab;
-      if (s.hi[c] - s.lo[c] < sl.params.max_width) s.lo_in[c] = s.lo[c], s.hi_in[c] = s.hi[c];
-    }
-    // Window sums: for a group of columns, the band of rows that any of their windows
-    // covers, walked row by row; the inner loop runs across columns and vectorises.
-    for (int c0 = 0; c0 < width; c0 += kGroup) {
-      const int c1 = std::min(width, c0 + kGroup);
-      int r0 = height, r1 = -1;
-      for (int c = c0; c < c1; ++c)
-        if (s.lo_in[c] <= s.hi_in[c]) {
-          r0 = std::min(r0, s.lo_in[c]);
-          r1 = std::max(r1, s.hi_in[c]);
-        }
-      if (c1 - c0 == kGroup) {
-        sum_group<kGroup>(f, width, r0, r1, c0, s);
-      } else {
-        for (int c = c0; c < c1; ++c)  // ragged last group
-          for (int r = s.lo_in[c]; r <= s.hi_in[c]; ++r)
-            sum_pixel(s, c, r, float(f[size_t(r) * width + c]));
-      }
-    }
-    finish(f, width, height, sl, s, out, size_t(i) * width);
-  }
+  threads = std::max(1, std::min(threads, count));
+  if (threads == 1) return extract_range(frames, 0, count, width, height, slot, slots, out);
+  // Frames are independent: each thread takes a contiguous share and writes its own columns.
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t)
+    pool.emplace_back(extract_range, frames, count * t / threads, count * (t + 1) / threads, width,
+                      height, slot, slots, std::ref(out));
+  for (auto& th : pool) th.join();
 }
 
 void extract_stripes_reference(const uint8_t* frames, int count, int width, int height,

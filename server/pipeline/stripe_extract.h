@@ -44,9 +44,9 @@ struct StripeOutput {
 //
 // The CPU path: the frame is streamed row by row once for the column maxima, then the
 // window sums run over small bands of rows for groups of neighbouring columns so that the
-// compiler vectorises them across columns.
+// compiler vectorises them across columns. Frames are shared among `threads` threads.
 void extract_stripes(const uint8_t* frames, int count, int width, int height, const int* slot,
-                     const StripeSlot* slots, StripeOutput& out);
+                     const StripeSlot* slots, StripeOutput& out, int threads = 1);
 
 // The same result computed one column at a time, exactly as a GPU kernel work-item does it;
 // the reference the CPU path and the GPU kernels are tested against.
