@@ -1,0 +1,36 @@
+// Robust straight-line fit ln I = b0 + b1 * T by iteratively reweighted least squares with
+// Tukey's biweight (seed eq. 66-70), following statsmodels' RLM(..., M=TukeyBiweight(c))
+// step for step so that the two agree to rounding:
+//   start: ordinary least squares;
+//   scale: MAD about zero / 0.6745 of the current residuals, re-estimated every iteration;
+//   weights: (1 - (r / (c * scale))^2)^2 for |r| <= c * scale, else 0;
+//   converged: the change of the M-estimator's deviance between iterations <= tol, within
+//   max_iter iterations (statsmodels' default rule, conv='dev').
+#pragma once
+#include <cstddef>
+
+namespace rangex {
+
+struct RobustFitOptions {
+  double c = 5.0;  // the dissertation's tuning constant
+  int max_iter = 50;
+  double tol = 1e-8;
+};
+
+struct RobustFit {
+  double beta0 = 0, beta1 = 0;
+  double scale = 0;   // final MAD scale of the residuals
+  int iterations = 0;  // statsmodels' count: the OLS start is iteration 1
+  bool converged = false;
+  size_t n = 0;
+  size_t inliers = 0;  // points with a non-zero final weight
+};
+
+// Throws Error for fewer than 3 points, non-finite values, x without spread, or a reweighting
+// that leaves no two distinct x with weight.
+RobustFit fit_tukey_line(const double* x, const double* y, size_t n, const RobustFitOptions& o = {});
+
+// Median as numpy computes it (mean of the two middle values for even n); reorders `v`.
+double median_inplace(double* v, size_t n);
+
+}  // namespace rangex

@@ -1,0 +1,117 @@
+// IRLS with Tukey's biweight against statsmodels' RLM (scripts/make_rlm_reference.py).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+#include "csv_points.h"
+#include "pipeline/robust_fit.h"
+#include "temp_dir.h"
+
+using namespace rangex;
+
+namespace {
+const std::string kData = RANGEX_SOURCE_DIR "/tests/data/rlm/";
+
+void near_rel(double got, double want, const std::string& what) {
+  EXPECT_LE(std::abs(got - want), 1e-6 * std::abs(want)) << what << ": " << got << " vs " << want;
+}
+}  // namespace
+
+TEST(RobustFit, MatchesStatsmodelsRLM) {
+  std::ifstream ref(kData + "reference.csv");
+  ASSERT_TRUE(ref) << "missing reference.csv";
+  std::string line;
+  std::getline(ref, line);  // header
+  int rows = 0;
+  while (std::getline(ref, line)) {
+    std::stringstream ss(line);
+    std::string name, cell;
+    std::getline(ss, name, ',');
+    double v[4];
+    for (double& d : v) {
+      std::getline(ss, cell, ',');
+      d = std::stod(cell);
+    }
+    std::getline(ss, cell, ',');
+    const int iterations = std::stoi(cell);
+    const CsvColumns data = read_two_column_csv(kData + name + ".csv");
+    RobustFitOptions o;
+    o.c = v[0];
+    const RobustFit f = fit_tukey_line(data.x.data(), data.y.data(), data.x.size(), o);
+    const std::string tag = name + " c=" + std::to_string(o.c);
+    near_rel(f.beta0, v[1], tag + " beta0");
+    near_rel(f.beta1, v[2], tag + " beta1");
+    near_rel(f.scale, v[3], tag + " scale");
+    EXPECT_EQ(f.iterations, iterations) << tag;
+    EXPECT_TRUE(f.converged) << tag;
+    ++rows;
+  }
+  EXPECT_GE(rows, 6);
+}
+
+TEST(RobustFit, OutliersBarelyMoveTheFitUnlikeOLS) {
+  const CsvColumns d = read_two_column_csv(kData + "outliers20.csv");
+  const RobustFit f = fit_tukey_line(d.x.data(), d.y.data(), d.x.size());
+  // The generating line is 8.1 - 0.029 T (scripts/make_rlm_reference.py).
+  EXPECT_NEAR(f.beta0, 8.1, 0.005);
+  EXPECT_NEAR(f.beta1, -0.029, 0.0003);
+  EXPECT_LT(f.inliers, d.x.size());  // the outliers got zero weight
+}
+
+TEST(RobustFit, BadInputIsRefused) {
+  const double x3[3] = {1, 2, 3}, y3[3] = {1, 2, 3};
+  EXPECT_THROW(fit_tukey_line(x3, y3, 2), Error);
+  const double same[4] = {5, 5, 5, 5}, y4[4] = {1, 2, 3, 4};
+  try {
+    fit_tukey_line(same, y4, 4);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("one thickness"), std::string::npos);
+  }
+  const double nan_y[3] = {1, NAN, 3};
+  EXPECT_THROW(fit_tukey_line(x3, nan_y, 3), Error);
+  RobustFitOptions o;
+  o.c = 0;
+  EXPECT_THROW(fit_tukey_line(x3, y3, 3, o), Error);
+}
+
+TEST(RobustFit, AllOutliersAtOneThicknessIsRefused) {
+  // Half the points sit on one line at T = 10; the rest are scattered far away at other
+  // thicknesses: the biweight rejects all of those, leaving no slope to fit.
+  std::vector<double> x, y;
+  for (int i = 0; i < 20; ++i) x.push_back(10), y.push_back(5.0 + 1e-4 * (i % 3));
+  for (int i = 0; i < 10; ++i) x.push_back(20 + i), y.push_back(i % 2 ? 50.0 : -50.0);
+  try {
+    fit_tukey_line(x.data(), y.data(), x.size());
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("rejected as an outlier"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CsvPoints, BadFilesNameLineAndColumn) {
+  test::TempDir t;
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(t.str(name)) << text;
+    return t.str(name);
+  };
+  auto error_of = [](const std::string& p) {
+    try {
+      read_two_column_csv(p);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error_of(write("a.csv", "T,lnI\n1,2\n3,x\n")).find(":3: column 2 ('lnI') is not a finite number: 'x'"),
+            std::string::npos);
+  EXPECT_NE(error_of(write("b.csv", "T,lnI\n1,2,3\n")).find(":2: expected 2 columns, found 3"),
+            std::string::npos);
+  EXPECT_NE(error_of(write("c.csv", "T,lnI\n")).find("no data rows"), std::string::npos);
+  EXPECT_NE(error_of(write("d.csv", "")).find("empty file"), std::string::npos);
+  EXPECT_NE(error_of(t.str("missing.csv")).find("cannot open"), std::string::npos);
+  EXPECT_NE(error_of(write("e.csv", "T,lnI\n1,nan\n")).find("not a finite number"), std::string::npos);
+}
