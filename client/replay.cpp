@@ -1,7 +1,6 @@
 #include "replay.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -37,7 +36,6 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
       fail("lane ", id, ": recording encoder step is ", info.encoder_step_mm,
            " mm but the plant configuration says ", lc.encoder_step_mm, " mm");
     if (opt.method) lc.stripe.method = *opt.method;
-    const LinePipeline pipe({lc}, opt.threads);
     LaneReplay r;
     r.lane = id;
     r.lines = info.lines;
@@ -47,18 +45,37 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
     r.thickness.assign(size_t(r.lines) * r.pixels, nan);
     for (auto& s : r.stripe_rows) s.assign(size_t(r.lines) * r.width, nan);
     const int delay = lc.xray.delay_lines;
+    int64_t first_encoder = 0;
+    // Keep what the evaluation and the images need: stripe rows per camera line and the
+    // thickness registered to X-ray line n + delay.
+    auto observe = [&](const LineResults& res, const int64_t* enc, int count) {
+      for (int k = 0; k < count; ++k) {
+        const int64_t n = enc[k] - first_encoder;
+        for (int c = 0; c < 2; ++c)
+          std::copy_n(&res.stripes.row[size_t(2 * k + c) * r.width], r.width,
+                      &r.stripe_rows[c][size_t(n) * r.width]);
+        const int64_t xl = n + delay;
+        if (xl >= r.lines) continue;
+        for (int i = 0; i < r.pixels; ++i) {
+          const size_t o = size_t(k) * r.pixels + i;
+          r.thickness[size_t(xl) * r.pixels + i] = res.thickness_valid[o] ? res.thickness[o] : nan;
+        }
+      }
+    };
+    LaneProcessor proc(lc, {opt.threads, opt.baseline, opt.keep_images},
+                       [&](InspectedFillet&& f) { r.fillets.push_back(std::move(f)); }, observe);
     const size_t frame = size_t(info.width) * info.height;
-    LineBatch batch;
-    LineResults res;
-    std::vector<uint8_t> cam0, cam1;
+    std::vector<uint8_t> cam0, cam1, frames;
+    std::vector<uint16_t> xray;
     std::vector<int64_t> enc;
     int64_t last_encoder = std::numeric_limits<int64_t>::min();
     for (int64_t n0 = 0; n0 < info.lines; n0 += opt.batch_lines) {
       const int count = int(std::min<int64_t>(opt.batch_lines, info.lines - n0));
       cam0.resize(frame * count);
       cam1.resize(frame * count);
+      xray.resize(size_t(info.xray_pixels) * count);
       enc.resize(count);
-      rec.read(id, n0, count, cam0.data(), cam1.data(), nullptr, enc.data());
+      rec.read(id, n0, count, cam0.data(), cam1.data(), xray.data(), enc.data());
       for (int k = 0; k < count; ++k) {
         if (enc[k] <= last_encoder)
           fail("lane ", id, ": encoder count ", enc[k], " at line ", n0 + k,
@@ -68,33 +85,21 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
                n0 + k, " (lines are missing)");
         last_encoder = enc[k];
       }
-      batch.lines = count;
-      batch.lane_slot.assign(count, 0);
-      batch.frames.resize(frame * 2 * count);
+      if (n0 == 0) first_encoder = enc[0];
+      frames.resize(frame * 2 * count);
       for (int k = 0; k < count; ++k) {
-        std::copy_n(&cam0[frame * k], frame, &batch.frames[frame * (2 * k)]);
-        std::copy_n(&cam1[frame * k], frame, &batch.frames[frame * (2 * k + 1)]);
+        std::copy_n(&cam0[frame * k], frame, &frames[frame * (2 * k)]);
+        std::copy_n(&cam1[frame * k], frame, &frames[frame * (2 * k + 1)]);
       }
-      const auto t0 = std::chrono::steady_clock::now();
-      pipe.run(batch, res);
-      r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      for (int k = 0; k < count; ++k) {
-        const int64_t n = n0 + k;
-        for (int c = 0; c < 2; ++c)
-          std::copy_n(&res.stripes.row[size_t(2 * k + c) * r.width], r.width,
-                      &r.stripe_rows[c][size_t(n) * r.width]);
-        // Camera line n images the slice the X-ray sees at line n + delay.
-        const int64_t xl = n + delay;
-        if (xl >= r.lines) continue;
-        for (int i = 0; i < r.pixels; ++i) {
-          const size_t o = size_t(k) * r.pixels + i;
-          r.thickness[size_t(xl) * r.pixels + i] = res.thickness_valid[o] ? res.thickness[o] : nan;
-        }
-      }
+      proc.push(count, frames.data(), xray.data(), enc.data());
       done += count;
       if (progress) progress(done, total);
     }
-    r.fusion = res.fusion;
+    proc.finish();
+    r.fusion = proc.fusion();
+    r.assembly = proc.assembly();
+    r.seconds = proc.pipeline_seconds();
+    r.inspection_seconds = proc.inspection_seconds();
     out.push_back(std::move(r));
   }
   return out;

@@ -9,6 +9,7 @@
 
 #include "core/plant_config.h"
 #include "core/recording.h"
+#include "pipeline/lane_processor.h"
 #include "pipeline/line_pipeline.h"
 
 namespace rangex {
@@ -18,6 +19,8 @@ struct ReplayOptions {
   std::optional<StripeMethod> method;  // overrides plant.yaml's stripe method
   std::vector<int> lanes;              // empty: every lane of the recording
   int threads = 1;                     // stripe-stage workers
+  bool keep_images = true;             // per-fillet pseudo-X-ray / residual images
+  bool baseline = true;                // X-ray-only baseline beside every fillet
 };
 
 struct LaneReplay {
@@ -29,7 +32,10 @@ struct LaneReplay {
   std::vector<float> thickness;
   std::vector<float> stripe_rows[2];  // per camera, lines x width, NaN where invalid
   FusionStats fusion;
-  double seconds = 0;  // pipeline time, reading excluded
+  AssemblyStats assembly;
+  std::vector<InspectedFillet> fillets;
+  double seconds = 0;             // line pipeline time, reading excluded
+  double inspection_seconds = 0;  // assembly is negligible; compensation + detection
 };
 
 using ReplayProgress = std::function<void(int64_t done, int64_t total)>;

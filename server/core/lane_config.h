@@ -26,6 +26,24 @@ struct FusionParams {
   double max_column_step_mm = 2.0;  // neighbouring columns further apart are not joined
 };
 
+// Fillet assembly, compensation and detection (seed ch. 7; SPEC data flow steps 4-6).
+struct InspectionParams {
+  double floor_mm = 1.5;               // thickness above this is fillet
+  double min_fillet_area_mm2 = 800;    // smaller regions are debris, counted not inspected
+  int gap_lines = 3;                   // empty lines that close a run of fillets
+  int max_segment_lines = 2500;        // longer runs are closed (and inspected) anyway
+  double max_invalid_fraction = 0.02;  // of a fillet's pixels without thickness: fail-safe
+  double tukey_c = 5.0;
+  int max_iter = 50;
+  double tol = 1e-8;
+  double smooth_sigma_px = 1.0;
+  double z_threshold = 5.0;            // smoothed z below -threshold is bone
+  double min_fragment_area_mm2 = 0.3;
+  double air_z_threshold = 5.0;        // smoothed z above +threshold is an air pocket
+  double min_air_area_mm2 = 1.0;
+  double baseline_sigma_mm = 4.0;      // X-ray-only baseline: smooth background scale
+};
+
 struct LaneConfig {
   int id = 0;
   int frame_width = 640;
@@ -37,6 +55,7 @@ struct LaneConfig {
   StripeParams stripe;
   int lut_step_px = 2;  // rectification table node spacing on the sensor
   FusionParams fusion;
+  InspectionParams inspection;
 };
 
 // The rig of the dissertation: cameras of appendices D and E, the second mirrored to the

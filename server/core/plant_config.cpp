@@ -138,7 +138,7 @@ void read_camera(const Node& n, LaneCamera& cam, int w, int h) {
 // Reads one lane from its own node, falling back section by section to lane_defaults.
 LaneConfig read_lane(const Node& lane, const Node* defaults) {
   lane.only_keys({"id", "frame", "encoder_step_mm", "cameras", "laser_plane", "xray", "stripe",
-                  "rectify", "fusion"});
+                  "rectify", "fusion", "inspection"});
   if (!lane.has("id")) lane.bad("missing key 'id'");
   LaneConfig c = default_lane_config(lane.at("id").integer());
   if (c.id < 0) lane.at("id").bad("must be >= 0");
@@ -227,6 +227,29 @@ LaneConfig read_lane(const Node& lane, const Node* defaults) {
     n->get("max_gap_mm", c.fusion.max_gap_mm);
     if (c.fusion.max_gap_mm < 0) n->at("max_gap_mm").bad("must be >= 0");
     n->positive("max_column_step_mm", c.fusion.max_column_step_mm);
+  }
+  if (auto n = section("inspection")) {
+    InspectionParams& q = c.inspection;
+    n->only_keys({"floor_mm", "min_fillet_area_mm2", "gap_lines", "max_segment_lines",
+                  "max_invalid_fraction", "tukey_c", "max_iter", "tol", "smooth_sigma_px",
+                  "z_threshold", "min_fragment_area_mm2", "air_z_threshold", "min_air_area_mm2",
+                  "baseline_sigma_mm"});
+    n->positive("floor_mm", q.floor_mm);
+    n->positive("min_fillet_area_mm2", q.min_fillet_area_mm2);
+    n->positive("gap_lines", q.gap_lines);
+    n->positive("max_segment_lines", q.max_segment_lines);
+    n->get("max_invalid_fraction", q.max_invalid_fraction);
+    if (q.max_invalid_fraction < 0 || q.max_invalid_fraction > 1)
+      n->at("max_invalid_fraction").bad("must be in [0, 1]");
+    n->positive("tukey_c", q.tukey_c);
+    n->positive("max_iter", q.max_iter);
+    n->positive("tol", q.tol);
+    n->positive("smooth_sigma_px", q.smooth_sigma_px);
+    n->positive("z_threshold", q.z_threshold);
+    n->positive("min_fragment_area_mm2", q.min_fragment_area_mm2);
+    n->positive("air_z_threshold", q.air_z_threshold);
+    n->positive("min_air_area_mm2", q.min_air_area_mm2);
+    n->positive("baseline_sigma_mm", q.baseline_sigma_mm);
   }
   return c;
 }

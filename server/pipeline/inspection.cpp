@@ -1,0 +1,210 @@
+#include "pipeline/inspection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/error.h"
+#include "pipeline/connected_components.h"
+#include "pipeline/masked_smooth.h"
+
+namespace rangex {
+
+std::string_view decision_name(Decision d) {
+  switch (d) {
+    case Decision::kPass: return "pass";
+    case Decision::kReject: return "reject";
+    default: return "not_inspected";
+  }
+}
+
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+FilletResult header(const FilletImage& img) {
+  FilletResult r;
+  r.lane = img.lane;
+  r.id = img.id;
+  r.first_line = img.first_line;
+  r.first_encoder = img.first_encoder;
+  r.rows = img.rows;
+  r.cols = img.cols;
+  r.first_col = img.first_col;
+  r.x0_mm = img.x0_mm;
+  r.y0_mm = img.y0_mm;
+  return r;
+}
+
+// The fail-safe checks that need no fit; empty when the fillet can be inspected.
+std::string not_inspectable(const FilletImage& img, const InspectionParams& p) {
+  if (img.calibration_mismatch) return "calibration mismatch";
+  if (img.missing_lines > 0) return std::to_string(img.missing_lines) + " lines missing";
+  if (img.touches_lane_edge) return "fillet reaches the edge of the lane";
+  const int px = img.mask_pixels();
+  if (px < 100) return "too few fillet pixels (" + std::to_string(px) + ")";
+  const double invalid = double(img.invalid_thickness_px) / double(px + img.invalid_thickness_px);
+  if (invalid > p.max_invalid_fraction) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%.1f%% of the fillet has no thickness", 100 * invalid);
+    return buf;
+  }
+  return "";
+}
+
+// Pixels that take part: on the fillet, with a thickness and an X-ray count.
+std::vector<uint8_t> usable(const FilletImage& img) {
+  std::vector<uint8_t> m(img.size());
+  for (size_t i = 0; i < m.size(); ++i)
+    m[i] = img.mask[i] && std::isfinite(img.thickness[i]) && img.xray[i] > 0;
+  return m;
+}
+
+std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& resid,
+                        const std::vector<uint8_t>& use, const FilletImage& img, double sign,
+                        double threshold, double min_area_mm2) {
+  const double px_area = img.pitch_mm * img.step_mm;
+  std::vector<uint8_t> on(img.size());
+  for (size_t i = 0; i < on.size(); ++i) on[i] = use[i] && sign * zs[i] > threshold;
+  std::vector<int> labels;
+  const auto comps = label_components(on.data(), img.rows, img.cols, labels);
+  std::vector<Blob> out;
+  for (const Component& c : comps) {
+    if (c.pixels * px_area < min_area_mm2) continue;
+    Blob b;
+    b.pixels = c.pixels;
+    b.area_mm2 = c.pixels * px_area;
+    b.row0 = c.row0;
+    b.row1 = c.row1;
+    b.col0 = c.col0;
+    b.col1 = c.col1;
+    double wsum = 0, wx = 0, wy = 0, peak = 0;
+    size_t peak_i = 0;
+    for (int r = c.row0; r <= c.row1; ++r)
+      for (int k = c.col0; k <= c.col1; ++k) {
+        const size_t i = size_t(r) * img.cols + k;
+        if (labels[i] != c.label) continue;
+        const double w = sign * zs[i];
+        wsum += w;
+        wx += w * k;
+        wy += w * r;
+        if (w > peak) peak = w, peak_i = i;
+        b.attenuation_mm2 += -double(resid[i]) * px_area;  // > 0 for bone, < 0 for air
+      }
+    // The detector sees the fragment magnified by the fan beam; put it back at mid-depth of
+    // the meat above it (the path thickness there is close to the vertical thickness).
+    const double x_det = img.x0_mm + img.pitch_mm * (wx / wsum);
+    const double t = std::isfinite(img.thickness[peak_i]) ? img.thickness[peak_i] : 0.0;
+    b.x_mm = img.source_x_mm + (x_det - img.source_x_mm) * (img.source_z_mm - 0.5 * t) /
+                                   (img.source_z_mm - img.detector_z_mm);
+    b.y_mm = img.y0_mm + img.step_mm * (wy / wsum);
+    b.peak_z = sign * peak;
+    out.push_back(b);
+  }
+  std::sort(out.begin(), out.end(), [](const Blob& a, const Blob& b) { return std::abs(a.peak_z) > std::abs(b.peak_z); });
+  return out;
+}
+
+// Everything after the model of ln I: noise model, z, detection, decision, statistics.
+void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
+                       const std::vector<float>& predicted_ln, const InspectionParams& p,
+                       bool keep, FilletResult& res) {
+  const size_t n = img.size();
+  std::vector<float> pred(n, kNaN), resid(n, kNaN);
+  double sum = 0, sum2 = 0;
+  int count = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!use[i]) continue;
+    pred[i] = std::exp(predicted_ln[i]);
+    resid[i] = float(std::log(double(img.xray[i])) - predicted_ln[i]);
+    const double d = double(img.xray[i]) - pred[i];
+    sum += d;
+    sum2 += d * d;
+    ++count;
+  }
+  res.pixels = count;
+  res.resid_mean_dn = sum / count;
+  res.resid_std_dn = std::sqrt(std::max(0.0, sum2 / count - res.resid_mean_dn * res.resid_mean_dn));
+  res.noise = estimate_noise_model(pred.data(), resid.data(), n);
+  std::vector<float> z(n, kNaN), zs;
+  for (size_t i = 0; i < n; ++i)
+    if (use[i]) z[i] = float(resid[i] / res.noise.sigma_ln(pred[i]));
+  masked_gaussian(z.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, zs);
+  // Back to unit spread: measured (MAD) on the smoothed image itself, because what is left
+  // after compensation is not white (meat texture, thickness error), and smoothing shrinks
+  // white noise far more than that.
+  std::vector<double> spread;
+  for (size_t i = 0; i < n; ++i)
+    if (use[i] && std::isfinite(zs[i])) spread.push_back(zs[i]);
+  const double med = median_inplace(spread.data(), spread.size());
+  for (double& v : spread) v = std::abs(v - med);
+  const double sd = median_inplace(spread.data(), spread.size()) / 0.6744897501960817;
+  const double floor_sd = gaussian_noise_gain(p.smooth_sigma_px);  // never below white noise
+  res.z_spread = std::max(sd, floor_sd);
+  for (float& v : zs) v = float((v - med) / res.z_spread);
+  res.fragments = blobs(zs, resid, use, img, -1, p.z_threshold, p.min_fragment_area_mm2);
+  res.air_pockets = blobs(zs, resid, use, img, +1, p.air_z_threshold, p.min_air_area_mm2);
+  if (res.fragments.empty()) {
+    res.decision = Decision::kPass;
+  } else {
+    res.decision = Decision::kReject;
+    res.reason = std::to_string(res.fragments.size()) + " bone fragment" +
+                 (res.fragments.size() > 1 ? "s" : "");
+  }
+  if (keep) {
+    res.pseudo = std::move(pred);
+    res.residual = std::move(resid);
+    res.zs = std::move(zs);
+  }
+}
+
+}  // namespace
+
+FilletResult inspect_fillet(const FilletImage& img, const InspectionParams& p, bool keep) {
+  FilletResult res = header(img);
+  if (const std::string why = not_inspectable(img, p); !why.empty()) {
+    res.reason = why;
+    return res;
+  }
+  const std::vector<uint8_t> use = usable(img);
+  std::vector<double> t, y;
+  for (size_t i = 0; i < use.size(); ++i)
+    if (use[i]) {
+      t.push_back(img.thickness[i]);
+      y.push_back(std::log(double(img.xray[i])));
+    }
+  try {
+    res.fit = fit_tukey_line(t.data(), y.data(), t.size(), {p.tukey_c, p.max_iter, p.tol});
+  } catch (const Error& e) {
+    res.reason = std::string("robust fit failed: ") + e.what();
+    return res;
+  }
+  res.fitted = true;
+  if (!res.fit.converged) {
+    res.reason = "robust fit did not converge in " + std::to_string(res.fit.iterations) + " iterations";
+    return res;
+  }
+  std::vector<float> predicted(img.size(), kNaN);
+  for (size_t i = 0; i < use.size(); ++i)
+    if (use[i]) predicted[i] = float(res.fit.beta0 + res.fit.beta1 * img.thickness[i]);
+  detect_and_decide(img, use, predicted, p, keep, res);
+  return res;
+}
+
+FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionParams& p, bool keep) {
+  FilletResult res = header(img);
+  if (const std::string why = not_inspectable(img, p); !why.empty()) {
+    res.reason = why;
+    return res;
+  }
+  const std::vector<uint8_t> use = usable(img);
+  std::vector<float> ln(img.size(), kNaN), background;
+  for (size_t i = 0; i < use.size(); ++i)
+    if (use[i]) ln[i] = float(std::log(double(img.xray[i])));
+  masked_gaussian(ln.data(), use.data(), img.rows, img.cols, p.baseline_sigma_mm / img.pitch_mm,
+                  background);
+  detect_and_decide(img, use, background, p, keep, res);
+  return res;
+}
+
+}  // namespace rangex

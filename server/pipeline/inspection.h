@@ -1,0 +1,60 @@
+// Per-fillet compensation, detection and decision (seed ch. 7; SPEC steps 5-6):
+//   fit ln I = b0 + b1 T robustly, pseudo-X-ray P = exp(b0 + b1 T), residual r = ln I - ln P,
+//   z = r / sigma(P) with the fillet's own noise model, light Gaussian smoothing, then
+//   smoothed z below -z_threshold -> bone fragments (reject), above +air_z_threshold -> air
+//   pockets (reported only). Fail-safe: missing lines, too much meat without thickness, a
+//   fillet on the lane edge, a fit that did not converge or a calibration mismatch give
+//   "not inspected", which is a reject.
+// The X-ray-only baseline runs the same noise model and detector with a smooth background
+// of ln I in place of the thickness model, so the laser's gain is measured.
+#pragma once
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/lane_config.h"
+#include "pipeline/fillet_image.h"
+#include "pipeline/noise_model.h"
+#include "pipeline/robust_fit.h"
+
+namespace rangex {
+
+enum class Decision { kPass, kReject, kNotInspected };
+std::string_view decision_name(Decision d);
+
+struct Blob {
+  double x_mm = 0, y_mm = 0;  // weighted centre: across the belt, belt position
+  double area_mm2 = 0;
+  double peak_z = 0;           // most extreme smoothed z (negative for bone)
+  double attenuation_mm2 = 0;  // sum of -ln(I / P) * pixel area: excess attenuation x area
+  int pixels = 0;
+  int row0 = 0, row1 = 0, col0 = 0, col1 = 0;  // bounding box in the fillet image
+};
+
+struct FilletResult {
+  int lane = 0;
+  int64_t id = 0;
+  int64_t first_line = 0, first_encoder = 0;
+  int rows = 0, cols = 0, first_col = 0;
+  double x0_mm = 0, y0_mm = 0;
+  Decision decision = Decision::kNotInspected;
+  std::string reason;
+  bool fitted = false;
+  RobustFit fit;
+  NoiseModel noise;
+  std::vector<Blob> fragments, air_pockets;
+  int pixels = 0;                // fillet pixels used
+  double resid_mean_dn = 0;      // mean of I - P
+  double resid_std_dn = 0;       // standard deviation of I - P
+  double z_spread = 0;           // robust spread of the smoothed z before normalisation
+  // Images over the fillet's box (kept on request): pseudo-X-ray (DN), residual ln I - ln P,
+  // smoothed z; NaN off the fillet.
+  std::vector<float> pseudo, residual, zs;
+};
+
+// keep_images: fill pseudo / residual / zs.
+FilletResult inspect_fillet(const FilletImage& img, const InspectionParams& p, bool keep_images);
+FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionParams& p,
+                                      bool keep_images);
+
+}  // namespace rangex

@@ -1,0 +1,17 @@
+// Gaussian smoothing restricted to a mask (normalised convolution): pixels outside the mask
+// neither contribute nor receive values, so a fillet's edge does not pull in the belt.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+namespace rangex {
+
+// out = (G * (v m)) / (G * m) inside the mask, NaN outside; sigma in pixels (> 0).
+void masked_gaussian(const float* v, const uint8_t* mask, int rows, int cols, double sigma,
+                     std::vector<float>& out);
+
+// sqrt(sum k^2) of the normalised 2-D kernel: the factor by which smoothing shrinks the
+// standard deviation of white noise (away from the mask's edge).
+double gaussian_noise_gain(double sigma);
+
+}  // namespace rangex

@@ -1,0 +1,73 @@
+#include "pipeline/noise_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "core/error.h"
+#include "pipeline/robust_fit.h"
+
+namespace rangex {
+
+double NoiseModel::sigma_ln(double I) const {
+  const double v = a / I + b / (I * I);
+  return std::sqrt(std::max(v, 1e-12));
+}
+
+NoiseModel estimate_noise_model(const float* pred, const float* resid, size_t n) {
+  std::vector<std::pair<float, float>> pts;
+  pts.reserve(n);
+  for (size_t i = 0; i < n; ++i)
+    if (std::isfinite(pred[i]) && std::isfinite(resid[i]) && pred[i] > 0) pts.emplace_back(pred[i], resid[i]);
+  if (pts.size() < 100) fail("noise model needs at least 100 pixels, got ", pts.size());
+  std::sort(pts.begin(), pts.end());
+  // Equal-count bins by predicted intensity; MAD variance per bin resists the bones.
+  const int bins = int(std::clamp<size_t>(pts.size() / 200, 2, 12));
+  std::vector<double> xs, vs, ws, tmp;
+  for (int k = 0; k < bins; ++k) {
+    const size_t lo = pts.size() * k / bins, hi = pts.size() * (k + 1) / bins;
+    tmp.clear();
+    double mean_i = 0;
+    for (size_t i = lo; i < hi; ++i) {
+      tmp.push_back(pts[i].second);
+      mean_i += pts[i].first;
+    }
+    mean_i /= double(hi - lo);
+    const double med = median_inplace(tmp.data(), tmp.size());
+    for (double& t : tmp) t = std::abs(t - med);
+    const double s = median_inplace(tmp.data(), tmp.size()) / 0.6744897501960817;
+    xs.push_back(1.0 / mean_i);
+    vs.push_back(s * s);
+    ws.push_back(double(hi - lo));
+  }
+  // v = a x + b x^2 with x = 1/I: 2x2 normal equations, falling back to one term when the
+  // other would come out negative.
+  double sxx = 0, sx3 = 0, sx4 = 0, sxv = 0, sx2v = 0;
+  for (size_t k = 0; k < xs.size(); ++k) {
+    const double x = xs[k], w = ws[k];
+    sxx += w * x * x;
+    sx3 += w * x * x * x;
+    sx4 += w * x * x * x * x;
+    sxv += w * x * vs[k];
+    sx2v += w * x * x * vs[k];
+  }
+  NoiseModel m;
+  const double det = sxx * sx4 - sx3 * sx3;
+  if (det > 0) {
+    m.a = (sxv * sx4 - sx2v * sx3) / det;
+    m.b = (sxx * sx2v - sx3 * sxv) / det;
+  }
+  if (!(det > 0) || m.a < 0 || m.b < 0) {
+    const double a_only = sxv / sxx, b_only = sx2v / sx4;
+    // Keep the single term that fits better.
+    double ea = 0, eb = 0;
+    for (size_t k = 0; k < xs.size(); ++k) {
+      ea += ws[k] * std::pow(vs[k] - a_only * xs[k], 2);
+      eb += ws[k] * std::pow(vs[k] - b_only * xs[k] * xs[k], 2);
+    }
+    m = ea <= eb ? NoiseModel{std::max(a_only, 0.0), 0} : NoiseModel{0, std::max(b_only, 0.0)};
+  }
+  return m;
+}
+
+}  // namespace rangex
