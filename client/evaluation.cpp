@@ -28,6 +28,41 @@ ErrorStats error_stats(std::vector<double> e) {
   return s;
 }
 
+ErrorAccumulator::ErrorAccumulator(double resolution, double max_abs)
+    : res_(resolution), hist_(size_t(max_abs / resolution) + 2, 0) {}
+
+void ErrorAccumulator::add(double e) {
+  ++count_;
+  sum_ += e;
+  sum_abs_ += std::abs(e);
+  hist_[std::min(hist_.size() - 1, size_t(std::abs(e) / res_))]++;
+}
+
+void ErrorAccumulator::merge(const ErrorAccumulator& o) {
+  count_ += o.count_;
+  sum_ += o.sum_;
+  sum_abs_ += o.sum_abs_;
+  for (size_t i = 0; i < hist_.size() && i < o.hist_.size(); ++i) hist_[i] += o.hist_[i];
+}
+
+ErrorStats ErrorAccumulator::stats() const {
+  ErrorStats s;
+  s.count = count_;
+  if (!count_) return s;
+  s.bias = sum_ / double(count_);
+  s.mean_abs = sum_abs_ / double(count_);
+  const size_t want = size_t(std::ceil(0.99 * double(count_)));
+  size_t seen = 0;
+  for (size_t i = 0; i < hist_.size(); ++i) {
+    seen += hist_[i];
+    if (seen >= want) {
+      s.p99_abs = (double(i) + 1) * res_;  // upper edge of the bin: never optimistic
+      break;
+    }
+  }
+  return s;
+}
+
 LaneEvaluation evaluate_lane(const RecordingReader& rec, const LaneConfig& lc,
                              const std::vector<float> stripe_rows[2],
                              const std::vector<float>& thickness) {

@@ -1,6 +1,7 @@
 // Accuracy against the simulator's truth: stripe rows per camera column and X-ray path
 // thickness over fillet pixels.
 #pragma once
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,22 @@ struct ErrorStats {
 };
 
 ErrorStats error_stats(std::vector<double> signed_errors);
+
+// Streams errors in without keeping them: the p99 comes from a histogram of |error| with
+// `resolution` wide bins (exact to that resolution).
+class ErrorAccumulator {
+ public:
+  explicit ErrorAccumulator(double resolution = 1e-3, double max_abs = 100.0);
+  void add(double e);
+  void merge(const ErrorAccumulator& o);
+  ErrorStats stats() const;
+
+ private:
+  double res_;
+  std::vector<uint32_t> hist_;
+  size_t count_ = 0;
+  double sum_ = 0, sum_abs_ = 0;
+};
 
 struct LaneEvaluation {
   int lane = 0;

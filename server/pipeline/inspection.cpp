@@ -33,6 +33,8 @@ FilletResult header(const FilletImage& img) {
   r.first_col = img.first_col;
   r.x0_mm = img.x0_mm;
   r.y0_mm = img.y0_mm;
+  r.pitch_mm = img.pitch_mm;
+  r.step_mm = img.step_mm;
   return r;
 }
 

@@ -37,6 +37,7 @@ struct FilletResult {
   int64_t first_line = 0, first_encoder = 0;
   int rows = 0, cols = 0, first_col = 0;
   double x0_mm = 0, y0_mm = 0;
+  double pitch_mm = 0.4, step_mm = 0.4;
   Decision decision = Decision::kNotInspected;
   std::string reason;
   bool fitted = false;

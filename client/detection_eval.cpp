@@ -1,0 +1,212 @@
+#include "detection_eval.h"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace rangex {
+
+namespace {
+std::vector<std::vector<std::string>> csv_rows(const std::string& text, size_t fields,
+                                               const char* what) {
+  std::vector<std::vector<std::string>> rows;
+  std::stringstream in(text);
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    std::vector<std::string> c;
+    std::stringstream ls(line);
+    std::string cell;
+    while (std::getline(ls, cell, ',')) c.push_back(cell);
+    if (c.size() != fields) fail("truth ", what, ": expected ", fields, " fields in '", line, "'");
+    rows.push_back(std::move(c));
+  }
+  return rows;
+}
+
+int size_bin(double s) { return s < 2 ? 0 : s < 3 ? 1 : s < 5 ? 2 : 3; }
+}  // namespace
+
+std::vector<TruthFragment> parse_truth_fragments(const std::string& text, int lane) {
+  std::vector<TruthFragment> out;
+  for (const auto& c : csv_rows(text, 8, "fragments.csv"))
+    out.push_back({lane, std::stoi(c[0]), c[1], std::stod(c[2]), std::stod(c[3]), std::stod(c[6]),
+                   std::stod(c[7])});
+  return out;
+}
+
+std::vector<TruthFillet> parse_truth_fillets(const std::string& text, int lane) {
+  std::vector<TruthFillet> out;
+  for (const auto& c : csv_rows(text, 6, "fillets.csv"))
+    out.push_back({lane, std::stoi(c[0]), std::stod(c[2]), std::stod(c[3]), std::stoi(c[5])});
+  return out;
+}
+
+void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
+              const std::vector<TruthFillet>& truth_fillets, const RecordSet& res) {
+  // Which detected fillet (by belt range) holds each true fillet; rejects count for all.
+  auto overlapping = [&](double b0, double b1) {
+    std::vector<const FilletRecord*> v;
+    for (const FilletRecord& f : res.fillets)
+      if (f.y1_mm > b0 && f.y0_mm < b1) v.push_back(&f);
+    return v;
+  };
+  for (const FilletRecord& f : res.fillets) {
+    ++e.fillets;
+    if (f.decision == "not_inspected") ++e.not_inspected;
+    if (f.decision != "not_inspected" && f.pixels > 0) {
+      // Pool mean and variance of I - P over pixels.
+      const double n = f.pixels;
+      e.resid_mean_dn += n * f.resid_mean_dn;
+      e.resid_std_dn += n * (f.resid_std_dn * f.resid_std_dn + f.resid_mean_dn * f.resid_mean_dn);
+      e.resid_pixels += f.pixels;
+    }
+  }
+  for (const TruthFillet& t : truth_fillets) {
+    const auto hits = overlapping(t.b_start, t.b_end);
+    bool rejected = hits.empty(), not_inspected = hits.empty();
+    for (const FilletRecord* f : hits) {
+      rejected |= f->decision != "pass";
+      not_inspected |= f->decision == "not_inspected";
+    }
+    e.unmatched_truth_fillets += hits.empty();
+    if (t.bones == 0) {
+      ++e.clean_fillets;
+      e.clean_rejected += rejected;
+      e.clean_not_inspected += not_inspected;
+    } else {
+      ++e.bony_fillets;
+      e.bony_rejected += rejected;
+    }
+  }
+  std::vector<char> used(res.fragments.size(), 0);
+  for (const TruthFragment& t : frags) {
+    if (t.kind != "bone") continue;
+    const int sb = size_bin(t.size_mm), cb = t.calcification >= kCalcified ? 1 : 0;
+    ++e.total[sb][cb];
+    const double tol = std::max(2.0, 0.5 * t.size_mm + 1.0);
+    double best = 1e9;
+    size_t best_i = 0;
+    for (size_t i = 0; i < res.fragments.size(); ++i) {
+      const FragmentRecord& d = res.fragments[i];
+      if (d.kind != "bone" || d.lane != t.lane) continue;
+      const double dist = std::hypot(d.x_mm - t.x_mm, d.y_mm - t.b_mm);
+      if (dist < best) best = dist, best_i = i;
+    }
+    if (best <= tol) {
+      ++e.found[sb][cb];
+      used[best_i] = 1;
+      e.position.add(best);
+    }
+    for (const TruthFillet& tf : truth_fillets)
+      if (tf.fillet == t.fillet) {
+        bool rejected = false;
+        const auto hits = overlapping(tf.b_start, tf.b_end);
+        for (const FilletRecord* f : hits) rejected |= f->decision != "pass";
+        e.in_rejected[sb][cb] += rejected || hits.empty();
+      }
+  }
+  for (size_t i = 0; i < res.fragments.size(); ++i)
+    if (res.fragments[i].kind == "bone" && !used[i]) {
+      // A second detection of an already matched bone is not a false alarm.
+      bool near_true = false;
+      for (const TruthFragment& t : frags)
+        if (t.kind == "bone" && t.lane == res.fragments[i].lane &&
+            std::hypot(res.fragments[i].x_mm - t.x_mm, res.fragments[i].y_mm - t.b_mm) <=
+                std::max(2.0, 0.5 * t.size_mm + 1.0))
+          near_true = true;
+      e.false_fragments += !near_true;
+    }
+}
+
+void finish(DetectionEval& e) {
+  if (e.resid_pixels > 0) {
+    const double n = double(e.resid_pixels);
+    const double mean = e.resid_mean_dn / n, m2 = e.resid_std_dn / n;
+    e.resid_mean_dn = mean;
+    e.resid_std_dn = std::sqrt(std::max(0.0, m2 - mean * mean));
+  }
+}
+
+double DetectionEval::recall_calcified_2mm() const {
+  int f = 0, t = 0;
+  for (int s = 1; s < kSizeBins; ++s) f += found[s][1], t += total[s][1];
+  return t ? double(f) / t : 0;
+}
+
+double DetectionEval::false_reject_rate() const {
+  return clean_fillets ? double(clean_rejected) / clean_fillets : 0;
+}
+
+std::string detection_table(const DetectionEval& a, const DetectionEval& b, int bits) {
+  static const char* kSizes[kSizeBins] = {"1-2 mm", "2-3 mm", "3-5 mm", "5-10 mm"};
+  static const char* kCalc[kCalcBins] = {"weakly calcified", "calcified"};
+  std::ostringstream os;
+  char buf[256];
+  auto pct = [](int f, int t) { return t ? 100.0 * f / t : 0.0; };
+  os << "bone fragment recall (found by the detector / present)\n";
+  std::snprintf(buf, sizeof buf, "%-8s %-17s %20s %20s\n", "size", "calcification", "rangex",
+                "X-ray only");
+  os << buf;
+  for (int s = 0; s < kSizeBins; ++s)
+    for (int c = kCalcBins - 1; c >= 0; --c) {
+      std::snprintf(buf, sizeof buf, "%-8s %-17s %8d/%-4d %6.1f%% %8d/%-4d %6.1f%%\n", kSizes[s],
+                    kCalc[c], a.found[s][c], a.total[s][c], pct(a.found[s][c], a.total[s][c]),
+                    b.found[s][c], b.total[s][c], pct(b.found[s][c], b.total[s][c]));
+      os << buf;
+    }
+  const double range = double((1 << bits) - 1);
+  auto row = [&](const char* name, const char* fmt, double x, double y) {
+    char v1[64], v2[64];
+    std::snprintf(v1, sizeof v1, fmt, x);
+    std::snprintf(v2, sizeof v2, fmt, y);
+    std::snprintf(buf, sizeof buf, "%-44s %14s %18s\n", name, v1, v2);
+    os << buf;
+  };
+  os << "\n";
+  row("recall, calcified fragments >= 2 mm", "%.2f%%", 100 * a.recall_calcified_2mm(),
+      100 * b.recall_calcified_2mm());
+  row("false rejects of clean fillets", "%.2f%%", 100 * a.false_reject_rate(), 100 * b.false_reject_rate());
+  row("  of which not inspected (fail-safe)", "%.0f", a.clean_not_inspected, b.clean_not_inspected);
+  row("fillets with bone rejected", "%.2f%%", a.bony_fillets ? 100.0 * a.bony_rejected / a.bony_fillets : 0,
+      b.bony_fillets ? 100.0 * b.bony_rejected / b.bony_fillets : 0);
+  row("detections matching no bone", "%.0f", a.false_fragments, b.false_fragments);
+  row("fragment position error, mean (mm)", "%.3f", a.position.stats().mean_abs, b.position.stats().mean_abs);
+  row("residual I - P: mean (DN)", "%.2f", a.resid_mean_dn, b.resid_mean_dn);
+  row("residual I - P: std (DN)", "%.2f", a.resid_std_dn, b.resid_std_dn);
+  row("residual std, % of the 12-bit range", "%.3f%%", 100 * a.resid_std_dn / range, 100 * b.resid_std_dn / range);
+  std::snprintf(buf, sizeof buf, "fillets: %d inspected, %d not inspected (fail-safe); true fillets %d clean, %d with bone, %d never seen\n",
+                a.fillets - a.not_inspected, a.not_inspected, a.clean_fillets, a.bony_fillets,
+                a.unmatched_truth_fillets);
+  os << buf << "dissertation (real fillets): residual mean 23.7 DN, std 29.6 DN, 1.5% of the range\n";
+  return os.str();
+}
+
+std::string detection_json(const DetectionEval& a, const DetectionEval& b, int bits) {
+  std::ostringstream os;
+  auto one = [&](const DetectionEval& e) {
+    os << "{\"recall_calcified_ge_2mm\": " << e.recall_calcified_2mm()
+       << ", \"false_reject_rate\": " << e.false_reject_rate()
+       << ", \"clean_fillets\": " << e.clean_fillets << ", \"clean_rejected\": " << e.clean_rejected
+       << ", \"not_inspected\": " << e.not_inspected << ", \"false_fragments\": " << e.false_fragments
+       << ", \"position_error_mm\": " << e.position.stats().mean_abs
+       << ", \"residual_mean_dn\": " << e.resid_mean_dn << ", \"residual_std_dn\": " << e.resid_std_dn
+       << ", \"residual_std_pct\": " << 100 * e.resid_std_dn / double((1 << bits) - 1) << ", \"recall\": [";
+    for (int s = 0; s < kSizeBins; ++s)
+      for (int c = 0; c < kCalcBins; ++c)
+        os << (s || c ? ", " : "") << "{\"size_bin\": " << s << ", \"calcified\": " << c
+           << ", \"found\": " << e.found[s][c] << ", \"total\": " << e.total[s][c] << "}";
+    os << "]}";
+  };
+  os << "{\"rangex\": ";
+  one(a);
+  os << ", \"xray_only\": ";
+  one(b);
+  os << "}";
+  return os.str();
+}
+
+}  // namespace rangex
