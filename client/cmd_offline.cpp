@@ -1,5 +1,7 @@
 // simulate, extract, process, eval: the offline commands over recordings.
+#include <algorithm>
 #include <cmath>
+#include <functional>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -11,7 +13,11 @@
 #include "commands.h"
 #include "core/error.h"
 #include "core/png_io.h"
+#include "detection_eval.h"
 #include "evaluation.h"
+#include "fillet_images.h"
+#include "fillet_records.h"
+#include "plant_run.h"
 #include "progress_bar.h"
 #include "replay.h"
 #include "sim/plant_simulator.h"
@@ -110,16 +116,125 @@ int cmd_extract(int argc, char** argv) {
   return 0;
 }
 
+namespace {
+
+// Which fillets get their images written.
+enum class Images { kNone, kRejects, kAll };
+Images parse_images(const std::string& v) {
+  if (v == "none") return Images::kNone;
+  if (v == "rejects") return Images::kRejects;
+  if (v == "all") return Images::kAll;
+  fail("--images must be none, rejects or all (got '", v, "')");
+}
+
+void maybe_write_images(const fs::path& lane_dir, const InspectedFillet& f, Images which) {
+  if (which == Images::kNone || f.image.mask.empty()) return;
+  if (which == Images::kRejects && f.result.decision == Decision::kPass) return;
+  char name[48];
+  std::snprintf(name, sizeof name, "fillet_%05lld", (long long)f.result.id);
+  write_fillet_images((lane_dir / name).string(), f.image, f.result);
+}
+
+void write_lane_records(const fs::path& ld, const RecordSet& ours, const RecordSet& baseline) {
+  write_records(ld.string(), "", ours);
+  write_records(ld.string(), "baseline_", baseline);
+  std::ofstream(ld / "fillets.json") << fillets_json(ours);
+}
+
+int count_decision(const RecordSet& s, const char* d) {
+  int n = 0;
+  for (const auto& f : s.fillets) n += f.decision == d;
+  return n;
+}
+
+// Detection figures of a processed output folder against truth folders per lane.
+std::string evaluate_output(const std::vector<int>& lanes, const fs::path& out,
+                            const std::function<fs::path(int)>& truth_dir, int bits, bool json,
+                            const std::vector<LaneEvaluation>& accuracy) {
+  DetectionEval ours, base;
+  for (int lane : lanes) {
+    const fs::path ld = out / ("lane" + std::to_string(lane));
+    const fs::path td = truth_dir(lane);
+    auto text = [&](const char* name) {
+      std::ifstream in(td / name);
+      if (!in) fail((td / name).string(), " is missing: no truth to evaluate against");
+      std::stringstream ss;
+      ss << in.rdbuf();
+      return ss.str();
+    };
+    const auto frags = parse_truth_fragments(text("fragments.csv"), lane);
+    const auto fillets = parse_truth_fillets(text("fillets.csv"), lane);
+    add_lane(ours, frags, fillets, read_records(ld.string(), ""));
+    add_lane(base, frags, fillets, read_records(ld.string(), "baseline_"));
+  }
+  finish(ours);
+  finish(base);
+  if (json)
+    return "{\"line_accuracy\": " + evaluations_json(accuracy) +
+           ", \"detection\": " + detection_json(ours, base, bits) + "}\n";
+  return evaluations_table(accuracy) + "\n" + detection_table(ours, base, bits);
+}
+
+int process_simulated(const Args& a, const PlantConfig& plant) {
+  sim::SimulationParams p;
+  p.lanes = int(a.integer("lanes", long(plant.lanes.size())));
+  p.scene.fillets = int(a.integer("fillets", 125));
+  p.seed = uint64_t(a.integer("seed", 1));
+  const fs::path out = a.require("out");
+  const Images images = parse_images(a.get("images", "rejects"));
+  fs::create_directories(out);
+  PlantRunOptions opt;
+  opt.threads = int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
+  opt.on_fillet = [&](const InspectedFillet& f) {
+    maybe_write_images(out / ("lane" + std::to_string(f.result.lane)), f, images);
+  };
+  ProgressBar bar("plant");
+  const auto lanes = run_simulated_plant(plant, p, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
+  std::vector<int> ids;
+  std::vector<LaneEvaluation> acc;
+  for (const PlantRunLane& l : lanes) {
+    const fs::path ld = out / ("lane" + std::to_string(l.lane));
+    fs::create_directories(ld / "truth");
+    write_lane_records(ld, l.ours, l.baseline);
+    std::ofstream(ld / "truth" / "fragments.csv") << l.truth_fragments_csv;
+    std::ofstream(ld / "truth" / "fillets.csv") << l.truth_fillets_csv;
+    write_line_accuracy((ld / "line_accuracy.csv").string(), l.accuracy);
+    ids.push_back(l.lane);
+    acc.push_back(l.accuracy);
+    std::printf("lane %d: %lld lines, %zu fillets (%d pass, %d reject, %d not inspected), "
+                "pipeline %.0f lines/s, inspection %.1f ms/fillet\n",
+                l.lane, (long long)l.lines, l.ours.fillets.size(), count_decision(l.ours, "pass"),
+                count_decision(l.ours, "reject"), count_decision(l.ours, "not_inspected"),
+                l.pipeline_s > 0 ? double(l.lines) / l.pipeline_s : 0.0,
+                l.ours.fillets.empty() ? 0.0 : 1e3 * l.inspection_s / double(l.ours.fillets.size()));
+  }
+  std::ofstream(out / "simulation.yaml") << "lanes: " << p.lanes << "\nfillets_per_lane: "
+                                         << p.scene.fillets << "\nseed: " << p.seed << "\n";
+  std::printf("\n%s", evaluate_output(ids, out, [&](int lane) { return out / ("lane" + std::to_string(lane)) / "truth"; },
+                                      plant.lanes.front().xray.bits, false, acc).c_str());
+  return 0;
+}
+
+}  // namespace
+
 int cmd_process(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"out", "method", "batch", "config", "threads"});
+  const Args a(argc, argv, 2, {"simulate"},
+               {"out", "method", "batch", "config", "threads", "images", "lanes", "fillets", "seed"});
+  PlantConfig plant = load_config(a.get("config", ""));
+  if (a.flag("simulate")) {
+    a.expect_positionals(0, "process --simulate --out OUT [--lanes N] [--fillets M] [--seed S]");
+    if (a.has("method"))
+      for (auto& l : plant.lanes) l.stripe.method = parse_stripe_method(a.get("method", ""));
+    return process_simulated(a, plant);
+  }
   a.expect_positionals(1, "process DIR --out OUT");
   const RecordingReader rec(a.positional(0, "recording folder"));
-  const PlantConfig plant = load_config(a.get("config", ""));
   ReplayOptions opt;
   if (a.has("method")) opt.method = parse_stripe_method(a.get("method", ""));
   opt.batch_lines = int(a.integer("batch", 64));
   opt.threads = int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
   if (opt.threads < 1) fail("--threads must be >= 1 (got ", opt.threads, ")");
+  const Images images = parse_images(a.get("images", "all"));
   const fs::path out = a.require("out");
   fs::create_directories(out);
   ProgressBar bar("process");
@@ -146,33 +261,70 @@ int cmd_process(int argc, char** argv) {
     std::vector<uint16_t> xray(size_t(r.lines) * r.pixels);
     rec.read(r.lane, 0, r.lines, nullptr, nullptr, xray.data(), nullptr);
     write_png16((ld / "xray.png").string(), xray.data(), r.pixels, int(r.lines));
+    RecordSet ours, base;
+    for (const InspectedFillet& f : r.fillets) {
+      ours.add(f.result);
+      base.add(f.baseline);
+      maybe_write_images(ld, f, images);
+    }
+    write_lane_records(ld, ours, base);
     const double lines_per_s = r.seconds > 0 ? double(r.lines) / r.seconds : 0;
     js << (li ? ", " : "") << "{\"lane\": " << r.lane << ", \"lines\": " << r.lines
        << ", \"pixels\": " << r.pixels << ", \"valid_thickness_fraction\": "
        << double(valid) / double(std::max<size_t>(1, png.size()))
        << ", \"fusion\": {\"both\": " << r.fusion.both << ", \"single\": " << r.fusion.single
        << ", \"conflict\": " << r.fusion.conflict << ", \"filled\": " << r.fusion.filled
-       << ", \"missing\": " << r.fusion.missing << "}, \"pipeline_seconds\": " << r.seconds
-       << ", \"lines_per_second\": " << lines_per_s << "}";
-    std::printf("lane %d: %lld lines, %.1f%% of thickness pixels valid, %.0f lines/s (CPU, %d threads)\n",
+       << ", \"missing\": " << r.fusion.missing << "}, \"fillets\": " << ours.fillets.size()
+       << ", \"pass\": " << count_decision(ours, "pass") << ", \"reject\": " << count_decision(ours, "reject")
+       << ", \"not_inspected\": " << count_decision(ours, "not_inspected")
+       << ", \"debris\": " << r.assembly.debris << ", \"pipeline_seconds\": " << r.seconds
+       << ", \"lines_per_second\": " << lines_per_s << ", \"inspection_seconds\": " << r.inspection_seconds << "}";
+    std::printf("lane %d: %lld lines, %.1f%% of thickness pixels valid, %zu fillets (%d pass, %d reject, "
+                "%d not inspected), %.0f lines/s (CPU, %d threads)\n",
                 r.lane, (long long)r.lines, 100.0 * double(valid) / double(std::max<size_t>(1, png.size())),
-                lines_per_s, opt.threads);
+                ours.fillets.size(), count_decision(ours, "pass"), count_decision(ours, "reject"),
+                count_decision(ours, "not_inspected"), lines_per_s, opt.threads);
   }
   js << "]}\n";
   std::ofstream(out / "summary.json") << js.str();
-  std::printf("wrote %s (thickness.png in 0.01 mm, 65535 = not measured; summary.json)\n",
-              out.c_str());
+  std::printf("wrote %s (per lane: fillets.csv/json, fragments.csv, thickness.png in 0.01 mm, "
+              "fillet_*/ images; summary.json)\n", out.c_str());
   return 0;
 }
 
 int cmd_eval(int argc, char** argv) {
   const Args a(argc, argv, 2, {"json"}, {"config"});
-  a.expect_positionals(2, "eval DIR OUT [--json]");
+  const PlantConfig plant = load_config(a.get("config", ""));
+  const int bits = plant.lanes.front().xray.bits;
+  if (a.positional().size() == 1) {
+    // A simulated run: truth and line accuracy live in the output folder.
+    const fs::path out = a.positional(0, "output folder");
+    std::vector<int> ids;
+    std::vector<LaneEvaluation> acc;
+    for (const auto& e : fs::directory_iterator(out)) {
+      const std::string name = e.path().filename().string();
+      if (!e.is_directory() || name.rfind("lane", 0) != 0) continue;
+      const int lane = std::stoi(name.substr(4));
+      ids.push_back(lane);
+      acc.push_back(read_line_accuracy((e.path() / "line_accuracy.csv").string(), lane));
+    }
+    if (ids.empty()) fail(out.string(), " holds no lane results");
+    std::vector<size_t> order(ids.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](size_t x, size_t y) { return ids[x] < ids[y]; });
+    std::vector<int> sid;
+    std::vector<LaneEvaluation> sacc;
+    for (size_t i : order) sid.push_back(ids[i]), sacc.push_back(acc[i]);
+    std::fputs(evaluate_output(sid, out, [&](int lane) { return out / ("lane" + std::to_string(lane)) / "truth"; },
+                               bits, a.flag("json"), sacc).c_str(), stdout);
+    return 0;
+  }
+  a.expect_positionals(2, "eval DIR OUT [--json]  or  eval OUT (a simulated run)");
   const RecordingReader rec(a.positional(0, "recording folder"));
   const fs::path out = a.positional(1, "output folder");
   const RecordingInfo& info = rec.info();
-  const PlantConfig plant = load_config(a.get("config", ""));
   std::vector<LaneEvaluation> evs;
+  std::vector<int> ids;
   for (int lane : info.lanes) {
     const fs::path ld = out / ("lane" + std::to_string(lane));
     if (!fs::exists(ld)) continue;
@@ -180,9 +332,11 @@ int cmd_eval(int argc, char** argv) {
                                   read_f32(ld / "stripe_cam1.f32", size_t(info.lines) * info.width)};
     const auto t = read_f32(ld / "thickness.f32", size_t(info.lines) * info.xray_pixels);
     evs.push_back(evaluate_lane(rec, plant.lane(lane), rows, t));
+    ids.push_back(lane);
   }
   if (evs.empty()) fail(out.string(), " holds no processed lane of ", rec.dir());
-  std::fputs(a.flag("json") ? (evaluations_json(evs) + "\n").c_str() : evaluations_table(evs).c_str(), stdout);
+  std::fputs(evaluate_output(ids, out, [&](int lane) { return fs::path(rec.lane_dir(lane)) / "truth"; },
+                             bits, a.flag("json"), evs).c_str(), stdout);
   return 0;
 }
 

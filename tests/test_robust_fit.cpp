@@ -40,6 +40,7 @@ TEST(RobustFit, MatchesStatsmodelsRLM) {
     const CsvColumns data = read_two_column_csv(kData + name + ".csv");
     RobustFitOptions o;
     o.c = v[0];
+    o.relative_tol = false;  // statsmodels' rule: same iterations, same numbers
     const RobustFit f = fit_tukey_line(data.x.data(), data.y.data(), data.x.size(), o);
     const std::string tag = name + " c=" + std::to_string(o.c);
     near_rel(f.beta0, v[1], tag + " beta0");
@@ -47,6 +48,13 @@ TEST(RobustFit, MatchesStatsmodelsRLM) {
     near_rel(f.scale, v[3], tag + " scale");
     EXPECT_EQ(f.iterations, iterations) << tag;
     EXPECT_TRUE(f.converged) << tag;
+    // The default (relative) rule stops no later and lands on the same fit.
+    o.relative_tol = true;
+    const RobustFit g = fit_tukey_line(data.x.data(), data.y.data(), data.x.size(), o);
+    near_rel(g.beta0, v[1], tag + " beta0 (relative rule)");
+    near_rel(g.beta1, v[2], tag + " beta1 (relative rule)");
+    EXPECT_LE(g.iterations, iterations) << tag;
+    EXPECT_TRUE(g.converged) << tag;
     ++rows;
   }
   EXPECT_GE(rows, 6);

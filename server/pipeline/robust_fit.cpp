@@ -76,10 +76,15 @@ RobustFit fit_tukey_line(const double* x, const double* y, size_t n, const Robus
     double ss = 0;
     for (size_t i = 0; i < n; ++i) ss += (wt ? wt[i] : 1.0) * r[i] * r[i];
     const double sw = ss / double(n - 2);
-    double d = 0;
+    double d = 0, carry = 0;  // Kahan summation: the change between iterations is tiny
     for (size_t i = 0; i < n; ++i) {
       const double z = r[i] / sw / o.c;
-      if (std::abs(z) <= 1) d += -std::pow(1 - z * z, 3) * o.c * o.c / 6;
+      if (std::abs(z) > 1) continue;
+      const double u = 1 - z * z;
+      const double term = -u * u * u * o.c * o.c / 6 - carry;
+      const double t = d + term;
+      carry = (t - d) - term;
+      d = t;
     }
     return d;
   };
@@ -106,7 +111,8 @@ RobustFit fit_tukey_line(const double* x, const double* y, size_t n, const Robus
     f.scale = mad_scale();
     const double dev = deviance(w.data());
     ++f.iterations;
-    const bool settled = std::abs(dev - dev_prev) <= o.tol;
+    const double allowed = o.relative_tol ? o.tol * std::max(1.0, std::abs(dev)) : o.tol;
+    const bool settled = std::abs(dev - dev_prev) <= allowed;
     dev_prev = dev;
     if (settled) {
       f.converged = true;

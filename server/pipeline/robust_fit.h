@@ -5,7 +5,11 @@
 //   scale: MAD about zero / 0.6745 of the current residuals, re-estimated every iteration;
 //   weights: (1 - (r / (c * scale))^2)^2 for |r| <= c * scale, else 0;
 //   converged: the change of the M-estimator's deviance between iterations <= tol, within
-//   max_iter iterations (statsmodels' default rule, conv='dev').
+//   max_iter iterations (statsmodels' default rule, conv='dev'), taken relative to the
+//   deviance by default: |d_k - d_k-1| <= tol * max(1, |d_k|). statsmodels' absolute rule
+//   sits below the rounding of a sum of 60 000 pixels' terms and then converges by chance
+//   (measured: a simulated fillet of 58 621 pixels took 31 iterations in statsmodels and did
+//   not settle in 50 here); relative_tol = false gives statsmodels' rule exactly.
 #pragma once
 #include <cstddef>
 
@@ -15,6 +19,7 @@ struct RobustFitOptions {
   double c = 5.0;  // the dissertation's tuning constant
   int max_iter = 50;
   double tol = 1e-8;
+  bool relative_tol = true;
 };
 
 struct RobustFit {

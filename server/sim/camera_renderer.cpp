@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "core/error.h"
@@ -23,7 +24,9 @@ CameraRenderer::CameraRenderer(const LaneConfig& lane, int camera, CameraRenderP
       laser_y_(lane.laser.offset_mm),
       width_(lane.frame_width),
       height_(lane.frame_height),
-      p_(p) {
+      p_(p),
+      meat_kernel_(p.core_sigma_px, p.meat_tail_px),
+      belt_kernel_(p.core_sigma_px, p.belt_tail_px) {
   if (std::abs(lane.laser.normal.y) < 0.9999)
     fail("the simulator renders a laser plane perpendicular to the belt only (normal ",
          lane.laser.normal.x, ", ", lane.laser.normal.y, ", ", lane.laser.normal.z, ")");
@@ -45,9 +48,9 @@ void CameraRenderer::render(const LaneScene& scene, double s, Rng& rng, uint8_t*
   // Background and read noise from the pre-drawn table at random offsets.
   for (size_t i = 0; i < npx;) {
     const uint64_t r = rng.next();
-    size_t off = r & 0xffff;
     const size_t n = std::min<size_t>(256 + ((r >> 16) & 0xff), npx - i);
-    for (size_t k = 0; k < n; ++k) frame[i + k] = noise_[(off + k * 7) & 0xffff];
+    const size_t off = (r & 0xffff) % (noise_.size() - n);
+    std::memcpy(frame + i, &noise_[off], n);
     i += n;
   }
   std::fill(truth_row, truth_row + width_, std::numeric_limits<float>::quiet_NaN());
@@ -61,7 +64,9 @@ void CameraRenderer::render(const LaneScene& scene, double s, Rng& rng, uint8_t*
     px[k] = cam_.project({kLaneX0Mm + k * kRasterPitchMm, laser_y_, double(h[k])});
 
   const Vec3 cc = cam_.center();
-  const bool fillets_near = scene.any_fillet(b_laser - 100, b_laser + 100);
+  // Only fillets within reach of the lines of sight can hide the stripe.
+  const float near_top = scene.max_height(b_laser - 100, b_laser + 100);
+  const bool fillets_near = near_top > 0;
   std::vector<Hit> hits(width_);
   std::vector<uint8_t> has(width_, 0);
   for (int k = 0; k + 1 < kN; ++k) {
@@ -90,13 +95,17 @@ void CameraRenderer::render(const LaneScene& scene, double s, Rng& rng, uint8_t*
       bool visible = true;
       if (fillets_near) {
         const Vec3 d = (cc - P).normalized();
-        for (double step = 0.4;; step += 0.4) {
-          const Vec3 Q = P + d * step;
-          if (Q.z > scene.max_height() + 0.1) break;
-          if (scene.height(Q.x, s - Q.y) > Q.z + 1e-3) {
+        // March toward the camera; the step grows with the clearance above the surface
+        // (fillet slopes stay well below 3, so half the clearance cannot skip a crest).
+        for (double dist = 0.3;;) {
+          const Vec3 Q = P + d * dist;
+          if (Q.z > near_top + 0.1) break;
+          const double clearance = Q.z - scene.height(Q.x, s - Q.y);
+          if (clearance < -1e-3) {
             visible = false;
             break;
           }
+          dist += std::max(0.3, 0.5 * clearance);
         }
       }
       if (!visible) continue;
@@ -132,7 +141,8 @@ void CameraRenderer::render(const LaneScene& scene, double s, Rng& rng, uint8_t*
     }
     amp *= std::exp(p_.column_speckle * rng.normal());
     add_stripe(frame + c, height_, width_,
-               {hit.v, amp, p_.core_sigma_px, tail, lambda, tail_sign_, p_.speckle}, rng);
+               {hit.v, amp, p_.core_sigma_px, tail, lambda, tail_sign_, p_.speckle}, rng,
+               hit.meat ? &meat_kernel_ : &belt_kernel_);
   }
 }
 

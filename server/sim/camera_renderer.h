@@ -9,6 +9,7 @@
 #include "core/lane_config.h"
 #include "sim/lane_scene.h"
 #include "sim/rng.h"
+#include "sim/stripe_profile.h"
 
 namespace rangex::sim {
 
@@ -42,6 +43,7 @@ class CameraRenderer {
   CameraRenderParams p_;
   int tail_sign_;  // +1: the tail runs toward larger rows in this camera's image
   std::vector<uint8_t> noise_;  // background + read noise, drawn from in blocks
+  StripeKernel meat_kernel_, belt_kernel_;
 };
 
 }  // namespace rangex::sim

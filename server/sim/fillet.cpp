@@ -126,6 +126,7 @@ Fillet make_fillet(Rng& rng, int id, double b_start, double x_center, const Fill
     }
   // Slide the raster so that the meat itself (not its box) starts at b_start: the gaps
   // between fillets are then the sampled ones.
+  f.b_start = b_start;
   if (j_hi >= 0) {
     f.ib0 -= j_lo;
     f.b_min = f.ib0 * kRasterPitchMm;

@@ -30,7 +30,8 @@ struct Inclusion {
 struct Fillet {
   int id = 0;
   double x_center = 0, b_center = 0;
-  double b_min = 0, b_max = 0, x_min = 0, x_max = 0;  // raster extent
+  double b_min = 0, b_max = 0, x_min = 0, x_max = 0;  // raster extent (b_max: end of the meat)
+  double b_start = 0;                                 // where the meat begins
   int nx = 0, nb = 0;
   int ix0 = 0, ib0 = 0;          // raster origin in global node indices
   std::vector<float> height;     // nb * nx, mm

@@ -13,14 +13,22 @@ LaneScene::LaneScene(uint64_t seed, int lane, const SceneParams& p) {
     const Fillet& f = fillets_.back();
     for (float h : f.height) max_height_ = std::max(max_height_, h);
     end_b_ = f.b_max;
-    const double gap = rng.chance(p.close_gap_probability) ? rng.uniform(2, 10) : rng.uniform(30, 150);
+    float peak = 0;
+    for (float h : f.height) peak = std::max(peak, h);
+    peak_.push_back(peak);
+    const double end = (f.ib0 + f.nb - 1) * kRasterPitchMm;
+    box_end_.push_back(box_end_.empty() ? end : std::max(box_end_.back(), end));
+    const double gap = rng.chance(p.close_gap_probability) ? rng.uniform(2, 10) : rng.uniform(20, 80);
     b = f.b_max + gap;
   }
 }
 
 template <typename F>
 void LaneScene::for_fillets(double b_lo, double b_hi, F&& f) const {
-  for (const Fillet& fl : fillets_) {
+  // Skip the fillets that end before b_lo (box_end_ is non-decreasing).
+  const size_t first = size_t(std::lower_bound(box_end_.begin(), box_end_.end(), b_lo) - box_end_.begin());
+  for (size_t i = first; i < fillets_.size(); ++i) {
+    const Fillet& fl = fillets_[i];
     const double box_hi = (fl.ib0 + fl.nb - 1) * kRasterPitchMm;
     if (fl.b_min > b_hi) break;  // ordered by b: nothing further can overlap
     if (box_hi >= b_lo) f(fl);
@@ -40,6 +48,12 @@ void LaneScene::slice(double b, float* out, int n) const {
     for (int k = k0; k <= k1; ++k)
       out[k] = std::max(out[k], f.height_at(kLaneX0Mm + k * kRasterPitchMm, b));
   });
+}
+
+float LaneScene::max_height(double b_lo, double b_hi) const {
+  float h = 0;
+  for_fillets(b_lo, b_hi, [&](const Fillet& f) { h = std::max(h, peak_[size_t(&f - fillets_.data())]); });
+  return h;
 }
 
 bool LaneScene::any_fillet(double b_lo, double b_hi) const {

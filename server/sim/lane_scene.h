@@ -26,9 +26,13 @@ class LaneScene {
   double end_b() const { return end_b_; }
   const std::vector<Fillet>& fillets() const { return fillets_; }
   float max_height() const { return max_height_; }
+  // Highest fillet surface among the fillets that overlap [b_lo, b_hi] (0 if none).
+  float max_height(double b_lo, double b_hi) const;
 
  private:
   std::vector<Fillet> fillets_;  // ordered by b
+  std::vector<double> box_end_;  // running maximum of the fillets' raster ends, for search
+  std::vector<float> peak_;      // each fillet's highest point
   double end_b_ = 0;
   float max_height_ = 0;
   template <typename F>

@@ -59,7 +59,7 @@ std::string LaneSimulator::fillets_csv() const {
     for (float h : f.height) hmax = std::max(hmax, h);
     int bones = 0;
     for (const Inclusion& in : f.inclusions) bones += in.kind == Inclusion::kBone;
-    os << f.id << "," << f.x_center << "," << f.b_min << "," << f.b_max << "," << hmax << ","
+    os << f.id << "," << f.x_center << "," << f.b_start << "," << f.b_max << "," << hmax << ","
        << bones << "\n";
   }
   return os.str();

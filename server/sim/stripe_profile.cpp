@@ -16,7 +16,34 @@ double emg(double x, double sigma, double lambda) {
 }
 }  // namespace
 
-void add_stripe(uint8_t* column, int height, int stride, const StripeShape& s, Rng& rng) {
+namespace {
+constexpr double kTableStep = 1.0 / 512;  // px
+double exact_core(double dy, double sigma) {
+  return 0.5 * (std::erf((dy + 0.5) / (kSqrt2 * sigma)) - std::erf((dy - 0.5) / (kSqrt2 * sigma)));
+}
+}  // namespace
+
+StripeKernel::StripeKernel(double sigma, double tail_px) : sigma_(sigma), tail_px_(tail_px) {
+  core_x0_ = -(6 * sigma + 1);
+  for (double x = core_x0_; x <= -core_x0_ + kTableStep; x += kTableStep) core_.push_back(exact_core(x, sigma));
+  tail_x0_ = -(6 * sigma + 1);
+  for (double x = tail_x0_; x <= 8 * tail_px + 6 * sigma + 1; x += kTableStep) tail_.push_back(emg(x, sigma, tail_px));
+}
+
+double StripeKernel::lookup(const std::vector<double>& t, double x0, double x) {
+  const double f = (x - x0) / kTableStep;
+  if (f < 0 || f >= double(t.size() - 1)) return 0.0;
+  const size_t i = size_t(f);
+  const double u = f - double(i);
+  return t[i] + u * (t[i + 1] - t[i]);
+}
+
+double StripeKernel::core(double dy) const { return lookup(core_, core_x0_, dy); }
+double StripeKernel::tail(double x) const { return lookup(tail_, tail_x0_, x); }
+
+void add_stripe(uint8_t* column, int height, int stride, const StripeShape& s, Rng& rng,
+                const StripeKernel* kernel) {
+  if (kernel && (kernel->sigma() != s.sigma || kernel->tail_px() != s.tail_px)) kernel = nullptr;
   const double energy = s.amplitude * s.sigma * kSqrt2Pi;
   const double reach_lo = 6 * s.sigma + (s.tail_sign < 0 ? 8 * s.tail_px : 0);
   const double reach_hi = 6 * s.sigma + (s.tail_sign > 0 ? 8 * s.tail_px : 0);
@@ -24,13 +51,14 @@ void add_stripe(uint8_t* column, int height, int stride, const StripeShape& s, R
   const int y1 = std::min(height - 1, int(std::ceil(s.center + reach_hi)));
   for (int y = y0; y <= y1; ++y) {
     const double dy = y - s.center;
-    const double core =
-        0.5 * (std::erf((dy + 0.5) / (kSqrt2 * s.sigma)) - std::erf((dy - 0.5) / (kSqrt2 * s.sigma)));
-    const double tail = s.tail > 0 ? s.tail * emg(s.tail_sign * dy, s.sigma, s.tail_px) : 0.0;
-    double v = energy * (core + tail) * (1 + s.speckle * rng.normal());
+    const double core = kernel ? kernel->core(dy) : exact_core(dy, s.sigma);
+    const double tail =
+        s.tail > 0 ? s.tail * (kernel ? kernel->tail(s.tail_sign * dy) : emg(s.tail_sign * dy, s.sigma, s.tail_px))
+                   : 0.0;
+    double v = energy * (core + tail) * (s.speckle > 0 ? 1 + s.speckle * rng.fast_normal() : 1.0);
     uint8_t& px = column[size_t(y) * stride];
     v += px;
-    px = uint8_t(std::clamp(std::lround(v), 0L, 255L));
+    px = uint8_t(std::clamp(v + 0.5, 0.0, 255.0));
   }
 }
 

@@ -3,6 +3,7 @@
 // with multiplicative speckle. Adds onto the pixels already in the column.
 #pragma once
 #include <cstdint>
+#include <vector>
 
 #include "sim/rng.h"
 
@@ -18,7 +19,26 @@ struct StripeShape {
   double speckle;     // per-pixel multiplicative noise (std)
 };
 
-// column points at row 0 of the column; stride is the frame width.
-void add_stripe(uint8_t* column, int height, int stride, const StripeShape& s, Rng& rng);
+// The core and tail profiles of one (sigma, tail_px) tabulated finely, for rendering many
+// columns fast (linear interpolation; relative error below 1e-5).
+class StripeKernel {
+ public:
+  StripeKernel(double sigma, double tail_px);
+  double sigma() const { return sigma_; }
+  double tail_px() const { return tail_px_; }
+  double core(double dy) const;  // pixel-integrated Gaussian of unit area
+  double tail(double x) const;   // exponentially modified Gaussian density, tail toward +x
+
+ private:
+  static double lookup(const std::vector<double>& t, double x0, double x);
+  double sigma_, tail_px_;
+  double core_x0_, tail_x0_;
+  std::vector<double> core_, tail_;
+};
+
+// column points at row 0 of the column; stride is the frame width. With a kernel whose
+// sigma and tail_px match the shape, the tables are used; otherwise the exact functions.
+void add_stripe(uint8_t* column, int height, int stride, const StripeShape& s, Rng& rng,
+                const StripeKernel* kernel = nullptr);
 
 }  // namespace rangex::sim

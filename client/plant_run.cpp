@@ -1,0 +1,205 @@
+#include "plant_run.h"
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <thread>
+
+#include "core/error.h"
+#include "pipeline/rectify_table.h"
+
+namespace rangex {
+
+namespace {
+double since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
+                                              const sim::SimulationParams& sp,
+                                              const PlantRunOptions& opt,
+                                              const std::function<void(int64_t, int64_t)>& progress) {
+  if (sp.lanes <= 0 || sp.lanes > int(plant.lanes.size()))
+    fail("cannot simulate ", sp.lanes, " lanes: the plant configuration has ", plant.lanes.size());
+  std::vector<sim::LaneSimulator> sims;
+  int64_t total = 0;
+  for (int i = 0; i < sp.lanes; ++i) {
+    sims.emplace_back(plant.lanes[i], sp);
+    total += sims.back().lines();
+  }
+  int64_t done = 0;
+  std::vector<PlantRunLane> out;
+  const int threads = std::max(1, opt.threads);
+  for (int li = 0; li < sp.lanes; ++li) {
+    const LaneConfig& lc = plant.lanes[li];
+    const sim::LaneSimulator& sim = sims[li];
+    PlantRunLane lane;
+    lane.lane = lc.id;
+    lane.lines = sim.lines();
+    lane.truth_fragments_csv = sim.fragments_csv();
+    lane.truth_fillets_csv = sim.fillets_csv();
+    const int W = lc.frame_width, H = lc.frame_height, D = lc.xray.pixels, delay = lc.xray.delay_lines;
+    const size_t frame = size_t(W) * H;
+    constexpr int kBlock = 64;
+    std::vector<uint8_t> frames(frame * 2 * kBlock);
+    std::vector<uint16_t> xray(size_t(D) * kBlock);
+    std::vector<float> rows(size_t(2 * W) * kBlock), truth_t(size_t(D) * kBlock);
+    std::vector<int64_t> enc(kBlock);
+    const RectifyTable tables[2] = {build_rectify_table(lc.cameras[0].model, lc.laser, lc.lut_step_px),
+                                    build_rectify_table(lc.cameras[1].model, lc.laser, lc.lut_step_px)};
+    ErrorAccumulator stripe_all[2], stripe_fillet[2], thick;
+    size_t truth_cols[2] = {0, 0}, found_cols[2] = {0, 0}, blank_cols[2] = {0, 0}, false_cols[2] = {0, 0};
+    size_t fillet_px = 0, measured_px = 0;
+    std::map<int64_t, std::vector<float>> registered;  // X-ray line -> measured thickness
+    int64_t n0 = 0;
+    auto observe = [&](const LineResults& res, const int64_t* e, int count) {
+      std::vector<float> tx(W), tz(W);
+      std::vector<uint8_t> tv(W), tv2(W);
+      const int zero = 0;
+      for (int k = 0; k < count; ++k) {
+        const int64_t n = e[k] - sim.encoder(0);
+        for (int c = 0; c < 2; ++c) {
+          const float* truth = &rows[size_t(2 * k + c) * W];
+          const float* meas = &res.stripes.row[size_t(2 * k + c) * W];
+          for (int u = 0; u < W; ++u) tv[u] = std::isfinite(truth[u]);
+          rectify(truth, tv.data(), 1, W, &zero, &tables[c], tx.data(), tz.data(), tv2.data());
+          for (int u = 0; u < W; ++u) {
+            const bool t = tv[u], m = std::isfinite(meas[u]);
+            truth_cols[c] += t;
+            found_cols[c] += t && m;
+            blank_cols[c] += !t;
+            false_cols[c] += !t && m;
+            if (t && m) {
+              stripe_all[c].add(double(meas[u]) - truth[u]);
+              if (tz[u] > kFilletColumnMinMm) stripe_fillet[c].add(double(meas[u]) - truth[u]);
+            }
+          }
+        }
+        auto& reg = registered[n + delay];
+        reg.resize(D);
+        for (int i = 0; i < D; ++i) {
+          const size_t o = size_t(k) * D + i;
+          reg[i] = res.thickness_valid[o] ? res.thickness[o] : NAN;
+        }
+      }
+    };
+    LaneProcessor proc(lc, {threads, true, opt.keep_images || bool(opt.on_fillet)},
+                       [&](InspectedFillet&& f) {
+                         if (opt.on_fillet) opt.on_fillet(f);
+                         lane.ours.add(f.result);
+                         lane.baseline.add(f.baseline);
+                       },
+                       observe);
+    for (n0 = 0; n0 < sim.lines(); n0 += kBlock) {
+      const int count = int(std::min<int64_t>(kBlock, sim.lines() - n0));
+      const auto t0 = std::chrono::steady_clock::now();
+      std::vector<std::thread> pool;
+      for (int w = 0; w < threads; ++w)
+        pool.emplace_back([&, w] {
+          for (int k = w; k < count; k += threads)
+            sim.render(n0 + k, &frames[frame * 2 * k], &frames[frame * (2 * k + 1)],
+                       &xray[size_t(D) * k], &rows[size_t(2 * k) * W], &rows[size_t(2 * k + 1) * W],
+                       &truth_t[size_t(D) * k]);
+        });
+      for (auto& t : pool) t.join();
+      for (int k = 0; k < count; ++k) enc[k] = sim.encoder(n0 + k);
+      lane.render_s += since(t0);
+      proc.push(count, frames.data(), xray.data(), enc.data());
+      // Thickness accuracy: X-ray line n's truth against the camera line n - delay.
+      for (int k = 0; k < count; ++k) {
+        auto it = registered.find(n0 + k);
+        if (it == registered.end()) continue;
+        for (int i = 0; i < D; ++i) {
+          const float t = truth_t[size_t(k) * D + i];
+          if (!(t >= kFilletPixelMinMm)) continue;
+          ++fillet_px;
+          if (std::isfinite(it->second[i])) {
+            ++measured_px;
+            thick.add(double(it->second[i]) - t);
+          }
+        }
+        registered.erase(it);
+      }
+      done += count;
+      if (progress) progress(done, total);
+    }
+    proc.finish();
+    lane.assembly = proc.assembly();
+    lane.fusion = proc.fusion();
+    lane.pipeline_s = proc.pipeline_seconds();
+    lane.inspection_s = proc.inspection_seconds();
+    LaneEvaluation& ev = lane.accuracy;
+    ev.lane = lc.id;
+    for (int c = 0; c < 2; ++c) {
+      ev.stripe[c] = stripe_all[c].stats();
+      ev.stripe_fillet[c] = stripe_fillet[c].stats();
+      ev.stripe_detected[c] = truth_cols[c] ? double(found_cols[c]) / truth_cols[c] : 0;
+      ev.stripe_false[c] = blank_cols[c] ? double(false_cols[c]) / blank_cols[c] : 0;
+    }
+    ev.thickness = thick.stats();
+    ev.fillet_coverage = fillet_px ? double(measured_px) / fillet_px : 0;
+    out.push_back(std::move(lane));
+  }
+  return out;
+}
+
+void write_line_accuracy(const std::string& path, const LaneEvaluation& e) {
+  std::ofstream out(path);
+  out.precision(9);
+  out << "key,value\n";
+  auto stats = [&](const std::string& k, const ErrorStats& s) {
+    out << k << ".count," << s.count << "\n" << k << ".mean_abs," << s.mean_abs << "\n"
+        << k << ".p99_abs," << s.p99_abs << "\n" << k << ".bias," << s.bias << "\n";
+  };
+  for (int c = 0; c < 2; ++c) {
+    stats("stripe_cam" + std::to_string(c), e.stripe[c]);
+    stats("stripe_fillet_cam" + std::to_string(c), e.stripe_fillet[c]);
+    out << "stripe_detected_cam" << c << "," << e.stripe_detected[c] << "\n";
+    out << "stripe_false_cam" << c << "," << e.stripe_false[c] << "\n";
+  }
+  stats("thickness", e.thickness);
+  out << "fillet_coverage," << e.fillet_coverage << "\n";
+  if (!out) fail(path, ": write failed");
+}
+
+LaneEvaluation read_line_accuracy(const std::string& path, int lane) {
+  std::ifstream in(path);
+  if (!in) fail(path, " is missing");
+  std::map<std::string, double> kv;
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    const auto comma = line.find(',');
+    if (comma == std::string::npos) fail(path, ": malformed line '", line, "'");
+    kv[line.substr(0, comma)] = std::stod(line.substr(comma + 1));
+  }
+  auto get = [&](const std::string& k) {
+    auto it = kv.find(k);
+    if (it == kv.end()) fail(path, ": missing ", k);
+    return it->second;
+  };
+  auto stats = [&](const std::string& k) {
+    ErrorStats s;
+    s.count = size_t(get(k + ".count"));
+    s.mean_abs = get(k + ".mean_abs");
+    s.p99_abs = get(k + ".p99_abs");
+    s.bias = get(k + ".bias");
+    return s;
+  };
+  LaneEvaluation e;
+  e.lane = lane;
+  for (int c = 0; c < 2; ++c) {
+    e.stripe[c] = stats("stripe_cam" + std::to_string(c));
+    e.stripe_fillet[c] = stats("stripe_fillet_cam" + std::to_string(c));
+    e.stripe_detected[c] = get("stripe_detected_cam" + std::to_string(c));
+    e.stripe_false[c] = get("stripe_false_cam" + std::to_string(c));
+  }
+  e.thickness = stats("thickness");
+  e.fillet_coverage = get("fillet_coverage");
+  return e;
+}
+
+}  // namespace rangex
