@@ -11,6 +11,7 @@ int cmd_extract(int argc, char** argv);
 int cmd_process(int argc, char** argv);
 int cmd_eval(int argc, char** argv);
 int cmd_calib(int argc, char** argv);
+int cmd_fit(int argc, char** argv);
 int cmd_bench(int argc, char** argv);
 
 // --config, else $RANGEX_CONFIG, else ./config/plant.yaml, else the source tree's default.

@@ -14,10 +14,14 @@ commands:
       simulate a plant and write a recording with ground truth
   extract DIR --lane L --camera C [--method NAME] --out peaks.csv [--config ...]
       stripe rows of one camera as CSV (frame,column,row; row empty where invalid)
-  process DIR --out OUT [--method NAME] [--batch LINES] [--config ...]
-      replay a recording through the pipeline: thickness images and a JSON summary
-  eval DIR OUT [--json]
-      compare a processed recording with its truth
+  process DIR --out OUT [--method NAME] [--images all|rejects|none] [--config ...]
+      replay a recording through the pipeline and inspect every fillet
+  process --simulate --out OUT [--lanes N] [--fillets M] [--seed S] [--images ...]
+      simulate a plant in memory (no recording) and inspect it; prints the evaluation
+  eval DIR OUT [--json]   |   eval OUT [--json]
+      compare processed output with the truth of its recording (or of its simulation)
+  fit FILE.csv [--c C] [--json]
+      robust fit ln I = b0 + b1 T (Tukey biweight) of a two-column CSV with a header
   calib scatter DIR [--lines N] [--config ...]
       fit the scattering constants K1, K2 per camera from a recording with truth
   bench [--frames N]
@@ -40,6 +44,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "process")) return cmd_process(argc, argv);
     if (!std::strcmp(cmd, "eval")) return cmd_eval(argc, argv);
     if (!std::strcmp(cmd, "calib")) return cmd_calib(argc, argv);
+    if (!std::strcmp(cmd, "fit")) return cmd_fit(argc, argv);
     if (!std::strcmp(cmd, "bench")) return cmd_bench(argc, argv);
     std::fprintf(stderr, "rangexctl: unknown command '%s'\n\n%s", cmd, kUsage);
     return 2;

@@ -92,6 +92,16 @@ void LaneAssembler::close_segment() {
     if (row.missing) continue;
     for (int i = 0; i < D; ++i) on[size_t(r) * D + i] = row.thickness[i] > ip.floor_mm;
   }
+  // A missing line must not cut a fillet in two: it takes the union of its neighbours, so
+  // the fillet stays one region and carries the missing line into its fail-safe check.
+  for (int r = 0; r < rows; ++r) {
+    if (!segment_[r].missing) continue;
+    int up = r - 1, dn = r + 1;
+    while (up >= 0 && segment_[up].missing) --up;
+    while (dn < rows && segment_[dn].missing) ++dn;
+    for (int i = 0; i < D; ++i)
+      on[size_t(r) * D + i] = (up >= 0 && on[size_t(up) * D + i]) || (dn < rows && on[size_t(dn) * D + i]);
+  }
   std::vector<int> labels;
   const auto comps = label_components(on.data(), rows, D, labels);
   const double px_area = lane_.xray.pitch_mm * lane_.encoder_step_mm;

@@ -1,0 +1,92 @@
+// Lane assembly: registration by encoder with the laser-to-X-ray delay, cutting fillets,
+// and the marks that make the inspection fail safe.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/lane_config.h"
+#include "pipeline/lane_assembly.h"
+
+using namespace rangex;
+
+namespace {
+constexpr int D = 480;
+
+struct Feed {
+  LaneConfig lane = default_lane_config(0);
+  std::vector<FilletImage> out;
+  LaneAssembler a{lane, [this](FilletImage&& f) { out.push_back(std::move(f)); }};
+  // Thickness of a rectangular fillet occupying camera lines [l0, l1) and pixels [c0, c1).
+  void run(int lines, int l0, int l1, int c0, int c1, std::vector<int> missing = {}) {
+    std::vector<float> t(D);
+    std::vector<uint16_t> x(D);
+    for (int n = 0; n < lines; ++n) {
+      const int64_t e = 500 + n;
+      if (std::find(missing.begin(), missing.end(), n) != missing.end()) {
+        a.push_missing(e);
+        continue;
+      }
+      for (int i = 0; i < D; ++i) t[i] = (n >= l0 && n < l1 && i >= c0 && i < c1) ? 20.f : 0.f;
+      // The X-ray line n sees what the camera saw at n - delay: encode that in the counts.
+      const int s = n - lane.xray.delay_lines;
+      for (int i = 0; i < D; ++i) x[i] = (s >= l0 && s < l1 && i >= c0 && i < c1) ? 1000 : 3600;
+      a.push_thickness(e, t.data());
+      a.push_xray(e, x.data());
+    }
+    a.flush();
+  }
+};
+}  // namespace
+
+TEST(LaneAssembly, RegistersThicknessToXrayByDelayAndCutsFillets) {
+  Feed f;
+  f.run(900, 100, 400, 100, 300);  // one fillet
+  ASSERT_EQ(f.out.size(), 1u);
+  const FilletImage& img = f.out[0];
+  const int delay = f.lane.xray.delay_lines;
+  EXPECT_EQ(img.first_line, 100 + delay - 2);  // two rows of margin
+  EXPECT_EQ(img.rows, 300 + 4);
+  EXPECT_EQ(img.missing_lines, 0);
+  EXPECT_FALSE(img.touches_lane_edge);
+  // Every fillet pixel's X-ray line saw the fillet: thickness and X-ray are registered.
+  for (size_t i = 0; i < img.size(); ++i)
+    if (img.mask[i]) EXPECT_EQ(img.xray[i], 1000) << i;
+  EXPECT_DOUBLE_EQ(img.y0_mm, (img.first_line - delay) * f.lane.encoder_step_mm);
+}
+
+TEST(LaneAssembly, SeparateFilletsAndDebris) {
+  Feed f;
+  std::vector<float> t(D);
+  std::vector<uint16_t> x(D, 3600);
+  for (int n = 0; n < 1200; ++n) {
+    for (int i = 0; i < D; ++i) {
+      const bool a = n >= 100 && n < 300 && i >= 50 && i < 200;   // fillet
+      const bool b = n >= 310 && n < 500 && i >= 220 && i < 400;  // fillet, 4 mm later
+      const bool c = n >= 700 && n < 705 && i >= 10 && i < 14;    // a crumb
+      t[i] = (a || b || c) ? 15.f : 0.f;
+    }
+    f.a.push_thickness(n, t.data());
+    f.a.push_xray(n, x.data());
+  }
+  f.a.flush();
+  EXPECT_EQ(f.out.size(), 2u);
+  EXPECT_EQ(f.a.stats().debris, 1);
+}
+
+TEST(LaneAssembly, MissingLineInsideAFilletIsMarked) {
+  Feed f;
+  f.run(900, 100, 400, 100, 300, {300});
+  ASSERT_EQ(f.out.size(), 1u);
+  // Camera line 300 is gone: X-ray line 300 is missing, and X-ray line 300 + delay has no
+  // thickness; both lie inside the fillet, which stays one region.
+  EXPECT_EQ(f.out[0].missing_lines, 2);
+  // Plus the first delay X-ray lines, which no camera line covers.
+  EXPECT_EQ(f.a.stats().missing_lines, 2 + default_lane_config(0).xray.delay_lines);
+}
+
+TEST(LaneAssembly, FilletOnTheLaneEdgeIsMarked) {
+  Feed f;
+  f.run(900, 100, 400, 0, 150);
+  ASSERT_EQ(f.out.size(), 1u);
+  EXPECT_TRUE(f.out[0].touches_lane_edge);
+}
