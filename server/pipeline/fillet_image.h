@@ -1,6 +1,7 @@
 // One fillet cut out of a lane's stacked images: X-ray counts and registered X-ray path
 // thickness over its bounding box, the fillet's mask, and what went wrong on the way.
 #pragma once
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
