@@ -20,15 +20,20 @@ if [ "$what" = test ]; then
   exec ctest --output-on-failure --parallel "$(nproc)" --timeout 900
 fi
 
-# Demo plant: four lanes of simulated fillets, replayed through the pipeline and evaluated
-# against the simulator's truth.
+# Demo plant, part 1: a small recording (4 lanes, 2 fillets each) written to disk, replayed
+# through the pipeline and evaluated against the simulator's truth.
 demo=build/demo
 rm -rf "$demo"
 mkdir -p "$demo"
 ctl=build/client/rangexctl
-"$ctl" simulate --lanes 4 --fillets 3 --seed 1 --out "$demo/recording"
-"$ctl" process "$demo/recording" --out "$demo/out"
+"$ctl" simulate --lanes 4 --fillets 2 --seed 1 --out "$demo/recording"
+"$ctl" process "$demo/recording" --out "$demo/recording-out"
 echo
-"$ctl" eval "$demo/recording" "$demo/out"
+"$ctl" eval "$demo/recording" "$demo/recording-out"
 echo
-echo "images: $demo/out/lane*/thickness.png (0.01 mm per count) and xray.png"
+# Part 2: the plant at scale, 4 lanes x 125 fillets simulated in memory (no recording) and
+# inspected: bone recall, false rejects and the X-ray-only baseline beside rangex.
+"$ctl" process --simulate --lanes 4 --fillets 125 --seed 1 --out "$demo/plant"
+echo
+echo "images: $demo/recording-out/lane*/fillet_*/ (overlay.png, xray.png, thickness.png,"
+echo "        pseudo_xray.png, residual.png) and $demo/plant/lane*/fillet_*/ for every reject"

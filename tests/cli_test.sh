@@ -36,6 +36,25 @@ json=$("$ctl" eval "$work/rec" "$work/out" --json)
 mae=$(sed -E 's/.*"thickness_mm": \{[^}]*"mean_abs": ([0-9.e+-]+).*/\1/' <<<"$json")
 check "eval thickness mean |error| <= 0.3 mm (got $mae)" awk -v m="$mae" 'BEGIN{exit !(m <= 0.3)}'
 
+check "fillets table" grep -q "^lane,fillet,first_line" "$work/out/lane0/fillets.csv"
+check "fillets json" grep -q '"decision"' "$work/out/lane0/fillets.json"
+check "fillet images" test -s "$(ls -d "$work"/out/lane0/fillet_*/ | head -1)overlay.png"
+"$ctl" eval "$work/rec" "$work/out" >"$work/eval.txt" || fails=$((fails + 1))
+check "eval prints recall" grep -q "recall, calcified fragments >= 2 mm" "$work/eval.txt"
+
+# A simulated plant processed in memory, evaluated from its own truth.
+"$ctl" process --simulate --lanes 1 --fillets 3 --seed 4 --out "$work/plant" --images none >"$work/plant.txt" \
+  || fails=$((fails + 1))
+check "simulated plant prints the baseline" grep -q "X-ray only" "$work/plant.txt"
+"$ctl" eval "$work/plant" --json >"$work/plant.json" || fails=$((fails + 1))
+check "eval of a simulated run" grep -q '"xray_only"' "$work/plant.json"
+
+# The robust fit from the command line reproduces statsmodels' reference.
+fit=$("$ctl" fit "$(dirname "$0")/data/rlm/outliers20.csv" --json)
+check "fit json" grep -q '"beta0": 8.1023' <<<"$fit"
+printf 'T,lnI\n1,2\n3,x\n' >"$work/bad.csv"
+expect_error "bad csv" "bad.csv:3: column 2 ('lnI') is not a finite number" "$ctl" fit "$work/bad.csv"
+
 expect_error "unknown method" "unknown stripe method 'median'" \
   "$ctl" process "$work/rec" --out "$work/o2" --method median
 printf 'lanes:\n  - id: 0\n    frame: {width: 320, height: 200}\n' >"$work/small.yaml"
