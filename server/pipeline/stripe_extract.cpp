@@ -91,7 +91,7 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
         const int beyond = r > p[k], above = float(row[k]) > T[k];
         hi[k] = (live[k] & beyond & above) ? r : hi[k];
         c[k] = r == p[k] + 1 ? float(row[k]) : c[k];
-        live[k] &= !beyond | above;
+        live[k] &= (!beyond) | above;
         any |= live[k];
       }
       if (!any) break;
@@ -104,7 +104,7 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
         const int beyond = r < p[k], above = float(row[k]) > T[k];
         lo[k] = (live[k] & beyond & above) ? r : lo[k];
         a[k] = r == p[k] - 1 ? float(row[k]) : a[k];
-        live[k] &= !beyond | above;
+        live[k] &= (!beyond) | above;
         any |= live[k];
       }
       if (!any) break;
