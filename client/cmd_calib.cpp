@@ -15,8 +15,8 @@
 namespace rangex::cli {
 
 int cmd_calib(int argc, char** argv) {
-  if (argc < 3 || std::string(argv[2]) != "scatter")
-    fail("usage: calib scatter DIR [--lines N] [--config PLANT.yaml]");
+  if (argc < 3) fail("usage: calib scatter|upload|list|activate ...");
+  if (std::string(argv[2]) != "scatter") return cmd_calib_remote(argc, argv);
   const Args a(argc, argv, 3, {}, {"lines", "config", "min-height-mm"});
   a.expect_positionals(1, "calib scatter DIR [--lines N]");
   const RecordingReader rec(a.positional(0, "recording folder"));

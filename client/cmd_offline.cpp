@@ -15,7 +15,7 @@
 #include "core/png_io.h"
 #include "detection_eval.h"
 #include "evaluation.h"
-#include "fillet_images.h"
+#include "pipeline/fillet_images.h"
 #include "fillet_records.h"
 #include "plant_run.h"
 #include "progress_bar.h"

@@ -12,6 +12,13 @@ int cmd_process(int argc, char** argv);
 int cmd_eval(int argc, char** argv);
 int cmd_calib(int argc, char** argv);
 int cmd_fit(int argc, char** argv);
+int cmd_feed(int argc, char** argv);
+int cmd_watch(int argc, char** argv);
+int cmd_status(int argc, char** argv);
+int cmd_fillets(int argc, char** argv);
+int cmd_image(int argc, char** argv);
+int cmd_calib_remote(int argc, char** argv);
+int cmd_lanes(int argc, char** argv);
 int cmd_bench(int argc, char** argv);
 
 // --config, else $RANGEX_CONFIG, else ./config/plant.yaml, else the source tree's default.

@@ -25,7 +25,18 @@ commands:
   calib scatter DIR [--lines N] [--config ...]
       fit the scattering constants K1, K2 per camera from a recording with truth
   bench [--frames N]
-      stripe extraction throughput beside read-bandwidth and OpenCV baselines
+      stripe extraction and inspection throughput beside their baselines
+
+server commands (--server HOST:PORT, default: plant.yaml's listen address):
+  feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]
+      stream line scans into rangexd (rate per lane; default as fast as the server takes them)
+  watch [--lane L] [--decision pass|reject|not_inspected] [--count N] [--seconds S]
+      live fillet decisions
+  status                      statistics: lines/s, latencies, queue, drops by reason
+  fillets [--lane L] [--limit N] [--from-ns T] [--to-ns T]  |  fillets --uid U
+  image --uid U [--kind overlay|xray|thickness|pseudo_xray|residual] --out FILE.png
+  calib upload --lane L --id ID --file CAL.yaml  |  calib list [--lane L]  |  calib activate --lane L --id ID
+  lanes  |  lanes set --lane L [--z-threshold Z] [--min-area-mm2 A] [--floor-mm F]
 
 stripe methods: centroid, squared, binary, gaussian3, parabola, shifted, modified
 )";
@@ -45,6 +56,12 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "eval")) return cmd_eval(argc, argv);
     if (!std::strcmp(cmd, "calib")) return cmd_calib(argc, argv);
     if (!std::strcmp(cmd, "fit")) return cmd_fit(argc, argv);
+    if (!std::strcmp(cmd, "feed")) return cmd_feed(argc, argv);
+    if (!std::strcmp(cmd, "watch")) return cmd_watch(argc, argv);
+    if (!std::strcmp(cmd, "status")) return cmd_status(argc, argv);
+    if (!std::strcmp(cmd, "fillets")) return cmd_fillets(argc, argv);
+    if (!std::strcmp(cmd, "image")) return cmd_image(argc, argv);
+    if (!std::strcmp(cmd, "lanes")) return cmd_lanes(argc, argv);
     if (!std::strcmp(cmd, "bench")) return cmd_bench(argc, argv);
     std::fprintf(stderr, "rangexctl: unknown command '%s'\n\n%s", cmd, kUsage);
     return 2;

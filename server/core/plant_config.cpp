@@ -135,13 +135,9 @@ void read_camera(const Node& n, LaneCamera& cam, int w, int h) {
   cam.model = CameraModel(k, d, R, (R * c) * -1.0, w, h);
 }
 
-// Reads one lane from its own node, falling back section by section to lane_defaults.
-LaneConfig read_lane(const Node& lane, const Node* defaults) {
-  lane.only_keys({"id", "frame", "encoder_step_mm", "cameras", "laser_plane", "xray", "stripe",
-                  "rectify", "fusion", "inspection"});
-  if (!lane.has("id")) lane.bad("missing key 'id'");
-  LaneConfig c = default_lane_config(lane.at("id").integer());
-  if (c.id < 0) lane.at("id").bad("must be >= 0");
+// Reads one lane from its own node over `c`, falling back section by section to
+// lane_defaults.
+LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
   auto section = [&](const char* key) -> std::optional<Node> {
     if (lane.has(key)) return lane.at(key);
     if (defaults && defaults->has(key)) return defaults->at(key);
@@ -290,11 +286,30 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
   if (!lanes.node.IsSequence() || lanes.node.size() == 0) lanes.bad("expected a non-empty list");
   std::set<int> seen;
   for (size_t i = 0; i < lanes.node.size(); ++i) {
-    LaneConfig l = read_lane(lanes.item(i), defaults ? &*defaults : nullptr);
+    const Node ln = lanes.item(i);
+    ln.only_keys({"id", "frame", "encoder_step_mm", "cameras", "laser_plane", "xray", "stripe",
+                  "rectify", "fusion", "inspection"});
+    if (!ln.has("id")) ln.bad("missing key 'id'");
+    const int id = ln.at("id").integer();
+    if (id < 0) ln.at("id").bad("must be >= 0");
+    LaneConfig l = read_lane(ln, defaults ? &*defaults : nullptr, default_lane_config(id));
     if (!seen.insert(l.id).second) lanes.item(i).at("id").bad("duplicate lane id " + std::to_string(l.id));
     p.lanes.push_back(std::move(l));
   }
   return p;
+}
+
+LaneConfig apply_lane_calibration(const LaneConfig& base, const std::string& text,
+                                  const std::string& origin) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    fail(origin, ": not valid YAML: ", e.what());
+  }
+  const Node n{root, "", &origin};
+  n.only_keys({"cameras", "laser_plane", "xray", "encoder_step_mm"});
+  return read_lane(n, nullptr, base);
 }
 
 PlantConfig load_plant_config(const std::string& path) {

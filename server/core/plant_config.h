@@ -23,4 +23,9 @@ PlantConfig load_plant_config(const std::string& path);
 PlantConfig parse_plant_config(const std::string& yaml_text, const std::string& origin);
 PlantConfig default_plant_config(int lanes);
 
+// A calibration set for one lane (its cameras, laser_plane, xray and encoder_step_mm
+// sections, as in plant.yaml) applied over `base`; refused like plant.yaml, naming the key.
+LaneConfig apply_lane_calibration(const LaneConfig& base, const std::string& yaml,
+                                  const std::string& origin);
+
 }  // namespace rangex

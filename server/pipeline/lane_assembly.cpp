@@ -77,6 +77,14 @@ void LaneAssembler::add_row(Row&& row) {
     close_segment();
 }
 
+bool LaneAssembler::quiet() const {
+  if (open_) return false;
+  for (const auto& [e, t] : thickness_)
+    for (float v : t)
+      if (v > lane_.inspection.floor_mm) return false;
+  return true;
+}
+
 void LaneAssembler::flush() {
   if (open_) close_segment();
   segment_.clear();

@@ -41,6 +41,10 @@ class LaneAssembler {
   void flush();
 
   const AssemblyStats& stats() const { return stats_; }
+  // No fillet in progress and no waiting thickness line with fillet in it: a new
+  // configuration can take over without any fillet seeing two.
+  bool quiet() const;
+  void set_config(const LaneConfig& lane) { lane_ = lane; }
 
  private:
   struct Row {

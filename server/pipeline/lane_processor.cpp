@@ -17,7 +17,7 @@ LaneProcessor::LaneProcessor(const LaneConfig& lane, LaneProcessorOptions opt, F
       opt_(opt),
       sink_(std::move(sink)),
       observer_(std::move(observer)),
-      pipe_({lane}, opt.threads),
+      pipe_(std::make_unique<LinePipeline>(std::vector<LaneConfig>{lane}, opt.threads)),
       assembler_(lane, [this](FilletImage&& img) {
         const auto t0 = std::chrono::steady_clock::now();
         InspectedFillet f;
@@ -29,20 +29,21 @@ LaneProcessor::LaneProcessor(const LaneConfig& lane, LaneProcessorOptions opt, F
           img.mask.clear();
         }
         f.image = std::move(img);
+        f.inspect_ms = 1e3 * since(t0);
         inspect_s_ += since(t0);
         sink_(std::move(f));
       }) {}
 
 void LaneProcessor::push(int count, const uint8_t* frames, const uint16_t* xray,
                          const int64_t* encoders) {
-  const size_t frame = size_t(pipe_.width()) * pipe_.height();
+  const size_t frame = size_t(pipe_->width()) * pipe_->height();
   batch_.lines = count;
   batch_.lane_slot.assign(count, 0);
   batch_.frames.assign(frames, frames + frame * 2 * count);
   const auto t0 = std::chrono::steady_clock::now();
-  pipe_.run(batch_, results_);
+  pipe_->run(batch_, results_);
   pipeline_s_ += since(t0);
-  const int D = pipe_.pixels();
+  const int D = pipe_->pixels();
   std::vector<float> line(D);
   for (int k = 0; k < count; ++k) {
     for (int i = 0; i < D; ++i) {
@@ -53,6 +54,12 @@ void LaneProcessor::push(int count, const uint8_t* frames, const uint16_t* xray,
     assembler_.push_xray(encoders[k], xray + size_t(k) * D);
   }
   if (observer_) observer_(results_, encoders, count);
+}
+
+void LaneProcessor::reconfigure(const LaneConfig& lane) {
+  pipe_ = std::make_unique<LinePipeline>(std::vector<LaneConfig>{lane}, opt_.threads);
+  lane_ = lane;
+  assembler_.set_config(lane);
 }
 
 void LaneProcessor::push_missing(int64_t encoder) { assembler_.push_missing(encoder); }

@@ -25,6 +25,7 @@ struct InspectedFillet {
   FilletImage image;  // pixel data dropped unless images are kept
   FilletResult result;
   FilletResult baseline;  // decision of the X-ray-only baseline (when enabled)
+  double inspect_ms = 0;  // compensation + detection time of this fillet
 };
 
 class LaneProcessor {
@@ -42,6 +43,10 @@ class LaneProcessor {
   void finish();  // closes the open fillets
 
   const AssemblyStats& assembly() const { return assembler_.stats(); }
+  bool quiet() const { return assembler_.quiet(); }
+  // A new calibration or thresholds; the caller applies it only when quiet().
+  void reconfigure(const LaneConfig& lane);
+  const LaneConfig& lane() const { return lane_; }
   const FusionStats& fusion() const { return results_.fusion; }
   double pipeline_seconds() const { return pipeline_s_; }
   double inspection_seconds() const { return inspect_s_; }
@@ -51,7 +56,7 @@ class LaneProcessor {
   LaneProcessorOptions opt_;
   FilletSink sink_;
   LineObserver observer_;
-  LinePipeline pipe_;
+  std::unique_ptr<LinePipeline> pipe_;
   LaneAssembler assembler_;
   LineBatch batch_;
   LineResults results_;

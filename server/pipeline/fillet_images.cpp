@@ -1,4 +1,4 @@
-#include "fillet_images.h"
+#include "pipeline/fillet_images.h"
 
 #include <algorithm>
 #include <cmath>

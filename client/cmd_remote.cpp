@@ -1,0 +1,369 @@
+// rangexctl as a gRPC client of rangexd: feed, watch, status, fillets, image, calib
+// upload|list|activate, lanes.
+#include <grpcpp/grpcpp.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "args.h"
+#include "commands.h"
+#include "core/error.h"
+#include "core/recording.h"
+#include "rangex/v1/rangex.grpc.pb.h"
+#include "sim/plant_simulator.h"
+
+namespace rangex::cli {
+
+namespace {
+namespace pb = rangex::v1;
+
+std::shared_ptr<grpc::Channel> channel(const Args& a, const PlantConfig* plant = nullptr) {
+  std::string addr = a.get("server", "");
+  if (addr.empty()) addr = plant ? plant->listen : load_config(a.get("config", "")).listen;
+  grpc::ChannelArguments args;
+  args.SetMaxSendMessageSize(64 << 20);
+  args.SetMaxReceiveMessageSize(64 << 20);
+  return grpc::CreateCustomChannel(addr, grpc::InsecureChannelCredentials(), args);
+}
+
+void check(const grpc::Status& s, const char* what) {
+  if (!s.ok()) fail(what, ": ", s.error_message().empty() ? "server unreachable" : s.error_message(),
+                    " (", int(s.error_code()), ")");
+}
+
+const char* decision_text(pb::Decision d) {
+  switch (d) {
+    case pb::DECISION_PASS: return "PASS";
+    case pb::DECISION_REJECT: return "REJECT";
+    case pb::DECISION_NOT_INSPECTED: return "NOT INSPECTED";
+    default: return "?";
+  }
+}
+
+void print_fillet(const pb::FilletResult& f) {
+  std::printf("lane %d fillet %-5lld uid %-7lld %-13s", f.lane(), (long long)f.lane_fillet(),
+              (long long)f.uid(), decision_text(f.decision()));
+  if (!f.reason().empty()) std::printf(" %s", f.reason().c_str());
+  for (const auto& g : f.fragments())
+    if (g.kind() == "bone")
+      std::printf("  [bone at x %.1f mm, belt %.1f mm, %.1f mm2, z %.1f]", g.x_mm(), g.y_mm(), g.area_mm2(), g.peak_z());
+  std::printf("\n");
+}
+
+// The lines a feed sends, lane by lane in encoder order: from a recording or a simulation.
+class LineSource {
+ public:
+  virtual ~LineSource() = default;
+  virtual std::vector<int> lanes() const = 0;
+  virtual int64_t lines() const = 0;
+  virtual void line(int lane_index, int64_t n, pb::LineScan& out) = 0;
+};
+
+class RecordingSource : public LineSource {
+ public:
+  explicit RecordingSource(const std::string& dir) : rec_(dir) {}
+  std::vector<int> lanes() const override { return rec_.info().lanes; }
+  int64_t lines() const override { return rec_.info().lines; }
+  void line(int li, int64_t n, pb::LineScan& out) override {
+    const auto& info = rec_.info();
+    const size_t frame = size_t(info.width) * info.height;
+    std::string c0(frame, '\0'), c1(frame, '\0'), x(size_t(info.xray_pixels) * 2, '\0');
+    int64_t enc;
+    rec_.read(info.lanes[li], n, 1, reinterpret_cast<uint8_t*>(c0.data()), reinterpret_cast<uint8_t*>(c1.data()),
+              reinterpret_cast<uint16_t*>(x.data()), &enc);
+    out.set_lane(info.lanes[li]);
+    out.set_encoder(enc);
+    out.set_cam0(std::move(c0));
+    out.set_cam1(std::move(c1));
+    out.set_xray(std::move(x));
+    out.set_calibration_id(info.calibration_id);
+  }
+
+ private:
+  RecordingReader rec_;
+};
+
+class SimulatedSource : public LineSource {
+ public:
+  SimulatedSource(const PlantConfig& plant, const sim::SimulationParams& p) : plant_(plant) {
+    for (int i = 0; i < p.lanes; ++i) sims_.emplace_back(plant.lanes.at(i), p);
+    for (auto& s : sims_) lines_ = std::max(lines_, s.lines());
+  }
+  std::vector<int> lanes() const override {
+    std::vector<int> v;
+    for (size_t i = 0; i < sims_.size(); ++i) v.push_back(plant_.lanes[i].id);
+    return v;
+  }
+  int64_t lines() const override { return lines_; }
+  void line(int li, int64_t n, pb::LineScan& out) override {
+    const LaneConfig& lc = plant_.lanes[li];
+    const size_t frame = size_t(lc.frame_width) * lc.frame_height;
+    std::string c0(frame, '\0'), c1(frame, '\0'), x(size_t(lc.xray.pixels) * 2, '\0');
+    sims_[li].render(n, reinterpret_cast<uint8_t*>(c0.data()), reinterpret_cast<uint8_t*>(c1.data()),
+                     reinterpret_cast<uint16_t*>(x.data()), nullptr, nullptr, nullptr);
+    out.set_lane(lc.id);
+    out.set_encoder(sims_[li].encoder(n));
+    out.set_cam0(std::move(c0));
+    out.set_cam1(std::move(c1));
+    out.set_xray(std::move(x));
+  }
+
+ private:
+  const PlantConfig& plant_;
+  std::vector<sim::LaneSimulator> sims_;
+  int64_t lines_ = 0;
+};
+
+}  // namespace
+
+int cmd_feed(int argc, char** argv) {
+  const Args a(argc, argv, 2, {"simulate"},
+               {"server", "config", "recording", "lanes", "fillets", "seed", "rate", "window"});
+  a.expect_positionals(0, "feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]");
+  const PlantConfig plant = load_config(a.get("config", ""));
+  std::unique_ptr<LineSource> src;
+  if (a.has("recording")) {
+    src = std::make_unique<RecordingSource>(a.get("recording", ""));
+  } else if (a.flag("simulate")) {
+    sim::SimulationParams p;
+    p.lanes = int(a.integer("lanes", long(plant.lanes.size())));
+    p.scene.fillets = int(a.integer("fillets", 5));
+    p.seed = uint64_t(a.integer("seed", 1));
+    if (p.lanes < 1 || p.lanes > int(plant.lanes.size()))
+      fail("--lanes must be 1..", plant.lanes.size(), " (got ", p.lanes, ")");
+    src = std::make_unique<SimulatedSource>(plant, p);
+  } else {
+    fail("feed needs --recording DIR or --simulate");
+  }
+  const double rate = std::stod(a.get("rate", "0"));  // per lane; 0: as fast as possible
+  const int window = int(a.integer("window", 256));
+  auto stub = pb::IngestService::NewStub(channel(a, &plant));
+  grpc::ClientContext ctx;
+  auto stream = stub->StreamLines(&ctx);
+  std::atomic<int64_t> acked{0}, accepted{0}, refused{0};
+  std::mutex mu;
+  std::map<std::string, int64_t> errors;
+  std::thread reader([&] {
+    pb::StreamLinesResponse r;
+    while (stream->Read(&r)) {
+      if (r.accepted()) ++accepted;
+      else {
+        ++refused;
+        std::lock_guard<std::mutex> lock(mu);
+        if (errors[r.error().code()]++ < 3)
+          std::fprintf(stderr, "line %llu refused: %s: %s\n", (unsigned long long)r.sequence(),
+                       r.error().code().c_str(), r.error().message().c_str());
+      }
+      ++acked;
+    }
+  });
+  const auto lanes = src->lanes();
+  const auto t0 = std::chrono::steady_clock::now();
+  uint64_t seq = 0;
+  bool open = true;
+  for (int64_t n = 0; n < src->lines() && open; ++n) {
+    if (rate > 0)  // pace: line n of every lane leaves at n / rate seconds
+      std::this_thread::sleep_until(t0 + std::chrono::duration<double>(double(n) / rate));
+    for (size_t li = 0; li < lanes.size() && open; ++li) {
+      while (int64_t(seq) - acked.load() >= window) std::this_thread::sleep_for(std::chrono::microseconds(200));
+      pb::StreamLinesRequest req;
+      req.set_sequence(seq++);
+      src->line(int(li), n, *req.mutable_line());
+      open = stream->Write(req);
+    }
+  }
+  stream->WritesDone();
+  reader.join();
+  const grpc::Status st = stream->Finish();
+  const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("fed %llu lines over %zu lanes in %.1f s (%.0f lines/s): %lld accepted, %lld refused\n",
+              (unsigned long long)seq, lanes.size(), el, double(seq) / el, (long long)accepted.load(),
+              (long long)refused.load());
+  for (const auto& [code, n] : errors) std::printf("  %s: %lld\n", code.c_str(), (long long)n);
+  check(st, "feed");
+  return refused.load() ? 5 : 0;
+}
+
+int cmd_watch(int argc, char** argv) {
+  const Args a(argc, argv, 2, {}, {"server", "config", "lane", "decision", "count", "seconds"});
+  auto stub = pb::ResultsService::NewStub(channel(a));
+  pb::SubscribeFilletsRequest req;
+  if (a.has("lane")) req.add_lanes(int(a.integer("lane", 0)));
+  if (a.has("decision")) {
+    const std::string d = a.get("decision", "");
+    if (d == "pass") req.add_decisions(pb::DECISION_PASS);
+    else if (d == "reject") req.add_decisions(pb::DECISION_REJECT);
+    else if (d == "not_inspected") req.add_decisions(pb::DECISION_NOT_INSPECTED);
+    else fail("--decision must be pass, reject or not_inspected (got '", d, "')");
+  }
+  const long count = a.integer("count", 0);
+  grpc::ClientContext ctx;
+  if (a.has("seconds"))
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(a.integer("seconds", 0)));
+  auto reader = stub->SubscribeFillets(&ctx, req);
+  pb::SubscribeFilletsResponse r;
+  long seen = 0;
+  while (reader->Read(&r)) {
+    if (r.lagged()) std::printf("(this watcher was too slow: %llu results skipped)\n", (unsigned long long)r.lagged());
+    print_fillet(r.fillet());
+    std::fflush(stdout);
+    if (count && ++seen >= count) {
+      ctx.TryCancel();
+      break;
+    }
+  }
+  const grpc::Status st = reader->Finish();
+  if (!st.ok() && st.error_code() != grpc::StatusCode::DEADLINE_EXCEEDED && st.error_code() != grpc::StatusCode::CANCELLED)
+    check(st, "watch");
+  return 0;
+}
+
+int cmd_status(int argc, char** argv) {
+  const Args a(argc, argv, 2, {}, {"server", "config"});
+  auto ch = channel(a);
+  auto stub = pb::ControlService::NewStub(ch);
+  grpc::ClientContext c1, c2;
+  pb::GetServerInfoResponse info;
+  check(stub->GetServerInfo(&c1, {}, &info), "server info");
+  pb::GetStatisticsResponse s;
+  check(stub->GetStatistics(&c2, {}, &s), "statistics");
+  std::printf("%s, plant '%s', backend %s, store %s\n", info.version().c_str(), info.plant().c_str(),
+              info.backend().c_str(), info.storage().c_str());
+  std::printf("lines: %llu received, %llu processed, %.0f lines/s; queue %d of %d\n",
+              (unsigned long long)s.lines_received(), (unsigned long long)s.lines_processed(),
+              s.lines_per_second(), s.queue_depth(), s.queue_capacity());
+  std::printf("fillets: %llu (%llu rejected, %llu not inspected); %d subscribers\n",
+              (unsigned long long)s.fillets(), (unsigned long long)s.rejects(),
+              (unsigned long long)s.not_inspected(), s.subscribers());
+  for (const auto& d : s.drops()) std::printf("dropped %-22s %llu lines\n", d.reason().c_str(), (unsigned long long)d.lines());
+  for (const auto& l : s.latencies())
+    std::printf("latency %-22s p50 %8.2f ms  p99 %8.2f ms  (%llu)\n", l.stage().c_str(), l.p50_ms(), l.p99_ms(),
+                (unsigned long long)l.samples());
+  return 0;
+}
+
+int cmd_fillets(int argc, char** argv) {
+  const Args a(argc, argv, 2, {}, {"server", "config", "lane", "from-ns", "to-ns", "limit", "uid"});
+  auto stub = pb::ResultsService::NewStub(channel(a));
+  if (a.has("uid")) {
+    grpc::ClientContext ctx;
+    pb::GetFilletRequest req;
+    req.set_uid(a.integer("uid", 0));
+    pb::GetFilletResponse resp;
+    check(stub->GetFillet(&ctx, req, &resp), "fillet");
+    print_fillet(resp.fillet());
+    std::printf("  b0 %.6f  b1 %.6f  residual %.2f +- %.2f DN  calibration %s  belt %.1f mm\n", resp.fillet().beta0(),
+                resp.fillet().beta1(), resp.fillet().residual_mean_dn(), resp.fillet().residual_std_dn(),
+                resp.fillet().calibration_id().c_str(), resp.fillet().belt_y0_mm());
+    return 0;
+  }
+  const long limit = a.integer("limit", 50);
+  pb::ListFilletsRequest req;
+  req.set_lane(int(a.integer("lane", -1)));
+  req.set_from_ns(a.integer("from-ns", 0));
+  req.set_to_ns(a.integer("to-ns", 0));
+  req.set_page_size(int(std::min(limit, 500L)));
+  long shown = 0;
+  while (shown < limit) {
+    grpc::ClientContext ctx;
+    pb::ListFilletsResponse resp;
+    check(stub->ListFillets(&ctx, req, &resp), "list fillets");
+    for (const auto& f : resp.fillets())
+      if (shown++ < limit) print_fillet(f);
+    if (resp.next_page_token().empty()) break;
+    req.set_page_token(resp.next_page_token());
+  }
+  return 0;
+}
+
+int cmd_image(int argc, char** argv) {
+  const Args a(argc, argv, 2, {}, {"server", "config", "uid", "kind", "out"});
+  auto stub = pb::ResultsService::NewStub(channel(a));
+  grpc::ClientContext ctx;
+  pb::GetFilletImageRequest req;
+  req.set_uid(std::stoll(a.require("uid")));
+  req.set_kind(a.get("kind", "overlay"));
+  pb::GetFilletImageResponse resp;
+  check(stub->GetFilletImage(&ctx, req, &resp), "image");
+  const std::string out = a.require("out");
+  std::ofstream(out, std::ios::binary) << resp.png();
+  std::printf("wrote %s (%zu bytes)\n", out.c_str(), resp.png().size());
+  return 0;
+}
+
+int cmd_calib_remote(int argc, char** argv) {
+  const std::string verb = argv[2];
+  const Args a(argc, argv, 3, {}, {"server", "config", "lane", "id", "file", "who"});
+  auto stub = pb::CalibrationService::NewStub(channel(a));
+  grpc::ClientContext ctx;
+  const char* who = std::getenv("USER");
+  if (verb == "upload") {
+    std::ifstream in(a.require("file"));
+    if (!in) fail(a.require("file"), ": cannot open");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    pb::UploadCalibrationRequest req;
+    req.set_lane(int(a.integer("lane", 0)));
+    req.set_id(a.require("id"));
+    req.set_yaml(ss.str());
+    req.set_who(a.get("who", who ? who : "rangexctl"));
+    pb::UploadCalibrationResponse resp;
+    check(stub->UploadCalibration(&ctx, req, &resp), "upload");
+    std::printf("uploaded calibration '%s' for lane %d\n", resp.calibration().id().c_str(), resp.calibration().lane());
+  } else if (verb == "list") {
+    pb::ListCalibrationsRequest req;
+    req.set_lane(int(a.integer("lane", -1)));
+    pb::ListCalibrationsResponse resp;
+    check(stub->ListCalibrations(&ctx, req, &resp), "list");
+    for (const auto& c : resp.calibrations())
+      std::printf("lane %d  %-24s %s\n", c.lane(), c.id().c_str(), c.active() ? "active" : "");
+  } else if (verb == "activate") {
+    pb::ActivateCalibrationRequest req;
+    req.set_lane(int(a.integer("lane", 0)));
+    req.set_id(a.require("id"));
+    req.set_who(a.get("who", who ? who : "rangexctl"));
+    pb::ActivateCalibrationResponse resp;
+    check(stub->ActivateCalibration(&ctx, req, &resp), "activate");
+    std::printf("calibration '%s' of lane %d activated; it takes over at the next batch without a fillet in progress\n",
+                req.id().c_str(), req.lane());
+  } else {
+    fail("calib: unknown verb '", verb, "' (upload, list, activate, scatter)");
+  }
+  return 0;
+}
+
+int cmd_lanes(int argc, char** argv) {
+  const Args a(argc, argv, 2, {}, {"server", "config", "lane", "z-threshold", "min-area-mm2", "floor-mm", "who"});
+  auto stub = pb::ControlService::NewStub(channel(a));
+  if (a.positional().size() == 1 && a.positional()[0] == "set") {
+    grpc::ClientContext ctx;
+    pb::UpdateLaneThresholdsRequest req;
+    req.set_lane(int(std::stol(a.require("lane"))));
+    if (a.has("z-threshold")) req.set_z_threshold(std::stod(a.get("z-threshold", "")));
+    if (a.has("min-area-mm2")) req.set_min_fragment_area_mm2(std::stod(a.get("min-area-mm2", "")));
+    if (a.has("floor-mm")) req.set_floor_mm(std::stod(a.get("floor-mm", "")));
+    const char* who = std::getenv("USER");
+    req.set_who(a.get("who", who ? who : "rangexctl"));
+    pb::UpdateLaneThresholdsResponse resp;
+    check(stub->UpdateLaneThresholds(&ctx, req, &resp), "lane thresholds");
+    std::printf("lane %d: z threshold %.2f, min fragment %.2f mm2, floor %.2f mm\n", resp.lane().id(),
+                resp.lane().z_threshold(), resp.lane().min_fragment_area_mm2(), resp.lane().floor_mm());
+    return 0;
+  }
+  a.expect_positionals(0, "lanes  |  lanes set --lane L [--z-threshold Z] [--min-area-mm2 A] [--floor-mm F]");
+  grpc::ClientContext ctx;
+  pb::ListLanesResponse resp;
+  check(stub->ListLanes(&ctx, {}, &resp), "lanes");
+  for (const auto& l : resp.lanes())
+    std::printf("lane %d: %dx%d frames, %d X-ray pixels, %.2f mm/line, calibration %s, z %.1f, min %.2f mm2, floor %.1f mm\n",
+                l.id(), l.frame_width(), l.frame_height(), l.xray_pixels(), l.encoder_step_mm(),
+                l.calibration_id().c_str(), l.z_threshold(), l.min_fragment_area_mm2(), l.floor_mm());
+  return 0;
+}
+
+}  // namespace rangex::cli

@@ -1,0 +1,258 @@
+#include "service/store.h"
+
+#include <sqlite3.h>
+
+#include <chrono>
+#include <filesystem>
+
+#include "core/error.h"
+
+namespace fs = std::filesystem;
+
+namespace rangex {
+
+int64_t now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+namespace {
+// A prepared statement that finalises itself.
+class Stmt {
+ public:
+  Stmt(sqlite3* db, const char* sql) : db_(db) {
+    if (sqlite3_prepare_v2(db, sql, -1, &s_, nullptr) != SQLITE_OK)
+      fail("store: cannot prepare '", sql, "': ", sqlite3_errmsg(db));
+  }
+  ~Stmt() { sqlite3_finalize(s_); }
+  Stmt& bind(int i, int64_t v) {
+    sqlite3_bind_int64(s_, i, v);
+    return *this;
+  }
+  Stmt& bind(int i, double v) {
+    sqlite3_bind_double(s_, i, v);
+    return *this;
+  }
+  Stmt& bind(int i, const std::string& v) {
+    sqlite3_bind_text(s_, i, v.c_str(), int(v.size()), SQLITE_TRANSIENT);
+    return *this;
+  }
+  bool step() {
+    const int rc = sqlite3_step(s_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    fail("store: ", sqlite3_errmsg(db_));
+  }
+  int64_t i64(int c) const { return sqlite3_column_int64(s_, c); }
+  double dbl(int c) const { return sqlite3_column_double(s_, c); }
+  std::string str(int c) const {
+    const auto* t = sqlite3_column_text(s_, c);
+    return t ? reinterpret_cast<const char*>(t) : "";
+  }
+
+ private:
+  sqlite3* db_;
+  sqlite3_stmt* s_ = nullptr;
+};
+
+StoredFillet fillet_row(const Stmt& q) {
+  StoredFillet f;
+  f.uid = q.i64(0);
+  f.lane = int(q.i64(1));
+  f.lane_fillet = q.i64(2);
+  f.first_encoder = q.i64(3);
+  f.rows = int(q.i64(4));
+  f.decision = q.str(5);
+  f.reason = q.str(6);
+  f.beta0 = q.dbl(7);
+  f.beta1 = q.dbl(8);
+  f.resid_mean_dn = q.dbl(9);
+  f.resid_std_dn = q.dbl(10);
+  f.calibration_id = q.str(11);
+  f.decided_ns = q.i64(12);
+  f.belt_y0_mm = q.dbl(13);
+  return f;
+}
+constexpr const char* kFilletColumns =
+    "uid, lane, lane_fillet, first_encoder, rows, decision, reason, beta0, beta1, "
+    "resid_mean_dn, resid_std_dn, calibration_id, decided_ns, belt_y0_mm";
+}  // namespace
+
+Store::Store(const std::string& dir) : dir_(dir) {
+  fs::create_directories(fs::path(dir) / "images");
+  const std::string path = (fs::path(dir) / "rangex.sqlite").string();
+  if (sqlite3_open(path.c_str(), &db_) != SQLITE_OK) {
+    const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    fail(path, ": cannot open the store: ", why);
+  }
+  exec("PRAGMA journal_mode=WAL");
+  exec("PRAGMA synchronous=NORMAL");
+  exec("CREATE TABLE IF NOT EXISTS fillets (uid INTEGER PRIMARY KEY AUTOINCREMENT, lane INTEGER, "
+       "lane_fillet INTEGER, first_encoder INTEGER, rows INTEGER, decision TEXT, reason TEXT, "
+       "beta0 REAL, beta1 REAL, resid_mean_dn REAL, resid_std_dn REAL, calibration_id TEXT, "
+       "decided_ns INTEGER, belt_y0_mm REAL)");
+  exec("CREATE INDEX IF NOT EXISTS fillets_time ON fillets(decided_ns)");
+  exec("CREATE TABLE IF NOT EXISTS fragments (fillet_uid INTEGER, kind TEXT, x_mm REAL, "
+       "y_mm REAL, area_mm2 REAL, peak_z REAL, attenuation_mm2 REAL)");
+  exec("CREATE INDEX IF NOT EXISTS fragments_fillet ON fragments(fillet_uid)");
+  exec("CREATE TABLE IF NOT EXISTS images (fillet_uid INTEGER, kind TEXT, path TEXT, "
+       "PRIMARY KEY(fillet_uid, kind))");
+  exec("CREATE TABLE IF NOT EXISTS calibrations (lane INTEGER, id TEXT, yaml TEXT, "
+       "uploaded_ns INTEGER, active INTEGER, PRIMARY KEY(lane, id))");
+  exec("CREATE TABLE IF NOT EXISTS audit (ts_ns INTEGER, who TEXT, what TEXT, detail TEXT)");
+}
+
+Store::~Store() { sqlite3_close(db_); }
+
+void Store::exec(const std::string& sql) {
+  char* err = nullptr;
+  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
+    const std::string why = err ? err : "?";
+    sqlite3_free(err);
+    fail("store: ", why, " (", sql, ")");
+  }
+}
+
+int64_t Store::add_fillet(const StoredFillet& f) {
+  std::lock_guard<std::mutex> lock(mu_);
+  exec("BEGIN");
+  try {
+    Stmt q(db_,
+           "INSERT INTO fillets (lane, lane_fillet, first_encoder, rows, decision, reason, beta0, "
+           "beta1, resid_mean_dn, resid_std_dn, calibration_id, decided_ns, belt_y0_mm) "
+           "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)");
+    q.bind(1, int64_t(f.lane)).bind(2, f.lane_fillet).bind(3, f.first_encoder).bind(4, int64_t(f.rows));
+    q.bind(5, f.decision).bind(6, f.reason).bind(7, f.beta0).bind(8, f.beta1);
+    q.bind(9, f.resid_mean_dn).bind(10, f.resid_std_dn).bind(11, f.calibration_id);
+    q.bind(12, f.decided_ns).bind(13, f.belt_y0_mm);
+    q.step();
+    const int64_t uid = sqlite3_last_insert_rowid(db_);
+    for (const StoredFragment& g : f.fragments) {
+      Stmt r(db_, "INSERT INTO fragments VALUES (?,?,?,?,?,?,?)");
+      r.bind(1, uid).bind(2, g.kind).bind(3, g.x_mm).bind(4, g.y_mm).bind(5, g.area_mm2);
+      r.bind(6, g.peak_z).bind(7, g.attenuation_mm2);
+      r.step();
+    }
+    exec("COMMIT");
+    return uid;
+  } catch (...) {
+    exec("ROLLBACK");
+    throw;
+  }
+}
+
+std::string Store::image_dir(int64_t uid) const {
+  return (fs::path(dir_) / "images" / std::to_string(uid)).string();
+}
+
+void Store::add_image(int64_t uid, const std::string& kind, const std::string& path) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt q(db_, "INSERT OR REPLACE INTO images VALUES (?,?,?)");
+  q.bind(1, uid).bind(2, kind).bind(3, path);
+  q.step();
+}
+
+std::optional<std::string> Store::image_path(int64_t uid, const std::string& kind) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt q(db_, "SELECT path FROM images WHERE fillet_uid = ? AND kind = ?");
+  q.bind(1, uid).bind(2, kind);
+  if (!q.step()) return std::nullopt;
+  return q.str(0);
+}
+
+std::optional<StoredFillet> Store::fillet(int64_t uid) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt q(db_, (std::string("SELECT ") + kFilletColumns + " FROM fillets WHERE uid = ?").c_str());
+  q.bind(1, uid);
+  if (!q.step()) return std::nullopt;
+  StoredFillet f = fillet_row(q);
+  Stmt g(db_, "SELECT kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2 FROM fragments WHERE fillet_uid = ?");
+  g.bind(1, uid);
+  while (g.step()) f.fragments.push_back({g.str(0), g.dbl(1), g.dbl(2), g.dbl(3), g.dbl(4), g.dbl(5)});
+  return f;
+}
+
+std::vector<StoredFillet> Store::list_fillets(int64_t from_ns, int64_t to_ns, int lane,
+                                              int64_t after, int limit) {
+  std::vector<StoredFillet> out;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    Stmt q(db_, (std::string("SELECT ") + kFilletColumns +
+                 " FROM fillets WHERE decided_ns >= ? AND (? = 0 OR decided_ns < ?) AND (? < 0 OR "
+                 "lane = ?) AND uid > ? ORDER BY uid LIMIT ?")
+                    .c_str());
+    q.bind(1, from_ns).bind(2, to_ns).bind(3, to_ns).bind(4, int64_t(lane)).bind(5, int64_t(lane));
+    q.bind(6, after).bind(7, int64_t(limit));
+    while (q.step()) out.push_back(fillet_row(q));
+  }
+  for (StoredFillet& f : out) {
+    std::lock_guard<std::mutex> lock(mu_);
+    Stmt g(db_, "SELECT kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2 FROM fragments WHERE fillet_uid = ?");
+    g.bind(1, f.uid);
+    while (g.step()) f.fragments.push_back({g.str(0), g.dbl(1), g.dbl(2), g.dbl(3), g.dbl(4), g.dbl(5)});
+  }
+  return out;
+}
+
+int64_t Store::count_fillets() {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt q(db_, "SELECT COUNT(*) FROM fillets");
+  q.step();
+  return q.i64(0);
+}
+
+void Store::add_calibration(const StoredCalibration& c) {
+  std::lock_guard<std::mutex> lock(mu_);
+  {
+    Stmt e(db_, "SELECT 1 FROM calibrations WHERE lane = ? AND id = ?");
+    e.bind(1, int64_t(c.lane)).bind(2, c.id);
+    if (e.step()) fail("lane ", c.lane, " already has a calibration '", c.id, "' (versions are immutable)");
+  }
+  Stmt q(db_, "INSERT INTO calibrations VALUES (?,?,?,?,?)");
+  q.bind(1, int64_t(c.lane)).bind(2, c.id).bind(3, c.yaml).bind(4, c.uploaded_ns).bind(5, int64_t(c.active));
+  q.step();
+}
+
+std::vector<StoredCalibration> Store::calibrations(int lane) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt q(db_, "SELECT lane, id, yaml, uploaded_ns, active FROM calibrations WHERE (? < 0 OR lane = ?) ORDER BY lane, uploaded_ns");
+  q.bind(1, int64_t(lane)).bind(2, int64_t(lane));
+  std::vector<StoredCalibration> out;
+  while (q.step()) out.push_back({int(q.i64(0)), q.str(1), q.str(2), q.i64(3), q.i64(4) != 0});
+  return out;
+}
+
+std::optional<StoredCalibration> Store::calibration(int lane, const std::string& id) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt q(db_, "SELECT lane, id, yaml, uploaded_ns, active FROM calibrations WHERE lane = ? AND id = ?");
+  q.bind(1, int64_t(lane)).bind(2, id);
+  if (!q.step()) return std::nullopt;
+  return StoredCalibration{int(q.i64(0)), q.str(1), q.str(2), q.i64(3), q.i64(4) != 0};
+}
+
+void Store::set_active_calibration(int lane, const std::string& id) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt a(db_, "UPDATE calibrations SET active = (id = ?) WHERE lane = ?");
+  a.bind(1, id).bind(2, int64_t(lane));
+  a.step();
+}
+
+void Store::audit(const std::string& who, const std::string& what, const std::string& detail) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt q(db_, "INSERT INTO audit VALUES (?,?,?,?)");
+  q.bind(1, now_ns()).bind(2, who.empty() ? std::string("unknown") : who).bind(3, what).bind(4, detail);
+  q.step();
+}
+
+std::vector<std::string> Store::audit_log(int limit) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt q(db_, "SELECT ts_ns, who, what, detail FROM (SELECT rowid, * FROM audit ORDER BY rowid DESC LIMIT ?) ORDER BY rowid");
+  q.bind(1, int64_t(limit));
+  std::vector<std::string> out;
+  while (q.step()) out.push_back(std::to_string(q.i64(0)) + " " + q.str(1) + " " + q.str(2) + " " + q.str(3));
+  return out;
+}
+
+}  // namespace rangex
