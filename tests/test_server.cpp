@@ -1,0 +1,400 @@
+// rangexd end to end on loopback: an in-process server, real gRPC clients.
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <map>
+#include <thread>
+
+#include "core/plant_config.h"
+#include "core/recording.h"
+#include "rangex/v1/rangex.grpc.pb.h"
+#include "replay.h"
+#include "service/server.h"
+#include "sim/plant_simulator.h"
+#include "temp_dir.h"
+
+using namespace rangex;
+namespace pb = rangex::v1;
+
+namespace {
+
+PlantConfig plant() { return load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml"); }
+
+ServerOptions options(const test::TempDir& t, size_t queue = 2048) {
+  ServerOptions o;
+  o.listen = "127.0.0.1:0";
+  o.data_dir = t.str("data");
+  o.engine.queue_capacity = queue;
+  o.engine.threads = 2;
+  return o;
+}
+
+std::shared_ptr<grpc::Channel> connect(const RangexServer& s) {
+  grpc::ChannelArguments args;
+  args.SetMaxSendMessageSize(64 << 20);
+  return grpc::CreateCustomChannel(s.address(), grpc::InsecureChannelCredentials(), args);
+}
+
+// Lines of one simulated lane, in memory.
+struct Lines {
+  std::vector<pb::LineScan> lines;
+  Lines(const PlantConfig& p, int fillets, uint64_t seed, int lane = 0) {
+    sim::SimulationParams sp;
+    sp.scene.fillets = fillets;
+    sp.seed = seed;
+    const LaneConfig& lc = p.lane(lane);
+    const sim::LaneSimulator sim(lc, sp);
+    const size_t frame = size_t(lc.frame_width) * lc.frame_height;
+    for (int64_t n = 0; n < sim.lines(); ++n) {
+      pb::LineScan l;
+      std::string c0(frame, '\0'), c1(frame, '\0'), x(size_t(lc.xray.pixels) * 2, '\0');
+      sim.render(n, reinterpret_cast<uint8_t*>(c0.data()), reinterpret_cast<uint8_t*>(c1.data()),
+                 reinterpret_cast<uint16_t*>(x.data()), nullptr, nullptr, nullptr);
+      l.set_lane(lane);
+      l.set_encoder(sim.encoder(n));
+      l.set_cam0(std::move(c0));
+      l.set_cam1(std::move(c1));
+      l.set_xray(std::move(x));
+      lines.push_back(std::move(l));
+    }
+  }
+};
+
+// Streams lines, returns the acks in order.
+std::vector<pb::StreamLinesResponse> stream(const std::shared_ptr<grpc::Channel>& ch,
+                                            const std::vector<pb::LineScan>& lines) {
+  auto stub = pb::IngestService::NewStub(ch);
+  grpc::ClientContext ctx;
+  auto s = stub->StreamLines(&ctx);
+  std::vector<pb::StreamLinesResponse> acks;
+  std::thread reader([&] {
+    pb::StreamLinesResponse r;
+    while (s->Read(&r)) acks.push_back(r);
+  });
+  uint64_t seq = 0;
+  for (const auto& l : lines) {
+    pb::StreamLinesRequest req;
+    req.set_sequence(seq++);
+    *req.mutable_line() = l;
+    if (!s->Write(req)) break;
+  }
+  s->WritesDone();
+  reader.join();
+  EXPECT_TRUE(s->Finish().ok());
+  return acks;
+}
+
+std::vector<StoredFillet> all_fillets(Store& st) { return st.list_fillets(0, 0, -1, 0, 100000); }
+
+}  // namespace
+
+TEST(Server, DecisionsEqualOfflineProcess) {
+  test::TempDir t;
+  const PlantConfig p = plant();
+  sim::SimulationParams sp;
+  sp.lanes = 1;
+  sp.scene.fillets = 3;
+  sp.seed = 2;
+  sim::simulate_recording(p, sp, t.str("rec"));
+  const RecordingReader rec(t.str("rec"));
+  const auto offline = replay_recording(rec, p, {});
+  ASSERT_EQ(offline.size(), 1u);
+  ASSERT_GE(offline[0].fillets.size(), 3u);
+
+  std::vector<pb::LineScan> lines;
+  const size_t frame = 640 * 200;
+  for (int64_t n = 0; n < rec.info().lines; ++n) {
+    pb::LineScan l;
+    std::string c0(frame, '\0'), c1(frame, '\0'), x(480 * 2, '\0');
+    int64_t enc;
+    rec.read(0, n, 1, reinterpret_cast<uint8_t*>(c0.data()), reinterpret_cast<uint8_t*>(c1.data()),
+             reinterpret_cast<uint16_t*>(x.data()), &enc);
+    l.set_lane(0);
+    l.set_encoder(enc);
+    l.set_cam0(c0);
+    l.set_cam1(c1);
+    l.set_xray(x);
+    l.set_calibration_id(rec.info().calibration_id);
+    lines.push_back(std::move(l));
+  }
+  RangexServer server(p, options(t));
+  const auto acks = stream(connect(server), lines);
+  ASSERT_EQ(acks.size(), lines.size());
+  for (const auto& a : acks) ASSERT_TRUE(a.accepted()) << a.error().message();
+  server.shutdown();  // drains and closes the last fillet, as the offline replay does at its end
+  const auto online = all_fillets(server.store());
+  ASSERT_EQ(online.size(), offline[0].fillets.size());
+  for (size_t i = 0; i < online.size(); ++i) {
+    const FilletResult& o = offline[0].fillets[i].result;
+    EXPECT_EQ(online[i].lane_fillet, o.id);
+    EXPECT_EQ(online[i].decision, decision_name(o.decision)) << "fillet " << i;
+    EXPECT_EQ(online[i].first_encoder, o.first_encoder);
+    EXPECT_NEAR(online[i].beta1, o.fit.beta1, 1e-12);
+    size_t bones = 0;
+    for (const auto& f : online[i].fragments) bones += f.kind == "bone";
+    EXPECT_EQ(bones, o.fragments.size());
+  }
+}
+
+TEST(Server, BadInputGetsInBandErrorsAndTheStreamCarriesOn) {
+  test::TempDir t;
+  const PlantConfig p = plant();
+  RangexServer server(p, options(t));
+  const Lines good(p, 1, 5);
+  auto bad = [&](std::function<void(pb::LineScan&)> f, int64_t enc) {
+    pb::LineScan l = good.lines[0];
+    l.set_encoder(enc);
+    f(l);
+    return l;
+  };
+  std::vector<pb::LineScan> seq = {
+      good.lines[0],                                                               // ok
+      bad([](pb::LineScan& l) { l.mutable_cam0()->resize(100); }, 1001),           // frame size
+      bad([](pb::LineScan& l) { l.set_lane(9); }, 1001),                           // lane
+      bad([](pb::LineScan&) {}, 999),                                              // backwards
+      bad([](pb::LineScan&) {}, 1000),                                             // duplicate
+      bad([](pb::LineScan& l) { l.mutable_cam1()->resize(10 << 20); }, 1001),      // oversized
+      bad([](pb::LineScan& l) { l.mutable_xray()->resize(7); }, 1001),             // X-ray size
+      bad([](pb::LineScan& l) { l.set_calibration_id("line-9-old"); }, 1001),      // calibration
+      good.lines[1],                                                               // ok again
+  };
+  const auto acks = stream(connect(server), seq);
+  ASSERT_EQ(acks.size(), seq.size());
+  const std::vector<std::string> codes = {"",                 "WRONG_FRAME_SIZE", "UNKNOWN_LANE",
+                                          "ENCODER_BACKWARDS", "DUPLICATE_LINE",  "OVERSIZED",
+                                          "WRONG_XRAY_SIZE",   "CALIBRATION_MISMATCH", ""};
+  for (size_t i = 0; i < acks.size(); ++i) {
+    EXPECT_EQ(acks[i].sequence(), i);
+    EXPECT_EQ(acks[i].accepted(), codes[i].empty()) << i;
+    EXPECT_EQ(acks[i].error().code(), codes[i]) << i << ": " << acks[i].error().message();
+    if (!codes[i].empty()) EXPECT_FALSE(acks[i].error().message().empty());
+    EXPECT_GT(acks[i].credit(), 0);
+  }
+  const EngineStats s = server.engine().stats();
+  EXPECT_EQ(s.drops.at("WRONG_FRAME_SIZE"), 1u);
+  EXPECT_EQ(s.drops.at("DUPLICATE_LINE"), 1u);
+}
+
+TEST(Server, ClientDisconnectMidStreamLeavesNothingBehind) {
+  test::TempDir t;
+  const PlantConfig p = plant();
+  RangexServer server(p, options(t));
+  const Lines lines(p, 1, 6);
+  auto ch = connect(server);
+  {
+    auto stub = pb::IngestService::NewStub(ch);
+    grpc::ClientContext ctx;
+    auto s = stub->StreamLines(&ctx);
+    for (int i = 0; i < 100; ++i) {
+      pb::StreamLinesRequest req;
+      req.set_sequence(i);
+      *req.mutable_line() = lines.lines[i];
+      s->Write(req);
+    }
+    pb::StreamLinesResponse r;
+    int acked = 0;
+    while (acked < 100 && s->Read(&r)) ++acked;
+    ctx.TryCancel();  // gone without WritesDone
+  }
+  // Another client carries on from where the first stopped.
+  const std::vector<pb::LineScan> rest(lines.lines.begin() + 100, lines.lines.end());
+  const auto acks = stream(ch, rest);
+  for (const auto& a : acks) ASSERT_TRUE(a.accepted()) << a.error().message();
+  server.shutdown();
+  const EngineStats s = server.engine().stats();
+  EXPECT_EQ(s.processed, lines.lines.size());
+  EXPECT_GE(s.fillets, 1u);
+  for (const auto& f : all_fillets(server.store())) EXPECT_NE(f.decision, "not_inspected") << f.reason;
+}
+
+TEST(Server, OverloadDropsAreCountedAndFilletsFailSafe) {
+  test::TempDir t;
+  const PlantConfig p = plant();
+  RangexServer server(p, options(t, 64));
+  const Lines lines(p, 1, 7);
+  auto ch = connect(server);
+  // Feed in small chunks that the worker keeps up with, except for a stretch in the middle
+  // of the fillet during which the worker stalls: the queue of 64 overflows there.
+  const size_t mid = lines.lines.size() / 2, stall = 200;
+  auto drained = [&] {
+    while (server.engine().stats().queue_depth > 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  };
+  auto chunked = [&](size_t from, size_t to) {
+    for (size_t i = from; i < to; i += 32) {
+      stream(ch, {lines.lines.begin() + long(i), lines.lines.begin() + long(std::min(to, i + 32))});
+      drained();
+    }
+  };
+  chunked(0, mid);
+  server.engine().pause(true);
+  const auto acks = stream(ch, {lines.lines.begin() + long(mid), lines.lines.begin() + long(mid + stall)});
+  server.engine().pause(false);
+  drained();
+  chunked(mid + stall, lines.lines.size());
+  size_t overload = 0;
+  for (const auto& a : acks) overload += a.error().code() == "OVERLOAD";
+  EXPECT_EQ(overload, stall - 64);
+  server.shutdown();
+  const EngineStats s = server.engine().stats();
+  EXPECT_EQ(s.drops.at("OVERLOAD"), overload);
+  EXPECT_EQ(s.processed, lines.lines.size() - overload);
+  // The fillet whose lines were dropped is rejected as not inspected, never passed.
+  const auto fillets = all_fillets(server.store());
+  ASSERT_EQ(fillets.size(), 1u);
+  EXPECT_EQ(fillets[0].decision, "not_inspected");
+  EXPECT_NE(fillets[0].reason.find("lines missing"), std::string::npos) << fillets[0].reason;
+}
+
+TEST(Server, CalibrationActivatesBetweenFillets) {
+  test::TempDir t;
+  const PlantConfig p = plant();
+  RangexServer server(p, options(t));
+  auto ch = connect(server);
+  auto cal = pb::CalibrationService::NewStub(ch);
+  {  // malformed calibrations are refused, naming the key
+    grpc::ClientContext c1, c2;
+    pb::UploadCalibrationRequest bad;
+    bad.set_lane(0);
+    bad.set_id("broken");
+    bad.set_yaml("cameras:\n  - intrinsics: {fx: .nan}\n  - {}\n");
+    pb::UploadCalibrationResponse r;
+    const grpc::Status s1 = cal->UploadCalibration(&c1, bad, &r);
+    EXPECT_EQ(s1.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_NE(s1.error_message().find("intrinsics.fx: must be finite"), std::string::npos) << s1.error_message();
+    bad.set_yaml("laser_plane: {offset_mm: [1, 2]}\n");
+    EXPECT_EQ(cal->UploadCalibration(&c2, bad, &r).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  }
+  {
+    grpc::ClientContext c;
+    pb::UploadCalibrationRequest up;
+    up.set_lane(0);
+    up.set_id("recal-2026-11-22");
+    up.set_yaml("laser_plane: {normal: [0, 1, 0], offset_mm: 0.05}\n");
+    up.set_who("test");
+    pb::UploadCalibrationResponse r;
+    ASSERT_TRUE(cal->UploadCalibration(&c, up, &r).ok());
+  }
+  const Lines lines(p, 4, 8);
+  const size_t half = lines.lines.size() / 2;
+  auto acks = stream(ch, {lines.lines.begin(), lines.lines.begin() + long(half)});
+  {
+    grpc::ClientContext c;
+    pb::ActivateCalibrationRequest act;
+    act.set_lane(0);
+    act.set_id("recal-2026-11-22");
+    act.set_who("test");
+    pb::ActivateCalibrationResponse r;
+    ASSERT_TRUE(cal->ActivateCalibration(&c, act, &r).ok());
+    EXPECT_TRUE(r.pending());
+  }
+  auto acks2 = stream(ch, {lines.lines.begin() + long(half), lines.lines.end()});
+  for (const auto* list : {&acks, &acks2})
+    for (const auto& a : *list) ASSERT_TRUE(a.accepted()) << a.error().message();
+  server.shutdown();
+  EXPECT_EQ(server.engine().stats().processed, lines.lines.size());  // no line lost
+  const auto fillets = all_fillets(server.store());
+  ASSERT_GE(fillets.size(), 4u);
+  // Every fillet ran under one calibration; the switch happened once, between fillets.
+  int switches = 0;
+  for (size_t i = 1; i < fillets.size(); ++i) switches += fillets[i].calibration_id != fillets[i - 1].calibration_id;
+  EXPECT_EQ(fillets.front().calibration_id, p.calibration_id);
+  EXPECT_EQ(fillets.back().calibration_id, "recal-2026-11-22");
+  EXPECT_EQ(switches, 1);
+  const auto log = server.store().audit_log(20);
+  bool audited = false;
+  for (const auto& l : log) audited |= l.find("test calibration.activate lane 0 id recal-2026-11-22") != std::string::npos;
+  EXPECT_TRUE(audited);
+}
+
+TEST(Server, RestartKeepsResultsAndCalibrations) {
+  test::TempDir t;
+  const PlantConfig p = plant();
+  const Lines lines(p, 2, 9);
+  size_t stored = 0;
+  {
+    RangexServer server(p, options(t));
+    server.engine().upload_calibration(0, "cal-b", "laser_plane: {offset_mm: 0.0}\n", "test");
+    server.engine().activate_calibration(0, "cal-b", "test");
+    stream(connect(server), lines.lines);
+    server.shutdown();
+    stored = all_fillets(server.store()).size();
+    ASSERT_GE(stored, 2u);
+  }
+  RangexServer again(p, options(t));
+  EXPECT_EQ(all_fillets(again.store()).size(), stored);
+  EXPECT_EQ(again.engine().calibration_of(0), "cal-b");
+  auto results = pb::ResultsService::NewStub(connect(again));
+  grpc::ClientContext c;
+  pb::ListFilletsRequest req;
+  req.set_lane(-1);
+  req.set_page_size(1);
+  pb::ListFilletsResponse resp;
+  ASSERT_TRUE(results->ListFillets(&c, req, &resp).ok());
+  EXPECT_EQ(resp.fillets_size(), 1);
+  EXPECT_FALSE(resp.next_page_token().empty());
+}
+
+namespace {
+// Raw unary call through the generic stub (no generated code for grpc.health.v1).
+grpc::Status generic_unary(const std::shared_ptr<grpc::Channel>& ch, const std::string& method,
+                           const std::string& request, std::string& response) {
+  grpc::GenericStub stub(ch);
+  grpc::ClientContext ctx;
+  grpc::CompletionQueue cq;
+  grpc::Slice slice(request);
+  grpc::ByteBuffer req(&slice, 1), resp;
+  auto call = stub.PrepareUnaryCall(&ctx, method, req, &cq);
+  call->StartCall();
+  grpc::Status status;
+  call->Finish(&resp, &status, reinterpret_cast<void*>(1));
+  void* tag;
+  bool ok;
+  cq.Next(&tag, &ok);
+  std::vector<grpc::Slice> slices;
+  if (status.ok()) {
+    resp.Dump(&slices);
+    for (auto& s : slices) response.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  }
+  return status;
+}
+}  // namespace
+
+TEST(Server, HealthAndReflectionAnswer) {
+  test::TempDir t;
+  RangexServer server(plant(), options(t));
+  auto ch = connect(server);
+  std::string resp;
+  ASSERT_TRUE(generic_unary(ch, "/grpc.health.v1.Health/Check", "", resp).ok());
+  EXPECT_EQ(resp, std::string("\x08\x01", 2));  // status: SERVING
+  // Reflection: list_services (field 7, empty string) on the bidirectional stream.
+  grpc::GenericStub stub(ch);
+  grpc::ClientContext ctx;
+  grpc::CompletionQueue cq;
+  auto call = stub.PrepareCall(&ctx, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &cq);
+  void* tag;
+  bool ok;
+  call->StartCall(reinterpret_cast<void*>(1));
+  ASSERT_TRUE(cq.Next(&tag, &ok) && ok);
+  grpc::Slice slice(std::string("\x3a\x00", 2));
+  grpc::ByteBuffer req(&slice, 1), out;
+  call->Write(req, reinterpret_cast<void*>(2));
+  ASSERT_TRUE(cq.Next(&tag, &ok) && ok);
+  call->Read(&out, reinterpret_cast<void*>(3));
+  ASSERT_TRUE(cq.Next(&tag, &ok) && ok);
+  std::vector<grpc::Slice> slices;
+  out.Dump(&slices);
+  std::string bytes;
+  for (auto& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  for (const char* svc : {"rangex.v1.IngestService", "rangex.v1.ResultsService",
+                          "rangex.v1.CalibrationService", "rangex.v1.ControlService", "grpc.health.v1.Health"})
+    EXPECT_NE(bytes.find(svc), std::string::npos) << svc;
+  ctx.TryCancel();
+  grpc::Status st;
+  call->Finish(&st, reinterpret_cast<void*>(4));
+  cq.Next(&tag, &ok);
+  cq.Shutdown();
+  while (cq.Next(&tag, &ok)) {
+  }
+}
