@@ -176,18 +176,24 @@ void Engine::process(std::vector<Queued>& batch) {
     std::vector<const Queued*> mine;
     for (const Queued& q : batch)
       if (q.line.lane == l.id) mine.push_back(&q);
-    {
-      // A pending calibration or threshold change takes over at this batch boundary, once
-      // the lane has no fillet in progress.
+    // A pending calibration or threshold change takes over at a batch boundary at which the
+    // lane has no fillet in progress. While one is pending, the lane's share is pushed line
+    // by line, so that every line boundary is such a candidate (quiet stretches between
+    // close fillets can be shorter than a batch).
+    auto apply_pending = [&] {
       std::lock_guard<std::mutex> lock(l.mu);
-      if (l.pending && l.proc->quiet()) {
-        l.proc->reconfigure(*l.pending);
-        l.config = *l.pending;
-        if (!l.pending_id.empty()) l.calibration_id = l.pending_id;
-        l.pending.reset();
-        l.pending_id.clear();
-      }
-    }
+      if (!l.pending || !l.proc->quiet()) return;
+      l.proc->reconfigure(*l.pending);
+      l.config = *l.pending;
+      if (!l.pending_id.empty()) l.calibration_id = l.pending_id;
+      l.pending.reset();
+      l.pending_id.clear();
+    };
+    auto has_pending = [&] {
+      std::lock_guard<std::mutex> lock(l.mu);
+      return l.pending.has_value();
+    };
+    apply_pending();
     if (mine.empty()) continue;
     const size_t frame = size_t(l.width) * l.height;
     std::vector<uint8_t> frames(frame * 2 * mine.size());
@@ -201,7 +207,14 @@ void Engine::process(std::vector<Queued>& batch) {
     }
     const auto t0 = steady_ns();
     const double insp_before = l.proc->inspection_seconds();
-    l.proc->push(int(mine.size()), frames.data(), xray.data(), enc.data());
+    if (!has_pending()) {
+      l.proc->push(int(mine.size()), frames.data(), xray.data(), enc.data());
+    } else {
+      for (size_t k = 0; k < mine.size(); ++k) {
+        apply_pending();
+        l.proc->push(1, &frames[frame * 2 * k], &xray[size_t(l.pixels) * k], &enc[k]);
+      }
+    }
     const double insp = l.proc->inspection_seconds() - insp_before;
     pipeline_.add((steady_ns() - t0) / 1e6 - insp * 1e3);
   }
