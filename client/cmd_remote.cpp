@@ -146,11 +146,13 @@ int cmd_feed(int argc, char** argv) {
   grpc::ClientContext ctx;
   auto stream = stub->StreamLines(&ctx);
   std::atomic<int64_t> acked{0}, accepted{0}, refused{0};
+  std::atomic<int> credit{1 << 20};
   std::mutex mu;
   std::map<std::string, int64_t> errors;
   std::thread reader([&] {
     pb::StreamLinesResponse r;
     while (stream->Read(&r)) {
+      credit = r.credit();
       if (r.accepted()) ++accepted;
       else {
         ++refused;
@@ -170,7 +172,13 @@ int cmd_feed(int argc, char** argv) {
     if (rate > 0)  // pace: line n of every lane leaves at n / rate seconds
       std::this_thread::sleep_until(t0 + std::chrono::duration<double>(double(n) / rate));
     for (size_t li = 0; li < lanes.size() && open; ++li) {
-      while (int64_t(seq) - acked.load() >= window) std::this_thread::sleep_for(std::chrono::microseconds(200));
+      // Flow control: a window of unacknowledged lines, and the server's credit (a line sent
+      // into a full queue would be dropped).
+      while (int64_t(seq) - acked.load() >= window || (credit.load() < window && int64_t(seq) > acked.load()))
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+      // Credit is as fresh as the last ack: with nothing outstanding, wait a little, then
+      // send one line to hear the current credit.
+      if (credit.load() < window) std::this_thread::sleep_for(std::chrono::milliseconds(20));
       pb::StreamLinesRequest req;
       req.set_sequence(seq++);
       src->line(int(li), n, *req.mutable_line());

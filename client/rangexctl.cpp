@@ -27,6 +27,9 @@ commands:
   bench [--frames N]
       stripe extraction and inspection throughput beside their baselines
 
+  bench-server [--lines N]
+      lines/s through gRPC on loopback for 1, 4, 16 lanes beside the in-process pipeline
+
 server commands (--server HOST:PORT, default: plant.yaml's listen address):
   feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]
       stream line scans into rangexd (rate per lane; default as fast as the server takes them)
@@ -63,6 +66,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "image")) return cmd_image(argc, argv);
     if (!std::strcmp(cmd, "lanes")) return cmd_lanes(argc, argv);
     if (!std::strcmp(cmd, "bench")) return cmd_bench(argc, argv);
+    if (!std::strcmp(cmd, "bench-server")) return cmd_bench_server(argc, argv);
     std::fprintf(stderr, "rangexctl: unknown command '%s'\n\n%s", cmd, kUsage);
     return 2;
   } catch (const rangex::Error& e) {
