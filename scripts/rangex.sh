@@ -20,20 +20,32 @@ if [ "$what" = test ]; then
   exec ctest --output-on-failure --parallel "$(nproc)" --timeout 900
 fi
 
-# Demo plant, part 1: a small recording (4 lanes, 2 fillets each) written to disk, replayed
-# through the pipeline and evaluated against the simulator's truth.
+# The demo plant. Part 1: rangexd on the default configuration with its embedded store
+# (build/demo/data), fed a simulated 4-lane plant over gRPC; decisions print live as they
+# are made.
 demo=build/demo
 rm -rf "$demo"
 mkdir -p "$demo"
 ctl=build/client/rangexctl
-"$ctl" simulate --lanes 4 --fillets 2 --seed 1 --out "$demo/recording"
-"$ctl" process "$demo/recording" --out "$demo/recording-out"
+addr=127.0.0.1:50551
+build/server/service/rangexd --listen "$addr" --data "$demo/data" &
+server=$!
+trap 'kill $server 2>/dev/null; kill $watcher 2>/dev/null' EXIT
+for _ in $(seq 50); do "$ctl" status --server "$addr" >/dev/null 2>&1 && break; sleep 0.2; done
+"$ctl" watch --server "$addr" &
+watcher=$!
+"$ctl" feed --server "$addr" --simulate --lanes 4 --fillets 6 --seed 1
+sleep 2
+kill $watcher 2>/dev/null || true
 echo
-"$ctl" eval "$demo/recording" "$demo/recording-out"
+"$ctl" status --server "$addr"
+kill -TERM $server
+wait $server || true
 echo
-# Part 2: the plant at scale, 4 lanes x 125 fillets simulated in memory (no recording) and
-# inspected: bone recall, false rejects and the X-ray-only baseline beside rangex.
+# Part 2: the plant at scale, 4 lanes x 125 fillets simulated in memory through the same
+# pipeline and inspection: bone recall, false rejects and the X-ray-only baseline beside
+# rangex, against the simulator's truth.
 "$ctl" process --simulate --lanes 4 --fillets 125 --seed 1 --out "$demo/plant"
 echo
-echo "images: $demo/recording-out/lane*/fillet_*/ (overlay.png, xray.png, thickness.png,"
-echo "        pseudo_xray.png, residual.png) and $demo/plant/lane*/fillet_*/ for every reject"
+echo "server store: $demo/data (rangex.sqlite, images/ of every reject);"
+echo "plant images: $demo/plant/lane*/fillet_*/ (overlay.png, xray.png, thickness.png, pseudo_xray.png, residual.png)"

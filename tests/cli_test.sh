@@ -55,6 +55,37 @@ check "fit json" grep -q '"beta0": 8.1023' <<<"$fit"
 printf 'T,lnI\n1,2\n3,x\n' >"$work/bad.csv"
 expect_error "bad csv" "bad.csv:3: column 2 ('lnI') is not a finite number" "$ctl" fit "$work/bad.csv"
 
+# The server: rangexd on a free loopback port, fed over gRPC, queried, stopped gracefully.
+srv="$(dirname "$ctl")/../server/service/rangexd"
+"$srv" --listen 127.0.0.1:0 --data "$work/data" >"$work/rangexd.log" 2>&1 &
+pid=$!
+for _ in $(seq 100); do grep -q "listening on" "$work/rangexd.log" && break; sleep 0.1; done
+addr=$(sed -nE 's/.*listening on ([0-9.]+:[0-9]+).*/\1/p' "$work/rangexd.log")
+check "rangexd listens on loopback ($addr)" grep -q "^127.0.0.1:" <<<"$addr"
+"$ctl" feed --server "$addr" --simulate --lanes 2 --fillets 1 --seed 3 >"$work/feed.txt" || fails=$((fails + 1))
+check "feed accepted every line" grep -q ", 0 refused" "$work/feed.txt"
+"$ctl" status --server "$addr" >"$work/status.txt" || fails=$((fails + 1))
+check "status shows latencies" grep -q "latency last_line_to_decision" "$work/status.txt"
+"$ctl" lanes --server "$addr" >"$work/lanes.txt" || fails=$((fails + 1))
+check "lanes listed" grep -q "^lane 3:" "$work/lanes.txt"
+printf 'laser_plane: {normal: [0, 1, 0], offset_mm: 0.02}\n' >"$work/cal.yaml"
+"$ctl" calib upload --server "$addr" --lane 1 --id cal-7 --file "$work/cal.yaml" >/dev/null || fails=$((fails + 1))
+"$ctl" calib activate --server "$addr" --lane 1 --id cal-7 >/dev/null || fails=$((fails + 1))
+check "calibration listed active" grep -q "cal-7 *active" <<<"$("$ctl" calib list --server "$addr")"
+printf 'xray: {pitch_mm: -1}\n' >"$work/badcal.yaml"
+expect_error "malformed calibration" "xray.pitch_mm: must be > 0" \
+  "$ctl" calib upload --server "$addr" --lane 1 --id bad --file "$work/badcal.yaml"
+kill -TERM $pid
+wait $pid
+check "graceful stop" grep -q "rangexd: stopped after" "$work/rangexd.log"
+"$srv" --listen 127.0.0.1:0 --data "$work/data" >"$work/rangexd2.log" 2>&1 &
+pid=$!
+for _ in $(seq 100); do grep -q "listening on" "$work/rangexd2.log" && break; sleep 0.1; done
+addr=$(sed -nE 's/.*listening on ([0-9.]+:[0-9]+).*/\1/p' "$work/rangexd2.log")
+check "results kept across a restart" test "$("$ctl" fillets --server "$addr" | wc -l)" -ge 2
+kill -TERM $pid
+wait $pid
+
 expect_error "unknown method" "unknown stripe method 'median'" \
   "$ctl" process "$work/rec" --out "$work/o2" --method median
 printf 'lanes:\n  - id: 0\n    frame: {width: 320, height: 200}\n' >"$work/small.yaml"
