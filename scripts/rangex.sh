@@ -30,7 +30,8 @@ ctl=build/client/rangexctl
 addr=127.0.0.1:50551
 build/server/service/rangexd --listen "$addr" --data "$demo/data" &
 server=$!
-trap 'kill $server 2>/dev/null; kill $watcher 2>/dev/null' EXIT
+watcher=""
+trap 'kill $server $watcher 2>/dev/null || true' EXIT
 for _ in $(seq 50); do "$ctl" status --server "$addr" >/dev/null 2>&1 && break; sleep 0.2; done
 "$ctl" watch --server "$addr" &
 watcher=$!
@@ -41,6 +42,7 @@ echo
 "$ctl" status --server "$addr"
 kill -TERM $server
 wait $server || true
+trap - EXIT
 echo
 # Part 2: the plant at scale, 4 lanes x 125 fillets simulated in memory through the same
 # pipeline and inspection: bone recall, false rejects and the X-ray-only baseline beside
