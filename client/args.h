@@ -11,8 +11,7 @@ namespace rangex::cli {
 class Args {
  public:
   // flags: options that take no value; values: options that take one.
-  Args(int argc, char** argv, int first, std::set<std::string> flags,
-       std::set<std::string> values);
+  Args(int argc, char** argv, int first, std::set<std::string> flags, std::set<std::string> values);
   const std::vector<std::string>& positional() const { return pos_; }
   std::string positional(size_t i, const char* what) const;
   bool flag(const std::string& name) const { return flags_.count(name) > 0; }

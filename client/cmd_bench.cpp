@@ -2,21 +2,20 @@
 // measured in the same run on the same frames: a single-thread sequential read (the
 // bandwidth ceiling) and the plain centroid composed from OpenCV calls (cv::threshold,
 // cv::reduce), which is what a user would write without rangex.
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <thread>
 
 #include "args.h"
 #include "commands.h"
 #include "core/error.h"
-#include "pipeline/stripe_extract.h"
 #include "naive_inspection.h"
 #include "pipeline/inspection.h"
+#include "pipeline/stripe_extract.h"
 #include "sim/plant_simulator.h"
 #include "sim/synthetic_fillet.h"
 
@@ -82,15 +81,17 @@ int cmd_bench(int argc, char** argv) {
   StripeSlot slot{lc.stripe, lc.cameras[0].scatter};
   std::vector<int> slots(nframes, 0);
   StripeOutput so;
-  const double ours_fps = frames_per_second(
-      nframes, secs, [&] { extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so); });
+  const double ours_fps = frames_per_second(nframes, secs, [&] {
+    extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so);
+  });
   const int threads = int(std::max(1u, std::thread::hardware_concurrency()));
   const double ours_mt_fps = frames_per_second(nframes, secs, [&] {
     extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so, threads);
   });
   slot.params.method = StripeMethod::kCentroid;
-  const double ours_centroid_fps = frames_per_second(
-      nframes, secs, [&] { extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so); });
+  const double ours_centroid_fps = frames_per_second(nframes, secs, [&] {
+    extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so);
+  });
 
   cv::setNumThreads(1);
   cv::Mat rowidx(H, W, CV_32F);
@@ -110,10 +111,12 @@ int cmd_bench(int argc, char** argv) {
   });
 
   auto line = [&](const char* name, double fps, double ref) {
-    std::printf("%-38s %10.0f frames/s %7.2f GB/s   %.2fx\n", name, fps, fps * bytes / 1e9, fps / ref);
+    std::printf("%-38s %10.0f frames/s %7.2f GB/s   %.2fx\n", name, fps, fps * bytes / 1e9,
+                fps / ref);
   };
-  std::printf("stripe extraction, %dx%d Mono8, %d frames (%.1f MB working set), 1 thread unless stated\n", W, H,
-              nframes, double(frames.size()) / 1e6);
+  std::printf(
+      "stripe extraction, %dx%d Mono8, %d frames (%.1f MB working set), 1 thread unless stated\n",
+      W, H, nframes, double(frames.size()) / 1e6);
   std::printf("%-38s %17s %12s   %s\n", "", "", "", "ratio to read");
   line("sequential read (baseline)", read_fps, read_fps);
   line("OpenCV composed centroid (baseline)", cv_fps, read_fps);
@@ -130,9 +133,12 @@ int cmd_bench(int argc, char** argv) {
       std::log(3600.0), -0.03, {{-10, 150, 1.5, 0.12}, {20, 230, 3.0, 0.08}}, 7, 500, 250);
   const InspectionParams ip = lc.inspection;
   Decision d_fast = Decision::kPass, d_naive = Decision::kPass;
-  const double fast_per_s = frames_per_second(1, secs, [&] { d_fast = inspect_fillet(fillet, ip, false).decision; });
-  const double naive_per_s = frames_per_second(1, secs, [&] { d_naive = inspect_fillet_naive(fillet, ip).decision; });
-  std::printf("\ncompensation + detection, one 500x250 px fillet (%d fillet pixels), 1 thread\n", fillet.mask_pixels());
+  const double fast_per_s =
+      frames_per_second(1, secs, [&] { d_fast = inspect_fillet(fillet, ip, false).decision; });
+  const double naive_per_s =
+      frames_per_second(1, secs, [&] { d_naive = inspect_fillet_naive(fillet, ip).decision; });
+  std::printf("\ncompensation + detection, one 500x250 px fillet (%d fillet pixels), 1 thread\n",
+              fillet.mask_pixels());
   std::printf("%-38s %10.2f ms/fillet  (%s)\n", "naive (baseline)", 1e3 / naive_per_s,
               std::string(decision_name(d_naive)).c_str());
   std::printf("%-38s %10.2f ms/fillet  (%s)  %.1fx faster\n", "rangex", 1e3 / fast_per_s,

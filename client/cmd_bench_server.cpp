@@ -2,13 +2,13 @@
 // latency from a fillet's last line to its decision, each beside the in-process pipeline
 // (LaneProcessor, no gRPC, no store) on the same lines in the same run.
 #include <grpcpp/grpcpp.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <thread>
-#include <unistd.h>
 
 #include "args.h"
 #include "commands.h"
@@ -25,7 +25,8 @@ int cmd_bench_server(int argc, char** argv) {
   const Args a(argc, argv, 2, {}, {"lines", "threads"});
   a.expect_positionals(0, "bench-server [--lines N]");
   const int n = int(a.integer("lines", 1200));
-  const int threads = int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
+  const int threads =
+      int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
   PlantConfig plant = default_plant_config(16);
   const LaneConfig& lc = plant.lanes[0];
   // One lane's worth of lines with fillets in them, reused on every lane.
@@ -45,9 +46,11 @@ int cmd_bench_server(int argc, char** argv) {
     scans[k].set_cam1(std::move(c1));
     scans[k].set_xray(std::move(x));
   }
-  std::printf("end to end through gRPC on loopback, %d lines per lane (%d fillets each), %d threads\n", lines,
-              sp.scene.fillets, threads);
-  std::printf("%-6s %16s %16s %8s %24s\n", "lanes", "in-process l/s", "gRPC l/s", "ratio", "last line -> decision");
+  std::printf(
+      "end to end through gRPC on loopback, %d lines per lane (%d fillets each), %d threads\n",
+      lines, sp.scene.fillets, threads);
+  std::printf("%-6s %16s %16s %8s %24s\n", "lanes", "in-process l/s", "gRPC l/s", "ratio",
+              "last line -> decision");
   for (int nl : {1, 4, 16}) {
     // In-process: the same lines through each lane's LaneProcessor, batches of 64.
     std::vector<uint8_t> frames(frame * 2 * 64);
@@ -61,19 +64,23 @@ int cmd_bench_server(int argc, char** argv) {
         for (int k = 0; k < c; ++k) {
           std::memcpy(&frames[frame * 2 * k], scans[k0 + k].cam0().data(), frame);
           std::memcpy(&frames[frame * (2 * k + 1)], scans[k0 + k].cam1().data(), frame);
-          std::memcpy(&xray[size_t(lc.xray.pixels) * k], scans[k0 + k].xray().data(), scans[k0 + k].xray().size());
+          std::memcpy(&xray[size_t(lc.xray.pixels) * k], scans[k0 + k].xray().data(),
+                      scans[k0 + k].xray().size());
           enc[k] = scans[k0 + k].encoder();
         }
         proc.push(c, frames.data(), xray.data(), enc.data());
       }
       proc.finish();
     }
-    const double inproc = double(nl) * lines /
-                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double inproc =
+        double(nl) * lines /
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
     // Through the server: one stream per lane, all at once.
-    const std::string dir = (std::filesystem::temp_directory_path() /
-                             ("rangex-bench-" + std::to_string(getpid()) + "-" + std::to_string(nl))).string();
+    const std::string dir =
+        (std::filesystem::temp_directory_path() /
+         ("rangex-bench-" + std::to_string(getpid()) + "-" + std::to_string(nl)))
+            .string();
     std::filesystem::remove_all(dir);
     PlantConfig pl = plant;
     pl.lanes.resize(nl);
@@ -88,7 +95,8 @@ int cmd_bench_server(int argc, char** argv) {
       RangexServer server(pl, so);
       grpc::ChannelArguments args;
       args.SetMaxSendMessageSize(64 << 20);
-      auto ch = grpc::CreateCustomChannel(server.address(), grpc::InsecureChannelCredentials(), args);
+      auto ch =
+          grpc::CreateCustomChannel(server.address(), grpc::InsecureChannelCredentials(), args);
       const auto t1 = std::chrono::steady_clock::now();
       std::vector<std::thread> feeders;
       std::atomic<int64_t> refused{0};
@@ -126,7 +134,8 @@ int cmd_bench_server(int argc, char** argv) {
         });
       for (auto& f : feeders) f.join();
       server.shutdown();  // waits until every accepted line is decided
-      grpc_lps = double(nl) * lines / std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+      grpc_lps = double(nl) * lines /
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
       lat = server.engine().stats().decision;
       if (refused.load()) std::printf("(%lld lines refused)\n", (long long)refused.load());
     }

@@ -38,7 +38,8 @@ int cmd_calib(int argc, char** argv) {
       StripeSlot slot{lc.stripe, {}};
       slot.params.method = StripeMethod::kCentroid;
       const auto truth = rec.truth_f32(lane, "stripe_cam" + std::to_string(cam) + ".f32", W);
-      const RectifyTable table = build_rectify_table(lc.cameras[cam].model, lc.laser, lc.lut_step_px);
+      const RectifyTable table =
+          build_rectify_table(lc.cameras[cam].model, lc.laser, lc.lut_step_px);
       std::vector<float> tx(truth.size()), tz(truth.size());
       std::vector<uint8_t> tvalid(truth.size()), tv2(truth.size());
       for (size_t i = 0; i < truth.size(); ++i) tvalid[i] = std::isfinite(truth[i]);

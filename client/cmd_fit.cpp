@@ -20,16 +20,18 @@ int cmd_fit(int argc, char** argv) {
   o.relative_tol = !a.flag("absolute-tol");
   const RobustFit f = fit_tukey_line(d.x.data(), d.y.data(), d.x.size(), o);
   if (a.flag("json")) {
-    std::printf("{\"beta0\": %.12g, \"beta1\": %.12g, \"scale\": %.12g, \"iterations\": %d, "
-                "\"converged\": %s, \"n\": %zu, \"inliers\": %zu, \"c\": %g}\n",
-                f.beta0, f.beta1, f.scale, f.iterations, f.converged ? "true" : "false", f.n,
-                f.inliers, o.c);
+    std::printf(
+        "{\"beta0\": %.12g, \"beta1\": %.12g, \"scale\": %.12g, \"iterations\": %d, "
+        "\"converged\": %s, \"n\": %zu, \"inliers\": %zu, \"c\": %g}\n",
+        f.beta0, f.beta1, f.scale, f.iterations, f.converged ? "true" : "false", f.n, f.inliers,
+        o.c);
   } else {
     std::printf("%s = b0 + b1 * %s  (Tukey biweight, c = %g, %zu points)\n", d.y_name.c_str(),
                 d.x_name.c_str(), o.c, f.n);
-    std::printf("b0          %.10g\nb1          %.10g\nscale       %.6g\niterations  %d\n"
-                "converged   %s\ninliers     %zu of %zu\n",
-                f.beta0, f.beta1, f.scale, f.iterations, f.converged ? "yes" : "no", f.inliers, f.n);
+    std::printf(
+        "b0          %.10g\nb1          %.10g\nscale       %.6g\niterations  %d\n"
+        "converged   %s\ninliers     %zu of %zu\n",
+        f.beta0, f.beta1, f.scale, f.iterations, f.converged ? "yes" : "no", f.inliers, f.n);
   }
   return f.converged ? 0 : 4;
 }

@@ -1,10 +1,10 @@
 // simulate, extract, process, eval: the offline commands over recordings.
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <sstream>
 #include <thread>
@@ -15,8 +15,8 @@
 #include "core/png_io.h"
 #include "detection_eval.h"
 #include "evaluation.h"
-#include "pipeline/fillet_images.h"
 #include "fillet_records.h"
+#include "pipeline/fillet_images.h"
 #include "plant_run.h"
 #include "progress_bar.h"
 #include "replay.h"
@@ -33,7 +33,9 @@ std::string config_path(const std::string& opt) {
   return RANGEX_DEFAULT_CONFIG;
 }
 
-PlantConfig load_config(const std::string& opt) { return load_plant_config(config_path(opt)); }
+PlantConfig load_config(const std::string& opt) {
+  return load_plant_config(config_path(opt));
+}
 
 namespace {
 
@@ -44,7 +46,8 @@ void write_f32(const fs::path& p, const std::vector<float>& v) {
 }
 
 std::vector<float> read_f32(const fs::path& p, size_t expect) {
-  if (!fs::exists(p)) fail(p.string(), " is missing (was the output written by 'rangexctl process'?)");
+  if (!fs::exists(p))
+    fail(p.string(), " is missing (was the output written by 'rangexctl process'?)");
   if (fs::file_size(p) != expect * sizeof(float))
     fail(p.string(), " holds ", fs::file_size(p), " bytes, expected ", expect * sizeof(float));
   std::vector<float> v(expect);
@@ -106,8 +109,10 @@ int cmd_extract(int argc, char** argv) {
     for (int k = 0; k < count; ++k)
       for (int c = 0; c < W; ++c) {
         const size_t o = size_t(k) * W + c;
-        if (so.valid[o]) std::snprintf(buf, sizeof buf, "%lld,%d,%.4f\n", (long long)(n0 + k), c, so.row[o]);
-        else std::snprintf(buf, sizeof buf, "%lld,%d,\n", (long long)(n0 + k), c);
+        if (so.valid[o])
+          std::snprintf(buf, sizeof buf, "%lld,%d,%.4f\n", (long long)(n0 + k), c, so.row[o]);
+        else
+          std::snprintf(buf, sizeof buf, "%lld,%d,\n", (long long)(n0 + k), c);
         out << buf;
       }
     bar.update(n0 + count, rec.info().lines);
@@ -189,7 +194,8 @@ int process_simulated(const Args& a, const PlantConfig& plant) {
     maybe_write_images(out / ("lane" + std::to_string(f.result.lane)), f, images);
   };
   ProgressBar bar("plant");
-  const auto lanes = run_simulated_plant(plant, p, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
+  const auto lanes =
+      run_simulated_plant(plant, p, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
   std::vector<int> ids;
   std::vector<LaneEvaluation> acc;
   for (const PlantRunLane& l : lanes) {
@@ -201,25 +207,31 @@ int process_simulated(const Args& a, const PlantConfig& plant) {
     write_line_accuracy((ld / "line_accuracy.csv").string(), l.accuracy);
     ids.push_back(l.lane);
     acc.push_back(l.accuracy);
-    std::printf("lane %d: %lld lines, %zu fillets (%d pass, %d reject, %d not inspected), "
-                "pipeline %.0f lines/s, inspection %.1f ms/fillet\n",
-                l.lane, (long long)l.lines, l.ours.fillets.size(), count_decision(l.ours, "pass"),
-                count_decision(l.ours, "reject"), count_decision(l.ours, "not_inspected"),
-                l.pipeline_s > 0 ? double(l.lines) / l.pipeline_s : 0.0,
-                l.ours.fillets.empty() ? 0.0 : 1e3 * l.inspection_s / double(l.ours.fillets.size()));
+    std::printf(
+        "lane %d: %lld lines, %zu fillets (%d pass, %d reject, %d not inspected), "
+        "pipeline %.0f lines/s, inspection %.1f ms/fillet\n",
+        l.lane, (long long)l.lines, l.ours.fillets.size(), count_decision(l.ours, "pass"),
+        count_decision(l.ours, "reject"), count_decision(l.ours, "not_inspected"),
+        l.pipeline_s > 0 ? double(l.lines) / l.pipeline_s : 0.0,
+        l.ours.fillets.empty() ? 0.0 : 1e3 * l.inspection_s / double(l.ours.fillets.size()));
   }
-  std::ofstream(out / "simulation.yaml") << "lanes: " << p.lanes << "\nfillets_per_lane: "
-                                         << p.scene.fillets << "\nseed: " << p.seed << "\n";
-  std::printf("\n%s", evaluate_output(ids, out, [&](int lane) { return out / ("lane" + std::to_string(lane)) / "truth"; },
-                                      plant.lanes.front().xray.bits, false, acc).c_str());
+  std::ofstream(out / "simulation.yaml")
+      << "lanes: " << p.lanes << "\nfillets_per_lane: " << p.scene.fillets << "\nseed: " << p.seed
+      << "\n";
+  std::printf("\n%s", evaluate_output(
+                          ids, out,
+                          [&](int lane) { return out / ("lane" + std::to_string(lane)) / "truth"; },
+                          plant.lanes.front().xray.bits, false, acc)
+                          .c_str());
   return 0;
 }
 
 }  // namespace
 
 int cmd_process(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"simulate"},
-               {"out", "method", "batch", "config", "threads", "images", "lanes", "fillets", "seed"});
+  const Args a(
+      argc, argv, 2, {"simulate"},
+      {"out", "method", "batch", "config", "threads", "images", "lanes", "fillets", "seed"});
   PlantConfig plant = load_config(a.get("config", ""));
   if (a.flag("simulate")) {
     a.expect_positionals(0, "process --simulate --out OUT [--lanes N] [--fillets M] [--seed S]");
@@ -238,7 +250,8 @@ int cmd_process(int argc, char** argv) {
   const fs::path out = a.require("out");
   fs::create_directories(out);
   ProgressBar bar("process");
-  const auto lanes = replay_recording(rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
+  const auto lanes =
+      replay_recording(rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
   std::ostringstream js;
   js << "{\"recording\": \"" << rec.dir() << "\", \"calibration_id\": \"" << plant.calibration_id
      << "\", \"lanes\": [";
@@ -275,20 +288,25 @@ int cmd_process(int argc, char** argv) {
        << ", \"fusion\": {\"both\": " << r.fusion.both << ", \"single\": " << r.fusion.single
        << ", \"conflict\": " << r.fusion.conflict << ", \"filled\": " << r.fusion.filled
        << ", \"missing\": " << r.fusion.missing << "}, \"fillets\": " << ours.fillets.size()
-       << ", \"pass\": " << count_decision(ours, "pass") << ", \"reject\": " << count_decision(ours, "reject")
+       << ", \"pass\": " << count_decision(ours, "pass")
+       << ", \"reject\": " << count_decision(ours, "reject")
        << ", \"not_inspected\": " << count_decision(ours, "not_inspected")
        << ", \"debris\": " << r.assembly.debris << ", \"pipeline_seconds\": " << r.seconds
-       << ", \"lines_per_second\": " << lines_per_s << ", \"inspection_seconds\": " << r.inspection_seconds << "}";
-    std::printf("lane %d: %lld lines, %.1f%% of thickness pixels valid, %zu fillets (%d pass, %d reject, "
-                "%d not inspected), %.0f lines/s (CPU, %d threads)\n",
-                r.lane, (long long)r.lines, 100.0 * double(valid) / double(std::max<size_t>(1, png.size())),
-                ours.fillets.size(), count_decision(ours, "pass"), count_decision(ours, "reject"),
-                count_decision(ours, "not_inspected"), lines_per_s, opt.threads);
+       << ", \"lines_per_second\": " << lines_per_s
+       << ", \"inspection_seconds\": " << r.inspection_seconds << "}";
+    std::printf(
+        "lane %d: %lld lines, %.1f%% of thickness pixels valid, %zu fillets (%d pass, %d reject, "
+        "%d not inspected), %.0f lines/s (CPU, %d threads)\n",
+        r.lane, (long long)r.lines, 100.0 * double(valid) / double(std::max<size_t>(1, png.size())),
+        ours.fillets.size(), count_decision(ours, "pass"), count_decision(ours, "reject"),
+        count_decision(ours, "not_inspected"), lines_per_s, opt.threads);
   }
   js << "]}\n";
   std::ofstream(out / "summary.json") << js.str();
-  std::printf("wrote %s (per lane: fillets.csv/json, fragments.csv, thickness.png in 0.01 mm, "
-              "fillet_*/ images; summary.json)\n", out.c_str());
+  std::printf(
+      "wrote %s (per lane: fillets.csv/json, fragments.csv, thickness.png in 0.01 mm, "
+      "fillet_*/ images; summary.json)\n",
+      out.c_str());
   return 0;
 }
 
@@ -315,8 +333,12 @@ int cmd_eval(int argc, char** argv) {
     std::vector<int> sid;
     std::vector<LaneEvaluation> sacc;
     for (size_t i : order) sid.push_back(ids[i]), sacc.push_back(acc[i]);
-    std::fputs(evaluate_output(sid, out, [&](int lane) { return out / ("lane" + std::to_string(lane)) / "truth"; },
-                               bits, a.flag("json"), sacc).c_str(), stdout);
+    std::fputs(
+        evaluate_output(
+            sid, out, [&](int lane) { return out / ("lane" + std::to_string(lane)) / "truth"; },
+            bits, a.flag("json"), sacc)
+            .c_str(),
+        stdout);
     return 0;
   }
   a.expect_positionals(2, "eval DIR OUT [--json]  or  eval OUT (a simulated run)");
@@ -328,15 +350,19 @@ int cmd_eval(int argc, char** argv) {
   for (int lane : info.lanes) {
     const fs::path ld = out / ("lane" + std::to_string(lane));
     if (!fs::exists(ld)) continue;
-    std::vector<float> rows[2] = {read_f32(ld / "stripe_cam0.f32", size_t(info.lines) * info.width),
-                                  read_f32(ld / "stripe_cam1.f32", size_t(info.lines) * info.width)};
+    std::vector<float> rows[2] = {
+        read_f32(ld / "stripe_cam0.f32", size_t(info.lines) * info.width),
+        read_f32(ld / "stripe_cam1.f32", size_t(info.lines) * info.width)};
     const auto t = read_f32(ld / "thickness.f32", size_t(info.lines) * info.xray_pixels);
     evs.push_back(evaluate_lane(rec, plant.lane(lane), rows, t));
     ids.push_back(lane);
   }
   if (evs.empty()) fail(out.string(), " holds no processed lane of ", rec.dir());
-  std::fputs(evaluate_output(ids, out, [&](int lane) { return fs::path(rec.lane_dir(lane)) / "truth"; },
-                             bits, a.flag("json"), evs).c_str(), stdout);
+  std::fputs(evaluate_output(
+                 ids, out, [&](int lane) { return fs::path(rec.lane_dir(lane)) / "truth"; }, bits,
+                 a.flag("json"), evs)
+                 .c_str(),
+             stdout);
   return 0;
 }
 

@@ -32,16 +32,21 @@ std::shared_ptr<grpc::Channel> channel(const Args& a, const PlantConfig* plant =
 }
 
 void check(const grpc::Status& s, const char* what) {
-  if (!s.ok()) fail(what, ": ", s.error_message().empty() ? "server unreachable" : s.error_message(),
-                    " (", int(s.error_code()), ")");
+  if (!s.ok())
+    fail(what, ": ", s.error_message().empty() ? "server unreachable" : s.error_message(), " (",
+         int(s.error_code()), ")");
 }
 
 const char* decision_text(pb::Decision d) {
   switch (d) {
-    case pb::DECISION_PASS: return "PASS";
-    case pb::DECISION_REJECT: return "REJECT";
-    case pb::DECISION_NOT_INSPECTED: return "NOT INSPECTED";
-    default: return "?";
+    case pb::DECISION_PASS:
+      return "PASS";
+    case pb::DECISION_REJECT:
+      return "REJECT";
+    case pb::DECISION_NOT_INSPECTED:
+      return "NOT INSPECTED";
+    default:
+      return "?";
   }
 }
 
@@ -51,7 +56,8 @@ void print_fillet(const pb::FilletResult& f) {
   if (!f.reason().empty()) std::printf(" %s", f.reason().c_str());
   for (const auto& g : f.fragments())
     if (g.kind() == "bone")
-      std::printf("  [bone at x %.1f mm, belt %.1f mm, %.1f mm2, z %.1f]", g.x_mm(), g.y_mm(), g.area_mm2(), g.peak_z());
+      std::printf("  [bone at x %.1f mm, belt %.1f mm, %.1f mm2, z %.1f]", g.x_mm(), g.y_mm(),
+                  g.area_mm2(), g.peak_z());
   std::printf("\n");
 }
 
@@ -74,8 +80,8 @@ class RecordingSource : public LineSource {
     const size_t frame = size_t(info.width) * info.height;
     std::string c0(frame, '\0'), c1(frame, '\0'), x(size_t(info.xray_pixels) * 2, '\0');
     int64_t enc;
-    rec_.read(info.lanes[li], n, 1, reinterpret_cast<uint8_t*>(c0.data()), reinterpret_cast<uint8_t*>(c1.data()),
-              reinterpret_cast<uint16_t*>(x.data()), &enc);
+    rec_.read(info.lanes[li], n, 1, reinterpret_cast<uint8_t*>(c0.data()),
+              reinterpret_cast<uint8_t*>(c1.data()), reinterpret_cast<uint16_t*>(x.data()), &enc);
     out.set_lane(info.lanes[li]);
     out.set_encoder(enc);
     out.set_cam0(std::move(c0));
@@ -104,8 +110,9 @@ class SimulatedSource : public LineSource {
     const LaneConfig& lc = plant_.lanes[li];
     const size_t frame = size_t(lc.frame_width) * lc.frame_height;
     std::string c0(frame, '\0'), c1(frame, '\0'), x(size_t(lc.xray.pixels) * 2, '\0');
-    sims_[li].render(n, reinterpret_cast<uint8_t*>(c0.data()), reinterpret_cast<uint8_t*>(c1.data()),
-                     reinterpret_cast<uint16_t*>(x.data()), nullptr, nullptr, nullptr);
+    sims_[li].render(n, reinterpret_cast<uint8_t*>(c0.data()),
+                     reinterpret_cast<uint8_t*>(c1.data()), reinterpret_cast<uint16_t*>(x.data()),
+                     nullptr, nullptr, nullptr);
     out.set_lane(lc.id);
     out.set_encoder(sims_[li].encoder(n));
     out.set_cam0(std::move(c0));
@@ -124,7 +131,9 @@ class SimulatedSource : public LineSource {
 int cmd_feed(int argc, char** argv) {
   const Args a(argc, argv, 2, {"simulate"},
                {"server", "config", "recording", "lanes", "fillets", "seed", "rate", "window"});
-  a.expect_positionals(0, "feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]");
+  a.expect_positionals(
+      0,
+      "feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]");
   const PlantConfig plant = load_config(a.get("config", ""));
   std::unique_ptr<LineSource> src;
   if (a.has("recording")) {
@@ -153,7 +162,8 @@ int cmd_feed(int argc, char** argv) {
     pb::StreamLinesResponse r;
     while (stream->Read(&r)) {
       credit = r.credit();
-      if (r.accepted()) ++accepted;
+      if (r.accepted())
+        ++accepted;
       else {
         ++refused;
         std::lock_guard<std::mutex> lock(mu);
@@ -174,7 +184,8 @@ int cmd_feed(int argc, char** argv) {
     for (size_t li = 0; li < lanes.size() && open; ++li) {
       // Flow control: a window of unacknowledged lines, and the server's credit (a line sent
       // into a full queue would be dropped).
-      while (int64_t(seq) - acked.load() >= window || (credit.load() < window && int64_t(seq) > acked.load()))
+      while (int64_t(seq) - acked.load() >= window ||
+             (credit.load() < window && int64_t(seq) > acked.load()))
         std::this_thread::sleep_for(std::chrono::microseconds(200));
       // Credit is as fresh as the last ack: with nothing outstanding, wait a little, then
       // send one line to hear the current credit.
@@ -189,9 +200,10 @@ int cmd_feed(int argc, char** argv) {
   reader.join();
   const grpc::Status st = stream->Finish();
   const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("fed %llu lines over %zu lanes in %.1f s (%.0f lines/s): %lld accepted, %lld refused\n",
-              (unsigned long long)seq, lanes.size(), el, double(seq) / el, (long long)accepted.load(),
-              (long long)refused.load());
+  std::printf(
+      "fed %llu lines over %zu lanes in %.1f s (%.0f lines/s): %lld accepted, %lld refused\n",
+      (unsigned long long)seq, lanes.size(), el, double(seq) / el, (long long)accepted.load(),
+      (long long)refused.load());
   for (const auto& [code, n] : errors) std::printf("  %s: %lld\n", code.c_str(), (long long)n);
   check(st, "feed");
   return refused.load() ? 5 : 0;
@@ -204,20 +216,27 @@ int cmd_watch(int argc, char** argv) {
   if (a.has("lane")) req.add_lanes(int(a.integer("lane", 0)));
   if (a.has("decision")) {
     const std::string d = a.get("decision", "");
-    if (d == "pass") req.add_decisions(pb::DECISION_PASS);
-    else if (d == "reject") req.add_decisions(pb::DECISION_REJECT);
-    else if (d == "not_inspected") req.add_decisions(pb::DECISION_NOT_INSPECTED);
-    else fail("--decision must be pass, reject or not_inspected (got '", d, "')");
+    if (d == "pass")
+      req.add_decisions(pb::DECISION_PASS);
+    else if (d == "reject")
+      req.add_decisions(pb::DECISION_REJECT);
+    else if (d == "not_inspected")
+      req.add_decisions(pb::DECISION_NOT_INSPECTED);
+    else
+      fail("--decision must be pass, reject or not_inspected (got '", d, "')");
   }
   const long count = a.integer("count", 0);
   grpc::ClientContext ctx;
   if (a.has("seconds"))
-    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(a.integer("seconds", 0)));
+    ctx.set_deadline(std::chrono::system_clock::now() +
+                     std::chrono::seconds(a.integer("seconds", 0)));
   auto reader = stub->SubscribeFillets(&ctx, req);
   pb::SubscribeFilletsResponse r;
   long seen = 0;
   while (reader->Read(&r)) {
-    if (r.lagged()) std::printf("(this watcher was too slow: %llu results skipped)\n", (unsigned long long)r.lagged());
+    if (r.lagged())
+      std::printf("(this watcher was too slow: %llu results skipped)\n",
+                  (unsigned long long)r.lagged());
     print_fillet(r.fillet());
     std::fflush(stdout);
     if (count && ++seen >= count) {
@@ -226,7 +245,8 @@ int cmd_watch(int argc, char** argv) {
     }
   }
   const grpc::Status st = reader->Finish();
-  if (!st.ok() && st.error_code() != grpc::StatusCode::DEADLINE_EXCEEDED && st.error_code() != grpc::StatusCode::CANCELLED)
+  if (!st.ok() && st.error_code() != grpc::StatusCode::DEADLINE_EXCEEDED &&
+      st.error_code() != grpc::StatusCode::CANCELLED)
     check(st, "watch");
   return 0;
 }
@@ -240,18 +260,19 @@ int cmd_status(int argc, char** argv) {
   check(stub->GetServerInfo(&c1, {}, &info), "server info");
   pb::GetStatisticsResponse s;
   check(stub->GetStatistics(&c2, {}, &s), "statistics");
-  std::printf("%s, plant '%s', backend %s, store %s\n", info.version().c_str(), info.plant().c_str(),
-              info.backend().c_str(), info.storage().c_str());
+  std::printf("%s, plant '%s', backend %s, store %s\n", info.version().c_str(),
+              info.plant().c_str(), info.backend().c_str(), info.storage().c_str());
   std::printf("lines: %llu received, %llu processed, %.0f lines/s; queue %d of %d\n",
               (unsigned long long)s.lines_received(), (unsigned long long)s.lines_processed(),
               s.lines_per_second(), s.queue_depth(), s.queue_capacity());
   std::printf("fillets: %llu (%llu rejected, %llu not inspected); %d subscribers\n",
               (unsigned long long)s.fillets(), (unsigned long long)s.rejects(),
               (unsigned long long)s.not_inspected(), s.subscribers());
-  for (const auto& d : s.drops()) std::printf("dropped %-22s %llu lines\n", d.reason().c_str(), (unsigned long long)d.lines());
+  for (const auto& d : s.drops())
+    std::printf("dropped %-22s %llu lines\n", d.reason().c_str(), (unsigned long long)d.lines());
   for (const auto& l : s.latencies())
-    std::printf("latency %-22s p50 %8.2f ms  p99 %8.2f ms  (%llu)\n", l.stage().c_str(), l.p50_ms(), l.p99_ms(),
-                (unsigned long long)l.samples());
+    std::printf("latency %-22s p50 %8.2f ms  p99 %8.2f ms  (%llu)\n", l.stage().c_str(), l.p50_ms(),
+                l.p99_ms(), (unsigned long long)l.samples());
   return 0;
 }
 
@@ -265,9 +286,10 @@ int cmd_fillets(int argc, char** argv) {
     pb::GetFilletResponse resp;
     check(stub->GetFillet(&ctx, req, &resp), "fillet");
     print_fillet(resp.fillet());
-    std::printf("  b0 %.6f  b1 %.6f  residual %.2f +- %.2f DN  calibration %s  belt %.1f mm\n", resp.fillet().beta0(),
-                resp.fillet().beta1(), resp.fillet().residual_mean_dn(), resp.fillet().residual_std_dn(),
-                resp.fillet().calibration_id().c_str(), resp.fillet().belt_y0_mm());
+    std::printf("  b0 %.6f  b1 %.6f  residual %.2f +- %.2f DN  calibration %s  belt %.1f mm\n",
+                resp.fillet().beta0(), resp.fillet().beta1(), resp.fillet().residual_mean_dn(),
+                resp.fillet().residual_std_dn(), resp.fillet().calibration_id().c_str(),
+                resp.fillet().belt_y0_mm());
     return 0;
   }
   const long limit = a.integer("limit", 50);
@@ -322,7 +344,8 @@ int cmd_calib_remote(int argc, char** argv) {
     req.set_who(a.get("who", who ? who : "rangexctl"));
     pb::UploadCalibrationResponse resp;
     check(stub->UploadCalibration(&ctx, req, &resp), "upload");
-    std::printf("uploaded calibration '%s' for lane %d\n", resp.calibration().id().c_str(), resp.calibration().lane());
+    std::printf("uploaded calibration '%s' for lane %d\n", resp.calibration().id().c_str(),
+                resp.calibration().lane());
   } else if (verb == "list") {
     pb::ListCalibrationsRequest req;
     req.set_lane(int(a.integer("lane", -1)));
@@ -337,8 +360,10 @@ int cmd_calib_remote(int argc, char** argv) {
     req.set_who(a.get("who", who ? who : "rangexctl"));
     pb::ActivateCalibrationResponse resp;
     check(stub->ActivateCalibration(&ctx, req, &resp), "activate");
-    std::printf("calibration '%s' of lane %d activated; it takes over at the next batch without a fillet in progress\n",
-                req.id().c_str(), req.lane());
+    std::printf(
+        "calibration '%s' of lane %d activated; it takes over at the next batch without a fillet "
+        "in progress\n",
+        req.id().c_str(), req.lane());
   } else {
     fail("calib: unknown verb '", verb, "' (upload, list, activate, scatter)");
   }
@@ -346,7 +371,8 @@ int cmd_calib_remote(int argc, char** argv) {
 }
 
 int cmd_lanes(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"server", "config", "lane", "z-threshold", "min-area-mm2", "floor-mm", "who"});
+  const Args a(argc, argv, 2, {},
+               {"server", "config", "lane", "z-threshold", "min-area-mm2", "floor-mm", "who"});
   auto stub = pb::ControlService::NewStub(channel(a));
   if (a.positional().size() == 1 && a.positional()[0] == "set") {
     grpc::ClientContext ctx;
@@ -359,18 +385,22 @@ int cmd_lanes(int argc, char** argv) {
     req.set_who(a.get("who", who ? who : "rangexctl"));
     pb::UpdateLaneThresholdsResponse resp;
     check(stub->UpdateLaneThresholds(&ctx, req, &resp), "lane thresholds");
-    std::printf("lane %d: z threshold %.2f, min fragment %.2f mm2, floor %.2f mm\n", resp.lane().id(),
-                resp.lane().z_threshold(), resp.lane().min_fragment_area_mm2(), resp.lane().floor_mm());
+    std::printf("lane %d: z threshold %.2f, min fragment %.2f mm2, floor %.2f mm\n",
+                resp.lane().id(), resp.lane().z_threshold(), resp.lane().min_fragment_area_mm2(),
+                resp.lane().floor_mm());
     return 0;
   }
-  a.expect_positionals(0, "lanes  |  lanes set --lane L [--z-threshold Z] [--min-area-mm2 A] [--floor-mm F]");
+  a.expect_positionals(
+      0, "lanes  |  lanes set --lane L [--z-threshold Z] [--min-area-mm2 A] [--floor-mm F]");
   grpc::ClientContext ctx;
   pb::ListLanesResponse resp;
   check(stub->ListLanes(&ctx, {}, &resp), "lanes");
   for (const auto& l : resp.lanes())
-    std::printf("lane %d: %dx%d frames, %d X-ray pixels, %.2f mm/line, calibration %s, z %.1f, min %.2f mm2, floor %.1f mm\n",
-                l.id(), l.frame_width(), l.frame_height(), l.xray_pixels(), l.encoder_step_mm(),
-                l.calibration_id().c_str(), l.z_threshold(), l.min_fragment_area_mm2(), l.floor_mm());
+    std::printf(
+        "lane %d: %dx%d frames, %d X-ray pixels, %.2f mm/line, calibration %s, z %.1f, min %.2f "
+        "mm2, floor %.1f mm\n",
+        l.id(), l.frame_width(), l.frame_height(), l.xray_pixels(), l.encoder_step_mm(),
+        l.calibration_id().c_str(), l.z_threshold(), l.min_fragment_area_mm2(), l.floor_mm());
   return 0;
 }
 

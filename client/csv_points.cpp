@@ -36,8 +36,7 @@ CsvColumns read_two_column_csv(const std::string& path) {
     ++lineno;
     if (trim(line).empty()) continue;
     const auto cells = split(line);
-    if (cells.size() != 2)
-      fail(path, ":", lineno, ": expected 2 columns, found ", cells.size());
+    if (cells.size() != 2) fail(path, ":", lineno, ": expected 2 columns, found ", cells.size());
     if (!header) {
       c.x_name = cells[0];
       c.y_name = cells[1];

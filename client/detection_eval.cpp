@@ -27,7 +27,9 @@ std::vector<std::vector<std::string>> csv_rows(const std::string& text, size_t f
   return rows;
 }
 
-int size_bin(double s) { return s < 2 ? 0 : s < 3 ? 1 : s < 5 ? 2 : 3; }
+int size_bin(double s) {
+  return s < 2 ? 0 : s < 3 ? 1 : s < 5 ? 2 : 3;
+}
 }  // namespace
 
 std::vector<TruthFragment> parse_truth_fragments(const std::string& text, int lane) {
@@ -169,19 +171,26 @@ std::string detection_table(const DetectionEval& a, const DetectionEval& b, int 
   os << "\n";
   row("recall, calcified fragments >= 2 mm", "%.2f%%", 100 * a.recall_calcified_2mm(),
       100 * b.recall_calcified_2mm());
-  row("false rejects of clean fillets", "%.2f%%", 100 * a.false_reject_rate(), 100 * b.false_reject_rate());
+  row("false rejects of clean fillets", "%.2f%%", 100 * a.false_reject_rate(),
+      100 * b.false_reject_rate());
   row("  of which not inspected (fail-safe)", "%.0f", a.clean_not_inspected, b.clean_not_inspected);
-  row("fillets with bone rejected", "%.2f%%", a.bony_fillets ? 100.0 * a.bony_rejected / a.bony_fillets : 0,
+  row("fillets with bone rejected", "%.2f%%",
+      a.bony_fillets ? 100.0 * a.bony_rejected / a.bony_fillets : 0,
       b.bony_fillets ? 100.0 * b.bony_rejected / b.bony_fillets : 0);
   row("detections matching no bone", "%.0f", a.false_fragments, b.false_fragments);
-  row("fragment position error, mean (mm)", "%.3f", a.position.stats().mean_abs, b.position.stats().mean_abs);
+  row("fragment position error, mean (mm)", "%.3f", a.position.stats().mean_abs,
+      b.position.stats().mean_abs);
   row("residual I - P: mean (DN)", "%.2f", a.resid_mean_dn, b.resid_mean_dn);
   row("residual I - P: std (DN)", "%.2f", a.resid_std_dn, b.resid_std_dn);
-  row("residual std, % of the 12-bit range", "%.3f%%", 100 * a.resid_std_dn / range, 100 * b.resid_std_dn / range);
-  std::snprintf(buf, sizeof buf, "fillets: %d inspected, %d not inspected (fail-safe); true fillets %d clean, %d with bone, %d never seen\n",
+  row("residual std, % of the 12-bit range", "%.3f%%", 100 * a.resid_std_dn / range,
+      100 * b.resid_std_dn / range);
+  std::snprintf(buf, sizeof buf,
+                "fillets: %d inspected, %d not inspected (fail-safe); true fillets %d clean, %d "
+                "with bone, %d never seen\n",
                 a.fillets - a.not_inspected, a.not_inspected, a.clean_fillets, a.bony_fillets,
                 a.unmatched_truth_fillets);
-  os << buf << "dissertation (real fillets): residual mean 23.7 DN, std 29.6 DN, 1.5% of the range\n";
+  os << buf
+     << "dissertation (real fillets): residual mean 23.7 DN, std 29.6 DN, 1.5% of the range\n";
   return os.str();
 }
 
@@ -191,10 +200,13 @@ std::string detection_json(const DetectionEval& a, const DetectionEval& b, int b
     os << "{\"recall_calcified_ge_2mm\": " << e.recall_calcified_2mm()
        << ", \"false_reject_rate\": " << e.false_reject_rate()
        << ", \"clean_fillets\": " << e.clean_fillets << ", \"clean_rejected\": " << e.clean_rejected
-       << ", \"not_inspected\": " << e.not_inspected << ", \"false_fragments\": " << e.false_fragments
+       << ", \"not_inspected\": " << e.not_inspected
+       << ", \"false_fragments\": " << e.false_fragments
        << ", \"position_error_mm\": " << e.position.stats().mean_abs
-       << ", \"residual_mean_dn\": " << e.resid_mean_dn << ", \"residual_std_dn\": " << e.resid_std_dn
-       << ", \"residual_std_pct\": " << 100 * e.resid_std_dn / double((1 << bits) - 1) << ", \"recall\": [";
+       << ", \"residual_mean_dn\": " << e.resid_mean_dn
+       << ", \"residual_std_dn\": " << e.resid_std_dn
+       << ", \"residual_std_pct\": " << 100 * e.resid_std_dn / double((1 << bits) - 1)
+       << ", \"recall\": [";
     for (int s = 0; s < kSizeBins; ++s)
       for (int c = 0; c < kCalcBins; ++c)
         os << (s || c ? ", " : "") << "{\"size_bin\": " << s << ", \"calcified\": " << c

@@ -107,7 +107,8 @@ LaneEvaluation evaluate_lane(const RecordingReader& rec, const LaneConfig& lc,
   }
   const auto truth_t = rec.truth_f32(lane, "thickness.f32", info.xray_pixels);
   if (truth_t.size() != thickness.size())
-    fail("lane ", lane, ": ", thickness.size(), " thickness pixels for ", truth_t.size(), " truth pixels");
+    fail("lane ", lane, ": ", thickness.size(), " thickness pixels for ", truth_t.size(),
+         " truth pixels");
   std::vector<double> err;
   size_t fillet = 0;
   for (size_t i = 0; i < truth_t.size(); ++i) {
@@ -153,15 +154,19 @@ std::string evaluations_json(const std::vector<LaneEvaluation>& evs) {
 std::string evaluations_table(const std::vector<LaneEvaluation>& evs) {
   std::ostringstream os;
   char buf[320];
-  os << "lane  stripe error px, fillet columns (all columns)          thickness error mm, fillet pixels\n";
-  os << "      cam0 mean|e|  p99            cam1 mean|e|  p99            mean|e|   p99     bias  coverage\n";
+  os << "lane  stripe error px, fillet columns (all columns)          thickness error mm, fillet "
+        "pixels\n";
+  os << "      cam0 mean|e|  p99            cam1 mean|e|  p99            mean|e|   p99     bias  "
+        "coverage\n";
   for (const LaneEvaluation& e : evs) {
     std::snprintf(buf, sizeof buf,
-                  "%-5d %5.3f (%5.3f) %5.3f (%5.3f)  %5.3f (%5.3f) %5.3f (%5.3f)  %7.3f %7.3f %7.3f  %6.2f%%\n",
-                  e.lane, e.stripe_fillet[0].mean_abs, e.stripe[0].mean_abs, e.stripe_fillet[0].p99_abs,
-                  e.stripe[0].p99_abs, e.stripe_fillet[1].mean_abs, e.stripe[1].mean_abs,
-                  e.stripe_fillet[1].p99_abs, e.stripe[1].p99_abs, e.thickness.mean_abs,
-                  e.thickness.p99_abs, e.thickness.bias, 100 * e.fillet_coverage);
+                  "%-5d %5.3f (%5.3f) %5.3f (%5.3f)  %5.3f (%5.3f) %5.3f (%5.3f)  %7.3f %7.3f "
+                  "%7.3f  %6.2f%%\n",
+                  e.lane, e.stripe_fillet[0].mean_abs, e.stripe[0].mean_abs,
+                  e.stripe_fillet[0].p99_abs, e.stripe[0].p99_abs, e.stripe_fillet[1].mean_abs,
+                  e.stripe[1].mean_abs, e.stripe_fillet[1].p99_abs, e.stripe[1].p99_abs,
+                  e.thickness.mean_abs, e.thickness.p99_abs, e.thickness.bias,
+                  100 * e.fillet_coverage);
     os << buf;
   }
   char tail[160];

@@ -36,15 +36,15 @@ class ErrorAccumulator {
 
 struct LaneEvaluation {
   int lane = 0;
-  ErrorStats stripe[2];           // px, columns valid in both truth and measurement
-  ErrorStats stripe_fillet[2];    // px, the same restricted to columns on a fillet
+  ErrorStats stripe[2];                // px, columns valid in both truth and measurement
+  ErrorStats stripe_fillet[2];         // px, the same restricted to columns on a fillet
   double stripe_detected[2] = {0, 0};  // fraction of truth stripe columns found
   double stripe_false[2] = {0, 0};     // fraction of no-stripe columns reported valid
-  ErrorStats thickness;           // mm, fillet pixels with a valid measurement
-  double fillet_coverage = 0;     // fraction of fillet pixels with a valid measurement
+  ErrorStats thickness;                // mm, fillet pixels with a valid measurement
+  double fillet_coverage = 0;          // fraction of fillet pixels with a valid measurement
 };
 
-constexpr double kFilletPixelMinMm = 0.5;  // truth path thickness that counts as fillet
+constexpr double kFilletPixelMinMm = 0.5;   // truth path thickness that counts as fillet
 constexpr double kFilletColumnMinMm = 1.0;  // truth stripe height that counts as fillet
 
 // The lane's measured stripe rows and registered thickness against truth/ of `rec`; the

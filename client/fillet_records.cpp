@@ -97,7 +97,8 @@ void read_table(const fs::path& p, size_t fields, F&& row) {
     ++n;
     if (line.empty()) continue;
     const auto c = split(line, fields);
-    if (c.size() != fields) fail(p.string(), ":", n, ": expected ", fields, " fields, found ", c.size());
+    if (c.size() != fields)
+      fail(p.string(), ":", n, ": expected ", fields, " fields, found ", c.size());
     try {
       row(c);
     } catch (const std::exception& e) {
@@ -134,8 +135,8 @@ RecordSet read_records(const std::string& dir, const std::string& prefix) {
     s.fillets.push_back(r);
   });
   read_table(fs::path(dir) / (prefix + "fragments.csv"), 8, [&](const std::vector<std::string>& c) {
-    s.fragments.push_back({std::stoi(c[0]), std::stoll(c[1]), c[2], std::stod(c[3]), std::stod(c[4]),
-                           std::stod(c[5]), std::stod(c[6]), std::stod(c[7])});
+    s.fragments.push_back({std::stoi(c[0]), std::stoll(c[1]), c[2], std::stod(c[3]),
+                           std::stod(c[4]), std::stod(c[5]), std::stod(c[6]), std::stod(c[7])});
   });
   return s;
 }
@@ -147,15 +148,16 @@ std::string fillets_json(const RecordSet& s) {
   for (size_t i = 0; i < s.fillets.size(); ++i) {
     const FilletRecord& r = s.fillets[i];
     std::string reason;
-    for (char ch : r.reason) reason += (ch == '"' || ch == '\\') ? std::string("\\") + ch : std::string(1, ch);
+    for (char ch : r.reason)
+      reason += (ch == '"' || ch == '\\') ? std::string("\\") + ch : std::string(1, ch);
     os << (i ? ",\n " : "\n ") << "{\"lane\": " << r.lane << ", \"fillet\": " << r.fillet
-       << ", \"first_line\": " << r.first_line << ", \"rows\": " << r.rows
-       << ", \"belt_mm\": [" << r.y0_mm << ", " << r.y1_mm << "], \"decision\": \"" << r.decision
-       << "\", \"reason\": \"" << reason << "\", \"beta0\": " << r.beta0 << ", \"beta1\": " << r.beta1
+       << ", \"first_line\": " << r.first_line << ", \"rows\": " << r.rows << ", \"belt_mm\": ["
+       << r.y0_mm << ", " << r.y1_mm << "], \"decision\": \"" << r.decision << "\", \"reason\": \""
+       << reason << "\", \"beta0\": " << r.beta0 << ", \"beta1\": " << r.beta1
        << ", \"scale\": " << r.scale << ", \"iterations\": " << r.iterations
        << ", \"converged\": " << (r.converged ? "true" : "false") << ", \"pixels\": " << r.pixels
-       << ", \"residual_mean_dn\": " << r.resid_mean_dn << ", \"residual_std_dn\": " << r.resid_std_dn
-       << ", \"fragments\": [";
+       << ", \"residual_mean_dn\": " << r.resid_mean_dn
+       << ", \"residual_std_dn\": " << r.resid_std_dn << ", \"fragments\": [";
     bool first = true;
     for (const FragmentRecord& b : s.fragments) {
       if (b.lane != r.lane || b.fillet != r.fillet || b.kind != "bone") continue;

@@ -72,7 +72,8 @@ FilletResult inspect_fillet_naive(const FilletImage& img, const InspectionParams
   for (int k = 0; k < bins; ++k) {
     std::vector<double> v;
     double mi = 0;
-    for (size_t i = pr.size() * k / bins; i < pr.size() * (k + 1) / bins; ++i) v.push_back(pr[i].second), mi += pr[i].first;
+    for (size_t i = pr.size() * k / bins; i < pr.size() * (k + 1) / bins; ++i)
+      v.push_back(pr[i].second), mi += pr[i].first;
     mi /= double(v.size());
     const double med = sorted_median(v);
     std::vector<double> dev;
@@ -101,7 +102,8 @@ FilletResult inspect_fillet_naive(const FilletImage& img, const InspectionParams
           const double v = z[size_t(rr) * img.cols + cc];
           if (!std::isfinite(v)) continue;
           vals.push_back(v);
-          wts.push_back(std::exp(-0.5 * (dr * dr + dc * dc) / (p.smooth_sigma_px * p.smooth_sigma_px)));
+          wts.push_back(
+              std::exp(-0.5 * (dr * dr + dc * dc) / (p.smooth_sigma_px * p.smooth_sigma_px)));
         }
       double a = 0, b = 0;
       for (size_t k = 0; k < vals.size(); ++k) a += wts[k] * vals[k], b += wts[k];
@@ -111,12 +113,15 @@ FilletResult inspect_fillet_naive(const FilletImage& img, const InspectionParams
   const double med = sorted_median(all);
   std::vector<double> dev;
   for (double v : all) dev.push_back(std::abs(v - med));
-  const double sd = std::max(sorted_median(dev) / 0.6744897501960817, gaussian_noise_gain(p.smooth_sigma_px));
+  const double sd =
+      std::max(sorted_median(dev) / 0.6744897501960817, gaussian_noise_gain(p.smooth_sigma_px));
   std::vector<uint8_t> on(img.size());
-  for (size_t i = 0; i < img.size(); ++i) on[i] = std::isfinite(zs[i]) && (zs[i] - med) / sd < -p.z_threshold;
+  for (size_t i = 0; i < img.size(); ++i)
+    on[i] = std::isfinite(zs[i]) && (zs[i] - med) / sd < -p.z_threshold;
   std::vector<int> labels;
   for (const Component& c : label_components(on.data(), img.rows, img.cols, labels))
-    if (c.pixels * img.pitch_mm * img.step_mm >= p.min_fragment_area_mm2) res.fragments.push_back({});
+    if (c.pixels * img.pitch_mm * img.step_mm >= p.min_fragment_area_mm2)
+      res.fragments.push_back({});
   res.decision = res.fragments.empty() ? Decision::kPass : Decision::kReject;
   return res;
 }

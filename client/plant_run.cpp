@@ -18,10 +18,9 @@ double since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace
 
-std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
-                                              const sim::SimulationParams& sp,
-                                              const PlantRunOptions& opt,
-                                              const std::function<void(int64_t, int64_t)>& progress) {
+std::vector<PlantRunLane> run_simulated_plant(
+    const PlantConfig& plant, const sim::SimulationParams& sp, const PlantRunOptions& opt,
+    const std::function<void(int64_t, int64_t)>& progress) {
   if (sp.lanes <= 0 || sp.lanes > int(plant.lanes.size()))
     fail("cannot simulate ", sp.lanes, " lanes: the plant configuration has ", plant.lanes.size());
   std::vector<sim::LaneSimulator> sims;
@@ -41,17 +40,20 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
     lane.lines = sim.lines();
     lane.truth_fragments_csv = sim.fragments_csv();
     lane.truth_fillets_csv = sim.fillets_csv();
-    const int W = lc.frame_width, H = lc.frame_height, D = lc.xray.pixels, delay = lc.xray.delay_lines;
+    const int W = lc.frame_width, H = lc.frame_height, D = lc.xray.pixels,
+              delay = lc.xray.delay_lines;
     const size_t frame = size_t(W) * H;
     constexpr int kBlock = 64;
     std::vector<uint8_t> frames(frame * 2 * kBlock);
     std::vector<uint16_t> xray(size_t(D) * kBlock);
     std::vector<float> rows(size_t(2 * W) * kBlock), truth_t(size_t(D) * kBlock);
     std::vector<int64_t> enc(kBlock);
-    const RectifyTable tables[2] = {build_rectify_table(lc.cameras[0].model, lc.laser, lc.lut_step_px),
-                                    build_rectify_table(lc.cameras[1].model, lc.laser, lc.lut_step_px)};
+    const RectifyTable tables[2] = {
+        build_rectify_table(lc.cameras[0].model, lc.laser, lc.lut_step_px),
+        build_rectify_table(lc.cameras[1].model, lc.laser, lc.lut_step_px)};
     ErrorAccumulator stripe_all[2], stripe_fillet[2], thick;
-    size_t truth_cols[2] = {0, 0}, found_cols[2] = {0, 0}, blank_cols[2] = {0, 0}, false_cols[2] = {0, 0};
+    size_t truth_cols[2] = {0, 0}, found_cols[2] = {0, 0}, blank_cols[2] = {0, 0},
+           false_cols[2] = {0, 0};
     size_t fillet_px = 0, measured_px = 0;
     std::map<int64_t, std::vector<float>> registered;  // X-ray line -> measured thickness
     int64_t n0 = 0;
@@ -86,13 +88,14 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
         }
       }
     };
-    LaneProcessor proc(lc, {threads, true, opt.keep_images || bool(opt.on_fillet)},
-                       [&](InspectedFillet&& f) {
-                         if (opt.on_fillet) opt.on_fillet(f);
-                         lane.ours.add(f.result);
-                         lane.baseline.add(f.baseline);
-                       },
-                       observe);
+    LaneProcessor proc(
+        lc, {threads, true, opt.keep_images || bool(opt.on_fillet)},
+        [&](InspectedFillet&& f) {
+          if (opt.on_fillet) opt.on_fillet(f);
+          lane.ours.add(f.result);
+          lane.baseline.add(f.baseline);
+        },
+        observe);
     for (n0 = 0; n0 < sim.lines(); n0 += kBlock) {
       const int count = int(std::min<int64_t>(kBlock, sim.lines() - n0));
       const auto t0 = std::chrono::steady_clock::now();
@@ -151,8 +154,10 @@ void write_line_accuracy(const std::string& path, const LaneEvaluation& e) {
   out.precision(9);
   out << "key,value\n";
   auto stats = [&](const std::string& k, const ErrorStats& s) {
-    out << k << ".count," << s.count << "\n" << k << ".mean_abs," << s.mean_abs << "\n"
-        << k << ".p99_abs," << s.p99_abs << "\n" << k << ".bias," << s.bias << "\n";
+    out << k << ".count," << s.count << "\n"
+        << k << ".mean_abs," << s.mean_abs << "\n"
+        << k << ".p99_abs," << s.p99_abs << "\n"
+        << k << ".bias," << s.bias << "\n";
   };
   for (int c = 0; c < 2; ++c) {
     stats("stripe_cam" + std::to_string(c), e.stripe[c]);

@@ -33,10 +33,9 @@ struct PlantRunOptions {
   std::function<void(const InspectedFillet&)> on_fillet;
 };
 
-std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
-                                              const sim::SimulationParams& sim,
-                                              const PlantRunOptions& opt,
-                                              const std::function<void(int64_t, int64_t)>& progress = {});
+std::vector<PlantRunLane> run_simulated_plant(
+    const PlantConfig& plant, const sim::SimulationParams& sim, const PlantRunOptions& opt,
+    const std::function<void(int64_t, int64_t)>& progress = {});
 
 // Line accuracy of a lane as a small key,value CSV (for `rangexctl eval` of a simulated run).
 void write_line_accuracy(const std::string& path, const LaneEvaluation& e);

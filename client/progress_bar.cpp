@@ -25,8 +25,8 @@ void ProgressBar::update(int64_t done, int64_t total) {
   std::string bar(fill, '#');
   bar.resize(width, '.');
   const double eta = f > 0 ? el * (1 - f) / f : 0;
-  std::fprintf(stderr, "\r%-10s [%s] %5.1f%%  %lld/%lld  %4.0fs left ", label_.c_str(),
-               bar.c_str(), 100 * f, (long long)done, (long long)total, eta);
+  std::fprintf(stderr, "\r%-10s [%s] %5.1f%%  %lld/%lld  %4.0fs left ", label_.c_str(), bar.c_str(),
+               100 * f, (long long)done, (long long)total, eta);
   std::fflush(stderr);
 }
 

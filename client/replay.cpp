@@ -9,8 +9,7 @@
 namespace rangex {
 
 std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const PlantConfig& plant,
-                                         const ReplayOptions& opt,
-                                         const ReplayProgress& progress) {
+                                         const ReplayOptions& opt, const ReplayProgress& progress) {
   const RecordingInfo& info = rec.info();
   if (info.calibration_id != plant.calibration_id)
     fail("calibration mismatch: the recording was made with calibration '", info.calibration_id,
@@ -62,8 +61,9 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
         }
       }
     };
-    LaneProcessor proc(lc, {opt.threads, opt.baseline, opt.keep_images},
-                       [&](InspectedFillet&& f) { r.fillets.push_back(std::move(f)); }, observe);
+    LaneProcessor proc(
+        lc, {opt.threads, opt.baseline, opt.keep_images},
+        [&](InspectedFillet&& f) { r.fillets.push_back(std::move(f)); }, observe);
     const size_t frame = size_t(info.width) * info.height;
     std::vector<uint8_t> cam0, cam1, frames;
     std::vector<uint16_t> xray;

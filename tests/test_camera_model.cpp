@@ -42,8 +42,8 @@ TEST(CameraModel, ProjectMatchesOpenCV) {
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) R.at<double>(r, c) = cam.rotation()(r, c);
     cv::Rodrigues(R, rvec);
-    const cv::Mat tvec = (cv::Mat_<double>(3, 1) << cam.translation().x, cam.translation().y,
-                          cam.translation().z);
+    const cv::Mat tvec =
+        (cv::Mat_<double>(3, 1) << cam.translation().x, cam.translation().y, cam.translation().z);
     std::vector<cv::Point2d> ref;
     cv::projectPoints(pts, rvec, tvec, K_of(cam), D_of(cam), ref);
     double worst = 0;
@@ -62,8 +62,9 @@ TEST(CameraModel, UndistortMatchesOpenCV) {
     std::vector<cv::Point2d> px;
     for (int i = 0; i < 2000; ++i) px.emplace_back(uu(rng), uv(rng));
     std::vector<cv::Point2d> ref;
-    cv::undistortPoints(px, ref, K_of(cam), D_of(cam), cv::noArray(), K_of(cam),
-                        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-15));
+    cv::undistortPoints(
+        px, ref, K_of(cam), D_of(cam), cv::noArray(), K_of(cam),
+        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-15));
     double worst = 0;
     for (size_t i = 0; i < px.size(); ++i) {
       const Vec2 ideal = cam.undistort(cam.pixel_to_normalized({px[i].x, px[i].y}));

@@ -20,7 +20,8 @@ TEST(EndToEnd, ThicknessWithinDissertationAccuracy) {
   const RecordingReader rec(t.str("rec"));
   const auto lanes = replay_recording(rec, plant, {});
   ASSERT_EQ(lanes.size(), 1u);
-  const LaneEvaluation ev = evaluate_lane(rec, plant.lane(0), lanes[0].stripe_rows, lanes[0].thickness);
+  const LaneEvaluation ev =
+      evaluate_lane(rec, plant.lane(0), lanes[0].stripe_rows, lanes[0].thickness);
   std::printf("%s", evaluations_table({ev}).c_str());
   ASSERT_GT(ev.thickness.count, 10000u);
   // Table 5's worst calibrated block error is 0.291 mm.

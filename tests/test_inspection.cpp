@@ -14,7 +14,9 @@ namespace {
 using Bone = sim::PlantedBone;
 using sim::synthetic_fillet;
 
-InspectionParams params() { return default_lane_config(0).inspection; }
+InspectionParams params() {
+  return default_lane_config(0).inspection;
+}
 
 }  // namespace
 
@@ -29,7 +31,8 @@ TEST(Inspection, PseudoXrayRecoversKnownBeta) {
   // P = exp(b0 + b1 T) pixel by pixel.
   for (size_t i = 0; i < f.size(); i += 97)
     if (f.mask[i])
-      EXPECT_NEAR(r.pseudo[i], std::exp(r.fit.beta0 + r.fit.beta1 * f.thickness[i]), 1e-2 * r.pseudo[i]);
+      EXPECT_NEAR(r.pseudo[i], std::exp(r.fit.beta0 + r.fit.beta1 * f.thickness[i]),
+                  1e-2 * r.pseudo[i]);
   // Noise model: photon noise a = 1 / (photons per DN), electronic b = 2^2.
   EXPECT_NEAR(r.noise.a, 0.1, 0.03);
   EXPECT_EQ(r.decision, Decision::kPass) << r.reason;
@@ -38,14 +41,16 @@ TEST(Inspection, PseudoXrayRecoversKnownBeta) {
 }
 
 TEST(Inspection, PlantedFragmentsFoundWithinOneMillimetre) {
-  const std::vector<Bone> bones = {{-20, 130, 1.2, 0.15}, {5, 160, 2.0, 0.10}, {15, 200, 3.5, 0.08}};
+  const std::vector<Bone> bones = {
+      {-20, 130, 1.2, 0.15}, {5, 160, 2.0, 0.10}, {15, 200, 3.5, 0.08}};
   const FilletImage f = synthetic_fillet(std::log(3600.0), -0.03, bones, 2);
   const FilletResult r = inspect_fillet(f, params(), false);
   EXPECT_EQ(r.decision, Decision::kReject);
   ASSERT_EQ(r.fragments.size(), bones.size()) << r.reason;
   for (const Bone& b : bones) {
     double best = 1e9;
-    for (const Blob& d : r.fragments) best = std::min(best, std::hypot(d.x_mm - b.x_mm, d.y_mm - b.y_mm));
+    for (const Blob& d : r.fragments)
+      best = std::min(best, std::hypot(d.x_mm - b.x_mm, d.y_mm - b.y_mm));
     EXPECT_LE(best, 1.0) << "bone at " << b.x_mm << ", " << b.y_mm;
   }
   for (const Blob& d : r.fragments) {
@@ -71,15 +76,22 @@ TEST(Inspection, FailSafeCasesAreNotInspected) {
     const char* reason;
   };
   const std::vector<Case> cases = {
-      {"missing lines", [](FilletImage& f, InspectionParams&) { f.missing_lines = 2; }, "lines missing"},
-      {"invalid thickness", [](FilletImage& f, InspectionParams&) {
+      {"missing lines", [](FilletImage& f, InspectionParams&) { f.missing_lines = 2; },
+       "lines missing"},
+      {"invalid thickness",
+       [](FilletImage& f, InspectionParams&) {
          for (size_t i = 0; i < f.size(); i += 10) f.thickness[i] = NAN;
          f.invalid_thickness_px = int(f.size() / 10);
-       }, "has no thickness"},
-      {"lane edge", [](FilletImage& f, InspectionParams&) { f.touches_lane_edge = true; }, "edge of the lane"},
-      {"calibration", [](FilletImage& f, InspectionParams&) { f.calibration_mismatch = true; }, "calibration mismatch"},
-      {"no convergence", [](FilletImage&, InspectionParams& p) { p.max_iter = 2; }, "did not converge"},
-      {"empty fillet", [](FilletImage& f, InspectionParams&) { std::fill(f.mask.begin(), f.mask.end(), 0); },
+       },
+       "has no thickness"},
+      {"lane edge", [](FilletImage& f, InspectionParams&) { f.touches_lane_edge = true; },
+       "edge of the lane"},
+      {"calibration", [](FilletImage& f, InspectionParams&) { f.calibration_mismatch = true; },
+       "calibration mismatch"},
+      {"no convergence", [](FilletImage&, InspectionParams& p) { p.max_iter = 2; },
+       "did not converge"},
+      {"empty fillet",
+       [](FilletImage& f, InspectionParams&) { std::fill(f.mask.begin(), f.mask.end(), 0); },
        "too few fillet pixels"},
   };
   for (const Case& c : cases) {
@@ -87,8 +99,10 @@ TEST(Inspection, FailSafeCasesAreNotInspected) {
     InspectionParams p = params();
     c.spoil(f, p);
     for (bool baseline : {false, true}) {
-      if (baseline && std::string(c.what) == "no convergence") continue;  // the baseline fits nothing
-      const FilletResult r = baseline ? inspect_fillet_xray_only(f, p, false) : inspect_fillet(f, p, false);
+      if (baseline && std::string(c.what) == "no convergence")
+        continue;  // the baseline fits nothing
+      const FilletResult r =
+          baseline ? inspect_fillet_xray_only(f, p, false) : inspect_fillet(f, p, false);
       EXPECT_EQ(r.decision, Decision::kNotInspected) << c.what;
       EXPECT_NE(r.reason.find(c.reason), std::string::npos) << c.what << ": " << r.reason;
     }

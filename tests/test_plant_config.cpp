@@ -49,23 +49,30 @@ lanes:
 
 TEST(PlantConfig, BadInputNamesKeyAndReason) {
   EXPECT_NE(error_of("lanes: [ {id: 0} \n foo").find("not valid YAML"), std::string::npos);
-  EXPECT_NE(error_of("lanes:\n  - id: 0\n  - id: 1\n    cameras:\n      - intrinsics: {fx: -5}\n      - {}\n")
-                .find("lanes[1].cameras[0].intrinsics.fx: must be > 0"),
-            std::string::npos);
-  EXPECT_NE(error_of("lanes:\n  - id: 0\n    cameras:\n      - intrinsics: {fx: .nan}\n      - {}\n")
-                .find("intrinsics.fx: must be finite"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of(
+          "lanes:\n  - id: 0\n  - id: 1\n    cameras:\n      - intrinsics: {fx: -5}\n      - {}\n")
+          .find("lanes[1].cameras[0].intrinsics.fx: must be > 0"),
+      std::string::npos);
+  EXPECT_NE(
+      error_of("lanes:\n  - id: 0\n    cameras:\n      - intrinsics: {fx: .nan}\n      - {}\n")
+          .find("intrinsics.fx: must be finite"),
+      std::string::npos);
   EXPECT_NE(error_of("lanes:\n  - id: 0\n    stripe: {method: median}\n").find("stripe.method"),
             std::string::npos);
   EXPECT_NE(error_of("lanes:\n  - id: 0\n    strpe: {}\n").find("unknown key 'strpe'"),
             std::string::npos);
-  EXPECT_NE(error_of("lanes:\n  - id: 0\n  - id: 0\n").find("duplicate lane id 0"), std::string::npos);
-  EXPECT_NE(error_of("lanes:\n  - id: 0\n    cameras:\n      - rotation: [1,0,0,0,1,0,0,0,2]\n      - {}\n")
-                .find("not a proper rotation"),
+  EXPECT_NE(error_of("lanes:\n  - id: 0\n  - id: 0\n").find("duplicate lane id 0"),
             std::string::npos);
+  EXPECT_NE(
+      error_of(
+          "lanes:\n  - id: 0\n    cameras:\n      - rotation: [1,0,0,0,1,0,0,0,2]\n      - {}\n")
+          .find("not a proper rotation"),
+      std::string::npos);
   EXPECT_NE(error_of("plant: {backend: cuda}\nlanes: [{id: 0}]\n").find("plant.backend"),
             std::string::npos);
   EXPECT_NE(error_of("plant: {name: x}\n").find("missing key 'lanes'"), std::string::npos);
-  EXPECT_NE(error_of("lanes:\n  - id: 0\n    frame: {width: 640, height: 3}\n").find("out of range"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of("lanes:\n  - id: 0\n    frame: {width: 640, height: 3}\n").find("out of range"),
+      std::string::npos);
 }

@@ -36,12 +36,14 @@ FusionParams grid() {
   return p;
 }
 
-void fuse(const Cams& c, std::vector<float>& out, std::vector<uint8_t>& ov, FusionStats* st = nullptr) {
+void fuse(const Cams& c, std::vector<float>& out, std::vector<uint8_t>& ov,
+          FusionStats* st = nullptr) {
   const FusionParams p = grid();
   out.resize(p.grid_samples);
   ov.resize(p.grid_samples);
   const int slot = 0;
-  fuse_profiles(c.x.data(), c.z.data(), c.v.data(), W, 1, &slot, &p, p.grid_samples, out.data(), ov.data(), st);
+  fuse_profiles(c.x.data(), c.z.data(), c.v.data(), W, 1, &slot, &p, p.grid_samples, out.data(),
+                ov.data(), st);
 }
 }  // namespace
 

@@ -70,10 +70,12 @@ TEST(Recording, TruncatedFileIsRefusedWithSizes) {
 
 TEST(Recording, NotARecordingAndExistingFolder) {
   test::TempDir t;
-  EXPECT_NE(error_of([&] { RecordingReader r(t.str()); }).find("no recording.yaml"), std::string::npos);
-  write_recording(t.str("r"), 64, 16, 1);
-  EXPECT_NE(error_of([&] { write_recording(t.str("r"), 64, 16, 1); }).find("already holds a recording"),
+  EXPECT_NE(error_of([&] { RecordingReader r(t.str()); }).find("no recording.yaml"),
             std::string::npos);
+  write_recording(t.str("r"), 64, 16, 1);
+  EXPECT_NE(
+      error_of([&] { write_recording(t.str("r"), 64, 16, 1); }).find("already holds a recording"),
+      std::string::npos);
 }
 
 TEST(Recording, WrongFrameSizeAgainstConfig) {
@@ -100,8 +102,11 @@ TEST(Recording, EncoderGoingBackwardsOrRepeatingIsRefused) {
   write_recording(t.str("back"), 640, 200, 3, {10, 11, 9});
   write_recording(t.str("dup"), 640, 200, 3, {10, 11, 11});
   const PlantConfig plant = default_plant_config(1);
-  EXPECT_NE(error_of([&] { replay_recording(RecordingReader(t.str("back")), plant, {}); }).find("goes backwards"),
+  EXPECT_NE(error_of([&] {
+              replay_recording(RecordingReader(t.str("back")), plant, {});
+            }).find("goes backwards"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { replay_recording(RecordingReader(t.str("dup")), plant, {}); }).find("repeats"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of([&] { replay_recording(RecordingReader(t.str("dup")), plant, {}); }).find("repeats"),
+      std::string::npos);
 }

@@ -26,7 +26,8 @@ double worst_error_px(const LaneCamera& cam, const LaserPlane& plane, int step, 
     rectify(row.data(), valid.data(), 1, W, &slot, &t, x.data(), z.data(), ov.data());
     for (int c = 0; c < W; ++c) {
       // The point on the plane with this (x, z).
-      const double y = (plane.offset_mm - plane.normal.x * x[c] - plane.normal.z * z[c]) / plane.normal.y;
+      const double y =
+          (plane.offset_mm - plane.normal.x * x[c] - plane.normal.z * z[c]) / plane.normal.y;
       const Vec2 p = cam.model.project({x[c], y, z[c]});
       worst = std::max(worst, std::hypot(p.x - c, p.y - row[c]));
     }

@@ -24,7 +24,7 @@ TEST(ResultsHub, SlowSubscriberIsToldHowMuchItLagged) {
   EXPECT_EQ(lagged, 84u);  // 100 published, 16 kept
   EXPECT_EQ(f.uid, 85);    // the oldest of the kept ones
   ASSERT_TRUE(hub.next(slow, 0, f, lagged));
-  EXPECT_EQ(lagged, 0u);   // reported once
+  EXPECT_EQ(lagged, 0u);  // reported once
   int n = 0;
   while (hub.next(rejects, 0, f, lagged)) {
     EXPECT_EQ(f.decision, "reject");

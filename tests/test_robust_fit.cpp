@@ -114,12 +114,14 @@ TEST(CsvPoints, BadFilesNameLineAndColumn) {
     }
     return std::string();
   };
-  EXPECT_NE(error_of(write("a.csv", "T,lnI\n1,2\n3,x\n")).find(":3: column 2 ('lnI') is not a finite number: 'x'"),
+  EXPECT_NE(error_of(write("a.csv", "T,lnI\n1,2\n3,x\n"))
+                .find(":3: column 2 ('lnI') is not a finite number: 'x'"),
             std::string::npos);
   EXPECT_NE(error_of(write("b.csv", "T,lnI\n1,2,3\n")).find(":2: expected 2 columns, found 3"),
             std::string::npos);
   EXPECT_NE(error_of(write("c.csv", "T,lnI\n")).find("no data rows"), std::string::npos);
   EXPECT_NE(error_of(write("d.csv", "")).find("empty file"), std::string::npos);
   EXPECT_NE(error_of(t.str("missing.csv")).find("cannot open"), std::string::npos);
-  EXPECT_NE(error_of(write("e.csv", "T,lnI\n1,nan\n")).find("not a finite number"), std::string::npos);
+  EXPECT_NE(error_of(write("e.csv", "T,lnI\n1,nan\n")).find("not a finite number"),
+            std::string::npos);
 }

@@ -20,7 +20,9 @@ namespace pb = rangex::v1;
 
 namespace {
 
-PlantConfig plant() { return load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml"); }
+PlantConfig plant() {
+  return load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml");
+}
 
 ServerOptions options(const test::TempDir& t, size_t queue = 2048) {
   ServerOptions o;
@@ -86,7 +88,9 @@ std::vector<pb::StreamLinesResponse> stream(const std::shared_ptr<grpc::Channel>
   return acks;
 }
 
-std::vector<StoredFillet> all_fillets(Store& st) { return st.list_fillets(0, 0, -1, 0, 100000); }
+std::vector<StoredFillet> all_fillets(Store& st) {
+  return st.list_fillets(0, 0, -1, 0, 100000);
+}
 
 }  // namespace
 
@@ -150,21 +154,27 @@ TEST(Server, BadInputGetsInBandErrorsAndTheStreamCarriesOn) {
     return l;
   };
   std::vector<pb::LineScan> seq = {
-      good.lines[0],                                                               // ok
-      bad([](pb::LineScan& l) { l.mutable_cam0()->resize(100); }, 1001),           // frame size
-      bad([](pb::LineScan& l) { l.set_lane(9); }, 1001),                           // lane
-      bad([](pb::LineScan&) {}, 999),                                              // backwards
-      bad([](pb::LineScan&) {}, 1000),                                             // duplicate
-      bad([](pb::LineScan& l) { l.mutable_cam1()->resize(10 << 20); }, 1001),      // oversized
-      bad([](pb::LineScan& l) { l.mutable_xray()->resize(7); }, 1001),             // X-ray size
-      bad([](pb::LineScan& l) { l.set_calibration_id("line-9-old"); }, 1001),      // calibration
-      good.lines[1],                                                               // ok again
+      good.lines[0],                                                           // ok
+      bad([](pb::LineScan& l) { l.mutable_cam0()->resize(100); }, 1001),       // frame size
+      bad([](pb::LineScan& l) { l.set_lane(9); }, 1001),                       // lane
+      bad([](pb::LineScan&) {}, 999),                                          // backwards
+      bad([](pb::LineScan&) {}, 1000),                                         // duplicate
+      bad([](pb::LineScan& l) { l.mutable_cam1()->resize(10 << 20); }, 1001),  // oversized
+      bad([](pb::LineScan& l) { l.mutable_xray()->resize(7); }, 1001),         // X-ray size
+      bad([](pb::LineScan& l) { l.set_calibration_id("line-9-old"); }, 1001),  // calibration
+      good.lines[1],                                                           // ok again
   };
   const auto acks = stream(connect(server), seq);
   ASSERT_EQ(acks.size(), seq.size());
-  const std::vector<std::string> codes = {"",                 "WRONG_FRAME_SIZE", "UNKNOWN_LANE",
-                                          "ENCODER_BACKWARDS", "DUPLICATE_LINE",  "OVERSIZED",
-                                          "WRONG_XRAY_SIZE",   "CALIBRATION_MISMATCH", ""};
+  const std::vector<std::string> codes = {"",
+                                          "WRONG_FRAME_SIZE",
+                                          "UNKNOWN_LANE",
+                                          "ENCODER_BACKWARDS",
+                                          "DUPLICATE_LINE",
+                                          "OVERSIZED",
+                                          "WRONG_XRAY_SIZE",
+                                          "CALIBRATION_MISMATCH",
+                                          ""};
   for (size_t i = 0; i < acks.size(); ++i) {
     EXPECT_EQ(acks[i].sequence(), i);
     EXPECT_EQ(acks[i].accepted(), codes[i].empty()) << i;
@@ -206,7 +216,8 @@ TEST(Server, ClientDisconnectMidStreamLeavesNothingBehind) {
   const EngineStats s = server.engine().stats();
   EXPECT_EQ(s.processed, lines.lines.size());
   EXPECT_GE(s.fillets, 1u);
-  for (const auto& f : all_fillets(server.store())) EXPECT_NE(f.decision, "not_inspected") << f.reason;
+  for (const auto& f : all_fillets(server.store()))
+    EXPECT_NE(f.decision, "not_inspected") << f.reason;
 }
 
 TEST(Server, OverloadDropsAreCountedAndFilletsFailSafe) {
@@ -219,7 +230,8 @@ TEST(Server, OverloadDropsAreCountedAndFilletsFailSafe) {
   // of the fillet during which the worker stalls: the queue of 64 overflows there.
   const size_t mid = lines.lines.size() / 2, stall = 200;
   auto drained = [&] {
-    while (server.engine().stats().queue_depth > 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    while (server.engine().stats().queue_depth > 0)
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
   };
   auto chunked = [&](size_t from, size_t to) {
     for (size_t i = from; i < to; i += 32) {
@@ -229,7 +241,8 @@ TEST(Server, OverloadDropsAreCountedAndFilletsFailSafe) {
   };
   chunked(0, mid);
   server.engine().pause(true);
-  const auto acks = stream(ch, {lines.lines.begin() + long(mid), lines.lines.begin() + long(mid + stall)});
+  const auto acks =
+      stream(ch, {lines.lines.begin() + long(mid), lines.lines.begin() + long(mid + stall)});
   server.engine().pause(false);
   drained();
   chunked(mid + stall, lines.lines.size());
@@ -262,9 +275,11 @@ TEST(Server, CalibrationActivatesBetweenFillets) {
     pb::UploadCalibrationResponse r;
     const grpc::Status s1 = cal->UploadCalibration(&c1, bad, &r);
     EXPECT_EQ(s1.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-    EXPECT_NE(s1.error_message().find("intrinsics.fx: must be finite"), std::string::npos) << s1.error_message();
+    EXPECT_NE(s1.error_message().find("intrinsics.fx: must be finite"), std::string::npos)
+        << s1.error_message();
     bad.set_yaml("laser_plane: {offset_mm: [1, 2]}\n");
-    EXPECT_EQ(cal->UploadCalibration(&c2, bad, &r).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_EQ(cal->UploadCalibration(&c2, bad, &r).error_code(),
+              grpc::StatusCode::INVALID_ARGUMENT);
   }
   {
     grpc::ClientContext c;
@@ -298,13 +313,15 @@ TEST(Server, CalibrationActivatesBetweenFillets) {
   ASSERT_GE(fillets.size(), 4u);
   // Every fillet ran under one calibration; the switch happened once, between fillets.
   int switches = 0;
-  for (size_t i = 1; i < fillets.size(); ++i) switches += fillets[i].calibration_id != fillets[i - 1].calibration_id;
+  for (size_t i = 1; i < fillets.size(); ++i)
+    switches += fillets[i].calibration_id != fillets[i - 1].calibration_id;
   EXPECT_EQ(fillets.front().calibration_id, p.calibration_id);
   EXPECT_EQ(fillets.back().calibration_id, "recal-2026-11-22");
   EXPECT_EQ(switches, 1);
   const auto log = server.store().audit_log(20);
   bool audited = false;
-  for (const auto& l : log) audited |= l.find("test calibration.activate lane 0 id recal-2026-11-22") != std::string::npos;
+  for (const auto& l : log)
+    audited |= l.find("test calibration.activate lane 0 id recal-2026-11-22") != std::string::npos;
   EXPECT_TRUE(audited);
 }
 
@@ -372,7 +389,8 @@ TEST(Server, HealthAndReflectionAnswer) {
   grpc::GenericStub stub(ch);
   grpc::ClientContext ctx;
   grpc::CompletionQueue cq;
-  auto call = stub.PrepareCall(&ctx, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &cq);
+  auto call =
+      stub.PrepareCall(&ctx, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &cq);
   void* tag;
   bool ok;
   call->StartCall(reinterpret_cast<void*>(1));
@@ -387,8 +405,9 @@ TEST(Server, HealthAndReflectionAnswer) {
   out.Dump(&slices);
   std::string bytes;
   for (auto& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
-  for (const char* svc : {"rangex.v1.IngestService", "rangex.v1.ResultsService",
-                          "rangex.v1.CalibrationService", "rangex.v1.ControlService", "grpc.health.v1.Health"})
+  for (const char* svc :
+       {"rangex.v1.IngestService", "rangex.v1.ResultsService", "rangex.v1.CalibrationService",
+        "rangex.v1.ControlService", "grpc.health.v1.Health"})
     EXPECT_NE(bytes.find(svc), std::string::npos) << svc;
   ctx.TryCancel();
   grpc::Status st;

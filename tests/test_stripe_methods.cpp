@@ -32,8 +32,13 @@ Synthetic make_stripes(int count, uint64_t seed, double amplitude, double noise_
     p = uint8_t(std::clamp(std::lround(10 + noise_sd * rng.normal()), 0L, 255L));
   for (int f = 0; f < count; ++f)
     for (int c = 0; c < W; ++c) {
-      sim::StripeShape sh{rng.uniform(60, 140), amplitude, rng.uniform(sigma_lo, sigma_hi),
-                          rng.uniform(tail_lo, tail_hi), tail_px, +1, 0.0};
+      sim::StripeShape sh{rng.uniform(60, 140),
+                          amplitude,
+                          rng.uniform(sigma_lo, sigma_hi),
+                          rng.uniform(tail_lo, tail_hi),
+                          tail_px,
+                          +1,
+                          0.0};
       sim::add_stripe(&s.frames[size_t(f) * W * H + c], H, W, sh, rng);
       s.truth.push_back(float(sh.center));
     }
@@ -75,7 +80,9 @@ INSTANTIATE_TEST_SUITE_P(AllMethods, SymmetricStripe,
                                            StripeMethod::kBinary, StripeMethod::kGaussian3,
                                            StripeMethod::kParabola, StripeMethod::kShifted,
                                            StripeMethod::kModified),
-                         [](const auto& info) { return std::string(stripe_method_name(info.param)); });
+                         [](const auto& info) {
+                           return std::string(stripe_method_name(info.param));
+                         });
 
 // Scattered stripes: tail weight varies per column (0.1 .. 0.6 of the core), as the view
 // angle to the meat surface varies. K1/K2 are fitted on one set and tested on another.
@@ -85,8 +92,8 @@ TEST(ScatteredStripe, ModifiedCentroidBeatsPlainAndStaysWithin01px) {
   StripeSlot slot;
   slot.params.method = StripeMethod::kCentroid;
   const StripeOutput tr = run(train, slot);
-  const ScatterFit fit =
-      fit_scatter_constants(train.truth.data(), tr.centroid.data(), tr.asym.data(), train.truth.size());
+  const ScatterFit fit = fit_scatter_constants(train.truth.data(), tr.centroid.data(),
+                                               tr.asym.data(), train.truth.size());
   slot.scatter = fit.constants;
   const double plain = mean_abs_error(run(test, slot), test.truth);
   slot.params.method = StripeMethod::kShifted;
@@ -96,9 +103,10 @@ TEST(ScatteredStripe, ModifiedCentroidBeatsPlainAndStaysWithin01px) {
   RecordProperty("plain_px", std::to_string(plain));
   RecordProperty("shifted_px", std::to_string(shifted));
   RecordProperty("modified_px", std::to_string(modified));
-  std::printf("scattered stripes, mean |error| px: plain %.4f, shifted %.4f, modified %.4f "
-              "(K1 %.4f, K2 %.4f, offset %.4f)\n",
-              plain, shifted, modified, fit.constants.k1, fit.constants.k2, fit.constants.k2_offset);
+  std::printf(
+      "scattered stripes, mean |error| px: plain %.4f, shifted %.4f, modified %.4f "
+      "(K1 %.4f, K2 %.4f, offset %.4f)\n",
+      plain, shifted, modified, fit.constants.k1, fit.constants.k2, fit.constants.k2_offset);
   EXPECT_LT(modified, plain);
   EXPECT_LT(modified, shifted);
   EXPECT_LE(modified, 0.1);
@@ -175,7 +183,8 @@ TEST(StripeExtract, RowWisePathEqualsPerColumnReference) {
     extract_stripes_reference(s.frames.data(), s.count, W, H, slots.data(), &slot, ref);
     for (size_t i = 0; i < ref.row.size(); ++i) {
       ASSERT_EQ(fast.valid[i], ref.valid[i]) << stripe_method_name(m) << " column " << i;
-      if (ref.valid[i]) ASSERT_NEAR(fast.row[i], ref.row[i], 1e-4) << stripe_method_name(m) << " column " << i;
+      if (ref.valid[i])
+        ASSERT_NEAR(fast.row[i], ref.row[i], 1e-4) << stripe_method_name(m) << " column " << i;
       ASSERT_EQ(fast.peak[i], ref.peak[i]);
     }
   }

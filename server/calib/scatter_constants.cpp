@@ -22,7 +22,8 @@ ScatterFit fit_scatter_constants(const float* ref, const float* C, const float* 
   }
   if (m < 10) fail("scatter constants need at least 10 paired columns, got ", m);
   const double det = s * saa - sa * sa;
-  if (det <= 1e-12 * s * s) fail("scatter constants: the stripe asymmetry does not vary over the samples");
+  if (det <= 1e-12 * s * s)
+    fail("scatter constants: the stripe asymmetry does not vary over the samples");
   ScatterFit f;
   f.samples = m;
   f.constants.k1 = sd / s;

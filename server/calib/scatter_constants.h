@@ -18,7 +18,7 @@ struct ScatterFit {
 
 // reference, centroid, asym: n samples each; NaN references are skipped. Throws Error when
 // fewer than 10 usable samples remain or the asymmetry does not vary.
-ScatterFit fit_scatter_constants(const float* reference, const float* centroid,
-                                 const float* asym, size_t n);
+ScatterFit fit_scatter_constants(const float* reference, const float* centroid, const float* asym,
+                                 size_t n);
 
 }  // namespace rangex

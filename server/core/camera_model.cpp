@@ -58,6 +58,8 @@ Ray CameraModel::pixel_ray(const Vec2& px) const {
   return {center(), (R_.transposed() * dir_cam).normalized()};
 }
 
-Vec3 CameraModel::center() const { return (R_.transposed() * t_) * -1.0; }
+Vec3 CameraModel::center() const {
+  return (R_.transposed() * t_) * -1.0;
+}
 
 }  // namespace rangex

@@ -18,11 +18,11 @@ struct LaneCamera {
 };
 
 struct FusionParams {
-  double grid_pitch_mm = 0.2;     // fused profile sample spacing across the belt
-  double grid_x0_mm = -100.0;     // x of the first fused sample
-  int grid_samples = 1001;        // covers x0 .. x0 + pitch * (n - 1)
-  double agree_tol_mm = 1.0;      // both cameras valid and closer than this: averaged
-  double max_gap_mm = 3.0;        // shorter gaps are interpolated, longer ones stay invalid
+  double grid_pitch_mm = 0.2;       // fused profile sample spacing across the belt
+  double grid_x0_mm = -100.0;       // x of the first fused sample
+  int grid_samples = 1001;          // covers x0 .. x0 + pitch * (n - 1)
+  double agree_tol_mm = 1.0;        // both cameras valid and closer than this: averaged
+  double max_gap_mm = 3.0;          // shorter gaps are interpolated, longer ones stay invalid
   double max_column_step_mm = 2.0;  // neighbouring columns further apart are not joined
 };
 
@@ -37,11 +37,11 @@ struct InspectionParams {
   int max_iter = 50;
   double tol = 1e-8;
   double smooth_sigma_px = 1.0;
-  double z_threshold = 5.0;            // smoothed z below -threshold is bone
+  double z_threshold = 5.0;  // smoothed z below -threshold is bone
   double min_fragment_area_mm2 = 0.3;
-  double air_z_threshold = 5.0;        // smoothed z above +threshold is an air pocket
+  double air_z_threshold = 5.0;  // smoothed z above +threshold is an air pocket
   double min_air_area_mm2 = 1.0;
-  double baseline_sigma_mm = 4.0;      // X-ray-only baseline: smooth background scale
+  double baseline_sigma_mm = 4.0;  // X-ray-only baseline: smooth background scale
 };
 
 struct LaneConfig {

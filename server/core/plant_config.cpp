@@ -118,8 +118,9 @@ void read_camera(const Node& n, LaneCamera& cam, int w, int h) {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) err = std::max(err, std::abs(I(i, j) - (i == j ? 1.0 : 0.0)));
     if (err > 1e-4 || R.det() < 0)
-      n.at("rotation").bad("is not a proper rotation (R*R^T deviates from I by " +
-                           std::to_string(err) + ", det " + std::to_string(R.det()) + ")");
+      n.at("rotation")
+          .bad("is not a proper rotation (R*R^T deviates from I by " + std::to_string(err) +
+               ", det " + std::to_string(R.det()) + ")");
   }
   if (n.has("center_mm")) {
     const auto v = n.at("center_mm").numbers(3);
@@ -148,10 +149,11 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->positive("width", c.frame_width);
     n->positive("height", c.frame_height);
     if (c.frame_width > 8192 || c.frame_height > 4096 || c.frame_height < 8)
-      n->bad("frame size " + std::to_string(c.frame_width) + "x" +
-             std::to_string(c.frame_height) + " is out of range (8..8192 x 8..4096)");
+      n->bad("frame size " + std::to_string(c.frame_width) + "x" + std::to_string(c.frame_height) +
+             " is out of range (8..8192 x 8..4096)");
   }
-  if (lane.has("encoder_step_mm")) lane.positive("encoder_step_mm", c.encoder_step_mm);
+  if (lane.has("encoder_step_mm"))
+    lane.positive("encoder_step_mm", c.encoder_step_mm);
   else if (defaults && defaults->has("encoder_step_mm"))
     defaults->positive("encoder_step_mm", c.encoder_step_mm);
   // The cameras' image size always follows the frame size.
@@ -180,13 +182,15 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->positive("pitch_mm", c.xray.pitch_mm);
     n->get("first_pixel_x_mm", c.xray.first_pixel_x_mm);
     n->get("detector_z_mm", c.xray.detector_z_mm);
-    if (c.xray.detector_z_mm > 0) n->at("detector_z_mm").bad("the detector must be below the belt (z <= 0)");
+    if (c.xray.detector_z_mm > 0)
+      n->at("detector_z_mm").bad("the detector must be below the belt (z <= 0)");
     if (n->has("source_mm")) {
       const auto v = n->at("source_mm").numbers(2);
       c.xray.source_x_mm = v[0];
       c.xray.source_z_mm = v[1];
     }
-    if (c.xray.source_z_mm < 100) n->at("source_mm").bad("the source must be at least 100 mm above the belt");
+    if (c.xray.source_z_mm < 100)
+      n->at("source_mm").bad("the source must be at least 100 mm above the belt");
     n->get("delay_lines", c.xray.delay_lines);
     if (c.xray.delay_lines < 0) n->at("delay_lines").bad("must be >= 0");
     n->get("bits", c.xray.bits);
@@ -293,7 +297,8 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
     const int id = ln.at("id").integer();
     if (id < 0) ln.at("id").bad("must be >= 0");
     LaneConfig l = read_lane(ln, defaults ? &*defaults : nullptr, default_lane_config(id));
-    if (!seen.insert(l.id).second) lanes.item(i).at("id").bad("duplicate lane id " + std::to_string(l.id));
+    if (!seen.insert(l.id).second)
+      lanes.item(i).at("id").bad("duplicate lane id " + std::to_string(l.id));
     p.lanes.push_back(std::move(l));
   }
   return p;

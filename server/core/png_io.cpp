@@ -44,8 +44,8 @@ void write_png16(const std::string& path, const uint16_t* pixels, int width, int
 
 void write_png8(const std::string& path, const uint8_t* pixels, int width, int height,
                 int channels) {
-  write_png(path, pixels, width, height, 8, channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY,
-            size_t(width) * channels);
+  write_png(path, pixels, width, height, 8,
+            channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY, size_t(width) * channels);
 }
 
 }  // namespace rangex

@@ -164,9 +164,9 @@ RecordingReader::RecordingReader(const std::string& dir) : dir_(dir) {
     size_t per_line;
   };
   for (int lane : info_.lanes) {
-    for (const Expect& e : {Expect{"cam0.u8", frame}, Expect{"cam1.u8", frame},
-                            Expect{"xray.u16", size_t(info_.xray_pixels) * 2},
-                            Expect{"encoder.i64", 8}}) {
+    for (const Expect& e :
+         {Expect{"cam0.u8", frame}, Expect{"cam1.u8", frame},
+          Expect{"xray.u16", size_t(info_.xray_pixels) * 2}, Expect{"encoder.i64", 8}}) {
       const fs::path p = fs::path(lane_dir(lane)) / e.name;
       if (!fs::exists(p)) fail("lane ", lane, ": ", e.name, " is missing in ", dir);
       const auto size = fs::file_size(p);

@@ -28,9 +28,9 @@ struct ScatterConstants {
 
 struct StripeParams {
   StripeMethod method = StripeMethod::kModified;
-  int min_peak = 40;            // DN: a column whose maximum is lower has no stripe
-  double threshold_rel = 0.2;   // window threshold as a fraction of the peak
-  int max_width = 40;           // px: wider windows are glare, not a stripe
+  int min_peak = 40;           // DN: a column whose maximum is lower has no stripe
+  double threshold_rel = 0.2;  // window threshold as a fraction of the peak
+  int max_width = 40;          // px: wider windows are glare, not a stripe
 };
 
 }  // namespace rangex

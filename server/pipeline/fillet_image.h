@@ -12,12 +12,12 @@ struct FilletImage {
   int64_t id = 0;          // per lane, in order of arrival
   int64_t first_line = 0;  // lane X-ray line index of row 0
   int64_t first_encoder = 0;
-  int first_col = 0;       // detector pixel of column 0
+  int first_col = 0;  // detector pixel of column 0
   int rows = 0, cols = 0;
-  double pitch_mm = 0.4;   // across the belt (detector pixel)
-  double step_mm = 0.4;    // along the belt (encoder step)
-  double x0_mm = 0;        // x of column 0's centre
-  double y0_mm = 0;        // belt position (object coordinate) of row 0
+  double pitch_mm = 0.4;  // across the belt (detector pixel)
+  double step_mm = 0.4;   // along the belt (encoder step)
+  double x0_mm = 0;       // x of column 0's centre
+  double y0_mm = 0;       // belt position (object coordinate) of row 0
   // Fan-beam geometry, to place what the detector sees back onto the belt.
   double source_x_mm = 0, source_z_mm = 700, detector_z_mm = -15;
   std::vector<uint16_t> xray;    // rows * cols, DN
@@ -25,8 +25,8 @@ struct FilletImage {
   std::vector<uint8_t> mask;     // rows * cols, 1 on the fillet
   int bits = 12;
   // Fail-safe inputs, filled by the assembly.
-  int missing_lines = 0;          // lines of the fillet that never arrived or were dropped
-  int invalid_thickness_px = 0;   // meat pixels (by X-ray) without a thickness
+  int missing_lines = 0;         // lines of the fillet that never arrived or were dropped
+  int invalid_thickness_px = 0;  // meat pixels (by X-ray) without a thickness
   bool touches_lane_edge = false;
   bool calibration_mismatch = false;
 

@@ -12,7 +12,9 @@ namespace fs = std::filesystem;
 namespace rangex {
 
 namespace {
-uint16_t clamp16(double v) { return uint16_t(std::clamp(std::lround(v), 0L, 65535L)); }
+uint16_t clamp16(double v) {
+  return uint16_t(std::clamp(std::lround(v), 0L, 65535L));
+}
 }  // namespace
 
 void write_fillet_images(const std::string& dir, const FilletImage& img, const FilletResult& r) {
@@ -46,13 +48,17 @@ void write_fillet_images(const std::string& dir, const FilletImage& img, const F
       const size_t i = size_t(y / S) * W + x / S;
       const uint8_t g = uint8_t(std::clamp(255.0 * img.xray[i] / top, 0.0, 255.0));
       // Fillet outline in green.
-      const bool edge = img.mask[i] && ((x / S == 0 || !img.mask[i - 1]) || (x / S == W - 1 || !img.mask[i + 1]) ||
-                                        (y / S == 0 || !img.mask[i - W]) || (y / S == H - 1 || !img.mask[i + W]));
-      if (edge) put(x, y, 0, 160, 0);
-      else put(x, y, g, g, g);
+      const bool edge = img.mask[i] &&
+                        ((x / S == 0 || !img.mask[i - 1]) || (x / S == W - 1 || !img.mask[i + 1]) ||
+                         (y / S == 0 || !img.mask[i - W]) || (y / S == H - 1 || !img.mask[i + W]));
+      if (edge)
+        put(x, y, 0, 160, 0);
+      else
+        put(x, y, g, g, g);
     }
   auto box = [&](const Blob& b, uint8_t R, uint8_t G, uint8_t B) {
-    const int x0 = (b.col0 - 2) * S, x1 = (b.col1 + 3) * S - 1, y0 = (b.row0 - 2) * S, y1 = (b.row1 + 3) * S - 1;
+    const int x0 = (b.col0 - 2) * S, x1 = (b.col1 + 3) * S - 1, y0 = (b.row0 - 2) * S,
+              y1 = (b.row1 + 3) * S - 1;
     for (int x = x0; x <= x1; ++x) put(x, y0, R, G, B), put(x, y1, R, G, B);
     for (int y = y0; y <= y1; ++y) put(x0, y, R, G, B), put(x1, y, R, G, B);
   };

@@ -12,9 +12,12 @@ namespace rangex {
 
 std::string_view decision_name(Decision d) {
   switch (d) {
-    case Decision::kPass: return "pass";
-    case Decision::kReject: return "reject";
-    default: return "not_inspected";
+    case Decision::kPass:
+      return "pass";
+    case Decision::kReject:
+      return "reject";
+    default:
+      return "not_inspected";
   }
 }
 
@@ -103,14 +106,15 @@ std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& 
     b.peak_z = sign * peak;
     out.push_back(b);
   }
-  std::sort(out.begin(), out.end(), [](const Blob& a, const Blob& b) { return std::abs(a.peak_z) > std::abs(b.peak_z); });
+  std::sort(out.begin(), out.end(),
+            [](const Blob& a, const Blob& b) { return std::abs(a.peak_z) > std::abs(b.peak_z); });
   return out;
 }
 
 // Everything after the model of ln I: noise model, z, detection, decision, statistics.
 void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
-                       const std::vector<float>& predicted_ln, const InspectionParams& p,
-                       bool keep, FilletResult& res) {
+                       const std::vector<float>& predicted_ln, const InspectionParams& p, bool keep,
+                       FilletResult& res) {
   const size_t n = img.size();
   std::vector<float> pred(n, kNaN), resid(n, kNaN);
   double sum = 0, sum2 = 0;
@@ -183,7 +187,8 @@ FilletResult inspect_fillet(const FilletImage& img, const InspectionParams& p, b
   }
   res.fitted = true;
   if (!res.fit.converged) {
-    res.reason = "robust fit did not converge in " + std::to_string(res.fit.iterations) + " iterations";
+    res.reason =
+        "robust fit did not converge in " + std::to_string(res.fit.iterations) + " iterations";
     return res;
   }
   std::vector<float> predicted(img.size(), kNaN);
@@ -193,7 +198,8 @@ FilletResult inspect_fillet(const FilletImage& img, const InspectionParams& p, b
   return res;
 }
 
-FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionParams& p, bool keep) {
+FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionParams& p,
+                                      bool keep) {
   FilletResult res = header(img);
   if (const std::string why = not_inspectable(img, p); !why.empty()) {
     res.reason = why;

@@ -44,10 +44,10 @@ struct FilletResult {
   RobustFit fit;
   NoiseModel noise;
   std::vector<Blob> fragments, air_pockets;
-  int pixels = 0;                // fillet pixels used
-  double resid_mean_dn = 0;      // mean of I - P
-  double resid_std_dn = 0;       // standard deviation of I - P
-  double z_spread = 0;           // robust spread of the smoothed z before normalisation
+  int pixels = 0;            // fillet pixels used
+  double resid_mean_dn = 0;  // mean of I - P
+  double resid_std_dn = 0;   // standard deviation of I - P
+  double z_spread = 0;       // robust spread of the smoothed z before normalisation
   // Images over the fillet's box (kept on request): pseudo-X-ray (DN), residual ln I - ln P,
   // smoothed z; NaN off the fillet.
   std::vector<float> pseudo, residual, zs;

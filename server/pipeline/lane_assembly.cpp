@@ -9,7 +9,9 @@
 namespace rangex {
 
 LaneAssembler::LaneAssembler(const LaneConfig& lane, Sink sink)
-    : lane_(lane), sink_(std::move(sink)), pixels_(lane.xray.pixels),
+    : lane_(lane),
+      sink_(std::move(sink)),
+      pixels_(lane.xray.pixels),
       open_beam_(double((1 << lane.xray.bits) - 1)) {}
 
 void LaneAssembler::push_thickness(int64_t encoder, const float* t) {
@@ -38,7 +40,8 @@ void LaneAssembler::push_xray(int64_t encoder, const uint16_t* xray) {
     for (int64_t e = next_encoder_; e < encoder; ++e) push_missing(e);
   next_encoder_ = encoder + 1;
   ++stats_.lines;
-  Row r{encoder, encoder - first_encoder_, std::vector<uint16_t>(xray, xray + pixels_), {}, false, false};
+  Row r{encoder, encoder - first_encoder_, std::vector<uint16_t>(xray, xray + pixels_), {}, false,
+        false};
   auto it = thickness_.find(encoder - lane_.xray.delay_lines);
   if (it == thickness_.end()) {
     // No camera line for this slice: no thickness, so the line cannot be inspected.
@@ -108,7 +111,8 @@ void LaneAssembler::close_segment() {
     while (up >= 0 && segment_[up].missing) --up;
     while (dn < rows && segment_[dn].missing) ++dn;
     for (int i = 0; i < D; ++i)
-      on[size_t(r) * D + i] = (up >= 0 && on[size_t(up) * D + i]) || (dn < rows && on[size_t(dn) * D + i]);
+      on[size_t(r) * D + i] =
+          (up >= 0 && on[size_t(up) * D + i]) || (dn < rows && on[size_t(dn) * D + i]);
   }
   std::vector<int> labels;
   const auto comps = label_components(on.data(), rows, D, labels);

@@ -21,7 +21,7 @@ struct AssemblyStats {
   int64_t lines = 0;          // X-ray lines taken in
   int64_t missing_lines = 0;  // lines marked missing
   int64_t fillets = 0;
-  int64_t debris = 0;         // regions below the minimum fillet area
+  int64_t debris = 0;  // regions below the minimum fillet area
 };
 
 class LaneAssembler {

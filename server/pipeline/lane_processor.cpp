@@ -48,7 +48,8 @@ void LaneProcessor::push(int count, const uint8_t* frames, const uint16_t* xray,
   for (int k = 0; k < count; ++k) {
     for (int i = 0; i < D; ++i) {
       const size_t o = size_t(k) * D + i;
-      line[i] = results_.thickness_valid[o] ? results_.thickness[o] : std::numeric_limits<float>::quiet_NaN();
+      line[i] = results_.thickness_valid[o] ? results_.thickness[o]
+                                            : std::numeric_limits<float>::quiet_NaN();
     }
     assembler_.push_thickness(encoders[k], line.data());
     assembler_.push_xray(encoders[k], xray + size_t(k) * D);
@@ -62,8 +63,12 @@ void LaneProcessor::reconfigure(const LaneConfig& lane) {
   assembler_.set_config(lane);
 }
 
-void LaneProcessor::push_missing(int64_t encoder) { assembler_.push_missing(encoder); }
+void LaneProcessor::push_missing(int64_t encoder) {
+  assembler_.push_missing(encoder);
+}
 
-void LaneProcessor::finish() { assembler_.flush(); }
+void LaneProcessor::finish() {
+  assembler_.flush();
+}
 
 }  // namespace rangex

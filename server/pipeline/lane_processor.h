@@ -16,9 +16,9 @@
 namespace rangex {
 
 struct LaneProcessorOptions {
-  int threads = 1;             // stripe-stage workers
-  bool baseline = true;        // also run the X-ray-only baseline on every fillet
-  bool keep_images = false;    // keep pseudo-X-ray / residual / z images in the results
+  int threads = 1;           // stripe-stage workers
+  bool baseline = true;      // also run the X-ray-only baseline on every fillet
+  bool keep_images = false;  // keep pseudo-X-ray / residual / z images in the results
 };
 
 struct InspectedFillet {

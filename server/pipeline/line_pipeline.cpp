@@ -50,8 +50,8 @@ void LinePipeline::run(const LineBatch& b, LineResults& out) const {
   }
   const int frames = b.lines * 2;
   const size_t cols = size_t(frames) * width_;
-  extract_stripes(b.frames.data(), frames, width_, height_, frame_slot.data(),
-                  stripe_slots_.data(), out.stripes, threads_);
+  extract_stripes(b.frames.data(), frames, width_, height_, frame_slot.data(), stripe_slots_.data(),
+                  out.stripes, threads_);
   out.x.resize(cols);
   out.z.resize(cols);
   out.xz_valid.resize(cols);
@@ -65,8 +65,8 @@ void LinePipeline::run(const LineBatch& b, LineResults& out) const {
   out.thickness.resize(size_t(b.lines) * pixels_);
   out.thickness_valid.resize(out.thickness.size());
   project_fan_beam(out.profile.data(), out.profile_valid.data(), b.lines, grid_n_,
-                   b.lane_slot.data(), fusion_.data(), beams_.data(), pixels_,
-                   out.thickness.data(), out.thickness_valid.data());
+                   b.lane_slot.data(), fusion_.data(), beams_.data(), pixels_, out.thickness.data(),
+                   out.thickness_valid.data());
 }
 
 }  // namespace rangex

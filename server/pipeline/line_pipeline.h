@@ -19,12 +19,12 @@ struct LineBatch {
 };
 
 struct LineResults {
-  StripeOutput stripes;             // [line][camera][column]
-  std::vector<float> x, z;          // rectified, [line][camera][column]
+  StripeOutput stripes;     // [line][camera][column]
+  std::vector<float> x, z;  // rectified, [line][camera][column]
   std::vector<uint8_t> xz_valid;
-  std::vector<float> profile;       // fused height, [line][grid]
+  std::vector<float> profile;  // fused height, [line][grid]
   std::vector<uint8_t> profile_valid;
-  std::vector<float> thickness;     // X-ray path thickness, [line][detector pixel]
+  std::vector<float> thickness;  // X-ray path thickness, [line][detector pixel]
   std::vector<uint8_t> thickness_valid;
   FusionStats fusion;
 };

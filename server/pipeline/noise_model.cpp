@@ -18,7 +18,8 @@ NoiseModel estimate_noise_model(const float* pred, const float* resid, size_t n)
   std::vector<std::pair<float, float>> pts;
   pts.reserve(n);
   for (size_t i = 0; i < n; ++i)
-    if (std::isfinite(pred[i]) && std::isfinite(resid[i]) && pred[i] > 0) pts.emplace_back(pred[i], resid[i]);
+    if (std::isfinite(pred[i]) && std::isfinite(resid[i]) && pred[i] > 0)
+      pts.emplace_back(pred[i], resid[i]);
   if (pts.size() < 100) fail("noise model needs at least 100 pixels, got ", pts.size());
   std::sort(pts.begin(), pts.end());
   // Equal-count bins by predicted intensity; MAD variance per bin resists the bones.

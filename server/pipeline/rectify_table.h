@@ -12,8 +12,8 @@
 namespace rangex {
 
 struct RectifyTable {
-  int step = 2;      // node spacing in pixels
-  int nu = 0, nv = 0;  // nodes across and down; node (i, j) sits at pixel (i*step, j*step)
+  int step = 2;             // node spacing in pixels
+  int nu = 0, nv = 0;       // nodes across and down; node (i, j) sits at pixel (i*step, j*step)
   std::vector<float> x, z;  // nv * nu, row-major
 };
 

@@ -105,8 +105,8 @@ RobustFit fit_tukey_line(const double* x, const double* y, size_t n, const Robus
       w[i] = std::abs(z) <= 1 ? (1 - z * z) * (1 - z * z) : 0.0;
     }
     if (!weighted_line(x, y, w.data(), n, line))
-      fail("robust fit: every point but those at one thickness was rejected as an outlier (",
-           n, " points)");
+      fail("robust fit: every point but those at one thickness was rejected as an outlier (", n,
+           " points)");
     residuals();
     f.scale = mad_scale();
     const double dev = deviance(w.data());

@@ -24,7 +24,7 @@ struct RobustFitOptions {
 
 struct RobustFit {
   double beta0 = 0, beta1 = 0;
-  double scale = 0;   // final MAD scale of the residuals
+  double scale = 0;    // final MAD scale of the residuals
   int iterations = 0;  // statsmodels' count: the OLS start is iteration 1
   bool converged = false;
   size_t n = 0;
@@ -33,7 +33,8 @@ struct RobustFit {
 
 // Throws Error for fewer than 3 points, non-finite values, x without spread, or a reweighting
 // that leaves no two distinct x with weight.
-RobustFit fit_tukey_line(const double* x, const double* y, size_t n, const RobustFitOptions& o = {});
+RobustFit fit_tukey_line(const double* x, const double* y, size_t n,
+                         const RobustFitOptions& o = {});
 
 // Median as numpy computes it (mean of the two middle values for even n); reorders `v`.
 double median_inplace(double* v, size_t n);

@@ -62,14 +62,21 @@ inline float method_row(StripeMethod m, const Sums& s, const Peaks& k, float bin
   centroid = s.s1 / s.s0;
   asym = (2 * s.below - s.s0) / s.s0;  // (L - U) / (L + U)
   switch (m) {
-    case StripeMethod::kCentroid: return centroid;
-    case StripeMethod::kSquared: return s.q1 / s.q0;
-    case StripeMethod::kBinary: return binary;
-    case StripeMethod::kGaussian3: return k.gauss;
-    case StripeMethod::kParabola: return k.parab;
-    case StripeMethod::kShifted: return centroid + float(sc.k1);
+    case StripeMethod::kCentroid:
+      return centroid;
+    case StripeMethod::kSquared:
+      return s.q1 / s.q0;
+    case StripeMethod::kBinary:
+      return binary;
+    case StripeMethod::kGaussian3:
+      return k.gauss;
+    case StripeMethod::kParabola:
+      return k.parab;
+    case StripeMethod::kShifted:
+      return centroid + float(sc.k1);
     case StripeMethod::kModified:
-    default: return centroid + float(sc.k2_offset) + float(sc.k2) * asym;
+    default:
+      return centroid + float(sc.k2_offset) + float(sc.k2) * asym;
   }
 }
 

@@ -101,7 +101,7 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
       const uint8_t* row = f + size_t(r) * width + c0;
       int any = 0;
       for (int k = 0; k < N; ++k) {
-        const int beyond = r < p[k], above = float(row[k]) > T[k];
+        const int beyond = r<p[k], above = float(row[k])> T[k];
         lo[k] = (live[k] & beyond & above) ? r : lo[k];
         a[k] = r == p[k] - 1 ? float(row[k]) : a[k];
         live[k] &= (!beyond) | above;
@@ -253,7 +253,8 @@ void extract_stripes_reference(const uint8_t* frames, int count, int width, int 
                                ? stripe::half_max_midpoint(f, width, height, c, m, p)
                                : 0.f;
       float centroid, asym;
-      out.row[o] = stripe::method_row(sl.params.method, sums, k, binary, sl.scatter, centroid, asym);
+      out.row[o] =
+          stripe::method_row(sl.params.method, sums, k, binary, sl.scatter, centroid, asym);
       out.centroid[o] = centroid;
       out.asym[o] = asym;
       out.valid[o] = 1;

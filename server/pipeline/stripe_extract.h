@@ -30,10 +30,10 @@ struct StripeSlot {
 };
 
 struct StripeOutput {
-  std::vector<float> row;     // sub-pixel row, NaN where invalid
-  std::vector<float> peak;    // peak intensity (DN)
-  std::vector<float> width;   // window width (px)
-  std::vector<float> asym;    // a = (L - U) / (L + U)
+  std::vector<float> row;       // sub-pixel row, NaN where invalid
+  std::vector<float> peak;      // peak intensity (DN)
+  std::vector<float> width;     // window width (px)
+  std::vector<float> asym;      // a = (L - U) / (L + U)
   std::vector<float> centroid;  // plain centroid C (for fitting the scattering constants)
   std::vector<uint8_t> valid;
   void resize(size_t n);

@@ -46,7 +46,9 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
   worker_ = std::thread([this] { worker(); });
 }
 
-Engine::~Engine() { drain_and_stop(); }
+Engine::~Engine() {
+  drain_and_stop();
+}
 
 Engine::Lane& Engine::lane(int id) {
   for (auto& l : lanes_)
@@ -82,18 +84,21 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
   const size_t frame = size_t(l->width) * l->height;
   const size_t limit = 4 * (2 * frame + size_t(l->pixels) * 2);
   if (line.cam0.size() + line.cam1.size() + line.xray.size() > limit)
-    return refuse("OVERSIZED", "line of " + std::to_string(line.cam0.size() + line.cam1.size() + line.xray.size()) +
-                                   " bytes; lane " + std::to_string(l->id) + " lines are " +
-                                   std::to_string(2 * frame + size_t(l->pixels) * 2) + " bytes");
+    return refuse("OVERSIZED",
+                  "line of " +
+                      std::to_string(line.cam0.size() + line.cam1.size() + line.xray.size()) +
+                      " bytes; lane " + std::to_string(l->id) + " lines are " +
+                      std::to_string(2 * frame + size_t(l->pixels) * 2) + " bytes");
   if (line.cam0.size() != frame || line.cam1.size() != frame)
-    return refuse("WRONG_FRAME_SIZE", "camera frames of " + std::to_string(line.cam0.size()) + " and " +
-                                          std::to_string(line.cam1.size()) + " bytes; lane " +
-                                          std::to_string(l->id) + " expects " + std::to_string(l->width) +
-                                          "x" + std::to_string(l->height) + " = " + std::to_string(frame));
+    return refuse("WRONG_FRAME_SIZE",
+                  "camera frames of " + std::to_string(line.cam0.size()) + " and " +
+                      std::to_string(line.cam1.size()) + " bytes; lane " + std::to_string(l->id) +
+                      " expects " + std::to_string(l->width) + "x" + std::to_string(l->height) +
+                      " = " + std::to_string(frame));
   if (line.xray.size() != size_t(l->pixels) * 2)
-    return refuse("WRONG_XRAY_SIZE", "X-ray line of " + std::to_string(line.xray.size()) + " bytes; lane " +
-                                         std::to_string(l->id) + " expects " + std::to_string(l->pixels) +
-                                         " 16-bit pixels");
+    return refuse("WRONG_XRAY_SIZE", "X-ray line of " + std::to_string(line.xray.size()) +
+                                         " bytes; lane " + std::to_string(l->id) + " expects " +
+                                         std::to_string(l->pixels) + " 16-bit pixels");
   {
     std::lock_guard<std::mutex> lock(l->mu);
     if (!line.calibration_id.empty() && line.calibration_id != l->calibration_id)
@@ -117,8 +122,9 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
     q.unlock();
     // The line is lost: its encoder stays unaccounted, so the assembly sees a gap and
     // fails the fillets around it safe.
-    return refuse("OVERLOAD", "queue full (" + std::to_string(opt_.queue_capacity) +
-                                  " lines); line dropped, its fillet will be rejected as not inspected");
+    return refuse("OVERLOAD",
+                  "queue full (" + std::to_string(opt_.queue_capacity) +
+                      " lines); line dropped, its fillet will be rejected as not inspected");
   }
   {
     std::lock_guard<std::mutex> lock(l->mu);
@@ -221,7 +227,8 @@ void Engine::process(std::vector<Queued>& batch) {
   std::lock_guard<std::mutex> lock(smu_);
   counters_.processed += batch.size();
   rate_.emplace_back(steady_ns(), counters_.processed);
-  while (rate_.size() > 2 && rate_.front().first < rate_.back().first - 2'000'000'000) rate_.pop_front();
+  while (rate_.size() > 2 && rate_.front().first < rate_.back().first - 2'000'000'000)
+    rate_.pop_front();
 }
 
 void Engine::on_fillet(Lane& l, InspectedFillet&& f) {
@@ -305,8 +312,8 @@ std::string Engine::calibration_of(int id) {
   return l.calibration_id;
 }
 
-StoredCalibration Engine::upload_calibration(int id, const std::string& cid, const std::string& yaml,
-                                             const std::string& who) {
+StoredCalibration Engine::upload_calibration(int id, const std::string& cid,
+                                             const std::string& yaml, const std::string& who) {
   Lane& l = lane(id);
   if (cid.empty()) fail("a calibration needs an id");
   LaneConfig base;
@@ -316,7 +323,8 @@ StoredCalibration Engine::upload_calibration(int id, const std::string& cid, con
   }
   // Parse now: a malformed or non-finite calibration is refused at upload, naming the key.
   const LaneConfig parsed = apply_lane_calibration(base, yaml, "calibration '" + cid + "'");
-  if (parsed.xray.pixels != l.pixels || parsed.frame_width != l.width || parsed.frame_height != l.height)
+  if (parsed.xray.pixels != l.pixels || parsed.frame_width != l.width ||
+      parsed.frame_height != l.height)
     fail("calibration '", cid, "' changes the sensor sizes of lane ", id, "; that needs a restart");
   StoredCalibration c{id, cid, yaml, now_ns(), false};
   store_.add_calibration(c);
@@ -344,7 +352,8 @@ LaneConfig Engine::update_thresholds(int id, std::optional<double> z, std::optio
                                      std::optional<double> floor, const std::string& who) {
   Lane& l = lane(id);
   auto check = [](const char* name, std::optional<double> v) {
-    if (v && !(std::isfinite(*v) && *v > 0)) fail(name, " must be a finite number > 0 (got ", *v, ")");
+    if (v && !(std::isfinite(*v) && *v > 0))
+      fail(name, " must be a finite number > 0 (got ", *v, ")");
   };
   check("z_threshold", z);
   check("min_fragment_area_mm2", area);

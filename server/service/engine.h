@@ -34,9 +34,9 @@ struct IncomingLine {
 struct EngineOptions {
   size_t queue_capacity = 2048;  // lines waiting for the worker, all lanes together
   int batch_lines = 64;
-  int batch_wait_ms = 10;        // a partial batch goes after this long
-  int threads = 1;               // stripe-stage workers
-  bool images = true;            // store images of rejected / not inspected fillets
+  int batch_wait_ms = 10;  // a partial batch goes after this long
+  int threads = 1;         // stripe-stage workers
+  bool images = true;      // store images of rejected / not inspected fillets
 };
 
 struct EngineStats {

@@ -11,8 +11,10 @@ class LatencyStats {
  public:
   void add(double ms) {
     std::lock_guard<std::mutex> lock(mu_);
-    if (ring_.size() < kCap) ring_.push_back(ms);
-    else ring_[next_++ % kCap] = ms;
+    if (ring_.size() < kCap)
+      ring_.push_back(ms);
+    else
+      ring_[next_++ % kCap] = ms;
     ++count_;
   }
   struct Summary {

@@ -12,7 +12,9 @@
 
 namespace {
 volatile std::sig_atomic_t g_stop = 0;
-void on_signal(int) { g_stop = 1; }
+void on_signal(int) {
+  g_stop = 1;
+}
 
 constexpr const char* kUsage =
     "usage: rangexd [--config PLANT.yaml] [--listen HOST:PORT] [--data DIR] [--threads N]\n"
@@ -32,12 +34,18 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--config") config = value();
-    else if (a == "--listen") listen = value();
-    else if (a == "--data") data = value();
-    else if (a == "--threads") eng.threads = std::stoi(value());
-    else if (a == "--queue") eng.queue_capacity = std::stoul(value());
-    else if (a == "--batch") eng.batch_lines = std::stoi(value());
+    if (a == "--config")
+      config = value();
+    else if (a == "--listen")
+      listen = value();
+    else if (a == "--data")
+      data = value();
+    else if (a == "--threads")
+      eng.threads = std::stoi(value());
+    else if (a == "--queue")
+      eng.queue_capacity = std::stoul(value());
+    else if (a == "--batch")
+      eng.batch_lines = std::stoi(value());
     else if (a == "--help" || a == "-h") {
       std::fputs(kUsage, stdout);
       return 0;
@@ -47,8 +55,11 @@ int main(int argc, char** argv) {
     }
   }
   if (config.empty()) {
-    if (const char* env = std::getenv("RANGEX_CONFIG")) config = env;
-    else config = std::filesystem::exists("config/plant.yaml") ? "config/plant.yaml" : RANGEX_DEFAULT_CONFIG;
+    if (const char* env = std::getenv("RANGEX_CONFIG"))
+      config = env;
+    else
+      config = std::filesystem::exists("config/plant.yaml") ? "config/plant.yaml"
+                                                            : RANGEX_DEFAULT_CONFIG;
   }
   try {
     const rangex::PlantConfig plant = rangex::load_plant_config(config);
@@ -67,8 +78,8 @@ int main(int argc, char** argv) {
     std::printf("rangexd: stopping: draining queued lines and closing open fillets\n");
     server.shutdown();
     const auto s = server.engine().stats();
-    std::printf("rangexd: stopped after %llu lines, %llu fillets\n", (unsigned long long)s.processed,
-                (unsigned long long)s.fillets);
+    std::printf("rangexd: stopped after %llu lines, %llu fillets\n",
+                (unsigned long long)s.processed, (unsigned long long)s.fillets);
     return 0;
   } catch (const rangex::Error& e) {
     std::fprintf(stderr, "rangexd: error: %s\n", e.what());

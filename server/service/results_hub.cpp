@@ -41,7 +41,8 @@ void ResultsHub::publish(const StoredFillet& f) {
 bool ResultsHub::next(const std::shared_ptr<Subscription>& s, int timeout_ms, StoredFillet& out,
                       uint64_t& lagged) {
   std::unique_lock<std::mutex> lock(mu_);
-  cv_.wait_for(lock, std::chrono::milliseconds(timeout_ms), [&] { return !s->queue.empty() || s->closed; });
+  cv_.wait_for(lock, std::chrono::milliseconds(timeout_ms),
+               [&] { return !s->queue.empty() || s->closed; });
   if (s->queue.empty()) return false;
   out = std::move(s->queue.front());
   s->queue.pop_front();

@@ -17,8 +17,8 @@ namespace rangex {
 class ResultsHub {
  public:
   struct Subscription {
-    std::set<int> lanes;                 // empty: all
-    std::set<std::string> decisions;     // empty: all
+    std::set<int> lanes;              // empty: all
+    std::set<std::string> decisions;  // empty: all
     size_t capacity = 256;
     std::deque<StoredFillet> queue;
     uint64_t lagged = 0;  // dropped since the last delivery

@@ -29,10 +29,14 @@ pb::Decision to_pb(const std::string& d) {
 
 std::string from_pb(pb::Decision d) {
   switch (d) {
-    case pb::DECISION_PASS: return "pass";
-    case pb::DECISION_REJECT: return "reject";
-    case pb::DECISION_NOT_INSPECTED: return "not_inspected";
-    default: return "";
+    case pb::DECISION_PASS:
+      return "pass";
+    case pb::DECISION_REJECT:
+      return "reject";
+    case pb::DECISION_NOT_INSPECTED:
+      return "not_inspected";
+    default:
+      return "";
   }
 }
 
@@ -97,7 +101,9 @@ Status guarded(F&& f) {
 class IngestImpl final : public pb::IngestService::Service {
  public:
   explicit IngestImpl(Engine& e) : engine_(e) {}
-  Status StreamLines(ServerContext*, grpc::ServerReaderWriter<pb::StreamLinesResponse, pb::StreamLinesRequest>* stream) override {
+  Status StreamLines(
+      ServerContext*,
+      grpc::ServerReaderWriter<pb::StreamLinesResponse, pb::StreamLinesRequest>* stream) override {
     pb::StreamLinesRequest req;
     while (stream->Read(&req)) {
       pb::StreamLinesResponse resp;
@@ -105,7 +111,8 @@ class IngestImpl final : public pb::IngestService::Service {
       if (!req.has_line()) {
         resp.set_accepted(false);
         resp.mutable_error()->set_code("MISSING_LINE");
-        resp.mutable_error()->set_message("request " + std::to_string(req.sequence()) + " carries no line");
+        resp.mutable_error()->set_message("request " + std::to_string(req.sequence()) +
+                                          " carries no line");
       } else {
         pb::LineScan* l = req.mutable_line();
         IncomingLine in;
@@ -156,7 +163,8 @@ class ResultsImpl final : public pb::ResultsService::Service {
     hub_.unsubscribe(sub);
     return Status::OK;
   }
-  Status GetFillet(ServerContext*, const pb::GetFilletRequest* req, pb::GetFilletResponse* resp) override {
+  Status GetFillet(ServerContext*, const pb::GetFilletRequest* req,
+                   pb::GetFilletResponse* resp) override {
     return guarded([&] {
       const auto f = store_.fillet(req->uid());
       if (!f) return Status(StatusCode::NOT_FOUND, "no fillet " + std::to_string(req->uid()));
@@ -164,30 +172,35 @@ class ResultsImpl final : public pb::ResultsService::Service {
       return Status::OK;
     });
   }
-  Status ListFillets(ServerContext*, const pb::ListFilletsRequest* req, pb::ListFilletsResponse* resp) override {
+  Status ListFillets(ServerContext*, const pb::ListFilletsRequest* req,
+                     pb::ListFilletsResponse* resp) override {
     return guarded([&] {
       int64_t after = 0;
       if (!req->page_token().empty()) {
         try {
           after = std::stoll(req->page_token());
         } catch (const std::exception&) {
-          return Status(StatusCode::INVALID_ARGUMENT, "malformed page token '" + req->page_token() + "'");
+          return Status(StatusCode::INVALID_ARGUMENT,
+                        "malformed page token '" + req->page_token() + "'");
         }
       }
       const int size = req->page_size() <= 0 ? 100 : std::min(req->page_size(), 1000);
-      const auto list = store_.list_fillets(req->from_ns(), req->to_ns(), req->lane(), after, size + 1);
+      const auto list =
+          store_.list_fillets(req->from_ns(), req->to_ns(), req->lane(), after, size + 1);
       for (int i = 0; i < int(list.size()) && i < size; ++i) fill(resp->add_fillets(), list[i]);
       if (int(list.size()) > size) resp->set_next_page_token(std::to_string(list[size - 1].uid));
       return Status::OK;
     });
   }
-  Status GetFilletImage(ServerContext*, const pb::GetFilletImageRequest* req, pb::GetFilletImageResponse* resp) override {
+  Status GetFilletImage(ServerContext*, const pb::GetFilletImageRequest* req,
+                        pb::GetFilletImageResponse* resp) override {
     return guarded([&] {
       const std::string kind = req->kind().empty() ? "overlay" : req->kind();
       const auto path = store_.image_path(req->uid(), kind);
       if (!path)
-        return Status(StatusCode::NOT_FOUND, "no " + kind + " image for fillet " + std::to_string(req->uid()) +
-                                                 " (images are kept for rejected and not inspected fillets)");
+        return Status(StatusCode::NOT_FOUND,
+                      "no " + kind + " image for fillet " + std::to_string(req->uid()) +
+                          " (images are kept for rejected and not inspected fillets)");
       std::ifstream in(*path, std::ios::binary);
       std::stringstream ss;
       ss << in.rdbuf();
@@ -204,27 +217,35 @@ class ResultsImpl final : public pb::ResultsService::Service {
 class CalibrationImpl final : public pb::CalibrationService::Service {
  public:
   CalibrationImpl(Engine& e, Store& s) : engine_(e), store_(s) {}
-  Status UploadCalibration(ServerContext*, const pb::UploadCalibrationRequest* req, pb::UploadCalibrationResponse* resp) override {
+  Status UploadCalibration(ServerContext*, const pb::UploadCalibrationRequest* req,
+                           pb::UploadCalibrationResponse* resp) override {
     return guarded([&] {
-      fill(resp->mutable_calibration(), engine_.upload_calibration(req->lane(), req->id(), req->yaml(), req->who()), false);
+      fill(resp->mutable_calibration(),
+           engine_.upload_calibration(req->lane(), req->id(), req->yaml(), req->who()), false);
       return Status::OK;
     });
   }
-  Status ListCalibrations(ServerContext*, const pb::ListCalibrationsRequest* req, pb::ListCalibrationsResponse* resp) override {
+  Status ListCalibrations(ServerContext*, const pb::ListCalibrationsRequest* req,
+                          pb::ListCalibrationsResponse* resp) override {
     return guarded([&] {
-      for (const auto& c : store_.calibrations(req->lane())) fill(resp->add_calibrations(), c, false);
+      for (const auto& c : store_.calibrations(req->lane()))
+        fill(resp->add_calibrations(), c, false);
       return Status::OK;
     });
   }
-  Status GetCalibration(ServerContext*, const pb::GetCalibrationRequest* req, pb::GetCalibrationResponse* resp) override {
+  Status GetCalibration(ServerContext*, const pb::GetCalibrationRequest* req,
+                        pb::GetCalibrationResponse* resp) override {
     return guarded([&] {
       const auto c = store_.calibration(req->lane(), req->id());
-      if (!c) return Status(StatusCode::NOT_FOUND, "lane " + std::to_string(req->lane()) + " has no calibration '" + req->id() + "'");
+      if (!c)
+        return Status(StatusCode::NOT_FOUND, "lane " + std::to_string(req->lane()) +
+                                                 " has no calibration '" + req->id() + "'");
       fill(resp->mutable_calibration(), *c, true);
       return Status::OK;
     });
   }
-  Status ActivateCalibration(ServerContext*, const pb::ActivateCalibrationRequest* req, pb::ActivateCalibrationResponse* resp) override {
+  Status ActivateCalibration(ServerContext*, const pb::ActivateCalibrationRequest* req,
+                             pb::ActivateCalibrationResponse* resp) override {
     return guarded([&] {
       resp->set_pending(engine_.activate_calibration(req->lane(), req->id(), req->who()));
       return Status::OK;
@@ -240,13 +261,16 @@ class ControlImpl final : public pb::ControlService::Service {
  public:
   ControlImpl(Engine& e, ResultsHub& h, const ServerOptions& o, int64_t started)
       : engine_(e), hub_(h), opt_(o), started_(started) {}
-  Status ListLanes(ServerContext*, const pb::ListLanesRequest*, pb::ListLanesResponse* resp) override {
+  Status ListLanes(ServerContext*, const pb::ListLanesRequest*,
+                   pb::ListLanesResponse* resp) override {
     return guarded([&] {
-      for (const LaneConfig& l : engine_.lanes()) fill(resp->add_lanes(), l, engine_.calibration_of(l.id));
+      for (const LaneConfig& l : engine_.lanes())
+        fill(resp->add_lanes(), l, engine_.calibration_of(l.id));
       return Status::OK;
     });
   }
-  Status UpdateLaneThresholds(ServerContext*, const pb::UpdateLaneThresholdsRequest* req, pb::UpdateLaneThresholdsResponse* resp) override {
+  Status UpdateLaneThresholds(ServerContext*, const pb::UpdateLaneThresholdsRequest* req,
+                              pb::UpdateLaneThresholdsResponse* resp) override {
     return guarded([&] {
       auto opt = [](bool has, double v) { return has ? std::optional<double>(v) : std::nullopt; };
       const LaneConfig l = engine_.update_thresholds(
@@ -257,7 +281,8 @@ class ControlImpl final : public pb::ControlService::Service {
       return Status::OK;
     });
   }
-  Status GetStatistics(ServerContext*, const pb::GetStatisticsRequest*, pb::GetStatisticsResponse* resp) override {
+  Status GetStatistics(ServerContext*, const pb::GetStatisticsRequest*,
+                       pb::GetStatisticsResponse* resp) override {
     const EngineStats s = engine_.stats();
     resp->set_lines_per_second(s.lines_per_second);
     resp->set_lines_received(s.received);
@@ -287,7 +312,8 @@ class ControlImpl final : public pb::ControlService::Service {
     resp->set_subscribers(hub_.subscribers());
     return Status::OK;
   }
-  Status GetServerInfo(ServerContext*, const pb::GetServerInfoRequest*, pb::GetServerInfoResponse* resp) override {
+  Status GetServerInfo(ServerContext*, const pb::GetServerInfoRequest*,
+                       pb::GetServerInfoResponse* resp) override {
     resp->set_version("rangex 0.1.0");
     resp->set_plant(engine_.plant().name);
     resp->set_backend("cpu");
@@ -312,7 +338,8 @@ struct RangexServer::Services {
   ControlImpl control;
 };
 
-RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt) : plant_(plant), opt_(std::move(opt)) {
+RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
+    : plant_(plant), opt_(std::move(opt)) {
   if (opt_.listen.empty()) opt_.listen = plant_.listen;
   if (opt_.data_dir.empty()) opt_.data_dir = plant_.storage;
   started_ns_ = now_ns();
@@ -336,7 +363,9 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt) : plant_
   store_->audit("rangexd", "server.start", "listening on " + address());
 }
 
-RangexServer::~RangexServer() { shutdown(); }
+RangexServer::~RangexServer() {
+  shutdown();
+}
 
 std::string RangexServer::address() const {
   const auto colon = opt_.listen.rfind(':');
@@ -352,6 +381,8 @@ void RangexServer::shutdown() {
   store_->audit("rangexd", "server.stop", "drained");
 }
 
-void RangexServer::wait() { server_->Wait(); }
+void RangexServer::wait() {
+  server_->Wait();
+}
 
 }  // namespace rangex

@@ -14,8 +14,8 @@ class Server;
 namespace rangex {
 
 struct ServerOptions {
-  std::string listen;       // host:port; empty takes plant.yaml's
-  std::string data_dir;     // empty takes plant.yaml's storage
+  std::string listen;    // host:port; empty takes plant.yaml's
+  std::string data_dir;  // empty takes plant.yaml's storage
   EngineOptions engine;
   int max_message_bytes = 64 << 20;  // oversized lines are refused in-band, below this
 };

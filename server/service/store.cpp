@@ -89,22 +89,28 @@ Store::Store(const std::string& dir) : dir_(dir) {
   }
   exec("PRAGMA journal_mode=WAL");
   exec("PRAGMA synchronous=NORMAL");
-  exec("CREATE TABLE IF NOT EXISTS fillets (uid INTEGER PRIMARY KEY AUTOINCREMENT, lane INTEGER, "
-       "lane_fillet INTEGER, first_encoder INTEGER, rows INTEGER, decision TEXT, reason TEXT, "
-       "beta0 REAL, beta1 REAL, resid_mean_dn REAL, resid_std_dn REAL, calibration_id TEXT, "
-       "decided_ns INTEGER, belt_y0_mm REAL)");
+  exec(
+      "CREATE TABLE IF NOT EXISTS fillets (uid INTEGER PRIMARY KEY AUTOINCREMENT, lane INTEGER, "
+      "lane_fillet INTEGER, first_encoder INTEGER, rows INTEGER, decision TEXT, reason TEXT, "
+      "beta0 REAL, beta1 REAL, resid_mean_dn REAL, resid_std_dn REAL, calibration_id TEXT, "
+      "decided_ns INTEGER, belt_y0_mm REAL)");
   exec("CREATE INDEX IF NOT EXISTS fillets_time ON fillets(decided_ns)");
-  exec("CREATE TABLE IF NOT EXISTS fragments (fillet_uid INTEGER, kind TEXT, x_mm REAL, "
-       "y_mm REAL, area_mm2 REAL, peak_z REAL, attenuation_mm2 REAL)");
+  exec(
+      "CREATE TABLE IF NOT EXISTS fragments (fillet_uid INTEGER, kind TEXT, x_mm REAL, "
+      "y_mm REAL, area_mm2 REAL, peak_z REAL, attenuation_mm2 REAL)");
   exec("CREATE INDEX IF NOT EXISTS fragments_fillet ON fragments(fillet_uid)");
-  exec("CREATE TABLE IF NOT EXISTS images (fillet_uid INTEGER, kind TEXT, path TEXT, "
-       "PRIMARY KEY(fillet_uid, kind))");
-  exec("CREATE TABLE IF NOT EXISTS calibrations (lane INTEGER, id TEXT, yaml TEXT, "
-       "uploaded_ns INTEGER, active INTEGER, PRIMARY KEY(lane, id))");
+  exec(
+      "CREATE TABLE IF NOT EXISTS images (fillet_uid INTEGER, kind TEXT, path TEXT, "
+      "PRIMARY KEY(fillet_uid, kind))");
+  exec(
+      "CREATE TABLE IF NOT EXISTS calibrations (lane INTEGER, id TEXT, yaml TEXT, "
+      "uploaded_ns INTEGER, active INTEGER, PRIMARY KEY(lane, id))");
   exec("CREATE TABLE IF NOT EXISTS audit (ts_ns INTEGER, who TEXT, what TEXT, detail TEXT)");
 }
 
-Store::~Store() { sqlite3_close(db_); }
+Store::~Store() {
+  sqlite3_close(db_);
+}
 
 void Store::exec(const std::string& sql) {
   char* err = nullptr;
@@ -123,7 +129,10 @@ int64_t Store::add_fillet(const StoredFillet& f) {
            "INSERT INTO fillets (lane, lane_fillet, first_encoder, rows, decision, reason, beta0, "
            "beta1, resid_mean_dn, resid_std_dn, calibration_id, decided_ns, belt_y0_mm) "
            "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)");
-    q.bind(1, int64_t(f.lane)).bind(2, f.lane_fillet).bind(3, f.first_encoder).bind(4, int64_t(f.rows));
+    q.bind(1, int64_t(f.lane))
+        .bind(2, f.lane_fillet)
+        .bind(3, f.first_encoder)
+        .bind(4, int64_t(f.rows));
     q.bind(5, f.decision).bind(6, f.reason).bind(7, f.beta0).bind(8, f.beta1);
     q.bind(9, f.resid_mean_dn).bind(10, f.resid_std_dn).bind(11, f.calibration_id);
     q.bind(12, f.decided_ns).bind(13, f.belt_y0_mm);
@@ -168,9 +177,12 @@ std::optional<StoredFillet> Store::fillet(int64_t uid) {
   q.bind(1, uid);
   if (!q.step()) return std::nullopt;
   StoredFillet f = fillet_row(q);
-  Stmt g(db_, "SELECT kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2 FROM fragments WHERE fillet_uid = ?");
+  Stmt g(db_,
+         "SELECT kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2 FROM fragments WHERE "
+         "fillet_uid = ?");
   g.bind(1, uid);
-  while (g.step()) f.fragments.push_back({g.str(0), g.dbl(1), g.dbl(2), g.dbl(3), g.dbl(4), g.dbl(5)});
+  while (g.step())
+    f.fragments.push_back({g.str(0), g.dbl(1), g.dbl(2), g.dbl(3), g.dbl(4), g.dbl(5)});
   return f;
 }
 
@@ -189,9 +201,12 @@ std::vector<StoredFillet> Store::list_fillets(int64_t from_ns, int64_t to_ns, in
   }
   for (StoredFillet& f : out) {
     std::lock_guard<std::mutex> lock(mu_);
-    Stmt g(db_, "SELECT kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2 FROM fragments WHERE fillet_uid = ?");
+    Stmt g(db_,
+           "SELECT kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2 FROM fragments WHERE "
+           "fillet_uid = ?");
     g.bind(1, f.uid);
-    while (g.step()) f.fragments.push_back({g.str(0), g.dbl(1), g.dbl(2), g.dbl(3), g.dbl(4), g.dbl(5)});
+    while (g.step())
+      f.fragments.push_back({g.str(0), g.dbl(1), g.dbl(2), g.dbl(3), g.dbl(4), g.dbl(5)});
   }
   return out;
 }
@@ -208,16 +223,23 @@ void Store::add_calibration(const StoredCalibration& c) {
   {
     Stmt e(db_, "SELECT 1 FROM calibrations WHERE lane = ? AND id = ?");
     e.bind(1, int64_t(c.lane)).bind(2, c.id);
-    if (e.step()) fail("lane ", c.lane, " already has a calibration '", c.id, "' (versions are immutable)");
+    if (e.step())
+      fail("lane ", c.lane, " already has a calibration '", c.id, "' (versions are immutable)");
   }
   Stmt q(db_, "INSERT INTO calibrations VALUES (?,?,?,?,?)");
-  q.bind(1, int64_t(c.lane)).bind(2, c.id).bind(3, c.yaml).bind(4, c.uploaded_ns).bind(5, int64_t(c.active));
+  q.bind(1, int64_t(c.lane))
+      .bind(2, c.id)
+      .bind(3, c.yaml)
+      .bind(4, c.uploaded_ns)
+      .bind(5, int64_t(c.active));
   q.step();
 }
 
 std::vector<StoredCalibration> Store::calibrations(int lane) {
   std::lock_guard<std::mutex> lock(mu_);
-  Stmt q(db_, "SELECT lane, id, yaml, uploaded_ns, active FROM calibrations WHERE (? < 0 OR lane = ?) ORDER BY lane, uploaded_ns");
+  Stmt q(db_,
+         "SELECT lane, id, yaml, uploaded_ns, active FROM calibrations WHERE (? < 0 OR lane = ?) "
+         "ORDER BY lane, uploaded_ns");
   q.bind(1, int64_t(lane)).bind(2, int64_t(lane));
   std::vector<StoredCalibration> out;
   while (q.step()) out.push_back({int(q.i64(0)), q.str(1), q.str(2), q.i64(3), q.i64(4) != 0});
@@ -226,7 +248,8 @@ std::vector<StoredCalibration> Store::calibrations(int lane) {
 
 std::optional<StoredCalibration> Store::calibration(int lane, const std::string& id) {
   std::lock_guard<std::mutex> lock(mu_);
-  Stmt q(db_, "SELECT lane, id, yaml, uploaded_ns, active FROM calibrations WHERE lane = ? AND id = ?");
+  Stmt q(db_,
+         "SELECT lane, id, yaml, uploaded_ns, active FROM calibrations WHERE lane = ? AND id = ?");
   q.bind(1, int64_t(lane)).bind(2, id);
   if (!q.step()) return std::nullopt;
   return StoredCalibration{int(q.i64(0)), q.str(1), q.str(2), q.i64(3), q.i64(4) != 0};
@@ -242,16 +265,22 @@ void Store::set_active_calibration(int lane, const std::string& id) {
 void Store::audit(const std::string& who, const std::string& what, const std::string& detail) {
   std::lock_guard<std::mutex> lock(mu_);
   Stmt q(db_, "INSERT INTO audit VALUES (?,?,?,?)");
-  q.bind(1, now_ns()).bind(2, who.empty() ? std::string("unknown") : who).bind(3, what).bind(4, detail);
+  q.bind(1, now_ns())
+      .bind(2, who.empty() ? std::string("unknown") : who)
+      .bind(3, what)
+      .bind(4, detail);
   q.step();
 }
 
 std::vector<std::string> Store::audit_log(int limit) {
   std::lock_guard<std::mutex> lock(mu_);
-  Stmt q(db_, "SELECT ts_ns, who, what, detail FROM (SELECT rowid, * FROM audit ORDER BY rowid DESC LIMIT ?) ORDER BY rowid");
+  Stmt q(db_,
+         "SELECT ts_ns, who, what, detail FROM (SELECT rowid, * FROM audit ORDER BY rowid DESC "
+         "LIMIT ?) ORDER BY rowid");
   q.bind(1, int64_t(limit));
   std::vector<std::string> out;
-  while (q.step()) out.push_back(std::to_string(q.i64(0)) + " " + q.str(1) + " " + q.str(2) + " " + q.str(3));
+  while (q.step())
+    out.push_back(std::to_string(q.i64(0)) + " " + q.str(1) + " " + q.str(2) + " " + q.str(3));
   return out;
 }
 

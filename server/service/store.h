@@ -55,7 +55,7 @@ class Store {
                                          int limit);
   int64_t count_fillets();
 
-  void add_calibration(const StoredCalibration& c);  // throws Error if (lane, id) exists
+  void add_calibration(const StoredCalibration& c);       // throws Error if (lane, id) exists
   std::vector<StoredCalibration> calibrations(int lane);  // lane -1: all
   std::optional<StoredCalibration> calibration(int lane, const std::string& id);
   void set_active_calibration(int lane, const std::string& id);

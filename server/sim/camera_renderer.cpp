@@ -84,8 +84,10 @@ void CameraRenderer::render(const LaneScene& scene, double s, Rng& rng, uint8_t*
       for (int it = 0; it < 4; ++it) {
         const double ft = cam_.project(A + (B - A) * t).x - c;
         if (std::abs(ft) < 1e-9) break;
-        if ((ft < 0) == (f0 < 0)) t0 = t, f0 = ft;
-        else t1 = t, f1 = ft;
+        if ((ft < 0) == (f0 < 0))
+          t0 = t, f0 = ft;
+        else
+          t1 = t, f1 = ft;
         t = t0 + (t1 - t0) * f0 / (f0 - f1);
       }
       const Vec3 P = A + (B - A) * t;
@@ -112,7 +114,8 @@ void CameraRenderer::render(const LaneScene& scene, double s, Rng& rng, uint8_t*
       if (has[c] && hits[c].p.z >= P.z) continue;
       const double slope = (double(h[k + 1]) - h[k]) / kRasterPitchMm;
       // Along-belt slope from the neighbouring slices sets how the surface faces the camera.
-      const double dhdb = (scene.height(P.x, b_laser + 0.4) - scene.height(P.x, b_laser - 0.4)) / 0.8;
+      const double dhdb =
+          (scene.height(P.x, b_laser + 0.4) - scene.height(P.x, b_laser - 0.4)) / 0.8;
       Hit hit;
       hit.v = q.y;
       hit.p = P;

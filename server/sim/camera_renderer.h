@@ -15,12 +15,12 @@ namespace rangex::sim {
 
 struct CameraRenderParams {
   double core_sigma_px = 1.1;
-  double meat_amplitude = 200;   // DN at the core's peak, before speckle
+  double meat_amplitude = 200;  // DN at the core's peak, before speckle
   double belt_amplitude = 140;
   double meat_tail_base = 0.12;  // tail energy / core energy on meat, head-on view
   double meat_tail_gain = 0.45;  // extra tail as the view turns away from the normal
   double belt_tail = 0.03;
-  double meat_tail_px = 2.5;     // tail decay length in the image
+  double meat_tail_px = 2.5;  // tail decay length in the image
   double belt_tail_px = 1.5;
   double speckle = 0.15;         // multiplicative, per pixel
   double column_speckle = 0.10;  // multiplicative, per column (lognormal sigma)
@@ -41,7 +41,7 @@ class CameraRenderer {
   double laser_y_;
   int width_, height_;
   CameraRenderParams p_;
-  int tail_sign_;  // +1: the tail runs toward larger rows in this camera's image
+  int tail_sign_;               // +1: the tail runs toward larger rows in this camera's image
   std::vector<uint8_t> noise_;  // background + read noise, drawn from in blocks
   StripeKernel meat_kernel_, belt_kernel_;
 };

@@ -33,9 +33,10 @@ struct Shape {
     const double rho = r / R;
     if (rho >= 1) return 0;
     double irr = 1;
-    for (int k = 0; k < 3; ++k) irr += irr_a[k] * std::sin(irr_ks[k] * s + irr_kt[k] * t + irr_p[k]);
-    return std::max(0.0, H * std::pow(1 - rho * rho, p) * (1 + thick_end * sn) * irr /
-                             (1 + thick_end));
+    for (int k = 0; k < 3; ++k)
+      irr += irr_a[k] * std::sin(irr_ks[k] * s + irr_kt[k] * t + irr_p[k]);
+    return std::max(0.0,
+                    H * std::pow(1 - rho * rho, p) * (1 + thick_end * sn) * irr / (1 + thick_end));
   }
 };
 }  // namespace
@@ -115,9 +116,8 @@ Fillet make_fillet(Rng& rng, int id, double b_start, double x_center, const Fill
       double s, t;
       local(f.x_min + i * kRasterPitchMm, f.b_min + j * kRasterPitchMm, s, t);
       // Raster edges stay zero so that the fillet ends inside its box.
-      const float h = (i == 0 || j == 0 || i == f.nx - 1 || j == f.nb - 1)
-                          ? 0.f
-                          : float(sh.height(s, t));
+      const float h =
+          (i == 0 || j == 0 || i == f.nx - 1 || j == f.nb - 1) ? 0.f : float(sh.height(s, t));
       f.height[size_t(j) * f.nx + i] = h;
       if (h > 0) {
         j_lo = std::min(j_lo, j);
@@ -175,8 +175,8 @@ Fillet make_fillet(Rng& rng, int id, double b_start, double x_center, const Fill
   if (rng.chance(prm.air_probability)) {
     const int n = rng.integer(1, 3);
     for (int k = 0; k < n; ++k)
-      place(Inclusion::kAir, rng.uniform(2, 6), rng.uniform(0.6, 1.0), rng.uniform(0.5, 0.9),
-            -f.mu, 0);
+      place(Inclusion::kAir, rng.uniform(2, 6), rng.uniform(0.6, 1.0), rng.uniform(0.5, 0.9), -f.mu,
+            0);
   }
   if (rng.chance(prm.fat_probability)) {
     const int n = rng.integer(1, 2);

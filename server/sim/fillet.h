@@ -16,10 +16,10 @@ constexpr double kLaneX0Mm = -110.0;  // raster nodes sit at kLaneX0Mm + k * pit
 
 struct Inclusion {
   enum Kind { kBone, kAir, kFat } kind;
-  Vec3 center;    // (x, b, z)
-  Vec3 semi;      // semi-axes in the inclusion's own frame, mm
-  Mat3 to_local;  // object -> inclusion frame rotation
-  double dmu;     // attenuation difference to meat, 1/mm
+  Vec3 center;               // (x, b, z)
+  Vec3 semi;                 // semi-axes in the inclusion's own frame, mm
+  Mat3 to_local;             // object -> inclusion frame rotation
+  double dmu;                // attenuation difference to meat, 1/mm
   double calcification = 0;  // bones: 0..1
   double size_mm = 0;        // longest dimension
 
@@ -33,10 +33,10 @@ struct Fillet {
   double b_min = 0, b_max = 0, x_min = 0, x_max = 0;  // raster extent (b_max: end of the meat)
   double b_start = 0;                                 // where the meat begins
   int nx = 0, nb = 0;
-  int ix0 = 0, ib0 = 0;          // raster origin in global node indices
-  std::vector<float> height;     // nb * nx, mm
+  int ix0 = 0, ib0 = 0;       // raster origin in global node indices
+  std::vector<float> height;  // nb * nx, mm
   std::vector<Inclusion> inclusions;
-  double mu = 0.03;              // meat attenuation, 1/mm
+  double mu = 0.03;  // meat attenuation, 1/mm
   double texture_amp = 0, texture_kx = 0, texture_kb = 0, texture_phase = 0;
 
   // Height at an object point (bilinear on the raster), 0 outside.

@@ -18,7 +18,8 @@ LaneScene::LaneScene(uint64_t seed, int lane, const SceneParams& p) {
     peak_.push_back(peak);
     const double end = (f.ib0 + f.nb - 1) * kRasterPitchMm;
     box_end_.push_back(box_end_.empty() ? end : std::max(box_end_.back(), end));
-    const double gap = rng.chance(p.close_gap_probability) ? rng.uniform(2, 10) : rng.uniform(20, 80);
+    const double gap =
+        rng.chance(p.close_gap_probability) ? rng.uniform(2, 10) : rng.uniform(20, 80);
     b = f.b_max + gap;
   }
 }
@@ -26,7 +27,8 @@ LaneScene::LaneScene(uint64_t seed, int lane, const SceneParams& p) {
 template <typename F>
 void LaneScene::for_fillets(double b_lo, double b_hi, F&& f) const {
   // Skip the fillets that end before b_lo (box_end_ is non-decreasing).
-  const size_t first = size_t(std::lower_bound(box_end_.begin(), box_end_.end(), b_lo) - box_end_.begin());
+  const size_t first =
+      size_t(std::lower_bound(box_end_.begin(), box_end_.end(), b_lo) - box_end_.begin());
   for (size_t i = first; i < fillets_.size(); ++i) {
     const Fillet& fl = fillets_[i];
     const double box_hi = (fl.ib0 + fl.nb - 1) * kRasterPitchMm;
@@ -52,7 +54,8 @@ void LaneScene::slice(double b, float* out, int n) const {
 
 float LaneScene::max_height(double b_lo, double b_hi) const {
   float h = 0;
-  for_fillets(b_lo, b_hi, [&](const Fillet& f) { h = std::max(h, peak_[size_t(&f - fillets_.data())]); });
+  for_fillets(b_lo, b_hi,
+              [&](const Fillet& f) { h = std::max(h, peak_[size_t(&f - fillets_.data())]); });
   return h;
 }
 

@@ -10,7 +10,7 @@ namespace rangex::sim {
 
 struct SceneParams {
   int fillets = 5;
-  double lead_in_mm = 40;         // empty belt before the first fillet
+  double lead_in_mm = 40;              // empty belt before the first fillet
   double close_gap_probability = 0.2;  // fillets almost touching
   FilletParams fillet;
 };

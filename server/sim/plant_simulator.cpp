@@ -65,11 +65,12 @@ std::string LaneSimulator::fillets_csv() const {
   return os.str();
 }
 
-void simulate_recording(const PlantConfig& plant, const SimulationParams& p,
-                        const std::string& dir, const Progress& progress) {
+void simulate_recording(const PlantConfig& plant, const SimulationParams& p, const std::string& dir,
+                        const Progress& progress) {
   if (p.lanes <= 0 || p.lanes > int(plant.lanes.size()))
     fail("cannot simulate ", p.lanes, " lanes: the plant configuration has ", plant.lanes.size());
-  if (p.scene.fillets <= 0) fail("number of fillets per lane must be > 0 (got ", p.scene.fillets, ")");
+  if (p.scene.fillets <= 0)
+    fail("number of fillets per lane must be > 0 (got ", p.scene.fillets, ")");
   std::vector<LaneSimulator> sims;
   RecordingInfo info;
   const LaneConfig& first = plant.lanes.front();
@@ -77,7 +78,8 @@ void simulate_recording(const PlantConfig& plant, const SimulationParams& p,
     const LaneConfig& l = plant.lanes[i];
     if (l.frame_width != first.frame_width || l.frame_height != first.frame_height ||
         l.xray.pixels != first.xray.pixels || l.encoder_step_mm != first.encoder_step_mm)
-      fail("lane ", l.id, ": a recording needs equal frame sizes, detector pixels and encoder step on every lane");
+      fail("lane ", l.id,
+           ": a recording needs equal frame sizes, detector pixels and encoder step on every lane");
     sims.emplace_back(l, p);
     info.lanes.push_back(l.id);
   }

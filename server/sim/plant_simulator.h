@@ -49,7 +49,7 @@ class LaneSimulator {
 using Progress = std::function<void(int64_t done, int64_t total)>;
 
 // Simulates every lane of `plant` (the first p.lanes lanes) and writes a recording.
-void simulate_recording(const PlantConfig& plant, const SimulationParams& p,
-                        const std::string& dir, const Progress& progress = {});
+void simulate_recording(const PlantConfig& plant, const SimulationParams& p, const std::string& dir,
+                        const Progress& progress = {});
 
 }  // namespace rangex::sim

@@ -25,9 +25,11 @@ double exact_core(double dy, double sigma) {
 
 StripeKernel::StripeKernel(double sigma, double tail_px) : sigma_(sigma), tail_px_(tail_px) {
   core_x0_ = -(6 * sigma + 1);
-  for (double x = core_x0_; x <= -core_x0_ + kTableStep; x += kTableStep) core_.push_back(exact_core(x, sigma));
+  for (double x = core_x0_; x <= -core_x0_ + kTableStep; x += kTableStep)
+    core_.push_back(exact_core(x, sigma));
   tail_x0_ = -(6 * sigma + 1);
-  for (double x = tail_x0_; x <= 8 * tail_px + 6 * sigma + 1; x += kTableStep) tail_.push_back(emg(x, sigma, tail_px));
+  for (double x = tail_x0_; x <= 8 * tail_px + 6 * sigma + 1; x += kTableStep)
+    tail_.push_back(emg(x, sigma, tail_px));
 }
 
 double StripeKernel::lookup(const std::vector<double>& t, double x0, double x) {
@@ -38,8 +40,12 @@ double StripeKernel::lookup(const std::vector<double>& t, double x0, double x) {
   return t[i] + u * (t[i + 1] - t[i]);
 }
 
-double StripeKernel::core(double dy) const { return lookup(core_, core_x0_, dy); }
-double StripeKernel::tail(double x) const { return lookup(tail_, tail_x0_, x); }
+double StripeKernel::core(double dy) const {
+  return lookup(core_, core_x0_, dy);
+}
+double StripeKernel::tail(double x) const {
+  return lookup(tail_, tail_x0_, x);
+}
 
 void add_stripe(uint8_t* column, int height, int stride, const StripeShape& s, Rng& rng,
                 const StripeKernel* kernel) {
@@ -52,9 +58,9 @@ void add_stripe(uint8_t* column, int height, int stride, const StripeShape& s, R
   for (int y = y0; y <= y1; ++y) {
     const double dy = y - s.center;
     const double core = kernel ? kernel->core(dy) : exact_core(dy, s.sigma);
-    const double tail =
-        s.tail > 0 ? s.tail * (kernel ? kernel->tail(s.tail_sign * dy) : emg(s.tail_sign * dy, s.sigma, s.tail_px))
-                   : 0.0;
+    const double tail = s.tail > 0 ? s.tail * (kernel ? kernel->tail(s.tail_sign * dy)
+                                                      : emg(s.tail_sign * dy, s.sigma, s.tail_px))
+                                   : 0.0;
     double v = energy * (core + tail) * (s.speckle > 0 ? 1 + s.speckle * rng.fast_normal() : 1.0);
     uint8_t& px = column[size_t(y) * stride];
     v += px;

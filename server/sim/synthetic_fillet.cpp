@@ -30,7 +30,8 @@ FilletImage synthetic_fillet(double b0, double b1, const std::vector<PlantedBone
       double ln = b0 + b1 * t;
       const double x = f.x0_mm + 0.4 * c, y = f.y0_mm + 0.4 * r;
       for (const PlantedBone& b : bones) {
-        const double d2 = ((x - b.x_mm) * (x - b.x_mm) + (y - b.y_mm) * (y - b.y_mm)) / (b.radius_mm * b.radius_mm);
+        const double d2 = ((x - b.x_mm) * (x - b.x_mm) + (y - b.y_mm) * (y - b.y_mm)) /
+                          (b.radius_mm * b.radius_mm);
         if (d2 < 1) ln -= b.attenuation * std::sqrt(1 - d2);
       }
       const double photons = std::exp(ln) * 10;

@@ -29,7 +29,8 @@ void XrayRenderer::render(const LaneScene& scene, double s, Rng& rng, uint16_t* 
   const double maxv = double((1 << fb_.bits) - 1);
   for (int i = 0; i < fb_.pixels; ++i) {
     const double xd = fb_.pixel_x(i);
-    const PathResult r = ray_path_length(grid, xd, fb_.detector_z_mm, fb_.source_x_mm, fb_.source_z_mm);
+    const PathResult r =
+        ray_path_length(grid, xd, fb_.detector_z_mm, fb_.source_x_mm, fb_.source_z_mm);
     thickness[i] = float(r.length_mm);
     double att = 0;
     if (r.length_mm > 0) {
