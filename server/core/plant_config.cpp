@@ -256,6 +256,14 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
 
 }  // namespace
 
+static YAML::Node load_yaml(const std::string& text, const std::string& origin) {
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    fail(origin, ": not valid YAML: ", e.what());
+  }
+}
+
 const LaneConfig& PlantConfig::lane(int id) const {
   for (const auto& l : lanes)
     if (l.id == id) return l;
@@ -263,12 +271,7 @@ const LaneConfig& PlantConfig::lane(int id) const {
 }
 
 PlantConfig parse_plant_config(const std::string& text, const std::string& origin) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    fail(origin, ": not valid YAML: ", e.what());
-  }
+  const YAML::Node root = load_yaml(text, origin);
   const Node top{root, "", &origin};
   top.only_keys({"plant", "lane_defaults", "lanes"});
   PlantConfig p;
@@ -306,12 +309,7 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
 
 LaneConfig apply_lane_calibration(const LaneConfig& base, const std::string& text,
                                   const std::string& origin) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    fail(origin, ": not valid YAML: ", e.what());
-  }
+  const YAML::Node root = load_yaml(text, origin);
   const Node n{root, "", &origin};
   n.only_keys({"cameras", "laser_plane", "xray", "encoder_step_mm"});
   return read_lane(n, nullptr, base);
