@@ -189,3 +189,25 @@ TEST(StripeExtract, RowWisePathEqualsPerColumnReference) {
     }
   }
 }
+
+// Frames whose width is not a multiple of the vector width take the ragged paths.
+TEST(StripeExtract, RaggedWidthEqualsReference) {
+  constexpr int w = 600, h = 120;
+  sim::Rng rng(11);
+  std::vector<uint8_t> f(size_t(w) * h * 3);
+  for (auto& v : f) v = uint8_t(8 + 3 * std::abs(rng.normal()));
+  for (int i = 0; i < 3; ++i)
+    for (int c = 0; c < w; ++c) {
+      sim::StripeShape sh{rng.uniform(20, 100), 160, 1.1, rng.uniform(0, 0.4), 2.5, -1, 0.05};
+      sim::add_stripe(&f[size_t(i) * w * h + c], h, w, sh, rng);
+    }
+  StripeSlot slot;
+  const std::vector<int> slots(3, 0);
+  StripeOutput fast, ref;
+  extract_stripes(f.data(), 3, w, h, slots.data(), &slot, fast, 2);
+  extract_stripes_reference(f.data(), 3, w, h, slots.data(), &slot, ref);
+  for (size_t i = 0; i < ref.row.size(); ++i) {
+    ASSERT_EQ(fast.valid[i], ref.valid[i]) << "column " << i;
+    if (ref.valid[i]) ASSERT_NEAR(fast.row[i], ref.row[i], 1e-4) << "column " << i;
+  }
+}
