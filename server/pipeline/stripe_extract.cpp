@@ -14,12 +14,14 @@
 namespace rangex {
 
 void StripeOutput::resize(size_t n) {
-  row.assign(n, 0.f);
-  peak.assign(n, 0.f);
-  width.assign(n, 0.f);
-  asym.assign(n, 0.f);
-  centroid.assign(n, 0.f);
-  valid.assign(n, 0);
+  // No fill: both extractors write every field of every column, and filling would double
+  // the output's memory traffic.
+  row.resize(n);
+  peak.resize(n);
+  width.resize(n);
+  asym.resize(n);
+  centroid.resize(n);
+  valid.resize(n);
 }
 
 namespace {
@@ -324,6 +326,7 @@ void extract_stripes_reference(const uint8_t* frames, int count, int width, int 
       out.peak[o] = float(m);
       out.row[o] = kNaN;
       out.valid[o] = 0;
+      out.width[o] = out.asym[o] = out.centroid[o] = 0.f;
       if (m < sl.params.min_peak) continue;
       const float T = float(sl.params.threshold_rel) * float(m);
       int lo, hi, pe;
