@@ -162,6 +162,7 @@ void Engine::worker() {
         if (stopping_) break;
         continue;
       }
+      if (paused_ && !stopping_) continue;  // paused while waiting for a batch to fill
       const size_t n = std::min(queue_.size(), size_t(opt_.batch_lines));
       batch.clear();
       for (size_t i = 0; i < n; ++i) {
