@@ -10,24 +10,6 @@
 
 namespace rangex {
 
-ErrorStats error_stats(std::vector<double> e) {
-  ErrorStats s;
-  s.count = e.size();
-  if (e.empty()) return s;
-  double sum = 0, sum_abs = 0;
-  for (double& v : e) {
-    sum += v;
-    sum_abs += std::abs(v);
-    v = std::abs(v);
-  }
-  s.bias = sum / double(e.size());
-  s.mean_abs = sum_abs / double(e.size());
-  const size_t k = std::min(e.size() - 1, size_t(std::ceil(0.99 * double(e.size()))) - 1);
-  std::nth_element(e.begin(), e.begin() + long(k), e.end());
-  s.p99_abs = e[k];
-  return s;
-}
-
 ErrorAccumulator::ErrorAccumulator(double resolution, double max_abs)
     : res_(resolution), hist_(size_t(max_abs / resolution) + 2, 0) {}
 
@@ -84,7 +66,7 @@ LaneEvaluation evaluate_lane(const RecordingReader& rec, const LaneConfig& lc,
     const std::vector<int> slots(size_t(info.lines), 0);
     rectify(truth.data(), tv.data(), int(info.lines), info.width, slots.data(), &table, tx.data(),
             tz.data(), tv2.data());
-    std::vector<double> err, err_fillet;
+    ErrorAccumulator err, err_fillet;
     size_t with = 0, found = 0, without = 0, false_pos = 0;
     for (size_t i = 0; i < truth.size(); ++i) {
       const bool t = std::isfinite(truth[i]), m = std::isfinite(stripe_rows[c][i]);
@@ -92,16 +74,17 @@ LaneEvaluation evaluate_lane(const RecordingReader& rec, const LaneConfig& lc,
         ++with;
         if (m) {
           ++found;
-          err.push_back(double(stripe_rows[c][i]) - truth[i]);
-          if (tz[i] > kFilletColumnMinMm) err_fillet.push_back(err.back());
+          const double e = double(stripe_rows[c][i]) - truth[i];
+          err.add(e);
+          if (tz[i] > kFilletColumnMinMm) err_fillet.add(e);
         }
       } else {
         ++without;
         false_pos += m;
       }
     }
-    ev.stripe[c] = error_stats(std::move(err));
-    ev.stripe_fillet[c] = error_stats(std::move(err_fillet));
+    ev.stripe[c] = err.stats();
+    ev.stripe_fillet[c] = err_fillet.stats();
     ev.stripe_detected[c] = with ? double(found) / double(with) : 0;
     ev.stripe_false[c] = without ? double(false_pos) / double(without) : 0;
   }
@@ -109,15 +92,15 @@ LaneEvaluation evaluate_lane(const RecordingReader& rec, const LaneConfig& lc,
   if (truth_t.size() != thickness.size())
     fail("lane ", lane, ": ", thickness.size(), " thickness pixels for ", truth_t.size(),
          " truth pixels");
-  std::vector<double> err;
+  ErrorAccumulator err;
   size_t fillet = 0;
   for (size_t i = 0; i < truth_t.size(); ++i) {
     if (!(truth_t[i] >= kFilletPixelMinMm)) continue;
     ++fillet;
-    if (std::isfinite(thickness[i])) err.push_back(double(thickness[i]) - truth_t[i]);
+    if (std::isfinite(thickness[i])) err.add(double(thickness[i]) - truth_t[i]);
   }
-  ev.fillet_coverage = fillet ? double(err.size()) / double(fillet) : 0;
-  ev.thickness = error_stats(std::move(err));
+  ev.thickness = err.stats();
+  ev.fillet_coverage = fillet ? double(ev.thickness.count) / double(fillet) : 0;
   return ev;
 }
 

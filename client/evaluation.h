@@ -7,7 +7,6 @@
 
 #include "core/lane_config.h"
 #include "core/recording.h"
-#include "replay.h"
 
 namespace rangex {
 
@@ -15,8 +14,6 @@ struct ErrorStats {
   size_t count = 0;
   double mean_abs = 0, p99_abs = 0, bias = 0;
 };
-
-ErrorStats error_stats(std::vector<double> signed_errors);
 
 // Streams errors in without keeping them: the p99 comes from a histogram of |error| with
 // `resolution` wide bins (exact to that resolution).

@@ -11,7 +11,6 @@ LaneScene::LaneScene(uint64_t seed, int lane, const SceneParams& p) {
     const double x = rng.uniform(-25, 25);
     fillets_.push_back(make_fillet(rng, i, b, x, p.fillet));
     const Fillet& f = fillets_.back();
-    for (float h : f.height) max_height_ = std::max(max_height_, h);
     end_b_ = f.b_max;
     float peak = 0;
     for (float h : f.height) peak = std::max(peak, h);
@@ -57,12 +56,6 @@ float LaneScene::max_height(double b_lo, double b_hi) const {
   for_fillets(b_lo, b_hi,
               [&](const Fillet& f) { h = std::max(h, peak_[size_t(&f - fillets_.data())]); });
   return h;
-}
-
-bool LaneScene::any_fillet(double b_lo, double b_hi) const {
-  bool any = false;
-  for_fillets(b_lo, b_hi, [&](const Fillet&) { any = true; });
-  return any;
 }
 
 }  // namespace rangex::sim

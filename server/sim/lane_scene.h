@@ -22,10 +22,8 @@ class LaneScene {
   float height(double x, double b) const;  // highest fillet surface at (x, b), 0 on the belt
   // Heights at x = kLaneX0Mm + k * kRasterPitchMm, k < n, on the slice b.
   void slice(double b, float* out, int n) const;
-  bool any_fillet(double b_lo, double b_hi) const;
   double end_b() const { return end_b_; }
   const std::vector<Fillet>& fillets() const { return fillets_; }
-  float max_height() const { return max_height_; }
   // Highest fillet surface among the fillets that overlap [b_lo, b_hi] (0 if none).
   float max_height(double b_lo, double b_hi) const;
 
@@ -34,7 +32,6 @@ class LaneScene {
   std::vector<double> box_end_;  // running maximum of the fillets' raster ends, for search
   std::vector<float> peak_;      // each fillet's highest point
   double end_b_ = 0;
-  float max_height_ = 0;
   template <typename F>
   void for_fillets(double b_lo, double b_hi, F&& f) const;
 };
