@@ -9,7 +9,9 @@
 #include <limits>
 #include <thread>
 
+#include "pipeline/stripe_block64.h"
 #include "pipeline/stripe_column.h"
+#include "pipeline/stripe_prefetch.h"
 
 namespace rangex {
 
@@ -27,6 +29,8 @@ void StripeOutput::resize(size_t n) {
 namespace {
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr size_t kOutputBytesPerColumn = 5 * sizeof(float) + 1;  // StripeOutput's fields
+constexpr size_t kStreamOutputBytes = size_t(4) << 20;           // beyond this, stream them
 
 // Running maximum and its first row for every column, streaming the frame row by row so
 // that memory is read once, sequentially.
@@ -146,8 +150,8 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
   if (pmax >= 0) {
     // Window bounds: walking away from the peaks, a lane stays connected while its pixels
     // exceed its threshold; the walk ends when every lane has left its window.
-    for (int k = 0; k < N; ++k) live[k] = 1;
-    for (int r = pmin + 1; r < height && r <= pmax + max_width; ++r) {
+    for (int k = 0; k < N; ++k) live[k] = valid[k];
+    for (int r = pmin + 1; r < height; ++r) {
       const uint8_t* row = f + size_t(r) * width + c0;
       int any = 0;
       for (int k = 0; k < N; ++k) {
@@ -159,8 +163,8 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
       }
       if (!any) break;
     }
-    for (int k = 0; k < N; ++k) live[k] = 1;
-    for (int r = pmax - 1; r >= 0 && r >= pmin - max_width; --r) {
+    for (int k = 0; k < N; ++k) live[k] = valid[k];
+    for (int r = pmax - 1; r >= 0; --r) {
       const uint8_t* row = f + size_t(r) * width + c0;
       int any = 0;
       for (int k = 0; k < N; ++k) {
@@ -174,7 +178,8 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
     }
   }
 
-  // 3-point peaks; a saturated plateau (rare) is found column by column.
+  // 3-point peaks; a flat top (the next row equals the maximum, e.g. saturation) peaks at
+  // the middle of its plateau, found column by column.
   float gauss[N], parab[N];
   const stripe::LnTable& ln = stripe::ln_table();
   for (int k = 0; k < N; ++k) {
@@ -184,15 +189,16 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
     parab[k] = dp < 0 ? float(p[k]) + 0.5f * (a[k] - c[k]) / dp : float(p[k]);
   }
   for (int k = 0; k < N; ++k)
-    if (valid[k] && mx[c0 + k] == 255) {
+    if (valid[k] && c[k] == m[k]) {
       int pe = p[k];
-      while (pe < hi[k] && f[size_t(pe + 1) * width + c0 + k] == 255) ++pe;
+      while (pe < hi[k] && f[size_t(pe + 1) * width + c0 + k] == mx[c0 + k]) ++pe;
       if (pe != p[k]) gauss[k] = parab[k] = 0.5f * float(p[k] + pe);
     }
 
   // Window sums over the band of rows that holds every valid window of the group.
-  int r0 = height, r1 = -1;
+  int r0 = height, r1 = -1, span[N];
   for (int k = 0; k < N; ++k) {
+    span[k] = valid[k] ? hi[k] - lo[k] + 1 : 0;  // reported also for glare
     valid[k] &= hi[k] - lo[k] < max_width;
     if (!valid[k]) lo[k] = 1, hi[k] = 0;  // empty window
   }
@@ -254,7 +260,7 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
   for (int k = 0; k < N; ++k) {
     out.row[o + k] = valid[k] ? R[k] : kNaNf;
     out.peak[o + k] = m[k];
-    out.width[o + k] = mx[c0 + k] >= sl.params.min_peak ? float(hi[k] - lo[k] + 1) : 0.f;
+    out.width[o + k] = float(span[k]);
     out.centroid[o + k] = valid[k] ? C[k] : 0.f;
     out.asym[o + k] = valid[k] ? A[k] : 0.f;
     out.valid[o + k] = uint8_t(valid[k]);
@@ -266,6 +272,9 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
 namespace {
 
 // Frames [first, last) of the batch; `out` is already sized for the whole batch.
+}
+
+namespace {
 void extract_range(const uint8_t* frames, int first, int last, int width, int height,
                    const int* slot, const StripeSlot* slots, StripeOutput& out) {
   constexpr int kGroup = 16;
@@ -273,24 +282,39 @@ void extract_range(const uint8_t* frames, int first, int last, int width, int he
   std::vector<uint16_t> arg16(width, 0);
   std::vector<int> p(width, 0);
   const size_t frame = size_t(width) * height;
+  stripe::Prefetch pf{frames + frame * first, frames + frame * last};
+  // Results larger than the cache are streamed to memory (they would be evicted before
+  // they are read); smaller ones stay in the cache for the next stage.
+  const bool stream = size_t(last - first) * width * kOutputBytesPerColumn > kStreamOutputBytes;
   for (int i = first; i < last; ++i) {
     const uint8_t* f = frames + frame * i;
     const StripeSlot& sl = slots[slot[i]];
     // Rows fit a byte for the usual sensor heights, which keeps the scan in 8-bit lanes.
+    int c0 = 0;
     if (height <= 256) {
       column_max8(f, width, height, mx.data(), arg8.data());
-      for (int c = 0; c < width; ++c) p[c] = arg8[c];
+#if defined(__AVX512BW__)
+      {
+        pf.skip_to(f + frame);  // the scan above has read this frame
+        for (; c0 + 64 <= width; c0 += 64)
+          stripe::column_block64(f, width, height, c0, mx.data(), arg8.data(), sl, out,
+                                 size_t(i) * width, pf, stream);
+      }
+#endif
+      for (int c = c0; c < width; ++c) p[c] = arg8[c];
     } else {
       column_max(f, width, height, mx.data(), arg16.data());
       for (int c = 0; c < width; ++c) p[c] = arg16[c];
     }
-    const int whole = width / kGroup * kGroup;
-    for (int c0 = 0; c0 < whole; c0 += kGroup)
+    // The columns left (all of them without AVX-512) in groups of 16, then one by one.
+    for (; c0 + kGroup <= width; c0 += kGroup)
       column_group<kGroup>(f, width, height, c0, mx.data(), p.data(), sl, out, size_t(i) * width);
-    // A ragged last group runs one column at a time (N = 1).
-    for (int c0 = whole; c0 < width; ++c0)
+    for (; c0 < width; ++c0)
       column_group<1>(f, width, height, c0, mx.data(), p.data(), sl, out, size_t(i) * width);
   }
+#if defined(__AVX512BW__)
+  if (stream) _mm_sfence();  // streamed results are visible before the caller reads them
+#endif
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/aligned_vector.h"
 #include "core/stripe_params.h"
 
 namespace rangex {
@@ -30,12 +31,13 @@ struct StripeSlot {
 };
 
 struct StripeOutput {
-  std::vector<float> row;       // sub-pixel row, NaN where invalid
-  std::vector<float> peak;      // peak intensity (DN)
-  std::vector<float> width;     // window width (px)
-  std::vector<float> asym;      // a = (L - U) / (L + U)
-  std::vector<float> centroid;  // plain centroid C (for fitting the scattering constants)
-  std::vector<uint8_t> valid;
+  // Cache-line aligned, so that a large batch's results can be streamed past the cache.
+  AlignedVector<float> row;       // sub-pixel row, NaN where invalid
+  AlignedVector<float> peak;      // peak intensity (DN)
+  AlignedVector<float> width;     // window width (px)
+  AlignedVector<float> asym;      // a = (L - U) / (L + U)
+  AlignedVector<float> centroid;  // plain centroid C (for fitting the scattering constants)
+  AlignedVector<uint8_t> valid;
   void resize(size_t n);
 };
 
@@ -43,8 +45,10 @@ struct StripeOutput {
 // frame i's settings in `slots`. Output holds count * width columns.
 //
 // The CPU path: the frame is streamed row by row once for the column maxima, then the
-// window sums run over small bands of rows for groups of neighbouring columns so that the
-// compiler vectorises them across columns. Frames are shared among `threads` threads.
+// window walks and sums run over small bands of rows for blocks of neighbouring columns,
+// one vector lane per column (AVX-512 blocks of 64 where the CPU has it, else groups of 16
+// that the compiler vectorises), while the next frame is prefetched. Frames are shared
+// among `threads` threads.
 void extract_stripes(const uint8_t* frames, int count, int width, int height, const int* slot,
                      const StripeSlot* slots, StripeOutput& out, int threads = 1);
 
