@@ -2,13 +2,16 @@
 // measured in the same run on the same frames: a single-thread sequential read (the
 // bandwidth ceiling) and the plain centroid composed from OpenCV calls (cv::threshold,
 // cv::reduce), which is what a user would write without rangex.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <thread>
+#include <vector>
 
 #include "args.h"
 #include "commands.h"
@@ -36,14 +39,53 @@ double frames_per_second(int frames, double min_seconds, F&& pass) {
   } while (el < min_seconds);
   return double(frames) * passes / el;
 }
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// Throughputs of several passes measured in alternating rounds, so that a slow spell of a
+// shared machine (other tenants, memory traffic) lands on all of them alike; each pass's
+// ratio to the first is taken within a round, and the medians are reported.
+struct Rounds {
+  std::vector<std::vector<double>> fps;  // [pass][round]
+  double fps_median(size_t k) const { return median(fps[k]); }
+  double ratio_median(size_t k, size_t base) const {
+    std::vector<double> r;
+    for (size_t i = 0; i < fps[k].size(); ++i) r.push_back(fps[k][i] / fps[base][i]);
+    return median(r);
+  }
+  std::pair<double, double> ratio_range(size_t k, size_t base) const {
+    double lo = 1e300, hi = 0;
+    for (size_t i = 0; i < fps[k].size(); ++i)
+      lo = std::min(lo, fps[k][i] / fps[base][i]), hi = std::max(hi, fps[k][i] / fps[base][i]);
+    return {lo, hi};
+  }
+};
+
+Rounds measure_rounds(int frames, int rounds, double seconds,
+                      const std::vector<std::function<void()>>& passes) {
+  Rounds r;
+  r.fps.resize(passes.size());
+  const double per = seconds / (rounds * double(passes.size()));
+  for (int i = 0; i < rounds; ++i)
+    for (size_t k = 0; k < passes.size(); ++k)
+      r.fps[k].push_back(frames_per_second(frames, per, passes[k]));
+  return r;
+}
 }  // namespace
 
 int cmd_bench(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"frames", "seconds", "config"});
-  a.expect_positionals(0, "bench [--frames N] [--seconds S]");
+  const Args a(argc, argv, 2, {}, {"frames", "seconds", "rounds", "config"});
+  a.expect_positionals(0, "bench [--frames N] [--seconds S] [--rounds R]");
   const int nframes = int(a.integer("frames", 256));
   const double secs = std::stod(a.get("seconds", "1.0"));
+  const int nrounds = int(a.integer("rounds", 9));
   if (nframes < 2) fail("--frames must be >= 2");
+  if (nrounds < 1) fail("--rounds must be >= 1");
+  if (!(secs > 0)) fail("--seconds must be > 0");
   const PlantConfig plant = load_config(a.get("config", ""));
   const LaneConfig& lc = plant.lanes.front();
   const int W = lc.frame_width, H = lc.frame_height;
@@ -65,7 +107,7 @@ int cmd_bench(int argc, char** argv) {
 
   const double bytes = double(frame);
   volatile uint64_t sink = 0;
-  const double read_fps = frames_per_second(nframes, secs, [&] {
+  const auto read_pass = [&] {
     const uint64_t* p = reinterpret_cast<const uint64_t*>(frames.data());
     const size_t n = frames.size() / 8;
     uint64_t s0 = 0, s1 = 0, s2 = 0, s3 = 0;
@@ -76,22 +118,21 @@ int cmd_bench(int argc, char** argv) {
       s3 += p[i + 3];
     }
     sink = sink + s0 + s1 + s2 + s3;
-  });
-
-  StripeSlot slot{lc.stripe, lc.cameras[0].scatter};
+  };
+  StripeSlot slot{lc.stripe, lc.cameras[0].scatter}, centroid_slot = slot;
+  centroid_slot.params.method = StripeMethod::kCentroid;
   std::vector<int> slots(nframes, 0);
   StripeOutput so;
-  const double ours_fps = frames_per_second(nframes, secs, [&] {
-    extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so);
-  });
   const int threads = int(std::max(1u, std::thread::hardware_concurrency()));
-  const double ours_mt_fps = frames_per_second(nframes, secs, [&] {
-    extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so, threads);
-  });
-  slot.params.method = StripeMethod::kCentroid;
-  const double ours_centroid_fps = frames_per_second(nframes, secs, [&] {
-    extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so);
-  });
+  enum { kRead, kOurs, kCentroid, kOursMt };
+  const Rounds rounds = measure_rounds(
+      nframes, nrounds, 4 * secs,
+      {read_pass,
+       [&] { extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so); },
+       [&] { extract_stripes(frames.data(), nframes, W, H, slots.data(), &centroid_slot, so); },
+       [&] {
+         extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so, threads);
+       }});
 
   cv::setNumThreads(1);
   cv::Mat rowidx(H, W, CV_32F);
@@ -110,22 +151,29 @@ int cmd_bench(int argc, char** argv) {
     }
   });
 
-  auto line = [&](const char* name, double fps, double ref) {
-    std::printf("%-38s %10.0f frames/s %7.2f GB/s   %.2fx\n", name, fps, fps * bytes / 1e9,
-                fps / ref);
+  const double read_fps = rounds.fps_median(kRead);
+  auto line = [&](const char* name, double fps, double ratio) {
+    std::printf("%-38s %10.0f frames/s %7.2f GB/s   %.2fx\n", name, fps, fps * bytes / 1e9, ratio);
+  };
+  auto pass_line = [&](const char* name, int k) {
+    const auto [lo, hi] = rounds.ratio_range(k, kRead);
+    std::printf("%-38s %10.0f frames/s %7.2f GB/s   %.2fx  (rounds %.2f-%.2f)\n", name,
+                rounds.fps_median(k), rounds.fps_median(k) * bytes / 1e9,
+                rounds.ratio_median(k, kRead), lo, hi);
   };
   std::printf(
-      "stripe extraction, %dx%d Mono8, %d frames (%.1f MB working set), 1 thread unless stated\n",
-      W, H, nframes, double(frames.size()) / 1e6);
+      "stripe extraction, %dx%d Mono8, %d frames (%.1f MB working set), 1 thread unless stated;\n"
+      "medians of %d alternating rounds, ratios taken within each round\n",
+      W, H, nframes, double(frames.size()) / 1e6, nrounds);
   std::printf("%-38s %17s %12s   %s\n", "", "", "", "ratio to read");
-  line("sequential read (baseline)", read_fps, read_fps);
-  line("OpenCV composed centroid (baseline)", cv_fps, read_fps);
-  line("rangex modified centroid (default)", ours_fps, read_fps);
-  line("rangex plain centroid", ours_centroid_fps, read_fps);
+  line("sequential read (baseline)", read_fps, 1.0);
+  line("OpenCV composed centroid (baseline)", cv_fps, cv_fps / read_fps);
+  pass_line("rangex modified centroid (default)", kOurs);
+  pass_line("rangex plain centroid", kCentroid);
   char mt[64];
   std::snprintf(mt, sizeof mt, "rangex modified centroid, %d threads", threads);
-  line(mt, ours_mt_fps, read_fps);
-  std::printf("rangex default / OpenCV composed: %.2fx\n", ours_fps / cv_fps);
+  pass_line(mt, kOursMt);
+  std::printf("rangex default / OpenCV composed: %.2fx\n", rounds.fps_median(kOurs) / cv_fps);
 
   // Compensation + detection of one 500 x 250 px fillet (200 x 100 mm), beside the same
   // steps written naively, on the same fillet in the same run.
