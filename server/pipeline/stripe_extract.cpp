@@ -282,10 +282,12 @@ void extract_range(const uint8_t* frames, int first, int last, int width, int he
   std::vector<uint16_t> arg16(width, 0);
   std::vector<int> p(width, 0);
   const size_t frame = size_t(width) * height;
-  stripe::Prefetch pf{frames + frame * first, frames + frame * last};
-  // Results larger than the cache are streamed to memory (they would be evicted before
-  // they are read); smaller ones stay in the cache for the next stage.
-  const bool stream = size_t(last - first) * width * kOutputBytesPerColumn > kStreamOutputBytes;
+  // Both serve only the AVX-512 blocks (the portable path, measured, gains nothing from
+  // prefetching). Results larger than the cache are streamed to memory (they would be
+  // evicted before they are read); smaller ones stay in the cache for the next stage.
+  [[maybe_unused]] stripe::Prefetch pf{frames + frame * first, frames + frame * last};
+  [[maybe_unused]] const bool stream =
+      size_t(last - first) * width * kOutputBytesPerColumn > kStreamOutputBytes;
   for (int i = first; i < last; ++i) {
     const uint8_t* f = frames + frame * i;
     const StripeSlot& sl = slots[slot[i]];
