@@ -52,16 +52,16 @@ double median(std::vector<double> v) {
 struct Rounds {
   std::vector<std::vector<double>> fps;  // [pass][round]
   double fps_median(size_t k) const { return median(fps[k]); }
-  double ratio_median(size_t k, size_t base) const {
+  std::vector<double> ratios(size_t k, size_t base) const {
     std::vector<double> r;
     for (size_t i = 0; i < fps[k].size(); ++i) r.push_back(fps[k][i] / fps[base][i]);
-    return median(r);
+    return r;
   }
+  double ratio_median(size_t k, size_t base) const { return median(ratios(k, base)); }
   std::pair<double, double> ratio_range(size_t k, size_t base) const {
-    double lo = 1e300, hi = 0;
-    for (size_t i = 0; i < fps[k].size(); ++i)
-      lo = std::min(lo, fps[k][i] / fps[base][i]), hi = std::max(hi, fps[k][i] / fps[base][i]);
-    return {lo, hi};
+    const std::vector<double> r = ratios(k, base);
+    const auto [lo, hi] = std::minmax_element(r.begin(), r.end());
+    return {*lo, *hi};
   }
 };
 
@@ -127,12 +127,9 @@ int cmd_bench(int argc, char** argv) {
   enum { kRead, kOurs, kCentroid, kOursMt };
   const Rounds rounds = measure_rounds(
       nframes, nrounds, 4 * secs,
-      {read_pass,
-       [&] { extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so); },
+      {read_pass, [&] { extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so); },
        [&] { extract_stripes(frames.data(), nframes, W, H, slots.data(), &centroid_slot, so); },
-       [&] {
-         extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so, threads);
-       }});
+       [&] { extract_stripes(frames.data(), nframes, W, H, slots.data(), &slot, so, threads); }});
 
   cv::setNumThreads(1);
   cv::Mat rowidx(H, W, CV_32F);

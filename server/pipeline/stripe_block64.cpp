@@ -49,6 +49,25 @@ inline __mmask16 quarter(__mmask64 m, int j) {
   return __mmask16(m >> (16 * j));
 }
 
+// One window walk for the 64 lanes, from row `start` away from the peaks P in direction
+// Dir (+1 down, -1 up): `edge` becomes each window's last row on that side and `next` the
+// pixel next to the peak on that side. A lane stays live while its pixels exceed its
+// threshold Tb; the walk ends when no lane is live.
+template <int Dir>
+void walk(const uint8_t* f, int width, int height, int c0, int start, __m512i P, __m512i Tb,
+          __mmask64 live, __m512i& edge, __m512i& next, Prefetch& pf) {
+  const __m512i beside = _mm512_add_epi8(P, bytes(Dir));
+  for (int r = start; r >= 0 && r < height && live; r += Dir) {
+    pf.step();
+    const __m512i G = _mm512_loadu_si512(f + size_t(r) * width + c0), R = bytes(r);
+    const __mmask64 beyond = Dir > 0 ? _mm512_cmpgt_epu8_mask(R, P) : _mm512_cmplt_epu8_mask(R, P);
+    const __mmask64 in = _mm512_cmpgt_epu8_mask(G, Tb);
+    edge = _mm512_mask_mov_epi8(edge, live & beyond & in, R);
+    next = _mm512_mask_mov_epi8(next, _mm512_cmpeq_epi8_mask(R, beside), G);
+    live &= ~beyond | in;
+  }
+}
+
 // Window sums over the band of rows r0..r1 for the 64 lanes: w = g - T inside a lane's
 // window, zero outside (stripe::accumulate, across lanes). Squares only for kSquared.
 template <bool Squares>
@@ -121,25 +140,8 @@ void column_block64(const uint8_t* f, int width, int height, int c0, const uint8
   if (has_peak) {
     const int pmin = min_u8(_mm512_mask_mov_epi8(bytes(255), has_peak, P));
     const int pmax = max_u8(_mm512_maskz_mov_epi8(has_peak, P));
-    const __m512i below_p = _mm512_add_epi8(P, bytes(1)), above_p = _mm512_sub_epi8(P, bytes(1));
-    __mmask64 live = has_peak;
-    for (int r = pmin + 1; r < height && live; ++r) {
-      pf.step();
-      const __m512i G = _mm512_loadu_si512(f + size_t(r) * width + c0), R = bytes(r);
-      const __mmask64 beyond = _mm512_cmpgt_epu8_mask(R, P), in = _mm512_cmpgt_epu8_mask(G, Tb);
-      hi = _mm512_mask_mov_epi8(hi, live & beyond & in, R);
-      c3 = _mm512_mask_mov_epi8(c3, _mm512_cmpeq_epi8_mask(R, below_p), G);
-      live &= ~beyond | in;
-    }
-    live = has_peak;
-    for (int r = pmax - 1; r >= 0 && live; --r) {
-      pf.step();
-      const __m512i G = _mm512_loadu_si512(f + size_t(r) * width + c0), R = bytes(r);
-      const __mmask64 beyond = _mm512_cmplt_epu8_mask(R, P), in = _mm512_cmpgt_epu8_mask(G, Tb);
-      lo = _mm512_mask_mov_epi8(lo, live & beyond & in, R);
-      a3 = _mm512_mask_mov_epi8(a3, _mm512_cmpeq_epi8_mask(R, above_p), G);
-      live &= ~beyond | in;
-    }
+    walk<+1>(f, width, height, c0, pmin + 1, P, Tb, has_peak, hi, c3, pf);
+    walk<-1>(f, width, height, c0, pmax - 1, P, Tb, has_peak, lo, a3, pf);
   }
   _mm512_store_si512(a8, a3);
   _mm512_store_si512(c8, c3);
@@ -176,8 +178,7 @@ void column_block64(const uint8_t* f, int width, int height, int c0, const uint8
   // its plateau; rare, so found lane by lane.
   for (__mmask64 flat = valid & _mm512_cmpeq_epi8_mask(c3, M); flat; flat &= flat - 1) {
     const int k = __builtin_ctzll(flat), c = c0 + k, p = arg[c];
-    int pe = p;
-    while (pe < hi8[k] && f[size_t(pe + 1) * width + c] == m8[k]) ++pe;
+    const int pe = plateau_end(f, width, c, p, hi8[k], m8[k]);
     if (pe != p) gauss[k] = parab[k] = 0.5f * float(p + pe);
   }
 

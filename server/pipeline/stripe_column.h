@@ -22,6 +22,15 @@ inline const LnTable& ln_table() {
   return t;
 }
 
+// Last row of the flat top that starts at the peak p of column c (rows equal to the maximum
+// m, e.g. saturation), not beyond the window's last row hi. The reference and both CPU
+// paths call this, so that they agree on where a plateau ends.
+inline int plateau_end(const uint8_t* f, int width, int c, int p, int hi, int m) {
+  int pe = p;
+  while (pe < hi && f[size_t(pe + 1) * width + c] == m) ++pe;
+  return pe;
+}
+
 struct Peaks {
   float gauss;  // vertex of the parabola through ln g at p-1, p, p+1
   float parab;  // vertex of the parabola through g

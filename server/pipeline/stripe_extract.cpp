@@ -36,13 +36,14 @@ constexpr size_t kStreamOutputBytes = size_t(4) << 20;           // beyond this,
 // that memory is read once, sequentially.
 // Kept out of line: inlined into the caller, GCC schedules the loop worse (measured: twice
 // the time per frame).
+// `width` columns of rows `stride` bytes apart.
 template <typename Arg>
-__attribute__((noinline)) void column_max(const uint8_t* __restrict f, int width, int height,
-                                          uint8_t* __restrict mx, Arg* __restrict arg) {
+__attribute__((noinline)) void column_max(const uint8_t* __restrict f, int stride, int width,
+                                          int height, uint8_t* __restrict mx, Arg* __restrict arg) {
   std::fill(mx, mx + width, 0);
   std::fill(arg, arg + width, 0);
   for (int r = 0; r < height; ++r) {
-    const uint8_t* row = f + size_t(r) * width;
+    const uint8_t* row = f + size_t(r) * stride;
     const Arg rr = static_cast<Arg>(r);
     for (int c = 0; c < width; ++c) {
       const uint8_t v = row[c];
@@ -100,25 +101,21 @@ void column_max8(const uint8_t* f, int width, int height, uint8_t* mx, uint8_t* 
   const int chunks = (width - c0) / 64;
   column_max_blocks<9>(f, width, height, c0, chunks, mx, arg);
   c0 += 64 * chunks;
-  if (c0 == width) return;
-  // The last columns (fewer than 64): the portable scan over a narrow frame view.
-  std::vector<uint8_t> m(width), a(width);
-  column_max(f, width, height, m.data(), a.data());
-  std::copy(m.begin() + c0, m.end(), mx + c0);
-  std::copy(a.begin() + c0, a.end(), arg + c0);
+  // The last columns (fewer than 64): the portable scan over just those columns.
+  if (c0 < width) column_max(f + c0, width, width - c0, height, mx + c0, arg + c0);
 #else
-  column_max(f, width, height, mx, arg);
+  column_max(f, width, width, height, mx, arg);
 #endif
 }
 
-// The connected run above T around p, and the end of the saturated plateau starting at p.
+// The connected run above T around p, and the end of the flat top starting at p.
 inline void window(const uint8_t* f, int width, int height, int c, int p, int m, float T, int& lo,
                    int& hi, int& pe) {
   auto g = [&](int y) { return float(f[size_t(y) * width + c]); };
-  lo = hi = pe = p;
+  lo = hi = p;
   while (lo > 0 && g(lo - 1) > T) --lo;
   while (hi < height - 1 && g(hi + 1) > T) ++hi;
-  while (pe < hi && f[size_t(pe + 1) * width + c] == m) ++pe;
+  pe = stripe::plateau_end(f, width, c, p, hi, m);
 }
 
 inline int at(const uint8_t* f, int width, int height, int c, int y) {
@@ -190,8 +187,7 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
   }
   for (int k = 0; k < N; ++k)
     if (valid[k] && c[k] == m[k]) {
-      int pe = p[k];
-      while (pe < hi[k] && f[size_t(pe + 1) * width + c0 + k] == mx[c0 + k]) ++pe;
+      const int pe = stripe::plateau_end(f, width, c0 + k, p[k], hi[k], mx[c0 + k]);
       if (pe != p[k]) gauss[k] = parab[k] = 0.5f * float(p[k] + pe);
     }
 
@@ -305,7 +301,7 @@ void extract_range(const uint8_t* frames, int first, int last, int width, int he
 #endif
       for (int c = c0; c < width; ++c) p[c] = arg8[c];
     } else {
-      column_max(f, width, height, mx.data(), arg16.data());
+      column_max(f, width, width, height, mx.data(), arg16.data());
       for (int c = 0; c < width; ++c) p[c] = arg16[c];
     }
     // The columns left (all of them without AVX-512) in groups of 16, then one by one.
