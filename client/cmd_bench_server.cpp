@@ -13,6 +13,7 @@
 #include "args.h"
 #include "commands.h"
 #include "core/error.h"
+#include "feeder.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "service/server.h"
 #include "sim/plant_simulator.h"
@@ -20,6 +21,24 @@
 namespace rangex::cli {
 
 namespace pb = rangex::v1;
+
+namespace {
+// One lane's lines, already rendered, sent as lane `lane`.
+class MemorySource : public LineSource {
+ public:
+  MemorySource(const std::vector<pb::LineScan>& scans, int lane) : scans_(scans), lane_(lane) {}
+  std::vector<int> lanes() const override { return {lane_}; }
+  int64_t lines() const override { return int64_t(scans_.size()); }
+  void line(int, int64_t n, pb::LineScan& out) override {
+    out = scans_[size_t(n)];
+    out.set_lane(lane_);
+  }
+
+ private:
+  const std::vector<pb::LineScan>& scans_;
+  int lane_;
+};
+}  // namespace
 
 int cmd_bench_server(int argc, char** argv) {
   const Args a(argc, argv, 2, {}, {"lines", "threads"});
@@ -88,49 +107,22 @@ int cmd_bench_server(int argc, char** argv) {
     so.listen = "127.0.0.1:0";
     so.data_dir = dir;
     so.engine.threads = threads;
-    so.engine.queue_capacity = 4096;
+    so.engine.queue_lines = 4096;
     double grpc_lps = 0;
     LatencyStats::Summary lat;
     {
       RangexServer server(pl, so);
-      grpc::ChannelArguments args;
-      args.SetMaxSendMessageSize(64 << 20);
-      auto ch =
-          grpc::CreateCustomChannel(server.address(), grpc::InsecureChannelCredentials(), args);
+      auto ch = rangex_channel(server.address());
       const auto t1 = std::chrono::steady_clock::now();
       std::vector<std::thread> feeders;
       std::atomic<int64_t> refused{0};
       for (int lane = 0; lane < nl; ++lane)
         feeders.emplace_back([&, lane] {
-          auto stub = pb::IngestService::NewStub(ch);
-          grpc::ClientContext ctx;
-          auto s = stub->StreamLines(&ctx);
-          std::atomic<int64_t> acked{0};
-          std::atomic<int> credit{4096};
-          std::thread reader([&] {
-            pb::StreamLinesResponse r;
-            while (s->Read(&r)) {
-              refused += !r.accepted();
-              credit = r.credit();
-              ++acked;
-            }
-          });
-          for (int k = 0; k < lines; ++k) {
-            // Flow control: a window of unacknowledged lines, and the server's credit.
-            // Credit is as fresh as the last ack: with nothing outstanding, wait a little and
-            // send one line to hear the current credit.
-            while (k - acked.load() >= 128 || (credit.load() < 256 && k > acked.load()))
-              std::this_thread::sleep_for(std::chrono::microseconds(100));
-            if (credit.load() < 256) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-            pb::StreamLinesRequest req;
-            req.set_sequence(uint64_t(k));
-            *req.mutable_line() = scans[k];
-            req.mutable_line()->set_lane(lane);
-            s->Write(req);
-          }
-          s->WritesDone();
-          reader.join();
-          (void)s->Finish();
+          MemorySource src(scans, lane);
+          FeedOptions fo;
+          fo.window = 128;
+          const FeedReport r = Feeder(ch, fo).run(src);
+          refused += int64_t(r.refused_total());
         });
       for (auto& f : feeders) f.join();
       server.shutdown();  // waits until every accepted line is decided

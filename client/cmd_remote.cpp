@@ -13,7 +13,8 @@
 #include "args.h"
 #include "commands.h"
 #include "core/error.h"
-#include "core/recording.h"
+#include "feeder.h"
+#include "line_source.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "sim/plant_simulator.h"
 
@@ -22,14 +23,17 @@ namespace rangex::cli {
 namespace {
 namespace pb = rangex::v1;
 
-std::shared_ptr<grpc::Channel> channel(const Args& a, const PlantConfig* plant = nullptr) {
+std::shared_ptr<grpc::Channel> channel(const Args& a) {
   std::string addr = a.get("server", "");
-  if (addr.empty()) addr = plant ? plant->listen : load_config(a.get("config", "")).listen;
-  grpc::ChannelArguments args;
-  args.SetMaxSendMessageSize(64 << 20);
-  args.SetMaxReceiveMessageSize(64 << 20);
-  return grpc::CreateCustomChannel(addr, grpc::InsecureChannelCredentials(), args);
+  if (addr.empty()) addr = load_config(a.get("config", "")).listen;
+  return rangex_channel(addr);
 }
+
+// A unary call that cannot hang the command line: a server that does not answer in 15 s is
+// reported as such.
+struct Call : grpc::ClientContext {
+  Call() { set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(15)); }
+};
 
 void check(const grpc::Status& s, const char* what) {
   if (!s.ok())
@@ -61,76 +65,12 @@ void print_fillet(const pb::FilletResult& f) {
   std::printf("\n");
 }
 
-// The lines a feed sends, lane by lane in encoder order: from a recording or a simulation.
-class LineSource {
- public:
-  virtual ~LineSource() = default;
-  virtual std::vector<int> lanes() const = 0;
-  virtual int64_t lines() const = 0;
-  virtual void line(int lane_index, int64_t n, pb::LineScan& out) = 0;
-};
-
-class RecordingSource : public LineSource {
- public:
-  explicit RecordingSource(const std::string& dir) : rec_(dir) {}
-  std::vector<int> lanes() const override { return rec_.info().lanes; }
-  int64_t lines() const override { return rec_.info().lines; }
-  void line(int li, int64_t n, pb::LineScan& out) override {
-    const auto& info = rec_.info();
-    const size_t frame = size_t(info.width) * info.height;
-    std::string c0(frame, '\0'), c1(frame, '\0'), x(size_t(info.xray_pixels) * 2, '\0');
-    int64_t enc;
-    rec_.read(info.lanes[li], n, 1, reinterpret_cast<uint8_t*>(c0.data()),
-              reinterpret_cast<uint8_t*>(c1.data()), reinterpret_cast<uint16_t*>(x.data()), &enc);
-    out.set_lane(info.lanes[li]);
-    out.set_encoder(enc);
-    out.set_cam0(std::move(c0));
-    out.set_cam1(std::move(c1));
-    out.set_xray(std::move(x));
-    out.set_calibration_id(info.calibration_id);
-  }
-
- private:
-  RecordingReader rec_;
-};
-
-class SimulatedSource : public LineSource {
- public:
-  SimulatedSource(const PlantConfig& plant, const sim::SimulationParams& p) : plant_(plant) {
-    for (int i = 0; i < p.lanes; ++i) sims_.emplace_back(plant.lanes.at(i), p);
-    for (auto& s : sims_) lines_ = std::max(lines_, s.lines());
-  }
-  std::vector<int> lanes() const override {
-    std::vector<int> v;
-    for (size_t i = 0; i < sims_.size(); ++i) v.push_back(plant_.lanes[i].id);
-    return v;
-  }
-  int64_t lines() const override { return lines_; }
-  void line(int li, int64_t n, pb::LineScan& out) override {
-    const LaneConfig& lc = plant_.lanes[li];
-    const size_t frame = size_t(lc.frame_width) * lc.frame_height;
-    std::string c0(frame, '\0'), c1(frame, '\0'), x(size_t(lc.xray.pixels) * 2, '\0');
-    sims_[li].render(n, reinterpret_cast<uint8_t*>(c0.data()),
-                     reinterpret_cast<uint8_t*>(c1.data()), reinterpret_cast<uint16_t*>(x.data()),
-                     nullptr, nullptr, nullptr);
-    out.set_lane(lc.id);
-    out.set_encoder(sims_[li].encoder(n));
-    out.set_cam0(std::move(c0));
-    out.set_cam1(std::move(c1));
-    out.set_xray(std::move(x));
-  }
-
- private:
-  const PlantConfig& plant_;
-  std::vector<sim::LaneSimulator> sims_;
-  int64_t lines_ = 0;
-};
-
 }  // namespace
 
 int cmd_feed(int argc, char** argv) {
   const Args a(argc, argv, 2, {"simulate"},
-               {"server", "config", "recording", "lanes", "fillets", "seed", "rate", "window"});
+               {"server", "config", "recording", "lanes", "fillets", "seed", "rate", "window",
+                "reconnect-for"});
   a.expect_positionals(
       0,
       "feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]");
@@ -149,64 +89,28 @@ int cmd_feed(int argc, char** argv) {
   } else {
     fail("feed needs --recording DIR or --simulate");
   }
-  const double rate = std::stod(a.get("rate", "0"));  // per lane; 0: as fast as possible
-  const int window = int(a.integer("window", 256));
-  auto stub = pb::IngestService::NewStub(channel(a, &plant));
-  grpc::ClientContext ctx;
-  auto stream = stub->StreamLines(&ctx);
-  std::atomic<int64_t> acked{0}, accepted{0}, refused{0};
-  std::atomic<int> credit{1 << 20};
-  std::mutex mu;
-  std::map<std::string, int64_t> errors;
-  std::thread reader([&] {
-    pb::StreamLinesResponse r;
-    while (stream->Read(&r)) {
-      credit = r.credit();
-      if (r.accepted())
-        ++accepted;
-      else {
-        ++refused;
-        std::lock_guard<std::mutex> lock(mu);
-        if (errors[r.error().code()]++ < 3)
-          std::fprintf(stderr, "line %llu refused: %s: %s\n", (unsigned long long)r.sequence(),
-                       r.error().code().c_str(), r.error().message().c_str());
-      }
-      ++acked;
-    }
-  });
-  const auto lanes = src->lanes();
-  const auto t0 = std::chrono::steady_clock::now();
-  uint64_t seq = 0;
-  bool open = true;
-  for (int64_t n = 0; n < src->lines() && open; ++n) {
-    if (rate > 0)  // pace: line n of every lane leaves at n / rate seconds
-      std::this_thread::sleep_until(t0 + std::chrono::duration<double>(double(n) / rate));
-    for (size_t li = 0; li < lanes.size() && open; ++li) {
-      // Flow control: a window of unacknowledged lines, and the server's credit (a line sent
-      // into a full queue would be dropped).
-      while (int64_t(seq) - acked.load() >= window ||
-             (credit.load() < window && int64_t(seq) > acked.load()))
-        std::this_thread::sleep_for(std::chrono::microseconds(200));
-      // Credit is as fresh as the last ack: with nothing outstanding, wait a little, then
-      // send one line to hear the current credit.
-      if (credit.load() < window) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      pb::StreamLinesRequest req;
-      req.set_sequence(seq++);
-      src->line(int(li), n, *req.mutable_line());
-      open = stream->Write(req);
-    }
-  }
-  stream->WritesDone();
-  reader.join();
-  const grpc::Status st = stream->Finish();
-  const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  FeedOptions fo;
+  fo.rate = std::stod(a.get("rate", "0"));  // per lane; 0: as fast as possible
+  fo.window = int(a.integer("window", 256));
+  fo.reconnect_for_s = std::stod(a.get("reconnect-for", "60"));
+  if (fo.window < 1) fail("--window must be >= 1");
+  fo.log = [](const std::string& m) { std::fprintf(stderr, "feed: %s\n", m.c_str()); };
+  std::string addr = a.get("server", "");
+  if (addr.empty()) addr = plant.listen;
+  Feeder feeder(rangex_channel(addr), fo);
+  const FeedReport r = feeder.run(*src);
   std::printf(
-      "fed %llu lines over %zu lanes in %.1f s (%.0f lines/s): %lld accepted, %lld refused\n",
-      (unsigned long long)seq, lanes.size(), el, double(seq) / el, (long long)accepted.load(),
-      (long long)refused.load());
-  for (const auto& [code, n] : errors) std::printf("  %s: %lld\n", code.c_str(), (long long)n);
-  check(st, "feed");
-  return refused.load() ? 5 : 0;
+      "fed %llu lines over %zu lanes in %.1f s (%.0f lines/s): %llu accepted, %llu refused\n",
+      (unsigned long long)r.sent, src->lanes().size(), r.seconds, double(r.sent) / r.seconds,
+      (unsigned long long)r.accepted, (unsigned long long)r.refused_total());
+  if (r.reconnects)
+    std::printf("  %llu reconnects, %llu lines resent\n", (unsigned long long)r.reconnects,
+                (unsigned long long)r.resent);
+  for (const auto& [code, n] : r.refused)
+    std::printf("  %s: %llu\n", code.c_str(), (unsigned long long)n);
+  check(r.status, "feed");
+  if (r.accepted + r.refused_total() < r.sent) fail("feed: not every line was acknowledged");
+  return r.refused_total() ? 5 : 0;
 }
 
 int cmd_watch(int argc, char** argv) {
@@ -255,21 +159,31 @@ int cmd_status(int argc, char** argv) {
   const Args a(argc, argv, 2, {}, {"server", "config"});
   auto ch = channel(a);
   auto stub = pb::ControlService::NewStub(ch);
-  grpc::ClientContext c1, c2;
+  Call c1, c2;
   pb::GetServerInfoResponse info;
   check(stub->GetServerInfo(&c1, {}, &info), "server info");
   pb::GetStatisticsResponse s;
   check(stub->GetStatistics(&c2, {}, &s), "statistics");
   std::printf("%s, plant '%s', backend %s, store %s\n", info.version().c_str(),
               info.plant().c_str(), info.backend().c_str(), info.storage().c_str());
-  std::printf("lines: %llu received, %llu processed, %.0f lines/s; queue %d of %d\n",
-              (unsigned long long)s.lines_received(), (unsigned long long)s.lines_processed(),
-              s.lines_per_second(), s.queue_depth(), s.queue_capacity());
+  std::printf("%s\n", s.serving() ? "SERVING" : "NOT SERVING");
+  for (const auto& h : s.health()) std::printf("  %s\n", h.c_str());
+  std::printf(
+      "lines: %llu received, %llu accepted, %llu processed, %.0f lines/s; queue %d of %d; %d "
+      "ingest streams\n",
+      (unsigned long long)s.lines_received(), (unsigned long long)s.lines_accepted(),
+      (unsigned long long)s.lines_processed(), s.lines_per_second(), s.queue_depth(),
+      s.queue_capacity(), s.ingest_streams());
   std::printf("fillets: %llu (%llu rejected, %llu not inspected); %d subscribers\n",
               (unsigned long long)s.fillets(), (unsigned long long)s.rejects(),
               (unsigned long long)s.not_inspected(), s.subscribers());
-  for (const auto& d : s.drops())
+  for (const auto& d : s.refused())
+    std::printf("refused %-22s %llu lines\n", d.reason().c_str(), (unsigned long long)d.lines());
+  for (const auto& d : s.dropped())
     std::printf("dropped %-22s %llu lines\n", d.reason().c_str(), (unsigned long long)d.lines());
+  if (s.lane_restarts() || s.store_errors())
+    std::printf("lane restarts %llu, store errors %llu\n", (unsigned long long)s.lane_restarts(),
+                (unsigned long long)s.store_errors());
   for (const auto& l : s.latencies())
     std::printf("latency %-22s p50 %8.2f ms  p99 %8.2f ms  (%llu)\n", l.stage().c_str(), l.p50_ms(),
                 l.p99_ms(), (unsigned long long)l.samples());
@@ -280,7 +194,7 @@ int cmd_fillets(int argc, char** argv) {
   const Args a(argc, argv, 2, {}, {"server", "config", "lane", "from-ns", "to-ns", "limit", "uid"});
   auto stub = pb::ResultsService::NewStub(channel(a));
   if (a.has("uid")) {
-    grpc::ClientContext ctx;
+    Call ctx;
     pb::GetFilletRequest req;
     req.set_uid(a.integer("uid", 0));
     pb::GetFilletResponse resp;
@@ -300,7 +214,7 @@ int cmd_fillets(int argc, char** argv) {
   req.set_page_size(int(std::min(limit, 500L)));
   long shown = 0;
   while (shown < limit) {
-    grpc::ClientContext ctx;
+    Call ctx;
     pb::ListFilletsResponse resp;
     check(stub->ListFillets(&ctx, req, &resp), "list fillets");
     for (const auto& f : resp.fillets())
@@ -314,7 +228,7 @@ int cmd_fillets(int argc, char** argv) {
 int cmd_image(int argc, char** argv) {
   const Args a(argc, argv, 2, {}, {"server", "config", "uid", "kind", "out"});
   auto stub = pb::ResultsService::NewStub(channel(a));
-  grpc::ClientContext ctx;
+  Call ctx;
   pb::GetFilletImageRequest req;
   req.set_uid(std::stoll(a.require("uid")));
   req.set_kind(a.get("kind", "overlay"));
@@ -330,7 +244,7 @@ int cmd_calib_remote(int argc, char** argv) {
   const std::string verb = argv[2];
   const Args a(argc, argv, 3, {}, {"server", "config", "lane", "id", "file", "who"});
   auto stub = pb::CalibrationService::NewStub(channel(a));
-  grpc::ClientContext ctx;
+  Call ctx;
   const char* who = std::getenv("USER");
   if (verb == "upload") {
     std::ifstream in(a.require("file"));
@@ -371,11 +285,25 @@ int cmd_calib_remote(int argc, char** argv) {
 }
 
 int cmd_lanes(int argc, char** argv) {
-  const Args a(argc, argv, 2, {},
-               {"server", "config", "lane", "z-threshold", "min-area-mm2", "floor-mm", "who"});
+  const Args a(
+      argc, argv, 2, {},
+      {"server", "config", "lane", "z-threshold", "min-area-mm2", "floor-mm", "who", "reason"});
   auto stub = pb::ControlService::NewStub(channel(a));
+  if (a.positional().size() == 1 && a.positional()[0] == "reset") {
+    Call ctx;
+    pb::ResetLaneRequest req;
+    req.set_lane(int(std::stol(a.require("lane"))));
+    const char* who = std::getenv("USER");
+    req.set_who(a.get("who", who ? who : "rangexctl"));
+    req.set_reason(a.get("reason", ""));
+    pb::ResetLaneResponse resp;
+    check(stub->ResetLane(&ctx, req, &resp), "lane reset");
+    std::printf("lane %d: its next line starts it afresh, whatever its encoder count\n",
+                resp.lane().id());
+    return 0;
+  }
   if (a.positional().size() == 1 && a.positional()[0] == "set") {
-    grpc::ClientContext ctx;
+    Call ctx;
     pb::UpdateLaneThresholdsRequest req;
     req.set_lane(int(std::stol(a.require("lane"))));
     if (a.has("z-threshold")) req.set_z_threshold(std::stod(a.get("z-threshold", "")));
@@ -391,16 +319,27 @@ int cmd_lanes(int argc, char** argv) {
     return 0;
   }
   a.expect_positionals(
-      0, "lanes  |  lanes set --lane L [--z-threshold Z] [--min-area-mm2 A] [--floor-mm F]");
-  grpc::ClientContext ctx;
+      0,
+      "lanes  |  lanes set --lane L [--z-threshold Z] [--min-area-mm2 A] [--floor-mm F]  |  "
+      "lanes reset --lane L [--reason TEXT]");
+  Call ctx;
   pb::ListLanesResponse resp;
   check(stub->ListLanes(&ctx, {}, &resp), "lanes");
-  for (const auto& l : resp.lanes())
+  for (const auto& l : resp.lanes()) {
     std::printf(
         "lane %d: %dx%d frames, %d X-ray pixels, %.2f mm/line, calibration %s, z %.1f, min %.2f "
         "mm2, floor %.1f mm\n",
         l.id(), l.frame_width(), l.frame_height(), l.xray_pixels(), l.encoder_step_mm(),
         l.calibration_id().c_str(), l.z_threshold(), l.min_fragment_area_mm2(), l.floor_mm());
+    if (l.fed())
+      std::printf("        last encoder %lld, %llu lines, idle %.1f s%s, %llu restarts%s%s\n",
+                  (long long)l.last_encoder(), (unsigned long long)l.lines_accepted(),
+                  l.idle_ms() / 1e3, l.fillet_in_progress() ? ", fillet in progress" : "",
+                  (unsigned long long)l.restarts(), l.last_restart().empty() ? "" : " (last: ",
+                  l.last_restart().empty() ? "" : (l.last_restart() + ")").c_str());
+    else
+      std::printf("        not fed yet\n");
+  }
   return 0;
 }
 

@@ -30,8 +30,7 @@ struct Feed {
       // The X-ray line n sees what the camera saw at n - delay: encode that in the counts.
       const int s = n - lane.xray.delay_lines;
       for (int i = 0; i < D; ++i) x[i] = (s >= l0 && s < l1 && i >= c0 && i < c1) ? 1000 : 3600;
-      a.push_thickness(e, t.data());
-      a.push_xray(e, x.data());
+      a.push(e, t.data(), x.data());
     }
     a.flush();
   }
@@ -65,8 +64,7 @@ TEST(LaneAssembly, SeparateFilletsAndDebris) {
       const bool c = n >= 700 && n < 705 && i >= 10 && i < 14;    // a crumb
       t[i] = (a || b || c) ? 15.f : 0.f;
     }
-    f.a.push_thickness(n, t.data());
-    f.a.push_xray(n, x.data());
+    f.a.push(n, t.data(), x.data());
   }
   f.a.flush();
   EXPECT_EQ(f.out.size(), 2u);

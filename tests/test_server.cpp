@@ -28,7 +28,7 @@ ServerOptions options(const test::TempDir& t, size_t queue = 2048) {
   ServerOptions o;
   o.listen = "127.0.0.1:0";
   o.data_dir = t.str("data");
-  o.engine.queue_capacity = queue;
+  o.engine.queue_lines = queue;
   o.engine.threads = 2;
   return o;
 }
@@ -183,8 +183,8 @@ TEST(Server, BadInputGetsInBandErrorsAndTheStreamCarriesOn) {
     EXPECT_GT(acks[i].credit(), 0);
   }
   const EngineStats s = server.engine().stats();
-  EXPECT_EQ(s.drops.at("WRONG_FRAME_SIZE"), 1u);
-  EXPECT_EQ(s.drops.at("DUPLICATE_LINE"), 1u);
+  EXPECT_EQ(s.refused.at("WRONG_FRAME_SIZE"), 1u);
+  EXPECT_EQ(s.refused.at("DUPLICATE_LINE"), 1u);
 }
 
 TEST(Server, ClientDisconnectMidStreamLeavesNothingBehind) {
@@ -251,7 +251,7 @@ TEST(Server, OverloadDropsAreCountedAndFilletsFailSafe) {
   EXPECT_EQ(overload, stall - 64);
   server.shutdown();
   const EngineStats s = server.engine().stats();
-  EXPECT_EQ(s.drops.at("OVERLOAD"), overload);
+  EXPECT_EQ(s.refused.at("OVERLOAD"), overload);
   EXPECT_EQ(s.processed, lines.lines.size() - overload);
   // The fillet whose lines were dropped is rejected as not inspected, never passed.
   const auto fillets = all_fillets(server.store());
@@ -296,7 +296,8 @@ TEST(Server, CalibrationActivatesBetweenFillets) {
   auto acks = stream(ch, {lines.lines.begin(), lines.lines.begin() + long(half)});
   // Acks mean queued, not processed: let the worker catch up, so that the first half is
   // measured with the first calibration whatever the machine's load.
-  while (server.engine().stats().processed < half) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  while (server.engine().stats().processed < half)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   {
     grpc::ClientContext c;
     pb::ActivateCalibrationRequest act;

@@ -1,4 +1,6 @@
-// One exception type for every refused input: the message names what is wrong.
+// One exception type for every refused input: the message names what is wrong. Two
+// refinements let the service answer with the right status: NotFound (an unknown lane or
+// calibration) and AlreadyExists (a calibration id taken).
 #pragma once
 #include <sstream>
 #include <stdexcept>
@@ -10,13 +12,34 @@ class Error : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+class NotFound : public Error {
+ public:
+  using Error::Error;
+};
+class AlreadyExists : public Error {
+ public:
+  using Error::Error;
+};
+
+template <typename... Parts>
+std::string join(const Parts&... parts) {
+  std::ostringstream os;
+  (os << ... << parts);
+  return os.str();
+}
 
 // fail("lane ", id, ": frame is ", w, "x", h) throws Error with the pieces joined.
 template <typename... Parts>
 [[noreturn]] void fail(const Parts&... parts) {
-  std::ostringstream os;
-  (os << ... << parts);
-  throw Error(os.str());
+  throw Error(join(parts...));
+}
+template <typename... Parts>
+[[noreturn]] void fail_not_found(const Parts&... parts) {
+  throw NotFound(join(parts...));
+}
+template <typename... Parts>
+[[noreturn]] void fail_exists(const Parts&... parts) {
+  throw AlreadyExists(join(parts...));
 }
 
 }  // namespace rangex

@@ -42,6 +42,9 @@ struct InspectionParams {
   double air_z_threshold = 5.0;  // smoothed z above +threshold is an air pocket
   double min_air_area_mm2 = 1.0;
   double baseline_sigma_mm = 4.0;  // X-ray-only baseline: smooth background scale
+  // An encoder jump further than this ends the lane's open fillets as not inspected and
+  // restarts its assembly at the new count (a re-based PLC); shorter gaps are bridged.
+  int encoder_horizon_lines = 100000;
 };
 
 struct LaneConfig {

@@ -20,7 +20,10 @@ struct Node {
   std::string path;
   const std::string* origin;
 
-  [[noreturn]] void bad(const std::string& why) const { fail(*origin, ": ", path, ": ", why); }
+  [[noreturn]] void bad(const std::string& why) const {
+    if (path.empty()) fail(*origin, ": ", why);
+    fail(*origin, ": ", path, ": ", why);
+  }
 
   bool has(const char* key) const { return node.IsMap() && node[key]; }
   Node at(const std::string& key) const {
@@ -58,6 +61,13 @@ struct Node {
       bad("expected an integer");
     }
   }
+  bool boolean() const {
+    try {
+      return node.as<bool>();
+    } catch (const YAML::Exception&) {
+      bad("expected true or false");
+    }
+  }
   std::string str() const {
     if (!node.IsScalar()) bad("expected a string");
     return node.as<std::string>();
@@ -79,6 +89,9 @@ struct Node {
   }
   void get(const char* key, std::string& out) const {
     if (has(key)) out = at(key).str();
+  }
+  void get(const char* key, bool& out) const {
+    if (has(key)) out = at(key).boolean();
   }
   void positive(const char* key, double& out) const {
     get(key, out);
@@ -233,7 +246,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->only_keys({"floor_mm", "min_fillet_area_mm2", "gap_lines", "max_segment_lines",
                   "max_invalid_fraction", "tukey_c", "max_iter", "tol", "smooth_sigma_px",
                   "z_threshold", "min_fragment_area_mm2", "air_z_threshold", "min_air_area_mm2",
-                  "baseline_sigma_mm"});
+                  "baseline_sigma_mm", "encoder_horizon_lines"});
     n->positive("floor_mm", q.floor_mm);
     n->positive("min_fillet_area_mm2", q.min_fillet_area_mm2);
     n->positive("gap_lines", q.gap_lines);
@@ -250,8 +263,28 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->positive("air_z_threshold", q.air_z_threshold);
     n->positive("min_air_area_mm2", q.min_air_area_mm2);
     n->positive("baseline_sigma_mm", q.baseline_sigma_mm);
+    n->positive("encoder_horizon_lines", q.encoder_horizon_lines);
   }
   return c;
+}
+
+void read_engine(const Node& n, EngineSettings& e) {
+  n.only_keys({"queue_lines", "batch_lines", "batch_wait_ms", "dedup_window", "auto_reset",
+               "idle_close_s", "stall_s", "exit_after_s", "drain_timeout_s"});
+  int queue = int(e.queue_lines);
+  n.positive("queue_lines", queue);
+  if (queue > 1 << 20) n.at("queue_lines").bad("must be <= 1048576");
+  e.queue_lines = size_t(queue);
+  n.positive("batch_lines", e.batch_lines);
+  n.positive("batch_wait_ms", e.batch_wait_ms);
+  n.positive("dedup_window", e.dedup_window);
+  if (e.dedup_window > 1 << 24) n.at("dedup_window").bad("must be <= 16777216");
+  n.get("auto_reset", e.auto_reset);
+  n.positive("idle_close_s", e.idle_close_s);
+  n.positive("stall_s", e.stall_s);
+  n.get("exit_after_s", e.exit_after_s);
+  if (e.exit_after_s < 0) n.at("exit_after_s").bad("must be >= 0 (0: never)");
+  n.positive("drain_timeout_s", e.drain_timeout_s);
 }
 
 }  // namespace
@@ -267,13 +300,13 @@ static YAML::Node load_yaml(const std::string& text, const std::string& origin) 
 const LaneConfig& PlantConfig::lane(int id) const {
   for (const auto& l : lanes)
     if (l.id == id) return l;
-  fail("unknown lane ", id, " (plant '", name, "' has ", lanes.size(), " lanes)");
+  fail_not_found("unknown lane ", id, " (plant '", name, "' has ", lanes.size(), " lanes)");
 }
 
 PlantConfig parse_plant_config(const std::string& text, const std::string& origin) {
   const YAML::Node root = load_yaml(text, origin);
   const Node top{root, "", &origin};
-  top.only_keys({"plant", "lane_defaults", "lanes"});
+  top.only_keys({"plant", "server", "lane_defaults", "lanes"});
   PlantConfig p;
   if (top.has("plant")) {
     const Node n = top.at("plant");
@@ -286,6 +319,7 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
     n.get("listen", p.listen);
     n.get("storage", p.storage);
   }
+  if (top.has("server")) read_engine(top.at("server"), p.engine);
   std::optional<Node> defaults;
   if (top.has("lane_defaults")) defaults = top.at("lane_defaults");
   if (!top.has("lanes")) top.bad("missing key 'lanes'");
@@ -311,6 +345,10 @@ LaneConfig apply_lane_calibration(const LaneConfig& base, const std::string& tex
                                   const std::string& origin) {
   const YAML::Node root = load_yaml(text, origin);
   const Node n{root, "", &origin};
+  if (!root.IsMap())
+    n.bad(root.IsNull() ? "is empty; expected a mapping with cameras, laser_plane, xray or "
+                          "encoder_step_mm"
+                        : "expected a mapping with cameras, laser_plane, xray or encoder_step_mm");
   n.only_keys({"cameras", "laser_plane", "xray", "encoder_step_mm"});
   return read_lane(n, nullptr, base);
 }

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "core/engine_settings.h"
 #include "core/lane_config.h"
 
 namespace rangex {
@@ -14,6 +15,7 @@ struct PlantConfig {
   std::string backend = "auto";  // auto | cpu | opencl | vulkan
   std::string listen = "127.0.0.1:50051";
   std::string storage = "rangex-data";
+  EngineSettings engine;  // the `server:` section
   std::vector<LaneConfig> lanes;
 
   const LaneConfig& lane(int id) const;  // throws Error for an unknown lane

@@ -3,6 +3,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace rangex {
@@ -29,6 +30,7 @@ struct FilletImage {
   int invalid_thickness_px = 0;  // meat pixels (by X-ray) without a thickness
   bool touches_lane_edge = false;
   bool calibration_mismatch = false;
+  std::string interrupted;  // why the lane restarted while this fillet was coming in
 
   size_t size() const { return size_t(rows) * cols; }
   int mask_pixels() const {

@@ -43,6 +43,7 @@ FilletResult header(const FilletImage& img) {
 
 // The fail-safe checks that need no fit; empty when the fillet can be inspected.
 std::string not_inspectable(const FilletImage& img, const InspectionParams& p) {
+  if (!img.interrupted.empty()) return img.interrupted;
   if (img.calibration_mismatch) return "calibration mismatch";
   if (img.missing_lines > 0) return std::to_string(img.missing_lines) + " lines missing";
   if (img.touches_lane_edge) return "fillet reaches the edge of the lane";

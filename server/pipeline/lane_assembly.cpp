@@ -14,30 +14,82 @@ LaneAssembler::LaneAssembler(const LaneConfig& lane, Sink sink)
       pixels_(lane.xray.pixels),
       open_beam_(double((1 << lane.xray.bits) - 1)) {}
 
-void LaneAssembler::push_thickness(int64_t encoder, const float* t) {
-  if (first_encoder_ == INT64_MIN) first_encoder_ = encoder;
-  thickness_[encoder].assign(t, t + pixels_);
-  // Camera lines wait delay_lines for their X-ray line; older ones can no longer pair.
-  while (!thickness_.empty() && thickness_.begin()->first < encoder - lane_.xray.delay_lines - 4)
-    thickness_.erase(thickness_.begin());
+bool LaneAssembler::occupied(const std::vector<float>& t) const {
+  for (float v : t)
+    if (v > lane_.inspection.floor_mm) return true;
+  return false;
 }
 
-void LaneAssembler::push_missing(int64_t encoder) {
-  if (first_encoder_ == INT64_MIN) first_encoder_ = encoder;
-  if (next_encoder_ != INT64_MIN && encoder < next_encoder_) return;  // already accounted
+void LaneAssembler::start_line(int64_t encoder) {
+  // Line numbers (belt positions) run from the lane's first line; a count before it, or
+  // far beyond it after a restart, starts the numbering again.
+  if (first_encoder_ == INT64_MIN || encoder < first_encoder_ ||
+      uint64_t(encoder) - uint64_t(first_encoder_) > (uint64_t(1) << 52))
+    first_encoder_ = encoder;
+}
+
+bool LaneAssembler::advance(int64_t encoder) {
+  if (next_encoder_ == INT64_MIN) {
+    start_line(encoder);
+    next_encoder_ = encoder;
+    return true;
+  }
+  if (encoder < next_encoder_) {
+    ++stats_.out_of_order;  // the caller keeps lines in order; nothing to add
+    return false;
+  }
+  const uint64_t gap = uint64_t(encoder) - uint64_t(next_encoder_);
+  if (gap == 0) return true;
+  const InspectionParams& ip = lane_.inspection;
+  if (gap > uint64_t(ip.encoder_horizon_lines)) {
+    restart("encoder jumped " + std::to_string(gap) + " counts, beyond the horizon of " +
+            std::to_string(ip.encoder_horizon_lines));
+    start_line(encoder);
+    next_encoder_ = encoder;
+    return true;
+  }
+  // The first delay_lines missing counts pair with camera lines that did come; after them
+  // a segment's worth of missing rows closes any open segment. Beyond that nothing changes
+  // but the count: skip to a lead-in of missing rows before the next line.
+  const uint64_t walk =
+      std::min<uint64_t>(gap, uint64_t(lane_.xray.delay_lines) + uint64_t(ip.max_segment_lines));
+  for (uint64_t k = 0; k < walk; ++k) add_missing(next_encoder_ + int64_t(k));
+  const uint64_t rest = gap - walk;
+  const uint64_t lead = std::min<uint64_t>(rest, uint64_t(ip.gap_lines) + 1);
+  stats_.lines += int64_t(rest - lead);
+  stats_.missing_lines += int64_t(rest - lead);
+  for (uint64_t k = lead; k > 0; --k) add_missing(encoder - int64_t(k));
+  next_encoder_ = encoder;
+  return true;
+}
+
+void LaneAssembler::add_missing(int64_t encoder) {
   Row r{encoder, encoder - first_encoder_, {}, {}, true, false};
-  next_encoder_ = encoder + 1;
+  // The camera line of this slice may have come before the line went missing: keep what
+  // it saw, so that a fillet under the laser is not lost with the X-ray line.
+  auto it = thickness_.find(encoder - lane_.xray.delay_lines);
+  if (it != thickness_.end()) {
+    r.thickness = std::move(it->second);
+    r.occupied = occupied(r.thickness);
+    thickness_.erase(it);
+  }
   ++stats_.lines;
   ++stats_.missing_lines;
   add_row(std::move(r));
 }
 
-void LaneAssembler::push_xray(int64_t encoder, const uint16_t* xray) {
-  if (first_encoder_ == INT64_MIN) first_encoder_ = encoder;
-  if (next_encoder_ != INT64_MIN && encoder < next_encoder_) return;  // the caller checks order
-  // Lines that never came are missing lines.
-  if (next_encoder_ != INT64_MIN)
-    for (int64_t e = next_encoder_; e < encoder; ++e) push_missing(e);
+void LaneAssembler::push_missing(int64_t encoder) {
+  if (!advance(encoder)) return;
+  add_missing(encoder);
+  next_encoder_ = encoder + 1;
+}
+
+void LaneAssembler::push(int64_t encoder, const float* t, const uint16_t* xray) {
+  if (!advance(encoder)) return;
+  thickness_[encoder].assign(t, t + pixels_);
+  // Camera lines wait delay_lines for their X-ray line; older ones can no longer pair.
+  while (!thickness_.empty() && thickness_.begin()->first < encoder - lane_.xray.delay_lines - 4)
+    thickness_.erase(thickness_.begin());
   next_encoder_ = encoder + 1;
   ++stats_.lines;
   Row r{encoder, encoder - first_encoder_, std::vector<uint16_t>(xray, xray + pixels_), {}, false,
@@ -58,8 +110,7 @@ void LaneAssembler::push_xray(int64_t encoder, const uint16_t* xray) {
       std::nth_element(belt.begin(), belt.begin() + long(belt.size() / 2), belt.end());
       open_beam_ = 0.9 * open_beam_ + 0.1 * belt[belt.size() / 2];
     }
-    for (int i = 0; i < pixels_ && !r.occupied; ++i)
-      r.occupied = r.thickness[i] > lane_.inspection.floor_mm;
+    r.occupied = occupied(r.thickness);
   }
   add_row(std::move(r));
 }
@@ -83,12 +134,32 @@ void LaneAssembler::add_row(Row&& row) {
 bool LaneAssembler::quiet() const {
   if (open_) return false;
   for (const auto& [e, t] : thickness_)
-    for (float v : t)
-      if (v > lane_.inspection.floor_mm) return false;
+    if (occupied(t)) return false;
   return true;
 }
 
+void LaneAssembler::restart(const std::string& reason) {
+  // Camera lines still waiting for their X-ray lines become missing rows: the fillet they
+  // saw fails safe instead of vanishing with the restart.
+  if (next_encoder_ != INT64_MIN)
+    while (!thickness_.empty()) add_missing(thickness_.begin()->first + lane_.xray.delay_lines);
+  interrupted_ = reason;
+  if (open_) close_segment();
+  interrupted_.clear();
+  thickness_.clear();
+  segment_.clear();
+  empty_run_ = 0;
+  open_ = false;
+  next_encoder_ = INT64_MIN;
+  last_restart_ = reason;
+  ++stats_.restarts;
+}
+
 void LaneAssembler::flush() {
+  bool pending = false;
+  for (const auto& [e, t] : thickness_) pending |= occupied(t);
+  if (pending)  // a fillet under the laser that the X-ray never saw: reported, not inspected
+    while (!thickness_.empty()) add_missing(thickness_.begin()->first + lane_.xray.delay_lines);
   if (open_) close_segment();
   segment_.clear();
   empty_run_ = 0;
@@ -98,18 +169,20 @@ void LaneAssembler::close_segment() {
   const int rows = int(segment_.size()), D = pixels_;
   const InspectionParams& ip = lane_.inspection;
   std::vector<uint8_t> on(size_t(rows) * D, 0);
+  auto measured = [&](int r) { return !segment_[r].thickness.empty(); };
   for (int r = 0; r < rows; ++r) {
+    if (!measured(r)) continue;
     const Row& row = segment_[r];
-    if (row.missing) continue;
     for (int i = 0; i < D; ++i) on[size_t(r) * D + i] = row.thickness[i] > ip.floor_mm;
   }
-  // A missing line must not cut a fillet in two: it takes the union of its neighbours, so
-  // the fillet stays one region and carries the missing line into its fail-safe check.
+  // A line with no thickness must not cut a fillet in two: it takes the union of its
+  // neighbours, so the fillet stays one region and carries the missing line into its
+  // fail-safe check.
   for (int r = 0; r < rows; ++r) {
-    if (!segment_[r].missing) continue;
+    if (measured(r)) continue;
     int up = r - 1, dn = r + 1;
-    while (up >= 0 && segment_[up].missing) --up;
-    while (dn < rows && segment_[dn].missing) ++dn;
+    while (up >= 0 && !measured(up)) --up;
+    while (dn < rows && !measured(dn)) ++dn;
     for (int i = 0; i < D; ++i)
       on[size_t(r) * D + i] =
           (up >= 0 && on[size_t(up) * D + i]) || (dn < rows && on[size_t(dn) * D + i]);
@@ -119,7 +192,14 @@ void LaneAssembler::close_segment() {
   const double px_area = lane_.xray.pitch_mm * lane_.encoder_step_mm;
   const float meat_level = float(0.9 * open_beam_);
   for (const Component& c : comps) {
-    if (c.pixels * px_area < ip.min_fillet_area_mm2) {
+    int missing = 0;
+    for (int r = std::max(0, c.row0 - 1); r <= std::min(rows - 1, c.row1 + 1); ++r)
+      missing += segment_[r].missing;
+    // A fillet still coming in when the lane restarted did not end here.
+    const bool interrupted = !interrupted_.empty() && c.row1 >= rows - 1 - ip.gap_lines;
+    // Part of a fillet (cut by missing lines or a restart) can look small: it is reported
+    // not inspected, never dismissed as debris.
+    if (c.pixels * px_area < ip.min_fillet_area_mm2 && missing == 0 && !interrupted) {
       ++stats_.debris;
       continue;
     }
@@ -142,11 +222,11 @@ void LaneAssembler::close_segment() {
     f.source_z_mm = lane_.xray.source_z_mm;
     f.detector_z_mm = lane_.xray.detector_z_mm;
     f.touches_lane_edge = c.col0 == 0 || c.col1 == D - 1;
+    f.missing_lines = missing;
+    if (interrupted) f.interrupted = interrupted_;
     f.xray.assign(f.size(), 0);
     f.thickness.assign(f.size(), std::numeric_limits<float>::quiet_NaN());
     f.mask.assign(f.size(), 0);
-    for (int r = std::max(0, c.row0 - 1); r <= std::min(rows - 1, c.row1 + 1); ++r)
-      f.missing_lines += segment_[r].missing;
     for (int r = r0; r <= r1; ++r) {
       const Row& row = segment_[r];
       if (row.missing) continue;

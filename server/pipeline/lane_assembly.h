@@ -5,11 +5,17 @@
 // region big enough is one fillet (fillets that touch are one region and are inspected
 // together). Lines that never came, or were dropped, are recorded; every fillet they touch
 // is failed safe by the inspection.
+//
+// Gaps cost work in proportion to the fillets they touch, not to their length in counts:
+// at most a segment's worth of missing rows is walked, the rest is skipped. A jump beyond
+// encoder_horizon_lines, or an explicit restart (an encoder reset, a lane that stopped
+// being fed), ends the open fillets as not inspected and starts afresh.
 #pragma once
 #include <cstdint>
 #include <deque>
 #include <functional>
 #include <map>
+#include <string>
 #include <vector>
 
 #include "core/lane_config.h"
@@ -18,10 +24,12 @@
 namespace rangex {
 
 struct AssemblyStats {
-  int64_t lines = 0;          // X-ray lines taken in
+  int64_t lines = 0;          // X-ray lines taken in, missing ones included
   int64_t missing_lines = 0;  // lines marked missing
   int64_t fillets = 0;
-  int64_t debris = 0;  // regions below the minimum fillet area
+  int64_t debris = 0;        // regions below the minimum fillet area
+  int64_t restarts = 0;      // explicit restarts and jumps beyond the horizon
+  int64_t out_of_order = 0;  // lines at or behind the last one, ignored
 };
 
 class LaneAssembler {
@@ -29,18 +37,20 @@ class LaneAssembler {
   using Sink = std::function<void(FilletImage&&)>;
   LaneAssembler(const LaneConfig& lane, Sink sink);
 
-  // One camera line: its thickness line is what the X-ray sees delay_lines later.
-  // thickness: detector pixels, NaN where not measured.
-  void push_thickness(int64_t encoder, const float* thickness);
-  // One X-ray line. Lines must come with increasing encoder counts; a jump is recorded as
-  // missing lines.
-  void push_xray(int64_t encoder, const uint16_t* xray);
+  // One line: the camera line's thickness (detector pixels, NaN where not measured), which
+  // the X-ray sees delay_lines later, and the X-ray line of the same count. Counts must
+  // increase; counts skipped are missing lines.
+  void push(int64_t encoder, const float* thickness, const uint16_t* xray);
   // A line that was dropped (both thickness and X-ray are unusable).
   void push_missing(int64_t encoder);
+  // Ends the open fillets as not inspected with `reason` (fillets already complete are
+  // inspected as usual) and starts afresh: the next line may have any count.
+  void restart(const std::string& reason);
   // Closes the open run (end of a recording, or shutdown) and emits its fillets.
   void flush();
 
   const AssemblyStats& stats() const { return stats_; }
+  const std::string& last_restart() const { return last_restart_; }
   // No fillet in progress and no waiting thickness line with fillet in it: a new
   // configuration can take over without any fillet seeing two.
   bool quiet() const;
@@ -50,13 +60,18 @@ class LaneAssembler {
   struct Row {
     int64_t encoder;
     int64_t line;
-    std::vector<uint16_t> xray;
-    std::vector<float> thickness;
+    std::vector<uint16_t> xray;    // empty when the X-ray line is missing
+    std::vector<float> thickness;  // empty when no camera line covers this slice
     bool missing;
     bool occupied;
   };
+  // Accounts for the counts between the last line and `encoder`; false: out of order.
+  bool advance(int64_t encoder);
+  void add_missing(int64_t encoder);
   void add_row(Row&& row);
+  bool occupied(const std::vector<float>& t) const;
   void close_segment();
+  void start_line(int64_t encoder);
 
   LaneConfig lane_;
   Sink sink_;
@@ -68,7 +83,9 @@ class LaneAssembler {
   int64_t next_encoder_ = INT64_MIN;
   int64_t first_encoder_ = INT64_MIN;
   int64_t next_id_ = 0;
-  double open_beam_ = 0;  // running estimate of the bare-belt X-ray level
+  double open_beam_ = 0;     // running estimate of the bare-belt X-ray level
+  std::string interrupted_;  // while closing for a restart: why
+  std::string last_restart_;
   AssemblyStats stats_;
 };
 

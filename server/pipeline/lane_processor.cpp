@@ -51,8 +51,7 @@ void LaneProcessor::push(int count, const uint8_t* frames, const uint16_t* xray,
       line[i] = results_.thickness_valid[o] ? results_.thickness[o]
                                             : std::numeric_limits<float>::quiet_NaN();
     }
-    assembler_.push_thickness(encoders[k], line.data());
-    assembler_.push_xray(encoders[k], xray + size_t(k) * D);
+    assembler_.push(encoders[k], line.data(), xray + size_t(k) * D);
   }
   if (observer_) observer_(results_, encoders, count);
 }
@@ -65,6 +64,10 @@ void LaneProcessor::reconfigure(const LaneConfig& lane) {
 
 void LaneProcessor::push_missing(int64_t encoder) {
   assembler_.push_missing(encoder);
+}
+
+void LaneProcessor::restart(const std::string& reason) {
+  assembler_.restart(reason);
 }
 
 void LaneProcessor::finish() {

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/lane_config.h"
@@ -40,9 +41,13 @@ class LaneProcessor {
   // count lines: frames [line][camera][row][col], X-ray lines [line][pixel], encoder counts.
   void push(int count, const uint8_t* frames, const uint16_t* xray, const int64_t* encoders);
   void push_missing(int64_t encoder);
+  // Ends the open fillets as not inspected (an encoder reset, a lane no longer fed, a
+  // processing error); the next line may have any count.
+  void restart(const std::string& reason);
   void finish();  // closes the open fillets
 
   const AssemblyStats& assembly() const { return assembler_.stats(); }
+  const std::string& last_restart() const { return assembler_.last_restart(); }
   bool quiet() const { return assembler_.quiet(); }
   // A new calibration or thresholds; the caller applies it only when quiet().
   void reconfigure(const LaneConfig& lane);

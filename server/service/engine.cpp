@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 
@@ -18,18 +19,25 @@ int64_t steady_ns() {
              std::chrono::steady_clock::now().time_since_epoch())
       .count();
 }
+int64_t seconds_ns(double s) {
+  return int64_t(s * 1e9);
+}
+// Unsaved decisions kept while the store fails; beyond this the oldest is lost, loudly.
+constexpr size_t kMaxUnsaved = 4096;
 }  // namespace
 
+Engine::Lane::Lane(const LaneConfig& c, const EngineOptions& o)
+    : id(c.id),
+      width(c.frame_width),
+      height(c.frame_height),
+      pixels(c.xray.pixels),
+      admission(c.id, o.dedup_window, o.auto_reset),
+      config(c) {}
+
 Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOptions opt)
-    : plant_(plant), store_(store), hub_(hub), opt_(opt) {
-  counters_.queue_capacity = int(opt_.queue_capacity);
+    : plant_(plant), store_(store), hub_(hub), opt_(std::move(opt)) {
   for (const LaneConfig& lc : plant_.lanes) {
-    auto l = std::make_unique<Lane>();
-    l->id = lc.id;
-    l->width = lc.frame_width;
-    l->height = lc.frame_height;
-    l->pixels = lc.xray.pixels;
-    l->config = lc;
+    auto l = std::make_unique<Lane>(lc, opt_);
     l->calibration_id = plant_.calibration_id;
     // A calibration activated before a restart is active again.
     for (const StoredCalibration& c : store_.calibrations(lc.id))
@@ -37,6 +45,7 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
         l->config = apply_lane_calibration(lc, c.yaml, "calibration " + c.id);
         l->calibration_id = c.id;
       }
+    l->admit_calibration = l->running_calibration = l->calibration_id;
     Lane* raw = l.get();
     l->proc = std::make_unique<LaneProcessor>(
         l->config, LaneProcessorOptions{opt_.threads, false, opt_.images},
@@ -53,189 +62,312 @@ Engine::~Engine() {
 Engine::Lane& Engine::lane(int id) {
   for (auto& l : lanes_)
     if (l->id == id) return *l;
-  fail("unknown lane ", id, " (the plant has lanes ", plant_.lanes.front().id, "..",
-       plant_.lanes.back().id, ")");
+  fail_not_found("unknown lane ", id, " (the plant has lanes ", plant_.lanes.front().id, "..",
+                 plant_.lanes.back().id, ")");
 }
 
-void Engine::drop(const std::string& reason) {
-  std::lock_guard<std::mutex> lock(smu_);
-  ++counters_.drops[reason];
+Engine::Verdict Engine::refuse(Refusal code, std::string message, size_t queued) {
+  ++refused_[size_t(code)];
+  Verdict v;
+  v.code = code;
+  v.message = std::move(message);
+  v.credit = int(opt_.queue_lines - std::min(queued, opt_.queue_lines));
+  return v;
+}
+
+Engine::Verdict Engine::refuse_empty(uint64_t sequence) {
+  ++received_;
+  return refuse(Refusal::kMissingLine, "request " + std::to_string(sequence) + " carries no line",
+                queued_.load());
 }
 
 Engine::Verdict Engine::submit(IncomingLine&& line) {
-  Verdict v;
-  {
-    std::lock_guard<std::mutex> lock(smu_);
-    ++counters_.received;
-  }
-  auto refuse = [&](const char* code, std::string message) {
-    drop(code);
-    v.accepted = false;
-    v.code = code;
-    v.message = std::move(message);
-    std::lock_guard<std::mutex> lock(qmu_);
-    v.credit = int(opt_.queue_capacity - std::min(queue_.size(), opt_.queue_capacity));
-    return v;
-  };
+  ++received_;
   Lane* l = nullptr;
   for (auto& x : lanes_)
     if (x->id == line.lane) l = x.get();
-  if (!l) return refuse("UNKNOWN_LANE", "unknown lane " + std::to_string(line.lane));
+  if (!l)
+    return refuse(Refusal::kUnknownLane, "unknown lane " + std::to_string(line.lane),
+                  queued_.load());
   const size_t frame = size_t(l->width) * l->height;
-  const size_t limit = 4 * (2 * frame + size_t(l->pixels) * 2);
-  if (line.cam0.size() + line.cam1.size() + line.xray.size() > limit)
-    return refuse("OVERSIZED",
-                  "line of " +
-                      std::to_string(line.cam0.size() + line.cam1.size() + line.xray.size()) +
-                      " bytes; lane " + std::to_string(l->id) + " lines are " +
-                      std::to_string(2 * frame + size_t(l->pixels) * 2) + " bytes");
+  const size_t expected = 2 * frame + size_t(l->pixels) * 2;
+  const size_t size = line.cam0.size() + line.cam1.size() + line.xray.size();
+  if (size > 4 * expected)
+    return refuse(Refusal::kOversized,
+                  join("line of ", size, " bytes; lane ", l->id, " lines are ", expected, " bytes"),
+                  queued_.load());
   if (line.cam0.size() != frame || line.cam1.size() != frame)
-    return refuse("WRONG_FRAME_SIZE",
-                  "camera frames of " + std::to_string(line.cam0.size()) + " and " +
-                      std::to_string(line.cam1.size()) + " bytes; lane " + std::to_string(l->id) +
-                      " expects " + std::to_string(l->width) + "x" + std::to_string(l->height) +
-                      " = " + std::to_string(frame));
+    return refuse(Refusal::kWrongFrameSize,
+                  join("camera frames of ", line.cam0.size(), " and ", line.cam1.size(),
+                       " bytes; lane ", l->id, " expects ", l->width, "x", l->height, " = ", frame),
+                  queued_.load());
   if (line.xray.size() != size_t(l->pixels) * 2)
-    return refuse("WRONG_XRAY_SIZE", "X-ray line of " + std::to_string(line.xray.size()) +
-                                         " bytes; lane " + std::to_string(l->id) + " expects " +
-                                         std::to_string(l->pixels) + " 16-bit pixels");
+    return refuse(Refusal::kWrongXraySize,
+                  join("X-ray line of ", line.xray.size(), " bytes; lane ", l->id, " expects ",
+                       l->pixels, " 16-bit pixels"),
+                  queued_.load());
+  if (line.encoder > kMaxEncoder || line.encoder < -kMaxEncoder)
+    return refuse(Refusal::kEncoderOutOfRange,
+                  join("encoder ", line.encoder, " of lane ", l->id, " is outside +-2^62"),
+                  queued_.load());
+
+  // The checks against the lane's state and the update of that state are one step under
+  // mu_: two streams on one lane can never both be accepted for a count.
+  const int64_t now = steady_ns();
+  Verdict v;
   {
-    std::lock_guard<std::mutex> lock(l->mu);
-    if (!line.calibration_id.empty() && line.calibration_id != l->calibration_id)
-      return refuse("CALIBRATION_MISMATCH", "line made with calibration '" + line.calibration_id +
-                                                "' but lane " + std::to_string(l->id) + " runs '" +
-                                                l->calibration_id + "'");
-    if (line.encoder == l->last_encoder)
-      return refuse("DUPLICATE_LINE", "encoder " + std::to_string(line.encoder) + " of lane " +
-                                          std::to_string(l->id) + " was already received");
-    if (line.encoder < l->last_encoder)
-      return refuse("ENCODER_BACKWARDS", "encoder " + std::to_string(line.encoder) + " after " +
-                                             std::to_string(l->last_encoder) + " on lane " +
-                                             std::to_string(l->id));
+    std::lock_guard<std::mutex> lock(mu_);
+    if (stopping_)
+      return refuse(Refusal::kShuttingDown, "the server is shutting down", queue_.size());
+    if (!line.calibration_id.empty() && line.calibration_id != l->admit_calibration)
+      return refuse(Refusal::kCalibrationMismatch,
+                    join("line made with calibration '", line.calibration_id, "' but lane ", l->id,
+                         " runs '", l->admit_calibration, "'"),
+                    queue_.size());
+    LaneAdmission::Verdict a = l->admission.check(line.encoder);
+    if (a.outcome == LaneAdmission::Outcome::kDuplicate)
+      return refuse(Refusal::kDuplicateLine, std::move(a.message), queue_.size());
+    if (a.outcome == LaneAdmission::Outcome::kBackwards)
+      return refuse(Refusal::kEncoderBackwards, std::move(a.message), queue_.size());
+    if (queue_.size() >= opt_.queue_lines)
+      // The line is lost: its count stays unaccounted, so the assembly sees a gap and fails
+      // the fillets around it safe.
+      return refuse(Refusal::kOverload,
+                    join("queue full (", opt_.queue_lines,
+                         " lines); line dropped, its fillet will be rejected as not inspected"),
+                    queue_.size());
+    l->admission.commit(line.encoder, !a.restart.empty());
+    ++l->accepted;
+    l->last_line_ns = now;
+    queue_.push_back({std::move(line), now, std::move(a.restart)});
+    queued_ = queue_.size();
+    ++accepted_;
+    v.accepted = true;
+    v.credit = int(opt_.queue_lines - queue_.size());
   }
-  std::unique_lock<std::mutex> q(qmu_);
-  if (stopping_) {
-    q.unlock();
-    return refuse("SHUTTING_DOWN", "the server is shutting down");
-  }
-  if (queue_.size() >= opt_.queue_capacity) {
-    q.unlock();
-    // The line is lost: its encoder stays unaccounted, so the assembly sees a gap and
-    // fails the fillets around it safe.
-    return refuse("OVERLOAD",
-                  "queue full (" + std::to_string(opt_.queue_capacity) +
-                      " lines); line dropped, its fillet will be rejected as not inspected");
-  }
-  {
-    std::lock_guard<std::mutex> lock(l->mu);
-    l->last_encoder = line.encoder;
-    l->arrivals[line.encoder] = steady_ns();
-  }
-  queue_.push_back({std::move(line), steady_ns()});
-  v.accepted = true;
-  v.credit = int(opt_.queue_capacity - queue_.size());
-  q.unlock();
-  qcv_.notify_one();
+  cv_.notify_one();
   return v;
 }
 
 void Engine::pause(bool paused) {
   {
-    std::lock_guard<std::mutex> lock(qmu_);
+    std::lock_guard<std::mutex> lock(mu_);
     paused_ = paused;
   }
-  qcv_.notify_all();
+  cv_.notify_all();
 }
 
 void Engine::worker() {
   std::vector<Queued> batch;
   while (true) {
     {
-      std::unique_lock<std::mutex> lock(qmu_);
-      qcv_.wait(lock, [&] { return (!queue_.empty() && !paused_) || stopping_; });
-      if (!stopping_ && !paused_ && int(queue_.size()) < opt_.batch_lines) {
+      std::unique_lock<std::mutex> lock(mu_);
+      // Wake at least every 100 ms: idle lanes and unsaved decisions need looking after.
+      cv_.wait_for(lock, std::chrono::milliseconds(100),
+                   [&] { return (!queue_.empty() && !paused_) || stopping_; });
+      if (!stopping_ && !paused_ && !queue_.empty() && int(queue_.size()) < opt_.batch_lines)
         // Give a partial batch a moment to fill.
-        qcv_.wait_for(lock, std::chrono::milliseconds(opt_.batch_wait_ms),
-                      [&] { return int(queue_.size()) >= opt_.batch_lines || stopping_; });
-      }
-      if (queue_.empty()) {
-        if (stopping_) break;
-        continue;
-      }
-      if (paused_ && !stopping_) continue;  // paused while waiting for a batch to fill
-      const size_t n = std::min(queue_.size(), size_t(opt_.batch_lines));
-      batch.clear();
-      for (size_t i = 0; i < n; ++i) {
-        batch.push_back(std::move(queue_.front()));
-        queue_.pop_front();
+        cv_.wait_for(lock, std::chrono::milliseconds(opt_.batch_wait_ms), [&] {
+          return int(queue_.size()) >= opt_.batch_lines || stopping_ || paused_;
+        });
+      if (queue_.empty() && stopping_) break;
+      if (!queue_.empty() && (!paused_ || stopping_)) {
+        const size_t n = std::min(queue_.size(), size_t(opt_.batch_lines));
+        for (size_t i = 0; i < n; ++i) {
+          batch.push_back(std::move(queue_.front()));
+          queue_.pop_front();
+        }
+        queued_ = queue_.size();
+        batch_started_ns_ = steady_ns();
       }
     }
-    process(batch);
+    if (!batch.empty()) {
+      if (opt_.batch_hook) opt_.batch_hook();
+      process(batch);
+      batch.clear();
+      batch_started_ns_ = 0;
+    }
+    retry_unsaved();
+    close_idle_lanes();
   }
-  for (auto& l : lanes_) l->proc->finish();
+  for (auto& l : lanes_) {
+    try {
+      l->proc->finish();
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "rangexd: lane %d: closing its open fillets failed: %s\n", l->id,
+                   e.what());
+    }
+    l->in_progress = false;
+  }
+  // Give the store a last chance with what it could not take.
+  for (int tries = 0; tries < 20 && !unsaved_.empty(); ++tries) {
+    retry_unsaved();
+    if (!unsaved_.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  if (!unsaved_.empty())
+    std::fprintf(stderr, "rangexd: %zu decisions could not be stored before the stop\n",
+                 unsaved_.size());
+  std::lock_guard<std::mutex> lock(done_mu_);
+  done_ = true;
+  done_cv_.notify_all();
+}
+
+void Engine::apply_pending(Lane& l) {
+  if (!l.proc->quiet()) return;
+  std::optional<LaneConfig> next;
+  std::string id;
+  {
+    std::lock_guard<std::mutex> lock(ctl_mu_);
+    if (!l.pending) return;
+    next = std::move(l.pending);
+    id = l.pending_id.empty() ? l.calibration_id : l.pending_id;
+    l.pending.reset();
+    l.pending_id.clear();
+    l.config = *next;
+    l.calibration_id = id;
+  }
+  l.proc->reconfigure(*next);
+  l.running_calibration = id;
+  std::lock_guard<std::mutex> lock(mu_);
+  l.admit_calibration = id;
+}
+
+void Engine::restart_lane(Lane& l, const std::string& reason) {
+  std::fprintf(stderr, "rangexd: lane %d restarts: %s\n", l.id, reason.c_str());
+  l.proc->restart(reason);
+  l.assembly_restarts = l.proc->assembly().restarts;
+  l.arrivals.clear();
+  ++l.restarts;
+  l.in_progress = !l.proc->quiet();
+  std::lock_guard<std::mutex> lock(ctl_mu_);
+  l.last_restart = reason;
+}
+
+void Engine::note_assembly_restarts(Lane& l) {
+  // Jumps beyond the encoder horizon restart the assembly from inside.
+  const int64_t n = l.proc->assembly().restarts;
+  if (n == l.assembly_restarts) return;
+  l.restarts += uint64_t(n - l.assembly_restarts);
+  l.assembly_restarts = n;
+  const std::string why = l.proc->last_restart();
+  std::fprintf(stderr, "rangexd: lane %d restarts: %s\n", l.id, why.c_str());
+  std::lock_guard<std::mutex> lock(ctl_mu_);
+  l.last_restart = why;
+}
+
+int Engine::push_lines(Lane& l, const std::vector<const Queued*>& lines, size_t from, size_t to) {
+  const int n = int(to - from);
+  if (n <= 0) return 0;
+  const size_t frame = size_t(l.width) * l.height;
+  l.frames.resize(frame * 2 * n);
+  l.xray.resize(size_t(l.pixels) * n);
+  l.encoders.resize(n);
+  for (int k = 0; k < n; ++k) {
+    const IncomingLine& in = lines[from + k]->line;
+    std::memcpy(&l.frames[frame * 2 * k], in.cam0.data(), frame);
+    std::memcpy(&l.frames[frame * (2 * k + 1)], in.cam1.data(), frame);
+    std::memcpy(&l.xray[size_t(l.pixels) * k], in.xray.data(), size_t(l.pixels) * 2);
+    l.encoders[k] = in.encoder;
+    l.arrivals.emplace_back(in.encoder, lines[from + k]->arrived_ns);
+  }
+  // While a configuration change is pending, lines go one by one so that every line
+  // boundary is a chance to take it over (quiet stretches can be shorter than a batch).
+  bool pending;
+  {
+    std::lock_guard<std::mutex> lock(ctl_mu_);
+    pending = l.pending.has_value();
+  }
+  if (!pending) {
+    l.proc->push(n, l.frames.data(), l.xray.data(), l.encoders.data());
+  } else {
+    for (int k = 0; k < n; ++k) {
+      apply_pending(l);
+      l.proc->push(1, &l.frames[frame * 2 * k], &l.xray[size_t(l.pixels) * k], &l.encoders[k]);
+    }
+  }
+  // Arrival times are kept for the decision latency as long as a fillet can reach back.
+  const size_t keep = size_t(l.config.inspection.max_segment_lines) +
+                      size_t(l.config.xray.delay_lines) + 4 * size_t(opt_.batch_lines);
+  while (l.arrivals.size() > keep) l.arrivals.pop_front();
+  note_assembly_restarts(l);
+  return n;
 }
 
 void Engine::process(std::vector<Queued>& batch) {
   const int64_t start = steady_ns();
   for (const Queued& q : batch) queue_wait_.add((start - q.arrived_ns) / 1e6);
+  uint64_t done = 0;
   for (auto& lp : lanes_) {
     Lane& l = *lp;
     std::vector<const Queued*> mine;
     for (const Queued& q : batch)
       if (q.line.lane == l.id) mine.push_back(&q);
-    // A pending calibration or threshold change takes over at a batch boundary at which the
-    // lane has no fillet in progress. While one is pending, the lane's share is pushed line
-    // by line, so that every line boundary is such a candidate (quiet stretches between
-    // close fillets can be shorter than a batch).
-    auto apply_pending = [&] {
-      std::lock_guard<std::mutex> lock(l.mu);
-      if (!l.pending || !l.proc->quiet()) return;
-      l.proc->reconfigure(*l.pending);
-      l.config = *l.pending;
-      if (!l.pending_id.empty()) l.calibration_id = l.pending_id;
-      l.pending.reset();
-      l.pending_id.clear();
-    };
-    auto has_pending = [&] {
-      std::lock_guard<std::mutex> lock(l.mu);
-      return l.pending.has_value();
-    };
-    apply_pending();
-    if (mine.empty()) continue;
-    const size_t frame = size_t(l.width) * l.height;
-    std::vector<uint8_t> frames(frame * 2 * mine.size());
-    std::vector<uint16_t> xray(size_t(l.pixels) * mine.size());
-    std::vector<int64_t> enc(mine.size());
-    for (size_t k = 0; k < mine.size(); ++k) {
-      std::memcpy(&frames[frame * 2 * k], mine[k]->line.cam0.data(), frame);
-      std::memcpy(&frames[frame * (2 * k + 1)], mine[k]->line.cam1.data(), frame);
-      std::memcpy(&xray[size_t(l.pixels) * k], mine[k]->line.xray.data(), size_t(l.pixels) * 2);
-      enc[k] = mine[k]->line.encoder;
-    }
-    const auto t0 = steady_ns();
     const double insp_before = l.proc->inspection_seconds();
-    if (!has_pending()) {
-      l.proc->push(int(mine.size()), frames.data(), xray.data(), enc.data());
-    } else {
-      for (size_t k = 0; k < mine.size(); ++k) {
-        apply_pending();
-        l.proc->push(1, &frames[frame * 2 * k], &xray[size_t(l.pixels) * k], &enc[k]);
+    const int64_t t0 = steady_ns();
+    size_t pushed = 0;
+    try {
+      apply_pending(l);
+      // Runs of lines between restarts go through the pipeline together.
+      while (pushed < mine.size()) {
+        if (!mine[pushed]->restart.empty()) restart_lane(l, mine[pushed]->restart);
+        size_t end = pushed + 1;
+        while (end < mine.size() && mine[end]->restart.empty()) ++end;
+        push_lines(l, mine, pushed, end);
+        pushed = end;
+      }
+    } catch (const std::exception& e) {
+      // The lane's state is suspect: its open fillets end not inspected, the lines of this
+      // batch not yet taken are dropped and counted.
+      const std::string why = std::string("processing error: ") + e.what();
+      dropped_[size_t(DropReason::kProcessingError)] += mine.size() - pushed;
+      try {
+        restart_lane(l, why);
+      } catch (const std::exception& e2) {
+        std::fprintf(stderr, "rangexd: lane %d: restart after an error failed too: %s\n", l.id,
+                     e2.what());
+        Lane* raw = &l;
+        l.proc = std::make_unique<LaneProcessor>(
+            l.config, LaneProcessorOptions{opt_.threads, false, opt_.images},
+            [this, raw](InspectedFillet&& f) { on_fillet(*raw, std::move(f)); });
+        l.assembly_restarts = 0;
       }
     }
-    const double insp = l.proc->inspection_seconds() - insp_before;
-    pipeline_.add((steady_ns() - t0) / 1e6 - insp * 1e3);
+    done += pushed;
+    if (!mine.empty()) {
+      l.last_push_ns = steady_ns();
+      l.in_progress = !l.proc->quiet();
+      const double insp = l.proc->inspection_seconds() - insp_before;
+      pipeline_.add((steady_ns() - t0) / 1e6 - insp * 1e3);
+    }
   }
-  std::lock_guard<std::mutex> lock(smu_);
-  counters_.processed += batch.size();
-  rate_.emplace_back(steady_ns(), counters_.processed);
+  processed_ += done;
+  std::lock_guard<std::mutex> lock(rate_mu_);
+  rate_.emplace_back(steady_ns(), processed_.load());
   while (rate_.size() > 2 && rate_.front().first < rate_.back().first - 2'000'000'000)
     rate_.pop_front();
+}
+
+void Engine::close_idle_lanes() {
+  const int64_t now = steady_ns();
+  for (auto& lp : lanes_) {
+    Lane& l = *lp;
+    if (!l.in_progress || now - l.last_push_ns < seconds_ns(opt_.idle_close_s)) continue;
+    char why[128];
+    std::snprintf(why, sizeof why, "lane stopped being fed: no line for %.0f s with a fillet open",
+                  (now - l.last_push_ns) / 1e9);
+    try {
+      restart_lane(l, why);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "rangexd: lane %d: closing an idle lane failed: %s\n", l.id, e.what());
+    }
+  }
 }
 
 void Engine::on_fillet(Lane& l, InspectedFillet&& f) {
   const FilletResult& r = f.result;
   inspection_.add(f.inspect_ms);
-  StoredFillet s;
+  Unsaved u;
+  StoredFillet& s = u.record;
   s.lane = r.lane;
   s.lane_fillet = r.id;
   s.first_encoder = r.first_encoder;
@@ -248,68 +380,134 @@ void Engine::on_fillet(Lane& l, InspectedFillet&& f) {
   s.resid_std_dn = r.resid_std_dn;
   s.belt_y0_mm = r.y0_mm;
   s.decided_ns = now_ns();
-  {
-    std::lock_guard<std::mutex> lock(l.mu);
-    s.calibration_id = l.calibration_id;
-  }
+  s.calibration_id = l.running_calibration;
   for (const auto* list : {&r.fragments, &r.air_pockets})
     for (const Blob& b : *list)
       s.fragments.push_back({list == &r.fragments ? "bone" : "air", b.x_mm, b.y_mm, b.area_mm2,
                              b.peak_z, b.attenuation_mm2});
-  s.uid = store_.add_fillet(s);
-  if (opt_.images && r.decision != Decision::kPass && !f.image.mask.empty()) {
-    const std::string dir = store_.image_dir(s.uid);
-    write_fillet_images(dir, f.image, r);
-    for (const char* kind : {"overlay", "xray", "thickness", "pseudo_xray", "residual"}) {
-      const std::string path = (fs::path(dir) / (std::string(kind) + ".png")).string();
-      if (fs::exists(path)) store_.add_image(s.uid, kind, path);
+  // Decision latency runs from the arrival of the fillet's last line.
+  u.last_arrival_ns = 0;
+  const int64_t last = r.first_encoder + r.rows - 1;
+  for (auto it = l.arrivals.rbegin(); it != l.arrivals.rend(); ++it)
+    if (it->first <= last) {
+      u.last_arrival_ns = it->second;
+      break;
     }
-  }
-  // Decision latency: from the arrival of the fillet's last line to now.
-  {
-    std::lock_guard<std::mutex> lock(l.mu);
-    const int64_t last = r.first_encoder + r.rows - 1;
-    auto it = l.arrivals.upper_bound(last);
-    if (it != l.arrivals.begin()) {
-      --it;
-      decision_.add((steady_ns() - it->second) / 1e6);
+  ++fillets_;
+  rejects_ += r.decision == Decision::kReject;
+  not_inspected_ += r.decision == Decision::kNotInspected;
+  u.fillet = std::move(f);
+  // Decisions are published in order, each once it is stored.
+  retry_unsaved();
+  if (!unsaved_.empty() || !save(u)) {
+    if (unsaved_.size() >= kMaxUnsaved) {
+      std::fprintf(
+          stderr,
+          "rangexd: the store has failed for %zu decisions; lost: lane %d fillet %lld (%s)\n",
+          unsaved_.size(), unsaved_.front().record.lane,
+          (long long)unsaved_.front().record.lane_fillet, unsaved_.front().record.decision.c_str());
+      unsaved_.pop_front();
     }
-    // Arrival times older than this fillet are no longer needed.
-    l.arrivals.erase(l.arrivals.begin(), l.arrivals.lower_bound(r.first_encoder));
+    unsaved_.push_back(std::move(u));
   }
-  {
-    std::lock_guard<std::mutex> lock(smu_);
-    ++counters_.fillets;
-    counters_.rejects += r.decision == Decision::kReject;
-    counters_.not_inspected += r.decision == Decision::kNotInspected;
-  }
-  hub_.publish(s);
+  std::lock_guard<std::mutex> lock(health_mu_);
+  unsaved_count_ = unsaved_.size();
 }
 
-void Engine::drain_and_stop() {
+bool Engine::save(Unsaved& u) {
+  StoredFillet& s = u.record;
+  try {
+    if (s.uid == 0) s.uid = store_.add_fillet(s);
+  } catch (const std::exception& e) {
+    ++store_errors_;
+    std::lock_guard<std::mutex> lock(health_mu_);
+    if (store_error_.empty())
+      std::fprintf(stderr, "rangexd: the store failed: %s; decisions wait until it recovers\n",
+                   e.what());
+    store_error_ = e.what();
+    return false;
+  }
+  const FilletResult& r = u.fillet.result;
+  if (opt_.images && r.decision != Decision::kPass && !u.fillet.image.mask.empty()) {
+    try {
+      const std::string dir = store_.image_dir(s.uid);
+      write_fillet_images(dir, u.fillet.image, r);
+      for (const char* kind : {"overlay", "xray", "thickness", "pseudo_xray", "residual"}) {
+        const std::string path = (fs::path(dir) / (std::string(kind) + ".png")).string();
+        if (fs::exists(path)) store_.add_image(s.uid, kind, path);
+      }
+    } catch (const std::exception& e) {
+      // The record is kept; its images are not. Said, counted, not retried.
+      ++store_errors_;
+      std::fprintf(stderr, "rangexd: images of fillet %lld not stored: %s\n", (long long)s.uid,
+                   e.what());
+    }
+  }
+  if (u.last_arrival_ns) decision_.add((steady_ns() - u.last_arrival_ns) / 1e6);
+  hub_.publish(s);
+  return true;
+}
+
+void Engine::retry_unsaved() {
+  while (!unsaved_.empty() && save(unsaved_.front())) unsaved_.pop_front();
+  std::lock_guard<std::mutex> lock(health_mu_);
+  unsaved_count_ = unsaved_.size();
+  if (unsaved_.empty() && !store_error_.empty()) {
+    std::fprintf(stderr, "rangexd: the store recovered\n");
+    store_error_.clear();
+  }
+}
+
+bool Engine::drain_and_stop(double timeout_s) {
   {
-    std::lock_guard<std::mutex> lock(qmu_);
-    if (stopped_) return;
+    std::lock_guard<std::mutex> lock(mu_);
     stopping_ = true;
     paused_ = false;
-    stopped_ = true;
   }
-  qcv_.notify_all();
+  stopping_flag_ = true;
+  cv_.notify_all();
+  {
+    std::unique_lock<std::mutex> lock(done_mu_);
+    if (timeout_s < 0)
+      done_cv_.wait(lock, [&] { return done_; });
+    else if (!done_cv_.wait_for(lock, std::chrono::duration<double>(timeout_s),
+                                [&] { return done_; }))
+      return false;
+  }
   if (worker_.joinable()) worker_.join();
+  return true;
 }
 
-std::vector<LaneConfig> Engine::lanes() {
-  std::vector<LaneConfig> out;
-  for (auto& l : lanes_) {
-    std::lock_guard<std::mutex> lock(l->mu);
-    out.push_back(l->pending ? *l->pending : l->config);
-  }
+std::vector<LaneState> Engine::lanes() {
+  std::vector<LaneState> out;
+  for (auto& l : lanes_) out.push_back(lane_state(l->id));
   return out;
+}
+
+LaneState Engine::lane_state(int id) {
+  Lane& l = lane(id);
+  LaneState s;
+  {
+    std::lock_guard<std::mutex> lock(ctl_mu_);
+    s.config = l.pending ? *l.pending : l.config;
+    s.calibration_id = l.calibration_id;
+    s.last_restart = l.last_restart;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    s.fed = l.admission.fed();
+    s.last_encoder = l.admission.last();
+    s.accepted = l.accepted;
+    if (l.last_line_ns) s.idle_ms = (steady_ns() - l.last_line_ns) / 1'000'000;
+  }
+  s.fillet_in_progress = l.in_progress;
+  s.restarts = l.restarts;
+  return s;
 }
 
 std::string Engine::calibration_of(int id) {
   Lane& l = lane(id);
-  std::lock_guard<std::mutex> lock(l.mu);
+  std::lock_guard<std::mutex> lock(ctl_mu_);
   return l.calibration_id;
 }
 
@@ -319,7 +517,7 @@ StoredCalibration Engine::upload_calibration(int id, const std::string& cid,
   if (cid.empty()) fail("a calibration needs an id");
   LaneConfig base;
   {
-    std::lock_guard<std::mutex> lock(l.mu);
+    std::lock_guard<std::mutex> lock(ctl_mu_);
     base = l.config;
   }
   // Parse now: a malformed or non-finite calibration is refused at upload, naming the key.
@@ -336,12 +534,16 @@ StoredCalibration Engine::upload_calibration(int id, const std::string& cid,
 bool Engine::activate_calibration(int id, const std::string& cid, const std::string& who) {
   Lane& l = lane(id);
   const auto c = store_.calibration(id, cid);
-  if (!c) fail("lane ", id, " has no calibration '", cid, "'");
+  if (!c) fail_not_found("lane ", id, " has no calibration '", cid, "'");
   LaneConfig base = plant_.lane(id);
   {
-    std::lock_guard<std::mutex> lock(l.mu);
+    std::lock_guard<std::mutex> lock(ctl_mu_);
     base.inspection = l.config.inspection;  // thresholds stay as they are
-    l.pending = apply_lane_calibration(base, c->yaml, "calibration " + cid);
+  }
+  LaneConfig next = apply_lane_calibration(base, c->yaml, "calibration " + cid);
+  {
+    std::lock_guard<std::mutex> lock(ctl_mu_);
+    l.pending = std::move(next);
     l.pending_id = cid;
   }
   store_.set_active_calibration(id, cid);
@@ -361,7 +563,7 @@ LaneConfig Engine::update_thresholds(int id, std::optional<double> z, std::optio
   check("floor_mm", floor);
   LaneConfig next;
   {
-    std::lock_guard<std::mutex> lock(l.mu);
+    std::lock_guard<std::mutex> lock(ctl_mu_);
     next = l.pending ? *l.pending : l.config;
     if (z) next.inspection.z_threshold = *z;
     if (area) next.inspection.min_fragment_area_mm2 = *area;
@@ -376,25 +578,78 @@ LaneConfig Engine::update_thresholds(int id, std::optional<double> z, std::optio
   return next;
 }
 
+LaneState Engine::reset_lane(int id, const std::string& who, const std::string& reason) {
+  Lane& l = lane(id);
+  const std::string by = "encoder reset by " + (who.empty() ? std::string("unknown") : who) +
+                         (reason.empty() ? "" : ": " + reason);
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    l.admission.request_reset(by);
+  }
+  store_.audit(who, "lane.reset",
+               "lane " + std::to_string(id) + (reason.empty() ? "" : " " + reason));
+  return lane_state(id);
+}
+
+Health Engine::health() {
+  Health h;
+  const int64_t now = steady_ns(), stall = seconds_ns(opt_.stall_s);
+  if (stopping_flag_) h.reasons.push_back("shutting down");
+  const int64_t started = batch_started_ns_;
+  char buf[160];
+  if (started && now - started > stall) {
+    std::snprintf(buf, sizeof buf, "worker stalled: one batch has been running for %.1f s",
+                  (now - started) / 1e9);
+    h.reasons.push_back(buf);
+  } else {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (!started && !queue_.empty() && now - queue_.front().arrived_ns > stall) {
+      std::snprintf(buf, sizeof buf, "worker not taking lines: %zu queued, the oldest for %.1f s%s",
+                    queue_.size(), (now - queue_.front().arrived_ns) / 1e9,
+                    paused_ ? " (paused)" : "");
+      h.reasons.push_back(buf);
+    }
+  }
+  {
+    std::lock_guard<std::mutex> lock(health_mu_);
+    if (!store_error_.empty()) {
+      h.store_ok = false;
+      h.reasons.push_back("store failed: " + store_error_ + " (" + std::to_string(unsaved_count_) +
+                          " decisions waiting to be stored)");
+    }
+  }
+  h.serving = h.reasons.empty();
+  return h;
+}
+
 EngineStats Engine::stats() {
   EngineStats s;
+  s.received = received_;
+  s.accepted = accepted_;
+  s.processed = processed_;
+  s.fillets = fillets_;
+  s.rejects = rejects_;
+  s.not_inspected = not_inspected_;
+  s.store_errors = store_errors_;
+  for (size_t i = 0; i < kRefusals; ++i)
+    if (const uint64_t n = refused_[i]) s.refused[std::string(refusal_name(Refusal(i)))] = n;
+  for (size_t i = 0; i < kDropReasons; ++i)
+    if (const uint64_t n = dropped_[i]) s.dropped[std::string(drop_name(DropReason(i)))] = n;
+  for (auto& l : lanes_) s.lane_restarts += l->restarts;
   {
-    std::lock_guard<std::mutex> lock(smu_);
-    s = counters_;
+    std::lock_guard<std::mutex> lock(rate_mu_);
     if (rate_.size() >= 2) {
       const double dt = (rate_.back().first - rate_.front().first) / 1e9;
       if (dt > 0) s.lines_per_second = double(rate_.back().second - rate_.front().second) / dt;
     }
   }
-  {
-    std::lock_guard<std::mutex> lock(qmu_);
-    s.queue_depth = int(queue_.size());
-  }
-  s.queue_capacity = int(opt_.queue_capacity);
+  s.queue_depth = int(queued_.load());
+  s.queue_capacity = int(opt_.queue_lines);
   s.queue_wait = queue_wait_.summary();
   s.pipeline = pipeline_.summary();
   s.inspection = inspection_.summary();
   s.decision = decision_.summary();
+  s.health = health();
   return s;
 }
 

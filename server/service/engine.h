@@ -1,13 +1,25 @@
 // The server's processing core: validated lines from every lane go into one bounded queue;
 // a worker takes them in batches (bounded by count and by time), runs each lane's share
-// through its LaneProcessor, and every fillet decided is stored and published. Calibration
-// and threshold changes wait for a batch boundary at which the lane has no fillet in
-// progress, so no fillet is ever measured half with one calibration and half with another.
+// through its LaneProcessor, and every fillet decided is stored and then published.
+// Calibration and threshold changes wait for a batch boundary at which the lane has no
+// fillet in progress, so no fillet is ever measured half with one calibration and half with
+// another.
+//
+// Threads and locks (docs/concurrency.md): ingest handlers call submit() from gRPC threads;
+// one worker thread owns every LaneProcessor; control RPCs and the watchdog read state.
+// Engine locks never nest and are never held while calling out of the engine (store, hub,
+// processors):
+//   mu_      admission: the queue, every lane's LaneAdmission, stopping/paused flags
+//   ctl_mu_  control: lanes' configurations, pending changes, calibration ids
+//   leaf locks inside LatencyStats, rate_mu_, health_mu_
+// Counters are atomics, so statistics never wait for ingest and ingest never waits for them.
 #pragma once
+#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -18,7 +30,9 @@
 
 #include "core/plant_config.h"
 #include "pipeline/lane_processor.h"
+#include "service/lane_admission.h"
 #include "service/latency_stats.h"
+#include "service/line_codes.h"
 #include "service/results_hub.h"
 #include "service/store.h"
 
@@ -31,20 +45,41 @@ struct IncomingLine {
   std::string calibration_id;    // what the sender believes active; empty: not checked
 };
 
-struct EngineOptions {
-  size_t queue_capacity = 2048;  // lines waiting for the worker, all lanes together
-  int batch_lines = 64;
-  int batch_wait_ms = 10;  // a partial batch goes after this long
-  int threads = 1;         // stripe-stage workers
-  bool images = true;      // store images of rejected / not inspected fillets
+struct EngineOptions : EngineSettings {
+  int threads = 1;     // stripe-stage workers
+  bool images = true;  // store images of rejected / not inspected fillets
+  // Fault injection for tests: runs on the worker before each batch. A hook that blocks
+  // stalls the worker the way a hung disk or device would.
+  std::function<void()> batch_hook;
+};
+
+struct Health {
+  bool serving = true;   // the server can inspect
+  bool store_ok = true;  // results and calibrations can be stored and read
+  std::vector<std::string> reasons;
 };
 
 struct EngineStats {
-  uint64_t received = 0, processed = 0, fillets = 0, rejects = 0, not_inspected = 0;
-  std::map<std::string, uint64_t> drops;  // by reason
+  uint64_t received = 0, accepted = 0, processed = 0;
+  uint64_t fillets = 0, rejects = 0, not_inspected = 0, lane_restarts = 0, store_errors = 0;
+  std::map<std::string, uint64_t> refused;  // at admission, by code
+  std::map<std::string, uint64_t> dropped;  // accepted but not processed, by reason
   double lines_per_second = 0;
   int queue_depth = 0, queue_capacity = 0;
   LatencyStats::Summary queue_wait, pipeline, inspection, decision;
+  Health health;
+};
+
+struct LaneState {
+  LaneConfig config;  // with a pending change, what it will be
+  std::string calibration_id;
+  bool fed = false;          // a line accepted since start or reset
+  int64_t last_encoder = 0;  // the last accepted count (when fed)
+  uint64_t accepted = 0;
+  int64_t idle_ms = -1;  // since the last accepted line; -1: none yet
+  bool fillet_in_progress = false;
+  uint64_t restarts = 0;
+  std::string last_restart;
 };
 
 class Engine {
@@ -54,48 +89,86 @@ class Engine {
 
   struct Verdict {
     bool accepted = false;
-    std::string code, message;
-    int credit = 0;
+    Refusal code = Refusal::kCount;  // when refused
+    std::string message;
+    int credit = 0;  // lines the queue can take now
   };
   // Validates and queues one line; never throws for bad input (the verdict says why).
   Verdict submit(IncomingLine&& line);
-  // Graceful stop: refuse new lines, process every queued one, close open fillets.
-  void drain_and_stop();
+  // A request that carried no line: refused and counted like any other.
+  Verdict refuse_empty(uint64_t sequence);
+  // Graceful stop: refuse new lines, process every queued one, close open fillets. False
+  // when the worker could not finish within `timeout_s` (< 0: wait as long as it takes).
+  bool drain_and_stop(double timeout_s = -1);
   // Holds the worker (tests use it to fill the queue and see overload handled).
   void pause(bool paused);
 
-  std::vector<LaneConfig> lanes();
+  std::vector<LaneState> lanes();
+  LaneState lane_state(int lane);
   std::string calibration_of(int lane);
   StoredCalibration upload_calibration(int lane, const std::string& id, const std::string& yaml,
                                        const std::string& who);
   bool activate_calibration(int lane, const std::string& id, const std::string& who);
   LaneConfig update_thresholds(int lane, std::optional<double> z, std::optional<double> area,
                                std::optional<double> floor, const std::string& who);
+  // The lane's next line starts it afresh whatever its count (an encoder reset); its open
+  // fillets end as not inspected.
+  LaneState reset_lane(int lane, const std::string& who, const std::string& reason);
   EngineStats stats();
+  Health health();
   const PlantConfig& plant() const { return plant_; }
+  const EngineOptions& options() const { return opt_; }
 
  private:
   struct Lane {
-    int id = 0;
-    int width = 0, height = 0, pixels = 0;  // fixed for the server's life
-    std::unique_ptr<LaneProcessor> proc;    // worker thread only
-    std::mutex mu;                          // guards what follows
-    LaneConfig config;                      // current (what the processor runs)
+    Lane(const LaneConfig& c, const EngineOptions& o);
+    const int id, width, height, pixels;  // fixed for the server's life
+    // Admission (mu_):
+    LaneAdmission admission;
+    std::string admit_calibration;  // lines naming another calibration are refused
+    uint64_t accepted = 0;
+    int64_t last_line_ns = 0;
+    // Control (ctl_mu_):
+    LaneConfig config;
     std::string calibration_id;
     std::optional<LaneConfig> pending;
     std::string pending_id;
-    int64_t last_encoder = INT64_MIN;
-    std::map<int64_t, int64_t> arrivals;  // encoder -> steady ns, for the decision latency
+    std::string last_restart;
+    // Worker thread only:
+    std::unique_ptr<LaneProcessor> proc;
+    std::string running_calibration;
+    std::deque<std::pair<int64_t, int64_t>> arrivals;  // (encoder, steady ns) of recent lines
+    int64_t last_push_ns = 0;
+    int64_t assembly_restarts = 0;
+    std::vector<uint8_t> frames;
+    std::vector<uint16_t> xray;
+    std::vector<int64_t> encoders;
+    // Read anywhere:
+    std::atomic<bool> in_progress{false};
+    std::atomic<uint64_t> restarts{0};
   };
   struct Queued {
     IncomingLine line;
     int64_t arrived_ns;
+    std::string restart;  // the lane restarts before this line (why)
+  };
+  struct Unsaved {  // a decision waiting for the store
+    StoredFillet record;
+    InspectedFillet fillet;
+    int64_t last_arrival_ns;
   };
 
+  Verdict refuse(Refusal code, std::string message, size_t queued);
   void worker();
   void process(std::vector<Queued>& batch);
-  void on_fillet(Lane& lane, InspectedFillet&& f);
-  void drop(const std::string& reason);
+  int push_lines(Lane& l, const std::vector<const Queued*>& lines, size_t from, size_t to);
+  void apply_pending(Lane& l);
+  void restart_lane(Lane& l, const std::string& reason);
+  void note_assembly_restarts(Lane& l);
+  void close_idle_lanes();
+  void on_fillet(Lane& l, InspectedFillet&& f);
+  bool save(Unsaved& u);
+  void retry_unsaved();
   Lane& lane(int id);
 
   PlantConfig plant_;
@@ -104,14 +177,32 @@ class Engine {
   EngineOptions opt_;
   std::vector<std::unique_ptr<Lane>> lanes_;
 
-  std::mutex qmu_;
-  std::condition_variable qcv_;
+  std::mutex mu_;
+  std::condition_variable cv_;
   std::deque<Queued> queue_;
-  bool stopping_ = false, stopped_ = false, paused_ = false;
-  std::thread worker_;
+  bool stopping_ = false, paused_ = false;
+  std::atomic<size_t> queued_{0};
+  std::atomic<bool> stopping_flag_{false};
 
-  std::mutex smu_;
-  EngineStats counters_;
+  std::mutex ctl_mu_;
+
+  std::thread worker_;
+  std::mutex done_mu_;
+  std::condition_variable done_cv_;
+  bool done_ = false;
+  std::atomic<int64_t> batch_started_ns_{0};
+  std::deque<Unsaved> unsaved_;  // worker only
+
+  std::atomic<uint64_t> received_{0}, accepted_{0}, processed_{0};
+  std::atomic<uint64_t> fillets_{0}, rejects_{0}, not_inspected_{0}, store_errors_{0};
+  std::array<std::atomic<uint64_t>, kRefusals> refused_{};
+  std::array<std::atomic<uint64_t>, kDropReasons> dropped_{};
+
+  std::mutex health_mu_;
+  std::string store_error_;
+  size_t unsaved_count_ = 0;
+
+  std::mutex rate_mu_;
   std::deque<std::pair<int64_t, uint64_t>> rate_;  // (steady ns, processed) samples
   LatencyStats queue_wait_, pipeline_, inspection_, decision_;
 };

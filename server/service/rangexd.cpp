@@ -1,7 +1,11 @@
 // rangexd: the inspection server. Loads the plant configuration, opens its store, serves
 // rangex.v1 over gRPC (loopback by default) until SIGINT/SIGTERM, then drains and stops.
+// Exits non-zero when it cannot inspect for `server.exit_after_s` (a stalled worker, a failed
+// store) or cannot drain within `server.drain_timeout_s`, so that a supervisor (systemd,
+// Kubernetes) restarts it; results and calibrations survive in the store.
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <string>
@@ -19,12 +23,19 @@ void on_signal(int) {
 constexpr const char* kUsage =
     "usage: rangexd [--config PLANT.yaml] [--listen HOST:PORT] [--data DIR] [--threads N]\n"
     "               [--queue LINES] [--batch LINES]\n";
+
+void print_stats(rangex::RangexServer& server) {
+  const auto s = server.engine().stats();
+  std::fprintf(stderr, "rangexd: %llu lines received, %llu accepted, %llu processed, %d queued\n",
+               (unsigned long long)s.received, (unsigned long long)s.accepted,
+               (unsigned long long)s.processed, s.queue_depth);
+}
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string config, listen, data;
-  rangex::EngineOptions eng;
-  eng.threads = int(std::max(1u, std::thread::hardware_concurrency()));
+  int threads = int(std::max(1u, std::thread::hardware_concurrency()));
+  long queue = 0, batch = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -34,6 +45,16 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
+    auto number = [&](const std::string& v) {
+      char* end = nullptr;
+      const long n = std::strtol(v.c_str(), &end, 10);
+      if (v.empty() || *end || n <= 0) {
+        std::fprintf(stderr, "rangexd: %s needs a positive integer (got '%s')\n", a.c_str(),
+                     v.c_str());
+        std::exit(2);
+      }
+      return n;
+    };
     if (a == "--config")
       config = value();
     else if (a == "--listen")
@@ -41,11 +62,11 @@ int main(int argc, char** argv) {
     else if (a == "--data")
       data = value();
     else if (a == "--threads")
-      eng.threads = std::stoi(value());
+      threads = int(number(value()));
     else if (a == "--queue")
-      eng.queue_capacity = std::stoul(value());
+      queue = number(value());
     else if (a == "--batch")
-      eng.batch_lines = std::stoi(value());
+      batch = number(value());
     else if (a == "--help" || a == "-h") {
       std::fputs(kUsage, stdout);
       return 0;
@@ -66,7 +87,17 @@ int main(int argc, char** argv) {
     rangex::ServerOptions opt;
     opt.listen = listen;
     opt.data_dir = data;
-    opt.engine = eng;
+    static_cast<rangex::EngineSettings&>(opt.engine) = plant.engine;
+    opt.engine.threads = threads;
+    if (queue) opt.engine.queue_lines = size_t(queue);
+    if (batch) opt.engine.batch_lines = int(batch);
+    opt.on_fatal = [](const rangex::Health& h) {
+      for (const std::string& r : h.reasons)
+        std::fprintf(stderr, "rangexd: cannot inspect: %s\n", r.c_str());
+      std::fprintf(stderr, "rangexd: not serving for longer than exit_after_s; exiting\n");
+      std::fflush(stderr);
+      std::_Exit(3);  // nothing can be drained through a stalled worker
+    };
     rangex::RangexServer server(plant, opt);
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
@@ -76,7 +107,14 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
     while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
     std::printf("rangexd: stopping: draining queued lines and closing open fillets\n");
-    server.shutdown();
+    std::fflush(stdout);
+    if (!server.shutdown()) {
+      print_stats(server);
+      std::fprintf(stderr, "rangexd: could not drain within %.0f s; the queued lines are lost\n",
+                   opt.engine.drain_timeout_s);
+      std::fflush(stderr);
+      std::_Exit(3);
+    }
     const auto s = server.engine().stats();
     std::printf("rangexd: stopped after %llu lines, %llu fillets\n",
                 (unsigned long long)s.processed, (unsigned long long)s.fillets);

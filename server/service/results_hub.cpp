@@ -1,19 +1,25 @@
 #include "service/results_hub.h"
 
 #include <algorithm>
-#include <chrono>
 
 namespace rangex {
 
 std::shared_ptr<ResultsHub::Subscription> ResultsHub::subscribe(std::set<int> lanes,
                                                                 std::set<std::string> decisions,
-                                                                size_t capacity) {
+                                                                size_t capacity,
+                                                                std::function<void()> wake) {
   auto s = std::make_shared<Subscription>();
   s->lanes = std::move(lanes);
   s->decisions = std::move(decisions);
   s->capacity = std::max<size_t>(1, capacity);
-  std::lock_guard<std::mutex> lock(mu_);
-  subs_.push_back(s);
+  s->wake = std::move(wake);
+  bool closed;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    s->closed = closed = closed_;
+    subs_.push_back(s);
+  }
+  if (closed && s->wake) s->wake();
   return s;
 }
 
@@ -23,6 +29,7 @@ void ResultsHub::unsubscribe(const std::shared_ptr<Subscription>& s) {
 }
 
 void ResultsHub::publish(const StoredFillet& f) {
+  std::vector<std::shared_ptr<Subscription>> woken;
   {
     std::lock_guard<std::mutex> lock(mu_);
     for (auto& s : subs_) {
@@ -33,16 +40,14 @@ void ResultsHub::publish(const StoredFillet& f) {
         ++s->lagged;
       }
       s->queue.push_back(f);
+      if (s->wake) woken.push_back(s);
     }
   }
-  cv_.notify_all();
+  for (auto& s : woken) s->wake();
 }
 
-bool ResultsHub::next(const std::shared_ptr<Subscription>& s, int timeout_ms, StoredFillet& out,
-                      uint64_t& lagged) {
-  std::unique_lock<std::mutex> lock(mu_);
-  cv_.wait_for(lock, std::chrono::milliseconds(timeout_ms),
-               [&] { return !s->queue.empty() || s->closed; });
+bool ResultsHub::take(const std::shared_ptr<Subscription>& s, StoredFillet& out, uint64_t& lagged) {
+  std::lock_guard<std::mutex> lock(mu_);
   if (s->queue.empty()) return false;
   out = std::move(s->queue.front());
   s->queue.pop_front();
@@ -51,12 +56,22 @@ bool ResultsHub::next(const std::shared_ptr<Subscription>& s, int timeout_ms, St
   return true;
 }
 
+bool ResultsHub::closed(const std::shared_ptr<Subscription>& s) {
+  std::lock_guard<std::mutex> lock(mu_);
+  return s->closed;
+}
+
 void ResultsHub::close_all() {
+  std::vector<std::shared_ptr<Subscription>> woken;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    for (auto& s : subs_) s->closed = true;
+    closed_ = true;
+    for (auto& s : subs_) {
+      s->closed = true;
+      if (s->wake) woken.push_back(s);
+    }
   }
-  cv_.notify_all();
+  for (auto& s : woken) s->wake();
 }
 
 int ResultsHub::subscribers() {

@@ -1,10 +1,14 @@
-// Fan-out of fillet results to live subscribers (dashboards). Every subscriber has its own
-// bounded queue: a slow one loses its oldest results and is told how many, and never holds
-// up the line.
+// Fan-out of fillet results to live subscribers (dashboards, reject gates). Every
+// subscriber has its own bounded queue: a slow one loses its oldest results and is told how
+// many, and never holds up the line. A subscriber is woken (its `wake` runs) when a result
+// arrives or the hub closes; it then takes what is queued.
+//
+// Locking: the hub's mutex is a leaf; `wake` runs with no hub lock held, so a subscriber may
+// take() from inside it.
 #pragma once
-#include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -20,25 +24,28 @@ class ResultsHub {
     std::set<int> lanes;              // empty: all
     std::set<std::string> decisions;  // empty: all
     size_t capacity = 256;
+    std::function<void()> wake;  // set at subscribe, never changed
+    // Guarded by the hub's mutex:
     std::deque<StoredFillet> queue;
     uint64_t lagged = 0;  // dropped since the last delivery
     bool closed = false;
   };
 
   std::shared_ptr<Subscription> subscribe(std::set<int> lanes, std::set<std::string> decisions,
-                                          size_t capacity = 256);
+                                          size_t capacity = 256, std::function<void()> wake = {});
   void unsubscribe(const std::shared_ptr<Subscription>& s);
   void publish(const StoredFillet& f);
-  // Waits up to `timeout_ms` for a result; returns false on timeout or when closed.
-  bool next(const std::shared_ptr<Subscription>& s, int timeout_ms, StoredFillet& out,
-            uint64_t& lagged);
-  void close_all();  // shutdown: wakes every waiting subscriber
+  // The next queued result, without waiting; false when none. `lagged`: results this
+  // subscriber lost before this one.
+  bool take(const std::shared_ptr<Subscription>& s, StoredFillet& out, uint64_t& lagged);
+  bool closed(const std::shared_ptr<Subscription>& s);
+  void close_all();  // shutdown: every subscriber is woken and sees closed once drained
   int subscribers();
 
  private:
   std::mutex mu_;
-  std::condition_variable cv_;
   std::vector<std::shared_ptr<Subscription>> subs_;
+  bool closed_ = false;
 };
 
 }  // namespace rangex

@@ -10,6 +10,8 @@
 
 #include "core/error.h"
 #include "rangex/v1/rangex.grpc.pb.h"
+#include "service/pb_convert.h"
+#include "service/streams.h"
 
 namespace rangex {
 
@@ -20,77 +22,18 @@ using grpc::ServerContext;
 using grpc::Status;
 using grpc::StatusCode;
 
-pb::Decision to_pb(const std::string& d) {
-  if (d == "pass") return pb::DECISION_PASS;
-  if (d == "reject") return pb::DECISION_REJECT;
-  if (d == "not_inspected") return pb::DECISION_NOT_INSPECTED;
-  return pb::DECISION_UNSPECIFIED;
-}
+constexpr const char* kServices[] = {"rangex.v1.IngestService", "rangex.v1.ResultsService",
+                                     "rangex.v1.CalibrationService", "rangex.v1.ControlService"};
 
-std::string from_pb(pb::Decision d) {
-  switch (d) {
-    case pb::DECISION_PASS:
-      return "pass";
-    case pb::DECISION_REJECT:
-      return "reject";
-    case pb::DECISION_NOT_INSPECTED:
-      return "not_inspected";
-    default:
-      return "";
-  }
-}
-
-void fill(pb::FilletResult* o, const StoredFillet& f) {
-  o->set_uid(f.uid);
-  o->set_lane(f.lane);
-  o->set_lane_fillet(f.lane_fillet);
-  o->set_first_encoder(f.first_encoder);
-  o->set_rows(f.rows);
-  o->set_decision(to_pb(f.decision));
-  o->set_reason(f.reason);
-  o->set_beta0(f.beta0);
-  o->set_beta1(f.beta1);
-  o->set_residual_mean_dn(f.resid_mean_dn);
-  o->set_residual_std_dn(f.resid_std_dn);
-  o->set_calibration_id(f.calibration_id);
-  o->set_decided_ns(f.decided_ns);
-  o->set_belt_y0_mm(f.belt_y0_mm);
-  for (const StoredFragment& g : f.fragments) {
-    pb::Fragment* p = o->add_fragments();
-    p->set_kind(g.kind);
-    p->set_x_mm(g.x_mm);
-    p->set_y_mm(g.y_mm);
-    p->set_area_mm2(g.area_mm2);
-    p->set_peak_z(g.peak_z);
-    p->set_attenuation_mm2(g.attenuation_mm2);
-  }
-}
-
-void fill(pb::CalibrationInfo* o, const StoredCalibration& c, bool with_yaml) {
-  o->set_lane(c.lane);
-  o->set_id(c.id);
-  o->set_uploaded_ns(c.uploaded_ns);
-  o->set_active(c.active);
-  if (with_yaml) o->set_yaml(c.yaml);
-}
-
-void fill(pb::LaneInfo* o, const LaneConfig& l, const std::string& calibration) {
-  o->set_id(l.id);
-  o->set_frame_width(l.frame_width);
-  o->set_frame_height(l.frame_height);
-  o->set_xray_pixels(l.xray.pixels);
-  o->set_encoder_step_mm(l.encoder_step_mm);
-  o->set_calibration_id(calibration);
-  o->set_z_threshold(l.inspection.z_threshold);
-  o->set_min_fragment_area_mm2(l.inspection.min_fragment_area_mm2);
-  o->set_floor_mm(l.inspection.floor_mm);
-}
-
-// Runs a unary handler body, turning refused input into INVALID_ARGUMENT with its message.
+// Runs a unary handler body, turning refused input into the status gRPC defines for it.
 template <typename F>
 Status guarded(F&& f) {
   try {
     return f();
+  } catch (const NotFound& e) {
+    return Status(StatusCode::NOT_FOUND, e.what());
+  } catch (const AlreadyExists& e) {
+    return Status(StatusCode::ALREADY_EXISTS, e.what());
   } catch (const Error& e) {
     return Status(StatusCode::INVALID_ARGUMENT, e.what());
   } catch (const std::exception& e) {
@@ -98,70 +41,26 @@ Status guarded(F&& f) {
   }
 }
 
-class IngestImpl final : public pb::IngestService::Service {
+class IngestImpl final : public pb::IngestService::CallbackService {
  public:
-  explicit IngestImpl(Engine& e) : engine_(e) {}
-  Status StreamLines(
-      ServerContext*,
-      grpc::ServerReaderWriter<pb::StreamLinesResponse, pb::StreamLinesRequest>* stream) override {
-    pb::StreamLinesRequest req;
-    while (stream->Read(&req)) {
-      pb::StreamLinesResponse resp;
-      resp.set_sequence(req.sequence());
-      if (!req.has_line()) {
-        resp.set_accepted(false);
-        resp.mutable_error()->set_code("MISSING_LINE");
-        resp.mutable_error()->set_message("request " + std::to_string(req.sequence()) +
-                                          " carries no line");
-      } else {
-        pb::LineScan* l = req.mutable_line();
-        IncomingLine in;
-        in.lane = l->lane();
-        in.encoder = l->encoder();
-        in.cam0 = std::move(*l->mutable_cam0());
-        in.cam1 = std::move(*l->mutable_cam1());
-        in.xray = std::move(*l->mutable_xray());
-        in.calibration_id = l->calibration_id();
-        const Engine::Verdict v = engine_.submit(std::move(in));
-        resp.set_accepted(v.accepted);
-        resp.set_credit(v.credit);
-        if (!v.accepted) {
-          resp.mutable_error()->set_code(v.code);
-          resp.mutable_error()->set_message(v.message);
-        }
-      }
-      if (!stream->Write(resp)) break;  // the client went away; nothing of it is pending
-    }
-    return Status::OK;
+  IngestImpl(Engine& e, StreamCounters& c) : engine_(e), counters_(c) {}
+  grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>* StreamLines(
+      grpc::CallbackServerContext*) override {
+    return new_ingest_stream(engine_, counters_);
   }
 
  private:
   Engine& engine_;
+  StreamCounters& counters_;
 };
 
-class ResultsImpl final : public pb::ResultsService::Service {
+class ResultsImpl final
+    : public pb::ResultsService::WithCallbackMethod_SubscribeFillets<pb::ResultsService::Service> {
  public:
-  ResultsImpl(Store& s, ResultsHub& h) : store_(s), hub_(h) {}
-  Status SubscribeFillets(ServerContext* ctx, const pb::SubscribeFilletsRequest* req,
-                          grpc::ServerWriter<pb::SubscribeFilletsResponse>* w) override {
-    std::set<int> lanes(req->lanes().begin(), req->lanes().end());
-    std::set<std::string> decisions;
-    for (int d : req->decisions()) decisions.insert(from_pb(pb::Decision(d)));
-    auto sub = hub_.subscribe(lanes, decisions);
-    while (!ctx->IsCancelled()) {
-      StoredFillet f;
-      uint64_t lagged = 0;
-      if (!hub_.next(sub, 200, f, lagged)) {
-        if (sub->closed) break;
-        continue;
-      }
-      pb::SubscribeFilletsResponse r;
-      fill(r.mutable_fillet(), f);
-      r.set_lagged(lagged);
-      if (!w->Write(r)) break;
-    }
-    hub_.unsubscribe(sub);
-    return Status::OK;
+  ResultsImpl(Store& s, ResultsHub& h, StreamCounters& c) : store_(s), hub_(h), counters_(c) {}
+  grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>* SubscribeFillets(
+      grpc::CallbackServerContext*, const pb::SubscribeFilletsRequest* req) override {
+    return new_subscription(hub_, *req, counters_);
   }
   Status GetFillet(ServerContext*, const pb::GetFilletRequest* req,
                    pb::GetFilletResponse* resp) override {
@@ -212,6 +111,7 @@ class ResultsImpl final : public pb::ResultsService::Service {
  private:
   Store& store_;
   ResultsHub& hub_;
+  StreamCounters& counters_;
 };
 
 class CalibrationImpl final : public pb::CalibrationService::Service {
@@ -259,13 +159,12 @@ class CalibrationImpl final : public pb::CalibrationService::Service {
 
 class ControlImpl final : public pb::ControlService::Service {
  public:
-  ControlImpl(Engine& e, ResultsHub& h, const ServerOptions& o, int64_t started)
-      : engine_(e), hub_(h), opt_(o), started_(started) {}
+  ControlImpl(Engine& e, ResultsHub& h, StreamCounters& c, const ServerOptions& o, int64_t started)
+      : engine_(e), hub_(h), counters_(c), opt_(o), started_(started) {}
   Status ListLanes(ServerContext*, const pb::ListLanesRequest*,
                    pb::ListLanesResponse* resp) override {
     return guarded([&] {
-      for (const LaneConfig& l : engine_.lanes())
-        fill(resp->add_lanes(), l, engine_.calibration_of(l.id));
+      for (const LaneState& l : engine_.lanes()) fill(resp->add_lanes(), l);
       return Status::OK;
     });
   }
@@ -273,43 +172,26 @@ class ControlImpl final : public pb::ControlService::Service {
                               pb::UpdateLaneThresholdsResponse* resp) override {
     return guarded([&] {
       auto opt = [](bool has, double v) { return has ? std::optional<double>(v) : std::nullopt; };
-      const LaneConfig l = engine_.update_thresholds(
-          req->lane(), opt(req->has_z_threshold(), req->z_threshold()),
-          opt(req->has_min_fragment_area_mm2(), req->min_fragment_area_mm2()),
-          opt(req->has_floor_mm(), req->floor_mm()), req->who());
-      fill(resp->mutable_lane(), l, engine_.calibration_of(l.id));
+      engine_.update_thresholds(req->lane(), opt(req->has_z_threshold(), req->z_threshold()),
+                                opt(req->has_min_fragment_area_mm2(), req->min_fragment_area_mm2()),
+                                opt(req->has_floor_mm(), req->floor_mm()), req->who());
+      fill(resp->mutable_lane(), engine_.lane_state(req->lane()));
+      return Status::OK;
+    });
+  }
+  Status ResetLane(ServerContext*, const pb::ResetLaneRequest* req,
+                   pb::ResetLaneResponse* resp) override {
+    return guarded([&] {
+      fill(resp->mutable_lane(), engine_.reset_lane(req->lane(), req->who(), req->reason()));
       return Status::OK;
     });
   }
   Status GetStatistics(ServerContext*, const pb::GetStatisticsRequest*,
                        pb::GetStatisticsResponse* resp) override {
-    const EngineStats s = engine_.stats();
-    resp->set_lines_per_second(s.lines_per_second);
-    resp->set_lines_received(s.received);
-    resp->set_lines_processed(s.processed);
-    for (const auto& [reason, n] : s.drops) {
-      pb::DropCount* d = resp->add_drops();
-      d->set_reason(reason);
-      d->set_lines(n);
-    }
-    auto lat = [&](const char* stage, const LatencyStats::Summary& l) {
-      pb::Latency* p = resp->add_latencies();
-      p->set_stage(stage);
-      p->set_p50_ms(l.p50);
-      p->set_p99_ms(l.p99);
-      p->set_samples(l.samples);
-    };
-    lat("queue_wait", s.queue_wait);
-    lat("line_pipeline_batch", s.pipeline);
-    lat("inspection_fillet", s.inspection);
-    lat("last_line_to_decision", s.decision);
-    resp->set_queue_depth(s.queue_depth);
-    resp->set_queue_capacity(s.queue_capacity);
+    fill(resp, engine_.stats());
     resp->set_backend("cpu");
-    resp->set_fillets(s.fillets);
-    resp->set_rejects(s.rejects);
-    resp->set_not_inspected(s.not_inspected);
     resp->set_subscribers(hub_.subscribers());
+    resp->set_ingest_streams(counters_.ingest);
     return Status::OK;
   }
   Status GetServerInfo(ServerContext*, const pb::GetServerInfoRequest*,
@@ -325,6 +207,7 @@ class ControlImpl final : public pb::ControlService::Service {
  private:
   Engine& engine_;
   ResultsHub& hub_;
+  StreamCounters& counters_;
   const ServerOptions& opt_;
   int64_t started_;
 };
@@ -346,21 +229,32 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
   store_ = std::make_unique<Store>(opt_.data_dir);
   hub_ = std::make_unique<ResultsHub>();
   engine_ = std::make_unique<Engine>(plant_, *store_, *hub_, opt_.engine);
-  services_.reset(new Services{IngestImpl(*engine_), ResultsImpl(*store_, *hub_),
+  counters_ = std::make_unique<StreamCounters>();
+  services_.reset(new Services{IngestImpl(*engine_, *counters_),
+                               ResultsImpl(*store_, *hub_, *counters_),
                                CalibrationImpl(*engine_, *store_),
-                               ControlImpl(*engine_, *hub_, opt_, started_ns_)});
+                               ControlImpl(*engine_, *hub_, *counters_, opt_, started_ns_)});
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder b;
   b.AddListeningPort(opt_.listen, grpc::InsecureServerCredentials(), &port_);
   b.SetMaxReceiveMessageSize(opt_.max_message_bytes);
+  if (opt_.max_connection_age_ms > 0) {
+    b.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS, opt_.max_connection_age_ms);
+    b.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_GRACE_MS, opt_.max_connection_age_ms);
+  }
   b.RegisterService(&services_->ingest);
   b.RegisterService(&services_->results);
   b.RegisterService(&services_->calibration);
   b.RegisterService(&services_->control);
   server_ = b.BuildAndStart();
-  if (!server_ || port_ == 0) fail("cannot listen on ", opt_.listen);
+  if (!server_ || port_ == 0) {
+    engine_->drain_and_stop();
+    fail("cannot listen on ", opt_.listen);
+  }
+  set_health(engine_->health());
   store_->audit("rangexd", "server.start", "listening on " + address());
+  watchdog_ = std::thread([this] { watchdog(); });
 }
 
 RangexServer::~RangexServer() {
@@ -372,13 +266,70 @@ std::string RangexServer::address() const {
   return opt_.listen.substr(0, colon) + ":" + std::to_string(port_);
 }
 
-void RangexServer::shutdown() {
-  if (down_) return;
+int RangexServer::ingest_streams() const {
+  return counters_->ingest;
+}
+
+void RangexServer::set_health(const Health& h) {
+  auto* hc = server_->GetHealthCheckService();
+  hc->SetServingStatus("", h.serving);
+  hc->SetServingStatus(kServices[0], h.serving);  // ingest: lines can be inspected
+  hc->SetServingStatus(kServices[1], h.store_ok);
+  hc->SetServingStatus(kServices[2], h.store_ok);
+  hc->SetServingStatus(kServices[3], true);  // control: where to find out why
+}
+
+void RangexServer::watchdog() {
+  bool serving = true, store_ok = true;
+  auto unhealthy_since = std::chrono::steady_clock::time_point::min();
+  bool fatal_called = false;
+  std::unique_lock<std::mutex> lock(wd_mu_);
+  while (!wd_cv_.wait_for(lock, std::chrono::duration<double>(opt_.watchdog_period_s),
+                          [&] { return wd_stop_; })) {
+    const Health h = engine_->health();
+    if (h.serving != serving || h.store_ok != store_ok) {
+      for (const std::string& r : h.reasons)
+        std::fprintf(stderr, "rangexd: NOT SERVING: %s\n", r.c_str());
+      if (h.serving) std::fprintf(stderr, "rangexd: serving again\n");
+      set_health(h);
+      serving = h.serving;
+      store_ok = h.store_ok;
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (h.serving) {
+      unhealthy_since = std::chrono::steady_clock::time_point::min();
+      continue;
+    }
+    if (unhealthy_since == std::chrono::steady_clock::time_point::min()) unhealthy_since = now;
+    const double exit_after = opt_.engine.exit_after_s;
+    if (exit_after > 0 && !fatal_called && opt_.on_fatal &&
+        std::chrono::duration<double>(now - unhealthy_since).count() > exit_after) {
+      fatal_called = true;
+      lock.unlock();
+      opt_.on_fatal(h);
+      lock.lock();
+    }
+  }
+}
+
+bool RangexServer::shutdown() {
+  if (down_) return true;
   down_ = true;
-  engine_->drain_and_stop();  // every accepted line decided and stored
-  hub_->close_all();
+  {
+    std::lock_guard<std::mutex> lock(wd_mu_);
+    wd_stop_ = true;
+  }
+  wd_cv_.notify_all();
+  if (watchdog_.joinable()) watchdog_.join();
+  Health stopping;
+  stopping.serving = false;
+  set_health(stopping);
+  // Every accepted line decided and stored; lines arriving meanwhile are refused in-band.
+  const bool drained = engine_->drain_and_stop(opt_.engine.drain_timeout_s);
+  hub_->close_all();  // subscribers get what is queued for them, then their streams end
   server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
-  store_->audit("rangexd", "server.stop", "drained");
+  store_->audit("rangexd", "server.stop", drained ? "drained" : "drain timed out");
+  return drained;
 }
 
 void RangexServer::wait() {

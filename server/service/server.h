@@ -1,8 +1,15 @@
 // rangexd's gRPC server: the four rangex.v1 services over one Engine, with standard health
-// checking and server reflection. Start binds the address (port 0 picks a free port).
+// checking (per service: "", rangex.v1.IngestService, ResultsService, CalibrationService,
+// ControlService) and server reflection. A watchdog thread turns the engine's health into
+// grpc.health.v1 statuses and, after exit_after_s of NOT_SERVING, calls on_fatal so that
+// rangexd can exit for its supervisor to restart it.
 #pragma once
+#include <condition_variable>
+#include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
 
 #include "core/plant_config.h"
 #include "service/engine.h"
@@ -13,11 +20,18 @@ class Server;
 
 namespace rangex {
 
+struct StreamCounters;
+
 struct ServerOptions {
   std::string listen;    // host:port; empty takes plant.yaml's
   std::string data_dir;  // empty takes plant.yaml's storage
   EngineOptions engine;
   int max_message_bytes = 64 << 20;  // oversized lines are refused in-band, below this
+  // Connections older than this are closed (GOAWAY) after a grace period; feeders reconnect.
+  // 0: never. Useful behind load balancers, and how tests drop connections.
+  int max_connection_age_ms = 0;
+  double watchdog_period_s = 0.1;
+  std::function<void(const Health&)> on_fatal;  // NOT_SERVING for exit_after_s
 };
 
 class RangexServer {
@@ -27,23 +41,34 @@ class RangexServer {
   int port() const { return port_; }
   std::string address() const;
   // Graceful: stops taking lines, drains and decides everything queued, flushes the store.
-  void shutdown();
+  // False when the queue could not be drained within the engine's drain_timeout_s.
+  bool shutdown();
   void wait();
   Engine& engine() { return *engine_; }
   Store& store() { return *store_; }
+  int ingest_streams() const;
 
  private:
   struct Services;
+  void watchdog();
+  void set_health(const Health& h);
+
   PlantConfig plant_;
   ServerOptions opt_;
   std::unique_ptr<Store> store_;
   std::unique_ptr<ResultsHub> hub_;
   std::unique_ptr<Engine> engine_;
+  std::unique_ptr<StreamCounters> counters_;
   std::unique_ptr<Services> services_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;
   int64_t started_ns_ = 0;
   bool down_ = false;
+
+  std::thread watchdog_;
+  std::mutex wd_mu_;
+  std::condition_variable wd_cv_;
+  bool wd_stop_ = false;
 };
 
 }  // namespace rangex

@@ -87,6 +87,9 @@ Store::Store(const std::string& dir) : dir_(dir) {
     sqlite3_close(db_);
     fail(path, ": cannot open the store: ", why);
   }
+  // Another process holding the database (a backup, an audit query) is waited for briefly;
+  // longer, and the write fails, the engine keeps the decision and retries.
+  sqlite3_busy_timeout(db_, 250);
   exec("PRAGMA journal_mode=WAL");
   exec("PRAGMA synchronous=NORMAL");
   exec(
@@ -224,7 +227,8 @@ void Store::add_calibration(const StoredCalibration& c) {
     Stmt e(db_, "SELECT 1 FROM calibrations WHERE lane = ? AND id = ?");
     e.bind(1, int64_t(c.lane)).bind(2, c.id);
     if (e.step())
-      fail("lane ", c.lane, " already has a calibration '", c.id, "' (versions are immutable)");
+      fail_exists("lane ", c.lane, " already has a calibration '", c.id,
+                  "' (versions are immutable)");
   }
   Stmt q(db_, "INSERT INTO calibrations VALUES (?,?,?,?,?)");
   q.bind(1, int64_t(c.lane))

@@ -1,0 +1,193 @@
+#include "feeder.h"
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+#include "rangex/v1/rangex.grpc.pb.h"
+
+namespace rangex {
+
+namespace pb = rangex::v1;
+using Clock = std::chrono::steady_clock;
+
+uint64_t FeedReport::refused_total() const {
+  uint64_t n = 0;
+  for (const auto& [code, k] : refused) n += k;
+  return n;
+}
+
+std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address) {
+  grpc::ChannelArguments args;
+  args.SetMaxSendMessageSize(64 << 20);
+  args.SetMaxReceiveMessageSize(64 << 20);
+  args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, 10000);
+  args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 5000);
+  args.SetInt(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 2000);
+  return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+}
+
+Feeder::Feeder(std::shared_ptr<grpc::Channel> channel, FeedOptions opt)
+    : channel_(std::move(channel)), opt_(std::move(opt)) {}
+
+namespace {
+
+bool retryable(const grpc::Status& s) {
+  switch (s.error_code()) {
+    case grpc::StatusCode::UNAVAILABLE:
+    case grpc::StatusCode::CANCELLED:
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+    case grpc::StatusCode::UNKNOWN:
+    case grpc::StatusCode::INTERNAL:
+    case grpc::StatusCode::ABORTED:
+      return true;
+    default:
+      return false;
+  }
+}
+
+// Shared with the writer while it writes: the reader may drop its own reference as soon as
+// the line is acknowledged.
+struct InFlight {
+  std::shared_ptr<const pb::StreamLinesRequest> req;
+  bool resent = false;
+};
+
+// What the writer and the reader of one feed share.
+struct Shared {
+  std::mutex mu;
+  std::condition_variable cv;
+  std::deque<InFlight> unacked;  // in sequence order
+  int credit = 1 << 20;
+  bool broken = false;  // the current stream ended
+  Clock::time_point progress = Clock::now();
+};
+
+}  // namespace
+
+FeedReport Feeder::run(LineSource& source) {
+  FeedReport rep;
+  Shared sh;
+  auto say = [&](const std::string& m) {
+    if (opt_.log) opt_.log(m);
+  };
+  std::map<std::string, int> told;
+  auto stub = pb::IngestService::NewStub(channel_);
+  const auto lanes = source.lanes();
+  const int64_t total = source.lines() * int64_t(lanes.size());
+  const auto t0 = Clock::now();
+  int64_t next = 0;  // the next new line: n = next / lanes, lane = next % lanes
+  uint64_t seq = 0;
+  auto backoff = std::chrono::milliseconds(100);
+
+  while (true) {
+    grpc::ClientContext ctx;
+    ctx.set_wait_for_ready(true);  // a reconnect waits for the server to be back
+    auto stream = stub->StreamLines(&ctx);
+    {
+      std::lock_guard<std::mutex> lock(sh.mu);
+      sh.broken = false;
+    }
+    std::thread reader([&] {
+      pb::StreamLinesResponse r;
+      while (stream->Read(&r)) {
+        std::lock_guard<std::mutex> lock(sh.mu);
+        sh.credit = r.credit();
+        sh.progress = Clock::now();
+        if (sh.unacked.empty() || sh.unacked.front().req->sequence() != r.sequence()) continue;
+        const bool resent = sh.unacked.front().resent;
+        sh.unacked.pop_front();
+        const std::string& code = r.error().code();
+        if (r.accepted() || (resent && code == "DUPLICATE_LINE")) {
+          ++rep.accepted;
+        } else {
+          ++rep.refused[code];
+          if (told[code]++ < 3)
+            say("line " + std::to_string(r.sequence()) + " refused: " + code + ": " +
+                r.error().message());
+        }
+        sh.cv.notify_all();
+      }
+      std::lock_guard<std::mutex> lock(sh.mu);
+      sh.broken = true;
+      sh.cv.notify_all();
+    });
+
+    // Resend what the last stream left unacknowledged, then carry on with new lines.
+    std::deque<std::shared_ptr<const pb::StreamLinesRequest>> resend;
+    {
+      std::lock_guard<std::mutex> lock(sh.mu);
+      for (InFlight& f : sh.unacked) {
+        f.resent = true;
+        resend.push_back(f.req);
+      }
+    }
+    bool open = true;
+    for (const auto& r : resend) {
+      if (!(open = stream->Write(*r))) break;
+      ++rep.resent;
+    }
+    while (open && next < total) {
+      const int64_t n = next / int64_t(lanes.size());
+      const int li = int(next % int64_t(lanes.size()));
+      if (opt_.rate > 0 && li == 0)  // pace: line n of every lane leaves at n / rate seconds
+        std::this_thread::sleep_until(t0 + std::chrono::duration<double>(double(n) / opt_.rate));
+      std::shared_ptr<const pb::StreamLinesRequest> out;
+      {
+        // Flow control: a window of unacknowledged lines, and the server's credit. Credit
+        // is as fresh as the last ack: with nothing outstanding and too little credit, wait
+        // a little, then send one line to hear the current credit.
+        std::unique_lock<std::mutex> lock(sh.mu);
+        sh.cv.wait(lock, [&] {
+          return sh.broken || (int(sh.unacked.size()) < opt_.window &&
+                               (sh.credit >= opt_.window || sh.unacked.empty()));
+        });
+        if (sh.broken) break;
+        if (sh.credit < opt_.window) {
+          lock.unlock();
+          std::this_thread::sleep_for(std::chrono::milliseconds(20));
+          lock.lock();
+        }
+      }
+      auto req = std::make_shared<pb::StreamLinesRequest>();
+      req->set_sequence(seq++);
+      source.line(li, n, *req->mutable_line());
+      out = req;
+      {
+        std::lock_guard<std::mutex> lock(sh.mu);
+        sh.unacked.push_back({out, false});
+      }
+      ++next;
+      ++rep.sent;
+      open = stream->Write(*out);  // no lock held: the reader must keep taking acks
+    }
+    if (open) stream->WritesDone();
+    reader.join();
+    rep.status = stream->Finish();
+    bool done;
+    {
+      std::lock_guard<std::mutex> lock(sh.mu);
+      done = next >= total && sh.unacked.empty();
+    }
+    if (done && rep.status.ok()) break;
+    if (!retryable(rep.status) && !rep.status.ok()) break;
+    if (Clock::now() - sh.progress > std::chrono::duration<double>(opt_.reconnect_for_s)) {
+      say("no progress for " + std::to_string(int(opt_.reconnect_for_s)) + " s; giving up");
+      break;
+    }
+    ++rep.reconnects;
+    say("stream ended (" + (rep.status.ok() ? std::string("OK") : rep.status.error_message()) +
+        "); reconnecting and resending " + std::to_string(sh.unacked.size()) +
+        " unacknowledged lines");
+    std::this_thread::sleep_for(backoff);
+    backoff = std::min(backoff * 2, std::chrono::milliseconds(2000));
+  }
+  rep.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  return rep;
+}
+
+}  // namespace rangex

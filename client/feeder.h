@@ -1,0 +1,52 @@
+// A feeder as a line's cameras would run it: streams lines to rangexd, follows the server's
+// credit (a line sent into a full queue would be dropped), keeps a window of lines not yet
+// acknowledged, and after a dropped connection reconnects and resends from the last
+// acknowledged line. The server answers a resent line it already has DUPLICATE_LINE; the
+// feeder counts that as accepted (no second decision is made).
+#pragma once
+#include <grpcpp/grpcpp.h>
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "line_source.h"
+
+namespace rangex {
+
+struct FeedOptions {
+  int window = 256;             // lines in flight at most
+  double rate = 0;              // lines/s per lane; 0: as fast as the server takes them
+  double reconnect_for_s = 60;  // without progress this long, give up
+  // Told about refused lines (first few of each code, at most), and about reconnects.
+  std::function<void(const std::string&)> log;
+};
+
+struct FeedReport {
+  uint64_t sent = 0;      // distinct lines
+  uint64_t accepted = 0;  // resent lines the server already had included
+  uint64_t resent = 0, reconnects = 0;
+  std::map<std::string, uint64_t> refused;  // by code
+  grpc::Status status;                      // of the last stream (OK when all went through)
+  double seconds = 0;
+  uint64_t refused_total() const;
+};
+
+// A channel with keepalive, so that a dead connection is noticed and replaced.
+std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address);
+
+class Feeder {
+ public:
+  Feeder(std::shared_ptr<grpc::Channel> channel, FeedOptions opt);
+  // Sends every line of `source` (line n of every lane before line n + 1), returns when all
+  // are acknowledged or the connection cannot be had back within reconnect_for_s.
+  FeedReport run(LineSource& source);
+
+ private:
+  std::shared_ptr<grpc::Channel> channel_;
+  FeedOptions opt_;
+};
+
+}  // namespace rangex

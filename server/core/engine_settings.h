@@ -1,0 +1,28 @@
+// How the server takes lines in and watches itself (plant.yaml `server:`). The defaults
+// suit a plant of up to 16 lanes at 2.5 k lines/s each.
+#pragma once
+#include <cstddef>
+
+namespace rangex {
+
+struct EngineSettings {
+  size_t queue_lines = 2048;  // lines waiting for the worker, all lanes together
+  int batch_lines = 64;
+  int batch_wait_ms = 10;  // a partial batch goes after this long
+  // Counts behind a lane's latest within which a resent line is recognised as already
+  // accepted (DUPLICATE_LINE); must cover what a feeder can have unacknowledged.
+  int dedup_window = 4096;
+  // A line further behind than the window is an encoder reset (a restarted PLC or camera):
+  // the lane restarts at it. Off: such lines are refused until ControlService.ResetLane.
+  bool auto_reset = true;
+  // A lane with a fillet open and no line for this long ends it as not inspected.
+  double idle_close_s = 30;
+  // Lines queued and the worker making no progress this long: health says NOT_SERVING.
+  double stall_s = 5;
+  // NOT_SERVING this long: rangexd exits non-zero so that its supervisor restarts it (0: never).
+  double exit_after_s = 60;
+  // A graceful stop that cannot decide the queued lines in this long exits non-zero.
+  double drain_timeout_s = 30;
+};
+
+}  // namespace rangex

@@ -1,0 +1,118 @@
+#include "service/pb_convert.h"
+
+namespace rangex {
+
+namespace pb = rangex::v1;
+
+pb::Decision to_pb(const std::string& d) {
+  if (d == "pass") return pb::DECISION_PASS;
+  if (d == "reject") return pb::DECISION_REJECT;
+  if (d == "not_inspected") return pb::DECISION_NOT_INSPECTED;
+  return pb::DECISION_UNSPECIFIED;
+}
+
+std::string from_pb(pb::Decision d) {
+  switch (d) {
+    case pb::DECISION_PASS:
+      return "pass";
+    case pb::DECISION_REJECT:
+      return "reject";
+    case pb::DECISION_NOT_INSPECTED:
+      return "not_inspected";
+    default:
+      return "";
+  }
+}
+
+void fill(pb::FilletResult* o, const StoredFillet& f) {
+  o->set_uid(f.uid);
+  o->set_lane(f.lane);
+  o->set_lane_fillet(f.lane_fillet);
+  o->set_first_encoder(f.first_encoder);
+  o->set_rows(f.rows);
+  o->set_decision(to_pb(f.decision));
+  o->set_reason(f.reason);
+  o->set_beta0(f.beta0);
+  o->set_beta1(f.beta1);
+  o->set_residual_mean_dn(f.resid_mean_dn);
+  o->set_residual_std_dn(f.resid_std_dn);
+  o->set_calibration_id(f.calibration_id);
+  o->set_decided_ns(f.decided_ns);
+  o->set_belt_y0_mm(f.belt_y0_mm);
+  for (const StoredFragment& g : f.fragments) {
+    pb::Fragment* p = o->add_fragments();
+    p->set_kind(g.kind);
+    p->set_x_mm(g.x_mm);
+    p->set_y_mm(g.y_mm);
+    p->set_area_mm2(g.area_mm2);
+    p->set_peak_z(g.peak_z);
+    p->set_attenuation_mm2(g.attenuation_mm2);
+  }
+}
+
+void fill(pb::CalibrationInfo* o, const StoredCalibration& c, bool with_yaml) {
+  o->set_lane(c.lane);
+  o->set_id(c.id);
+  o->set_uploaded_ns(c.uploaded_ns);
+  o->set_active(c.active);
+  if (with_yaml) o->set_yaml(c.yaml);
+}
+
+void fill(pb::LaneInfo* o, const LaneState& s) {
+  const LaneConfig& l = s.config;
+  o->set_id(l.id);
+  o->set_frame_width(l.frame_width);
+  o->set_frame_height(l.frame_height);
+  o->set_xray_pixels(l.xray.pixels);
+  o->set_encoder_step_mm(l.encoder_step_mm);
+  o->set_calibration_id(s.calibration_id);
+  o->set_z_threshold(l.inspection.z_threshold);
+  o->set_min_fragment_area_mm2(l.inspection.min_fragment_area_mm2);
+  o->set_floor_mm(l.inspection.floor_mm);
+  o->set_fed(s.fed);
+  if (s.fed) o->set_last_encoder(s.last_encoder);
+  o->set_lines_accepted(s.accepted);
+  o->set_idle_ms(s.idle_ms);
+  o->set_fillet_in_progress(s.fillet_in_progress);
+  o->set_restarts(s.restarts);
+  o->set_last_restart(s.last_restart);
+}
+
+void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
+  o->set_lines_per_second(s.lines_per_second);
+  o->set_lines_received(s.received);
+  o->set_lines_accepted(s.accepted);
+  o->set_lines_processed(s.processed);
+  for (const auto& [reason, n] : s.refused) {
+    pb::ReasonCount* d = o->add_refused();
+    d->set_reason(reason);
+    d->set_lines(n);
+  }
+  for (const auto& [reason, n] : s.dropped) {
+    pb::ReasonCount* d = o->add_dropped();
+    d->set_reason(reason);
+    d->set_lines(n);
+  }
+  auto lat = [&](const char* stage, const LatencyStats::Summary& l) {
+    pb::Latency* p = o->add_latencies();
+    p->set_stage(stage);
+    p->set_p50_ms(l.p50);
+    p->set_p99_ms(l.p99);
+    p->set_samples(l.samples);
+  };
+  lat("queue_wait", s.queue_wait);
+  lat("line_pipeline_batch", s.pipeline);
+  lat("inspection_fillet", s.inspection);
+  lat("last_line_to_decision", s.decision);
+  o->set_queue_depth(s.queue_depth);
+  o->set_queue_capacity(s.queue_capacity);
+  o->set_fillets(s.fillets);
+  o->set_rejects(s.rejects);
+  o->set_not_inspected(s.not_inspected);
+  o->set_lane_restarts(s.lane_restarts);
+  o->set_store_errors(s.store_errors);
+  o->set_serving(s.health.serving);
+  for (const std::string& r : s.health.reasons) o->add_health(r);
+}
+
+}  // namespace rangex

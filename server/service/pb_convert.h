@@ -1,0 +1,18 @@
+// Between the engine's and store's types and rangex.v1 messages.
+#pragma once
+#include <string>
+
+#include "rangex/v1/rangex.pb.h"
+#include "service/engine.h"
+#include "service/store.h"
+
+namespace rangex {
+
+v1::Decision to_pb(const std::string& decision);
+std::string from_pb(v1::Decision d);
+void fill(v1::FilletResult* o, const StoredFillet& f);
+void fill(v1::CalibrationInfo* o, const StoredCalibration& c, bool with_yaml);
+void fill(v1::LaneInfo* o, const LaneState& l);
+void fill(v1::GetStatisticsResponse* o, const EngineStats& s);
+
+}  // namespace rangex

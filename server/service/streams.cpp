@@ -1,0 +1,236 @@
+#include "service/streams.h"
+
+#include <deque>
+#include <memory>
+#include <mutex>
+
+#include "service/engine.h"
+#include "service/pb_convert.h"
+#include "service/results_hub.h"
+
+namespace rangex {
+
+namespace pb = rangex::v1;
+
+namespace {
+
+// Acknowledgements waiting to be written before reading pauses.
+constexpr size_t kMaxPendingAcks = 256;
+
+class IngestStream final
+    : public grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse> {
+ public:
+  IngestStream(Engine& engine, StreamCounters& counters) : engine_(engine), counters_(counters) {
+    ++counters_.ingest;
+    std::lock_guard<std::mutex> lock(mu_);
+    reading_ = true;
+    StartRead(&req_);
+  }
+
+  void OnReadDone(bool ok) override {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      reading_ = false;
+      if (!ok) reads_done_ = true;
+    }
+    // req_ is ours until the next StartRead; the engine is called with no lock held.
+    pb::StreamLinesResponse ack;
+    if (ok) ack = handle(req_);
+    bool finish;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (ok && !broken_) {
+        acks_.push_back(std::move(ack));
+        if (!writing_) {
+          writing_ = true;
+          StartWrite(&acks_.front());
+        }
+      }
+      read_more();
+      finish = ready_to_finish();
+    }
+    if (finish) Finish(grpc::Status::OK);
+  }
+
+  void OnWriteDone(bool ok) override {
+    bool finish;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      writing_ = false;
+      acks_.pop_front();
+      if (!ok) {  // the client is gone: nothing of it is pending
+        broken_ = true;
+        acks_.clear();
+      } else if (!acks_.empty()) {
+        writing_ = true;
+        StartWrite(&acks_.front());
+      }
+      read_more();
+      finish = ready_to_finish();
+    }
+    if (finish) Finish(grpc::Status::OK);
+  }
+
+  void OnCancel() override {
+    bool finish;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      broken_ = true;
+      finish = ready_to_finish();
+    }
+    if (finish) Finish(grpc::Status::CANCELLED);
+  }
+
+  void OnDone() override {
+    --counters_.ingest;
+    delete this;
+  }
+
+ private:
+  pb::StreamLinesResponse handle(pb::StreamLinesRequest& req) {
+    pb::StreamLinesResponse resp;
+    resp.set_sequence(req.sequence());
+    Engine::Verdict v;
+    if (!req.has_line()) {
+      v = engine_.refuse_empty(req.sequence());
+    } else {
+      pb::LineScan* l = req.mutable_line();
+      IncomingLine in;
+      in.lane = l->lane();
+      in.encoder = l->encoder();
+      in.cam0 = std::move(*l->mutable_cam0());
+      in.cam1 = std::move(*l->mutable_cam1());
+      in.xray = std::move(*l->mutable_xray());
+      in.calibration_id = l->calibration_id();
+      v = engine_.submit(std::move(in));
+    }
+    resp.set_accepted(v.accepted);
+    resp.set_credit(v.credit);
+    if (!v.accepted) {
+      resp.mutable_error()->set_code(std::string(refusal_name(v.code)));
+      resp.mutable_error()->set_message(v.message);
+    }
+    return resp;
+  }
+  void read_more() {
+    if (!reading_ && !reads_done_ && !broken_ && acks_.size() < kMaxPendingAcks) {
+      reading_ = true;
+      StartRead(&req_);
+    }
+  }
+  bool ready_to_finish() {
+    if (finished_ || reading_ || writing_ || !(reads_done_ || broken_)) return false;
+    finished_ = true;
+    return true;
+  }
+
+  Engine& engine_;
+  StreamCounters& counters_;
+  std::mutex mu_;
+  pb::StreamLinesRequest req_;
+  std::deque<pb::StreamLinesResponse> acks_;  // front: being written
+  bool reading_ = false, writing_ = false, reads_done_ = false, broken_ = false;
+  bool finished_ = false;
+};
+
+// Owned by itself (self_) until OnDone; the hub's wake holds only a weak reference, so a
+// wake that races OnDone keeps the reactor alive until it returns.
+class Subscription final : public grpc::ServerWriteReactor<pb::SubscribeFilletsResponse> {
+ public:
+  static Subscription* start(ResultsHub& hub, const pb::SubscribeFilletsRequest& req,
+                             StreamCounters& counters) {
+    std::shared_ptr<Subscription> s(new Subscription(hub, counters));
+    std::set<int> lanes(req.lanes().begin(), req.lanes().end());
+    std::set<std::string> decisions;
+    for (int d : req.decisions()) decisions.insert(from_pb(pb::Decision(d)));
+    std::weak_ptr<Subscription> weak = s;
+    auto sub = hub.subscribe(std::move(lanes), std::move(decisions), 256, [weak] {
+      if (auto p = weak.lock()) p->deliver();
+    });
+    {
+      std::lock_guard<std::mutex> lock(s->mu_);
+      s->sub_ = std::move(sub);
+      s->self_ = s;
+    }
+    s->deliver();  // results or a close that came before sub_ was set
+    return s.get();
+  }
+
+  void OnWriteDone(bool ok) override {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      writing_ = false;
+      if (!ok) cancelled_ = true;
+    }
+    deliver();
+  }
+  void OnCancel() override {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      cancelled_ = true;
+    }
+    deliver();
+  }
+  void OnDone() override {
+    std::shared_ptr<Subscription> last;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      finished_ = true;
+      hub_.unsubscribe(sub_);
+      last = std::move(self_);
+    }
+    --counters_.subscribers;
+    // `last` may be the final reference: the reactor is deleted as this returns.
+  }
+
+ private:
+  Subscription(ResultsHub& hub, StreamCounters& counters) : hub_(hub), counters_(counters) {
+    ++counters_.subscribers;
+  }
+
+  void deliver() {
+    grpc::Status end;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (writing_ || finished_ || !sub_) return;
+      StoredFillet f;
+      uint64_t lagged = 0;
+      if (cancelled_) {
+        end = grpc::Status::CANCELLED;
+      } else if (hub_.take(sub_, f, lagged)) {
+        resp_.Clear();
+        fill(resp_.mutable_fillet(), f);
+        resp_.set_lagged(lagged);
+        writing_ = true;
+        StartWrite(&resp_);
+        return;
+      } else if (!hub_.closed(sub_)) {
+        return;
+      }
+      finished_ = true;  // closed and drained, or cancelled
+    }
+    Finish(end);
+  }
+
+  ResultsHub& hub_;
+  StreamCounters& counters_;
+  std::mutex mu_;
+  std::shared_ptr<ResultsHub::Subscription> sub_;
+  std::shared_ptr<Subscription> self_;
+  pb::SubscribeFilletsResponse resp_;
+  bool writing_ = false, cancelled_ = false, finished_ = false;
+};
+
+}  // namespace
+
+grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>* new_ingest_stream(
+    Engine& engine, StreamCounters& counters) {
+  return new IngestStream(engine, counters);
+}
+
+grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>* new_subscription(
+    ResultsHub& hub, const pb::SubscribeFilletsRequest& request, StreamCounters& counters) {
+  return Subscription::start(hub, request, counters);
+}
+
+}  // namespace rangex
