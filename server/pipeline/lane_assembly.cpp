@@ -138,10 +138,12 @@ bool LaneAssembler::quiet() const {
   return true;
 }
 
-void LaneAssembler::restart(const std::string& reason) {
+void LaneAssembler::close_all(const std::string& reason) {
   // Camera lines still waiting for their X-ray lines become missing rows: the fillet they
-  // saw fails safe instead of vanishing with the restart.
-  if (next_encoder_ != INT64_MIN)
+  // saw fails safe instead of vanishing.
+  bool pending = false;
+  for (const auto& [e, t] : thickness_) pending |= occupied(t);
+  if (pending)
     while (!thickness_.empty()) add_missing(thickness_.begin()->first + lane_.xray.delay_lines);
   interrupted_ = reason;
   if (open_) close_segment();
@@ -150,19 +152,17 @@ void LaneAssembler::restart(const std::string& reason) {
   segment_.clear();
   empty_run_ = 0;
   open_ = false;
+}
+
+void LaneAssembler::restart(const std::string& reason) {
+  close_all(reason);
   next_encoder_ = INT64_MIN;
   last_restart_ = reason;
   ++stats_.restarts;
 }
 
 void LaneAssembler::flush() {
-  bool pending = false;
-  for (const auto& [e, t] : thickness_) pending |= occupied(t);
-  if (pending)  // a fillet under the laser that the X-ray never saw: reported, not inspected
-    while (!thickness_.empty()) add_missing(thickness_.begin()->first + lane_.xray.delay_lines);
-  if (open_) close_segment();
-  segment_.clear();
-  empty_run_ = 0;
+  close_all("the lines ended while this fillet was coming in");
 }
 
 void LaneAssembler::close_segment() {

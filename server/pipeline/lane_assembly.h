@@ -46,7 +46,8 @@ class LaneAssembler {
   // Ends the open fillets as not inspected with `reason` (fillets already complete are
   // inspected as usual) and starts afresh: the next line may have any count.
   void restart(const std::string& reason);
-  // Closes the open run (end of a recording, or shutdown) and emits its fillets.
+  // Closes the open run (end of a recording, or shutdown) and emits its fillets; one still
+  // coming in is not inspected.
   void flush();
 
   const AssemblyStats& stats() const { return stats_; }
@@ -71,6 +72,7 @@ class LaneAssembler {
   void add_row(Row&& row);
   bool occupied(const std::vector<float>& t) const;
   void close_segment();
+  void close_all(const std::string& reason);
   void start_line(int64_t encoder);
 
   LaneConfig lane_;

@@ -28,18 +28,19 @@ class IngestStream final
   }
 
   void OnReadDone(bool ok) override {
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      reading_ = false;
-      if (!ok) reads_done_ = true;
-    }
-    // req_ is ours until the next StartRead; the engine is called with no lock held.
+    // The read slot stays taken (reading_) until the line is handled, so that no new read
+    // overwrites req_ and lines of one stream reach the engine in the order they came. The
+    // empty critical section orders this reaction after the one that started the read.
+    { std::lock_guard<std::mutex> lock(mu_); }
     pb::StreamLinesResponse ack;
-    if (ok) ack = handle(req_);
+    if (ok) ack = handle(req_);  // no lock held: the engine is another module
     bool finish;
     {
       std::lock_guard<std::mutex> lock(mu_);
-      if (ok && !broken_) {
+      reading_ = false;
+      if (!ok) {
+        reads_done_ = true;
+      } else if (!broken_) {
         acks_.push_back(std::move(ack));
         if (!writing_) {
           writing_ = true;
