@@ -9,6 +9,7 @@
 
 #include "core/plant_config.h"
 #include "core/recording.h"
+#include "grpc_raw.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "replay.h"
 #include "service/server.h"
@@ -357,37 +358,12 @@ TEST(Server, RestartKeepsResultsAndCalibrations) {
   EXPECT_FALSE(resp.next_page_token().empty());
 }
 
-namespace {
-// Raw unary call through the generic stub (no generated code for grpc.health.v1).
-grpc::Status generic_unary(const std::shared_ptr<grpc::Channel>& ch, const std::string& method,
-                           const std::string& request, std::string& response) {
-  grpc::GenericStub stub(ch);
-  grpc::ClientContext ctx;
-  grpc::CompletionQueue cq;
-  grpc::Slice slice(request);
-  grpc::ByteBuffer req(&slice, 1), resp;
-  auto call = stub.PrepareUnaryCall(&ctx, method, req, &cq);
-  call->StartCall();
-  grpc::Status status;
-  call->Finish(&resp, &status, reinterpret_cast<void*>(1));
-  void* tag;
-  bool ok;
-  cq.Next(&tag, &ok);
-  std::vector<grpc::Slice> slices;
-  if (status.ok()) {
-    resp.Dump(&slices);
-    for (auto& s : slices) response.append(reinterpret_cast<const char*>(s.begin()), s.size());
-  }
-  return status;
-}
-}  // namespace
-
 TEST(Server, HealthAndReflectionAnswer) {
   test::TempDir t;
   RangexServer server(plant(), options(t));
   auto ch = connect(server);
   std::string resp;
-  ASSERT_TRUE(generic_unary(ch, "/grpc.health.v1.Health/Check", "", resp).ok());
+  ASSERT_TRUE(test::generic_unary(ch, "/grpc.health.v1.Health/Check", "", resp).ok());
   EXPECT_EQ(resp, std::string("\x08\x01", 2));  // status: SERVING
   // Reflection: list_services (field 7, empty string) on the bidirectional stream.
   grpc::GenericStub stub(ch);

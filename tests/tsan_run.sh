@@ -1,0 +1,19 @@
+#!/bin/sh
+# Runs a test binary built with ThreadSanitizer: the suppressions of tsan.supp plus one
+# called_from_lib line for each uninstrumented gRPC, abseil or protobuf library the binary
+# loads, and without address-space randomisation where the system allows (some TSan
+# runtimes cannot map their shadow memory under a kernel's randomised layout).
+set -eu
+bin=$1
+shift
+supp=$(mktemp)
+trap 'rm -f "$supp"' EXIT
+cat "$(dirname "$0")/tsan.supp" >"$supp"
+ldd "$bin" | grep -oE 'lib(absl_[a-z0-9_]+|grpc[a-z0-9_+]*|gpr|upb|address_sorting|protobuf|re2|cares)\.so' |
+  sort -u | sed 's/^/called_from_lib:/' >>"$supp"
+export TSAN_OPTIONS="suppressions=$supp second_deadlock_stack=1 history_size=4 ${TSAN_OPTIONS:-}"
+if setarch "$(uname -m)" -R true 2>/dev/null; then
+  setarch "$(uname -m)" -R "$bin" "$@"
+else
+  "$bin" "$@"
+fi
