@@ -38,11 +38,102 @@ class MemorySource : public LineSource {
   const std::vector<pb::LineScan>& scans_;
   int lane_;
 };
+
+// How many streams and subscribers one server holds: every lane fed by two streams at once
+// with the same lines (a camera that reconnected while its old stream is still open: one of
+// each pair of lines is a duplicate), two subscribers per lane reading every decision.
+void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans, int threads) {
+  std::printf("\ncapacity: 2 streams per lane sending the same %zu lines, 2 subscribers per lane\n",
+              scans.size());
+  std::printf("%-6s %8s %12s %10s %12s %14s %14s\n", "lanes", "streams", "subscribers", "lines/s",
+              "streams ok", "subscribers ok", "peak streams");
+  for (int nl : {16, 32, 64, 128}) {
+    const std::string dir =
+        (std::filesystem::temp_directory_path() /
+         ("rangex-capacity-" + std::to_string(getpid()) + "-" + std::to_string(nl)))
+            .string();
+    std::filesystem::remove_all(dir);
+    PlantConfig pl = plant;
+    pl.lanes.resize(1);
+    for (int i = 1; i < nl; ++i) {
+      pl.lanes.push_back(pl.lanes[0]);
+      pl.lanes.back().id = i;
+    }
+    ServerOptions so;
+    so.listen = "127.0.0.1:0";
+    so.data_dir = dir;
+    so.engine.threads = threads;
+    so.engine.images = false;
+    so.engine.queue_lines = 4096;
+    std::atomic<int> streams_ok{0}, subscribers_ok{0}, peak{0};
+    double lps = 0;
+    {
+      RangexServer server(pl, so);
+      auto ch = rangex_channel(server.address());
+      std::vector<std::unique_ptr<grpc::ClientContext>> sub_ctx;
+      std::vector<std::thread> subs;
+      std::vector<int64_t> seen(size_t(2 * nl), 0);
+      for (int i = 0; i < 2 * nl; ++i) {
+        sub_ctx.push_back(std::make_unique<grpc::ClientContext>());
+        subs.emplace_back([&, i] {
+          auto stub = pb::ResultsService::NewStub(ch);
+          auto reader = stub->SubscribeFillets(sub_ctx[size_t(i)].get(), {});
+          pb::SubscribeFilletsResponse r;
+          while (reader->Read(&r)) seen[size_t(i)] += 1 + int64_t(r.lagged());
+          (void)reader->Finish();
+        });
+      }
+      std::atomic<bool> feeding{true};
+      std::thread watch([&] {
+        while (feeding) {
+          peak = std::max(peak.load(), server.ingest_streams());
+          std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        }
+      });
+      const auto t0 = std::chrono::steady_clock::now();
+      std::vector<std::thread> feeders;
+      for (int lane = 0; lane < nl; ++lane)
+        for (int k = 0; k < 2; ++k)
+          feeders.emplace_back([&, lane] {
+            MemorySource src(scans, lane);
+            FeedOptions fo;
+            fo.window = 8;
+            const FeedReport r = Feeder(ch, fo).run(src);
+            const uint64_t dups =
+                r.refused.count("DUPLICATE_LINE") ? r.refused.at("DUPLICATE_LINE") : 0;
+            const bool ok = r.status.ok() && r.accepted + dups == r.sent;
+            streams_ok += ok;
+            static std::atomic<int> told{0};
+            if (!ok && told++ < 3) {
+              std::fprintf(stderr, "lane 0 stream: status '%s', sent %llu accepted %llu:",
+                           r.status.error_message().c_str(), (unsigned long long)r.sent,
+                           (unsigned long long)r.accepted);
+              for (const auto& [code, n] : r.refused)
+                std::fprintf(stderr, " %s %llu", code.c_str(), (unsigned long long)n);
+              std::fprintf(stderr, "\n");
+            }
+          });
+      for (auto& f : feeders) f.join();
+      feeding = false;
+      watch.join();
+      server.shutdown();
+      lps = double(nl) * double(scans.size()) /
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      for (auto& t : subs) t.join();
+      const int64_t decided = server.store().count_fillets();
+      for (int64_t n : seen) subscribers_ok += n == decided;
+    }
+    std::filesystem::remove_all(dir);
+    std::printf("%-6d %8d %12d %10.0f %12d %14d %14d\n", nl, 2 * nl, 2 * nl, lps, streams_ok.load(),
+                subscribers_ok.load(), peak.load());
+    std::fflush(stdout);
+  }
+}
 }  // namespace
 
 int cmd_bench_server(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"lines", "threads"});
-  a.expect_positionals(0, "bench-server [--lines N]");
+  const Args a(argc, argv, 2, {"capacity"}, {"lines", "threads"});
+  a.expect_positionals(0, "bench-server [--lines N] [--capacity]");
   const int n = int(a.integer("lines", 1200));
   const int threads =
       int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
@@ -136,6 +227,11 @@ int cmd_bench_server(int argc, char** argv) {
                 grpc_lps / inproc, lat.p50, lat.p99);
     std::fflush(stdout);
   }
+  if (a.flag("capacity"))
+    capacity(plant,
+             std::vector<pb::LineScan>(scans.begin(),
+                                       scans.begin() + std::min<size_t>(scans.size(), 400)),
+             threads);
   return 0;
 }
 

@@ -1,9 +1,11 @@
 #include "feeder.h"
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <mutex>
+#include <random>
 #include <thread>
 
 #include "rangex/v1/rangex.grpc.pb.h"
@@ -83,6 +85,8 @@ FeedReport Feeder::run(LineSource& source) {
   int64_t next = 0;  // the next new line: n = next / lanes, lane = next % lanes
   uint64_t seq = 0;
   auto backoff = std::chrono::milliseconds(100);
+  auto probe_wait = std::chrono::milliseconds(50);
+  std::minstd_rand jitter(uint32_t(reinterpret_cast<uintptr_t>(&sh)));
 
   while (true) {
     grpc::ClientContext ctx;
@@ -138,19 +142,25 @@ FeedReport Feeder::run(LineSource& source) {
         std::this_thread::sleep_until(t0 + std::chrono::duration<double>(double(n) / opt_.rate));
       std::shared_ptr<const pb::StreamLinesRequest> out;
       {
-        // Flow control: a window of unacknowledged lines, and the server's credit. Credit
-        // is as fresh as the last ack: with nothing outstanding and too little credit, wait
-        // a little, then send one line to hear the current credit.
+        // Flow control: at most `window` lines unacknowledged, and no more than the credit
+        // of the last ack (this stream's share of the server's free places, counted after
+        // that line: the lines sent since will take from it). With no credit and nothing
+        // outstanding, wait, longer each time, then send one line to hear the credit again.
         std::unique_lock<std::mutex> lock(sh.mu);
         sh.cv.wait(lock, [&] {
-          return sh.broken || (int(sh.unacked.size()) < opt_.window &&
-                               (sh.credit >= opt_.window || sh.unacked.empty()));
+          const int limit = std::min(opt_.window, std::max(sh.credit, 0));
+          return sh.broken || int(sh.unacked.size()) < limit || sh.unacked.empty();
         });
         if (sh.broken) break;
-        if (sh.credit < opt_.window) {
+        if (sh.credit <= 0) {
+          // Spread over half to one and a half times the wait, so that the streams of a
+          // plant do not all probe a full queue at the same moment.
           lock.unlock();
-          std::this_thread::sleep_for(std::chrono::milliseconds(20));
+          std::this_thread::sleep_for(probe_wait / 2 + probe_wait * (jitter() % 1000) / 1000);
+          probe_wait = std::min(probe_wait * 2, std::chrono::milliseconds(1000));
           lock.lock();
+        } else {
+          probe_wait = std::chrono::milliseconds(50);
         }
       }
       auto req = std::make_shared<pb::StreamLinesRequest>();

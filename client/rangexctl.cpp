@@ -27,7 +27,7 @@ commands:
   bench [--frames N]
       stripe extraction and inspection throughput beside their baselines
 
-  bench-server [--lines N]
+  bench-server [--lines N] [--capacity]
       lines/s through gRPC on loopback for 1, 4, 16 lanes beside the in-process pipeline
 
 server commands (--server HOST:PORT, default: plant.yaml's listen address):

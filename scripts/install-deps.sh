@@ -10,7 +10,7 @@ packages=(
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   glslang-tools libvulkan-dev mesa-vulkan-drivers
   ocl-icd-opencl-dev opencl-headers pocl-opencl-icd
-  python3-statsmodels
+  python3-statsmodels python3-grpcio python3-protobuf
 )
 
 missing=()

@@ -88,3 +88,78 @@ TEST(LaneAssembly, FilletOnTheLaneEdgeIsMarked) {
   ASSERT_EQ(f.out.size(), 1u);
   EXPECT_TRUE(f.out[0].touches_lane_edge);
 }
+
+namespace {
+// Lines of a fillet on camera lines [l0, l1) over pixels [100, 300), pushed from `from` to
+// `to` (exclusive) at counts n + shift.
+void feed(Feed& f, int from, int to, int l0, int l1, int64_t shift) {
+  std::vector<float> t(D);
+  std::vector<uint16_t> x(D);
+  for (int n = from; n < to; ++n) {
+    for (int i = 0; i < D; ++i) t[i] = (n >= l0 && n < l1 && i >= 100 && i < 300) ? 20.f : 0.f;
+    const int s = n - f.lane.xray.delay_lines;
+    for (int i = 0; i < D; ++i) x[i] = (s >= l0 && s < l1 && i >= 100 && i < 300) ? 1000 : 3600;
+    f.a.push(n + shift, t.data(), x.data());
+  }
+}
+}  // namespace
+
+TEST(LaneAssembly, AGapOfAnyLengthInsideAFilletIsBridgedInBoundedWork) {
+  Feed f;
+  f.lane.inspection.encoder_horizon_lines = 1 << 30;  // a gap, not a jump
+  f.a.set_config(f.lane);
+  // 2^29 counts missing in the middle of a fillet: walked count by count this would not end.
+  feed(f, 0, 250, 100, 400, 0);
+  feed(f, 250, 900, 100, 400, int64_t(1) << 29);
+  f.a.flush();
+  ASSERT_GE(f.out.size(), 1u);
+  EXPECT_GT(f.out[0].missing_lines, 0);  // the fillet the gap touched fails safe
+  for (const auto& img : f.out) EXPECT_GT(img.missing_lines, 0);
+  EXPECT_EQ(f.a.stats().lines, 900 + (int64_t(1) << 29));
+}
+
+TEST(LaneAssembly, AJumpBeyondTheHorizonEndsTheOpenFilletNotInspected) {
+  Feed f;
+  feed(f, 0, 250, 100, 400, 0);
+  feed(f, 250, 900, 100, 400, int64_t(1) << 40);
+  f.a.flush();
+  ASSERT_EQ(f.out.size(), 2u);
+  EXPECT_NE(f.out[0].interrupted.find("encoder jumped"), std::string::npos) << f.out[0].interrupted;
+  EXPECT_GT(f.out[1].missing_lines, 0);  // the rest, seen without its start
+  EXPECT_EQ(f.a.stats().restarts, 1);
+}
+
+TEST(LaneAssembly, ARestartKeepsCompleteFilletsAndFailsTheOneUnderTheLaser) {
+  Feed f;
+  // A whole fillet (camera lines 100..199), then one only the laser has seen (lines
+  // 500..530, whose X-ray lines would come 50 lines later).
+  std::vector<float> t(D);
+  std::vector<uint16_t> x(D, 3600);
+  for (int n = 0; n < 531; ++n) {
+    const bool a = n >= 100 && n < 200, b = n >= 500;
+    for (int i = 0; i < D; ++i) t[i] = ((a || b) && i >= 100 && i < 300) ? 20.f : 0.f;
+    const int s = n - f.lane.xray.delay_lines;
+    for (int i = 0; i < D; ++i) x[i] = (s >= 100 && s < 200 && i >= 100 && i < 300) ? 1000 : 3600;
+    f.a.push(n, t.data(), x.data());
+  }
+  EXPECT_EQ(f.out.size(), 1u);  // the whole one is out already
+  EXPECT_FALSE(f.a.quiet());
+  f.a.restart("encoder reset");
+  ASSERT_EQ(f.out.size(), 2u);
+  EXPECT_TRUE(f.out[0].interrupted.empty());
+  EXPECT_EQ(f.out[0].missing_lines, 0);
+  // Not lost with the restart: reported, and it cannot be inspected.
+  EXPECT_EQ(f.out[1].interrupted, "encoder reset");
+  EXPECT_GT(f.out[1].missing_lines, 0);
+  EXPECT_TRUE(f.a.quiet());
+  f.a.push(3, t.data(), x.data());  // afresh: any count
+  EXPECT_EQ(f.a.stats().out_of_order, 0);
+}
+
+TEST(LaneAssembly, LinesEndingMidFilletLeaveItNotInspected) {
+  Feed f;
+  feed(f, 0, 300, 100, 400, 0);
+  f.a.flush();
+  ASSERT_EQ(f.out.size(), 1u);
+  EXPECT_NE(f.out[0].interrupted.find("coming in"), std::string::npos) << f.out[0].interrupted;
+}

@@ -28,7 +28,10 @@ TEST(PlantConfig, ShippedDefaultLoads) {
   // The two cameras sit on opposite sides of the laser plane.
   EXPECT_GT(l.cameras[0].model.center().y * l.cameras[1].model.center().y, -1e9);
   EXPECT_LT(l.cameras[0].model.center().y * l.cameras[1].model.center().y, 0);
-  EXPECT_THROW(p.lane(9), Error);
+  EXPECT_THROW(p.lane(9), NotFound);
+  EXPECT_EQ(p.engine.queue_lines, 2048u);
+  EXPECT_TRUE(p.engine.auto_reset);
+  EXPECT_DOUBLE_EQ(p.engine.exit_after_s, 60);
 }
 
 TEST(PlantConfig, LaneOverridesSectionOfDefaults) {
@@ -72,6 +75,18 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
   EXPECT_NE(error_of("plant: {backend: cuda}\nlanes: [{id: 0}]\n").find("plant.backend"),
             std::string::npos);
   EXPECT_NE(error_of("plant: {name: x}\n").find("missing key 'lanes'"), std::string::npos);
+  EXPECT_NE(
+      error_of("server: {stall_s: 0}\nlanes: [{id: 0}]\n").find("server.stall_s: must be > 0"),
+      std::string::npos);
+  EXPECT_NE(error_of("server: {stall_s: 1}\nlanes: [{id: 0}]\nserver: {stall_s: 2}\n")
+                .find("duplicate key 'server'"),
+            std::string::npos);
+  EXPECT_NE(error_of("server: {auto_reset: maybe}\nlanes: [{id: 0}]\n")
+                .find("server.auto_reset: expected true or false"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, inspection: {encoder_horizon_lines: -1}}]\n")
+                .find("inspection.encoder_horizon_lines: must be > 0"),
+            std::string::npos);
   EXPECT_NE(
       error_of("lanes:\n  - id: 0\n    frame: {width: 640, height: 3}\n").find("out of range"),
       std::string::npos);

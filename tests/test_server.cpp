@@ -365,6 +365,10 @@ TEST(Server, HealthAndReflectionAnswer) {
   std::string resp;
   ASSERT_TRUE(test::generic_unary(ch, "/grpc.health.v1.Health/Check", "", resp).ok());
   EXPECT_EQ(resp, std::string("\x08\x01", 2));  // status: SERVING
+  for (const char* svc : {"rangex.v1.IngestService", "rangex.v1.ResultsService",
+                          "rangex.v1.CalibrationService", "rangex.v1.ControlService"})
+    EXPECT_EQ(test::health(ch, svc), 1) << svc;
+  EXPECT_EQ(test::health(ch, "rangex.v1.Nothing"), -int(grpc::StatusCode::NOT_FOUND));
   // Reflection: list_services (field 7, empty string) on the bidirectional stream.
   grpc::GenericStub stub(ch);
   grpc::ClientContext ctx;

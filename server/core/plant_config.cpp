@@ -33,9 +33,11 @@ struct Node {
 
   void only_keys(std::initializer_list<const char*> keys) const {
     if (!node.IsMap()) bad("expected a mapping");
-    std::set<std::string> ok(keys.begin(), keys.end());
+    std::set<std::string> ok(keys.begin(), keys.end()), seen;
     for (const auto& kv : node) {
       const auto k = kv.first.as<std::string>();
+      // YAML parsers keep one of two equal keys silently; a setting written twice is refused.
+      if (!seen.insert(k).second) bad("duplicate key '" + k + "'");
       if (!ok.count(k)) {
         std::string list;
         for (const auto& s : ok) list += (list.empty() ? "" : ", ") + s;

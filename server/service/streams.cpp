@@ -1,5 +1,6 @@
 #include "service/streams.h"
 
+#include <algorithm>
 #include <deque>
 #include <memory>
 #include <mutex>
@@ -127,7 +128,9 @@ class IngestStream final
       v = engine_.submit(std::move(in));
     }
     resp.set_accepted(v.accepted);
-    resp.set_credit(v.credit);
+    // The queue is shared: each open stream is offered its share of the free places, so that
+    // feeders that all follow their credit cannot overrun it together.
+    resp.set_credit(v.credit / std::max(1, counters_.ingest.load()));
     if (!v.accepted) {
       resp.mutable_error()->set_code(std::string(refusal_name(v.code)));
       resp.mutable_error()->set_message(v.message);
