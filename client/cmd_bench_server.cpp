@@ -214,6 +214,8 @@ int cmd_bench_server(int argc, char** argv) {
           fo.window = 128;
           const FeedReport r = Feeder(ch, fo).run(src);
           refused += int64_t(r.refused_total());
+          for (const auto& [code, n] : r.refused)
+            std::fprintf(stderr, "lane %d: %llu %s\n", lane, (unsigned long long)n, code.c_str());
         });
       for (auto& f : feeders) f.join();
       server.shutdown();  // waits until every accepted line is decided

@@ -65,7 +65,9 @@ struct Shared {
   std::condition_variable cv;
   std::deque<InFlight> unacked;  // in sequence order
   int credit = 1 << 20;
-  bool broken = false;  // the current stream ended
+  bool broken = false;         // the current stream ended
+  bool query_pending = false;  // a credit query awaits its answer
+  uint64_t query_sequence = 0;
   Clock::time_point progress = Clock::now();
 };
 
@@ -95,6 +97,7 @@ FeedReport Feeder::run(LineSource& source) {
     {
       std::lock_guard<std::mutex> lock(sh.mu);
       sh.broken = false;
+      sh.query_pending = false;
     }
     std::thread reader([&] {
       pb::StreamLinesResponse r;
@@ -102,6 +105,11 @@ FeedReport Feeder::run(LineSource& source) {
         std::lock_guard<std::mutex> lock(sh.mu);
         sh.credit = r.credit();
         sh.progress = Clock::now();
+        if (sh.query_pending && r.sequence() == sh.query_sequence) {
+          sh.query_pending = false;
+          sh.cv.notify_all();
+          continue;
+        }
         if (sh.unacked.empty() || sh.unacked.front().req->sequence() != r.sequence()) continue;
         const bool resent = sh.unacked.front().resent;
         sh.unacked.pop_front();
@@ -143,25 +151,36 @@ FeedReport Feeder::run(LineSource& source) {
       std::shared_ptr<const pb::StreamLinesRequest> out;
       {
         // Flow control: at most `window` lines unacknowledged, and no more than the credit
-        // of the last ack (this stream's share of the server's free places, counted after
-        // that line: the lines sent since will take from it). With no credit and nothing
-        // outstanding, wait, longer each time, then send one line to hear the credit again.
+        // of the last answer (this stream's share of the server's queue, counted after that
+        // line: the lines sent since will take from it). With no credit and nothing
+        // outstanding, ask for the credit again after a while, longer each time: never
+        // with a line, which a full queue would drop.
         std::unique_lock<std::mutex> lock(sh.mu);
-        sh.cv.wait(lock, [&] {
-          const int limit = std::min(opt_.window, std::max(sh.credit, 0));
-          return sh.broken || int(sh.unacked.size()) < limit || sh.unacked.empty();
-        });
-        if (sh.broken) break;
-        if (sh.credit <= 0) {
+        while (true) {
+          sh.cv.wait(lock, [&] {
+            const int limit = std::min(opt_.window, std::max(sh.credit, 0));
+            return sh.broken ||
+                   (!sh.query_pending && (int(sh.unacked.size()) < limit || sh.unacked.empty()));
+          });
+          if (sh.broken || int(sh.unacked.size()) < std::min(opt_.window, sh.credit)) break;
           // Spread over half to one and a half times the wait, so that the streams of a
-          // plant do not all probe a full queue at the same moment.
+          // plant do not all ask at the same moment.
           lock.unlock();
           std::this_thread::sleep_for(probe_wait / 2 + probe_wait * (jitter() % 1000) / 1000);
           probe_wait = std::min(probe_wait * 2, std::chrono::milliseconds(1000));
+          pb::StreamLinesRequest query;
+          query.set_sequence(seq++);
+          query.set_credit_query(true);
           lock.lock();
-        } else {
-          probe_wait = std::chrono::milliseconds(50);
+          sh.query_pending = true;
+          sh.query_sequence = query.sequence();
+          lock.unlock();
+          open = stream->Write(query);
+          lock.lock();
+          if (!open) break;
         }
+        if (sh.broken || !open) break;
+        probe_wait = std::chrono::milliseconds(50);
       }
       auto req = std::make_shared<pb::StreamLinesRequest>();
       req->set_sequence(seq++);

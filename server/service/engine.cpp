@@ -81,6 +81,10 @@ Engine::Verdict Engine::refuse_empty(uint64_t sequence) {
                 queued_.load());
 }
 
+int Engine::free_places() const {
+  return int(opt_.queue_lines - std::min(queued_.load(), opt_.queue_lines));
+}
+
 Engine::Verdict Engine::submit(IncomingLine&& line) {
   ++received_;
   Lane* l = nullptr;
@@ -137,6 +141,7 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
                          " lines); line dropped, its fillet will be rejected as not inspected"),
                     queue_.size());
     l->admission.commit(line.encoder, !a.restart.empty());
+    if (line.queued_by) ++*line.queued_by;
     ++l->accepted;
     l->last_line_ns = now;
     queue_.push_back({std::move(line), now, std::move(a.restart)});
@@ -176,6 +181,7 @@ void Engine::worker() {
         for (size_t i = 0; i < n; ++i) {
           batch.push_back(std::move(queue_.front()));
           queue_.pop_front();
+          if (batch.back().line.queued_by) --*batch.back().line.queued_by;
         }
         queued_ = queue_.size();
         batch_started_ns_ = steady_ns();

@@ -43,6 +43,9 @@ struct IncomingLine {
   int64_t encoder = 0;
   std::string cam0, cam1, xray;  // raw bytes as received
   std::string calibration_id;    // what the sender believes active; empty: not checked
+  // The sending stream's count of its lines waiting in the queue (for its credit); the
+  // engine adds the line when it takes it and removes it when the worker does.
+  std::shared_ptr<std::atomic<int>> queued_by;
 };
 
 struct EngineOptions : EngineSettings {
@@ -97,6 +100,8 @@ class Engine {
   Verdict submit(IncomingLine&& line);
   // A request that carried no line: refused and counted like any other.
   Verdict refuse_empty(uint64_t sequence);
+  // Places free in the queue now.
+  int free_places() const;
   // Graceful stop: refuse new lines, process every queued one, close open fillets. False
   // when the worker could not finish within `timeout_s` (< 0: wait as long as it takes).
   bool drain_and_stop(double timeout_s = -1);

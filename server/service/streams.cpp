@@ -114,6 +114,11 @@ class IngestStream final
     pb::StreamLinesResponse resp;
     resp.set_sequence(req.sequence());
     Engine::Verdict v;
+    if (!req.has_line() && req.credit_query()) {
+      v.credit = engine_.free_places();  // a question, not a line: nothing is counted
+      resp.set_credit(credit(v));
+      return resp;
+    }
     if (!req.has_line()) {
       v = engine_.refuse_empty(req.sequence());
     } else {
@@ -125,17 +130,27 @@ class IngestStream final
       in.cam1 = std::move(*l->mutable_cam1());
       in.xray = std::move(*l->mutable_xray());
       in.calibration_id = l->calibration_id();
+      in.queued_by = queued_;
       v = engine_.submit(std::move(in));
     }
     resp.set_accepted(v.accepted);
-    // The queue is shared: each open stream is offered its share of the free places, so that
-    // feeders that all follow their credit cannot overrun it together.
-    resp.set_credit(v.credit / std::max(1, counters_.ingest.load()));
+    resp.set_credit(credit(v));
     if (!v.accepted) {
       resp.mutable_error()->set_code(std::string(refusal_name(v.code)));
       resp.mutable_error()->set_message(v.message);
     }
     return resp;
+  }
+  int credit(const Engine::Verdict& v) const {
+    // The queue is shared: each stream's credit is its quota (an equal share of the queue
+    // among the open streams, and at least as many as the plant has lanes, so that the
+    // first streams to connect do not take it all) less its own lines still queued, and
+    // never more than the free places. A feeder that keeps its lines in flight within its
+    // credit keeps queued + in flight within its quota: feeders that all follow their credit
+    // cannot overrun the queue together.
+    const int streams = std::max(counters_.ingest.load(), int(engine_.plant().lanes.size()));
+    const int quota = int(engine_.options().queue_lines) / std::max(1, streams);
+    return std::max(0, std::min(v.credit, quota - queued_->load()));
   }
   void read_more() {
     if (!reading_ && !reads_done_ && !broken_ && acks_.size() < kMaxPendingAcks) {
@@ -151,6 +166,7 @@ class IngestStream final
 
   Engine& engine_;
   StreamCounters& counters_;
+  std::shared_ptr<std::atomic<int>> queued_ = std::make_shared<std::atomic<int>>(0);
   std::mutex mu_;
   pb::StreamLinesRequest req_;
   std::deque<pb::StreamLinesResponse> acks_;  // front: being written
