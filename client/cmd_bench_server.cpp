@@ -105,7 +105,7 @@ void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans, 
             streams_ok += ok;
             static std::atomic<int> told{0};
             if (!ok && told++ < 3) {
-              std::fprintf(stderr, "lane 0 stream: status '%s', sent %llu accepted %llu:",
+              std::fprintf(stderr, "lane %d stream: status '%s', sent %llu accepted %llu:", lane,
                            r.status.error_message().c_str(), (unsigned long long)r.sent,
                            (unsigned long long)r.accepted);
               for (const auto& [code, n] : r.refused)

@@ -24,7 +24,6 @@ enum class Refusal {
 
 enum class DropReason {
   kProcessingError,  // the batch's processing failed; the lane restarted, its fillets fail safe
-  kUndrained,        // still queued when a stop ran out of time
   kCount
 };
 
@@ -47,7 +46,7 @@ constexpr std::string_view refusal_name(Refusal r) {
 }
 
 constexpr std::string_view drop_name(DropReason d) {
-  constexpr std::array<std::string_view, kDropReasons> names = {"PROCESSING_ERROR", "UNDRAINED"};
+  constexpr std::array<std::string_view, kDropReasons> names = {"PROCESSING_ERROR"};
   return names[size_t(d)];
 }
 
