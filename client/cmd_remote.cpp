@@ -168,6 +168,7 @@ int cmd_status(int argc, char** argv) {
               info.plant().c_str(), info.backend().c_str(), info.storage().c_str());
   std::printf("%s\n", s.serving() ? "SERVING" : "NOT SERVING");
   for (const auto& h : s.health()) std::printf("  %s\n", h.c_str());
+  for (const auto& w : s.warnings()) std::printf("warning: %s\n", w.c_str());
   std::printf(
       "lines: %llu received, %llu accepted, %llu processed, %.0f lines/s; queue %d of %d; %d "
       "ingest streams\n",

@@ -814,3 +814,52 @@ TEST(IngestConcurrency, LockedStoreTurnsHealthNotServingAndNoDecisionIsLost) {
   EXPECT_GE(server.engine().stats().store_errors, 1u);
   expect_accounting(server);
 }
+
+TEST(IngestConcurrency, ALaneThatStopsBeingFedEndsItsOpenFilletNotInspected) {
+  ASSERT_FALSE(data_dir().empty());
+  Bound bound(180);
+  test::TempDir t;
+  const PlantConfig p = plant(2);
+  Lines lines;
+  const int64_t N = lines.count(), first = lines.first_encoder();
+  const std::vector<Decided> ref = reference(lines, 0, p.lanes[0]);
+  ASSERT_EQ(ref.size(), 1u);
+  const int64_t mid = ref[0].first_encoder - first - p.lanes[0].xray.delay_lines + 80;
+  ServerOptions o = options(t);
+  o.engine.idle_close_s = 0.5;
+  RangexServer server(p, o);
+  auto ch = connect(server);
+  auto send = [&](int64_t from, int64_t to) {
+    Stream s(ch);
+    pb::LineScan l;
+    for (int64_t n = from; n < to; ++n) {
+      lines.get(0, n, 0, l);
+      ASSERT_TRUE(s.send(&l));
+    }
+    s.finish();
+  };
+  send(0, mid);  // the feeder dies in the middle of a fillet
+  while (server.store().count_fillets() < 1) std::this_thread::sleep_for(10ms);
+  const auto cut = server.store().list_fillets(0, 0, 0, 0, 10);
+  EXPECT_EQ(cut[0].decision, "not_inspected");
+  EXPECT_NE(cut[0].reason.find("stopped being fed"), std::string::npos) << cut[0].reason;
+  {
+    auto ctl = pb::ControlService::NewStub(ch);
+    grpc::ClientContext c1, c2;
+    pb::GetStatisticsResponse st;
+    ASSERT_TRUE(ctl->GetStatistics(&c1, {}, &st).ok());
+    EXPECT_TRUE(st.serving());  // the server can still inspect; it says what needs a look
+    ASSERT_GE(st.warnings_size(), 1);
+    EXPECT_NE(st.warnings(0).find("lane 0 stopped being fed"), std::string::npos) << st.warnings(0);
+    pb::ListLanesResponse ll;
+    ASSERT_TRUE(ctl->ListLanes(&c2, {}, &ll).ok());
+    EXPECT_NE(ll.lanes(0).last_restart().find("stopped being fed"), std::string::npos);
+    EXPECT_FALSE(ll.lanes(0).fillet_in_progress());
+  }
+  send(mid, N);  // it comes back where it stopped: the rest of that fillet is not passed
+  ASSERT_TRUE(server.shutdown());
+  const auto all = server.store().list_fillets(0, 0, 0, 0, 10);
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_EQ(all[1].decision, "not_inspected") << all[1].reason;
+  expect_accounting(server);
+}

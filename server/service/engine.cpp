@@ -643,6 +643,14 @@ EngineStats Engine::stats() {
     if (const uint64_t n = dropped_[i]) s.dropped[std::string(drop_name(DropReason(i)))] = n;
   for (auto& l : lanes_) s.lane_restarts += l->restarts;
   {
+    const int64_t now = steady_ns();
+    std::lock_guard<std::mutex> lock(mu_);
+    for (auto& l : lanes_)
+      if (l->last_line_ns && now - l->last_line_ns > seconds_ns(opt_.idle_close_s))
+        s.warnings.push_back(join("lane ", l->id, " stopped being fed: no line for ",
+                                  (now - l->last_line_ns) / 1'000'000'000, " s"));
+  }
+  {
     std::lock_guard<std::mutex> lock(rate_mu_);
     if (rate_.size() >= 2) {
       const double dt = (rate_.back().first - rate_.front().first) / 1e9;

@@ -71,6 +71,7 @@ struct EngineStats {
   int queue_depth = 0, queue_capacity = 0;
   LatencyStats::Summary queue_wait, pipeline, inspection, decision;
   Health health;
+  std::vector<std::string> warnings;  // e.g. lanes that stopped being fed
 };
 
 struct LaneState {

@@ -113,6 +113,7 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
   o->set_store_errors(s.store_errors);
   o->set_serving(s.health.serving);
   for (const std::string& r : s.health.reasons) o->add_health(r);
+  for (const std::string& w : s.warnings) o->add_warnings(w);
 }
 
 }  // namespace rangex
