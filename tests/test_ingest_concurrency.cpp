@@ -170,6 +170,21 @@ std::vector<Decided> reference(Lines& lines, int src, const LaneConfig& lane, in
   return out;
 }
 
+// Recording lane 0 holds one fillet: its orderly decision, and the line of the recording 80
+// lines into it on the laser side.
+struct OneFillet {
+  std::vector<Decided> ref;
+  int64_t mid = 0;
+};
+OneFillet one_fillet(Lines& lines, const LaneConfig& lane) {
+  OneFillet f;
+  f.ref = reference(lines, 0, lane);
+  EXPECT_EQ(f.ref.size(), 1u);
+  if (!f.ref.empty())
+    f.mid = f.ref[0].first_encoder - lines.first_encoder() - lane.xray.delay_lines + 80;
+  return f;
+}
+
 std::vector<Decided> stored(Store& store, int lane) {
   std::vector<Decided> out;
   for (const StoredFillet& f : store.list_fillets(0, 0, lane, 0, 100000)) {
@@ -537,11 +552,9 @@ TEST(IngestConcurrency, EncoderJumpsAndResetsTakeBoundedTimeAndFailSafe) {
   const PlantConfig p = plant(2);
   Lines lines;
   const int64_t N = lines.count(), first = lines.first_encoder();
-  const std::vector<Decided> ref = reference(lines, 0, p.lanes[0]);
+  const auto [ref, mid] = one_fillet(lines, p.lanes[0]);
   ASSERT_EQ(ref.size(), 1u);
   ASSERT_NE(ref[0].decision, "not_inspected");
-  // The fillet's middle, in lines of the recording.
-  const int64_t mid = ref[0].first_encoder - first - p.lanes[0].xray.delay_lines + 80;
 
   RangexServer server(p, options(t));
   auto ch = connect(server);
@@ -821,10 +834,9 @@ TEST(IngestConcurrency, ALaneThatStopsBeingFedEndsItsOpenFilletNotInspected) {
   test::TempDir t;
   const PlantConfig p = plant(2);
   Lines lines;
-  const int64_t N = lines.count(), first = lines.first_encoder();
-  const std::vector<Decided> ref = reference(lines, 0, p.lanes[0]);
+  const int64_t N = lines.count();
+  const auto [ref, mid] = one_fillet(lines, p.lanes[0]);
   ASSERT_EQ(ref.size(), 1u);
-  const int64_t mid = ref[0].first_encoder - first - p.lanes[0].xray.delay_lines + 80;
   ServerOptions o = options(t);
   o.engine.idle_close_s = 0.5;
   RangexServer server(p, o);
