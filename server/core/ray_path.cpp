@@ -6,6 +6,8 @@
 namespace rangex {
 
 namespace {
+constexpr double kMinSegmentMm = 1e-6;
+
 // Positive part length of a linear function f over [a, b] given its end values.
 double positive_span(double a, double b, double fa, double fb) {
   if (fa <= 0 && fb <= 0) return 0;
@@ -53,12 +55,16 @@ PathResult ray_path_length(const ProfileGrid& g, double xd, double zd, double xs
       // Outside the grid there is no meat; keep walking only if the ray can come back.
       if ((cell < -1 && slope <= 0) || (cell >= g.n && slope >= 0)) break;
     }
-    const double h0 = sample(cell), h1 = sample(cell + 1);
-    auto h_at = [&](double zz) {
-      const double t = (x_at(zz) - (g.x0_mm + cell * g.pitch_mm)) / g.pitch_mm;
-      return h0 + (h1 - h0) * t;
-    };
-    len += positive_span(z, zexit, h_at(z) - z, h_at(zexit) - zexit);
+    // A segment of no length only crosses a cell boundary: there is no meat in it to sample
+    // (whether the walk takes such a step at all depends on the last bit of a double).
+    if (zexit - z > kMinSegmentMm) {
+      const double h0 = sample(cell), h1 = sample(cell + 1);
+      auto h_at = [&](double zz) {
+        const double t = (x_at(zz) - (g.x0_mm + cell * g.pitch_mm)) / g.pitch_mm;
+        return h0 + (h1 - h0) * t;
+      };
+      len += positive_span(z, zexit, h_at(z) - z, h_at(zexit) - zexit);
+    }
     if (zexit <= z) zexit = z + 1e-9;  // numerical guard: always advance
     z = zexit;
   }

@@ -41,10 +41,24 @@ class LinePipeline {
   int grid_samples() const { return grid_n_; }
   int pixels() const { return pixels_; }
   const RectifyTable& table(int slot, int camera) const { return tables_[slot * 2 + camera]; }
+  // A lane's new configuration (calibration, thresholds); sizes must stay as they are.
+  void update_lane(int slot, const LaneConfig& lane);
 
   void run(const LineBatch& batch, LineResults& out) const;
+  // The same over frames in caller memory: lines x 2 frames, lane_slot per line.
+  void run(const uint8_t* frames, int lines, const int* lane_slot, LineResults& out) const;
+
+  // The stages one by one (frame_slot = lane slot * 2 + camera; lane_slot per line).
+  void stripes(const uint8_t* frames, int count, const int* frame_slot, StripeOutput& out) const;
+  void rectify_rows(const float* row, const uint8_t* valid, int count, const int* frame_slot,
+                    float* x, float* z, uint8_t* out_valid) const;
+  void fuse(const float* x, const float* z, const uint8_t* valid, int lines, const int* lane_slot,
+            float* profile, uint8_t* profile_valid, FusionStats* stats) const;
+  void project(const float* profile, const uint8_t* profile_valid, int lines, const int* lane_slot,
+               float* thickness, uint8_t* thickness_valid) const;
 
  private:
+  void check_shape(const LaneConfig& l) const;
   std::vector<LaneConfig> lanes_;
   std::vector<StripeSlot> stripe_slots_;  // [lane][camera]
   std::vector<RectifyTable> tables_;      // [lane][camera]

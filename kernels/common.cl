@@ -1,0 +1,14 @@
+// Shared by every rangex OpenCL kernel: doubles (fusion and projection follow the CPU
+// reference, which computes in double) and no contraction of a * b + c into fma, so that
+// float results round as the CPU reference's do.
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#pragma OPENCL FP_CONTRACT OFF
+#include "shared/lane_tables.h"
+
+#define METHOD_CENTROID 0
+#define METHOD_SQUARED 1
+#define METHOD_BINARY 2
+#define METHOD_GAUSSIAN3 3
+#define METHOD_PARABOLA 4
+#define METHOD_SHIFTED 5
+#define METHOD_MODIFIED 6

@@ -1,0 +1,113 @@
+#include "backends/cpu/cpu_backend.h"
+
+#include <chrono>
+#include <thread>
+
+#include "core/error.h"
+
+namespace rangex {
+
+namespace {
+double since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+// Staging is plain memory: the CPU reads the frames where the engine wrote them.
+class CpuBackend::Slot final : public LineBatchSlot {
+ public:
+  void reserve(int lines, size_t frame_bytes) {
+    if (lines <= capacity_) return;
+    frames_buf_.resize(size_t(lines) * 2 * frame_bytes);
+    lanes_buf_.resize(size_t(lines));
+    frames_ = frames_buf_.data();
+    lane_slot_ = lanes_buf_.data();
+    capacity_ = lines;
+  }
+  bool busy = false;
+
+ private:
+  std::vector<uint8_t> frames_buf_;
+  std::vector<int32_t> lanes_buf_;
+};
+
+CpuBackend::CpuBackend(int threads) : threads_(std::max(1, threads)) {
+  info_.name = "cpu";
+#if defined(__AVX512BW__)
+  info_.device = "host CPU, AVX-512 blocks of 64 columns";
+#else
+  info_.device = "host CPU, portable groups of 16 columns";
+#endif
+  info_.driver = "rangex";
+  info_.limits = std::to_string(threads_) + " stripe threads of " +
+                 std::to_string(std::max(1u, std::thread::hardware_concurrency())) + " cores";
+  for (auto& s : slots_) s = std::make_unique<Slot>();
+}
+
+CpuBackend::~CpuBackend() = default;
+
+const LinePipeline& CpuBackend::pipe() const {
+  if (!pipe_) fail("backend cpu: no lanes set");
+  return *pipe_;
+}
+
+void CpuBackend::set_lanes(const std::vector<LaneConfig>& lanes) {
+  pipe_ = std::make_unique<LinePipeline>(lanes, threads_);
+  lanes_ = lanes;
+}
+
+void CpuBackend::update_lane(int slot, const LaneConfig& lane) {
+  if (!pipe_) fail("backend cpu: no lanes set");
+  pipe_->update_lane(slot, lane);
+  lanes_.at(slot) = lane;
+}
+
+LineBatchSlot& CpuBackend::acquire(int lines) {
+  Slot& s = *slots_[next_];
+  if (s.busy) fail("backend cpu: both staging slots are in flight; collect one first");
+  next_ = 1 - next_;
+  s.reserve(lines, size_t(pipe().width()) * pipe().height());
+  s.lines = lines;
+  s.busy = true;
+  return s;
+}
+
+void CpuBackend::submit(LineBatchSlot&) {}  // computed when collected: nothing to overlap
+
+void CpuBackend::collect(LineBatchSlot& batch, LineResults& out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  pipe().run(batch.frames(), batch.lines, batch.lane_slot(), out);
+  times_ = {0, since(t0), 0};
+  static_cast<Slot&>(batch).busy = false;
+}
+
+void CpuBackend::stripes(const uint8_t* frames, int count, const int* frame_slot,
+                         StripeOutput& out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  pipe().stripes(frames, count, frame_slot, out);
+  times_ = {0, since(t0), 0};
+}
+
+void CpuBackend::rectify(const float* row, const uint8_t* valid, int count, const int* frame_slot,
+                         float* x, float* z, uint8_t* out_valid) {
+  const auto t0 = std::chrono::steady_clock::now();
+  pipe().rectify_rows(row, valid, count, frame_slot, x, z, out_valid);
+  times_ = {0, since(t0), 0};
+}
+
+void CpuBackend::fuse(const float* x, const float* z, const uint8_t* valid, int lines,
+                      const int* lane_slot, float* profile, uint8_t* profile_valid,
+                      FusionStats* stats) {
+  const auto t0 = std::chrono::steady_clock::now();
+  pipe().fuse(x, z, valid, lines, lane_slot, profile, profile_valid, stats);
+  times_ = {0, since(t0), 0};
+}
+
+void CpuBackend::project(const float* profile, const uint8_t* profile_valid, int lines,
+                         const int* lane_slot, float* thickness, uint8_t* thickness_valid) {
+  const auto t0 = std::chrono::steady_clock::now();
+  pipe().project(profile, profile_valid, lines, lane_slot, thickness, thickness_valid);
+  times_ = {0, since(t0), 0};
+}
+
+}  // namespace rangex

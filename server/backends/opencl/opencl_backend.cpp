@@ -1,0 +1,475 @@
+#include "backends/opencl/opencl_backend.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "backends/lane_tables.h"
+#include "backends/opencl/cl_runtime.h"
+#include "core/error.h"
+#include "kernels_cl.h"
+
+namespace rangex {
+
+namespace {
+
+using cl::check;
+
+// Kernel arguments in order: buffers as cl_mem, numbers by value.
+template <typename T>
+void arg(cl_kernel k, cl_uint i, const T& v) {
+  check(clSetKernelArg(k, i, sizeof v, &v), "clSetKernelArg");
+}
+template <typename... A>
+void args(cl_kernel k, const A&... a) {
+  cl_uint i = 0;
+  (arg(k, i++, a), ...);
+}
+
+void launch(cl_command_queue q, cl_kernel k, size_t n, std::vector<cl_event>& ev) {
+  if (n == 0) return;
+  cl_event e;
+  check(clEnqueueNDRangeKernel(q, k, 1, nullptr, &n, nullptr, 0, nullptr, &e),
+        "clEnqueueNDRangeKernel");
+  ev.push_back(e);
+}
+
+void write(cl_command_queue q, cl_mem m, const void* src, size_t bytes, std::vector<cl_event>& ev) {
+  if (bytes == 0) return;
+  cl_event e;
+  check(clEnqueueWriteBuffer(q, m, CL_FALSE, 0, bytes, src, 0, nullptr, &e),
+        "clEnqueueWriteBuffer");
+  ev.push_back(e);
+}
+
+void read(cl_command_queue q, cl_mem m, void* dst, size_t bytes, std::vector<cl_event>& ev) {
+  if (bytes == 0) return;
+  cl_event e;
+  check(clEnqueueReadBuffer(q, m, CL_FALSE, 0, bytes, dst, 0, nullptr, &e), "clEnqueueReadBuffer");
+  ev.push_back(e);
+}
+
+double seconds(std::vector<cl_event>& ev) {
+  double s = 0;
+  for (cl_event e : ev) {
+    s += cl::event_seconds(e);
+    clReleaseEvent(e);
+  }
+  ev.clear();
+  return s;
+}
+
+void to_flags(const std::vector<int32_t>& in, size_t n, uint8_t* out) {
+  for (size_t i = 0; i < n; ++i) out[i] = uint8_t(in[i] != 0);
+}
+std::vector<int32_t> from_flags(const uint8_t* in, size_t n) {
+  std::vector<int32_t> v(n);
+  for (size_t i = 0; i < n; ++i) v[i] = in[i];
+  return v;
+}
+
+}  // namespace
+
+struct OpenClBackend::Impl {
+  OpenClOptions opt;
+  std::unique_ptr<cl::Context> cx;
+  cl_program program = nullptr;
+  cl_kernel k_stripe = nullptr, k_rectify = nullptr, k_resample = nullptr, k_merge = nullptr,
+            k_project = nullptr;
+  size_t align = 128;
+  KernelTables tables;
+  cl::Buffer t_stripe, t_rect, t_nodes, t_geom, t_ln;
+
+  // Device buffers for a batch of up to `lines` lines.
+  struct Lines {
+    int lines = 0;
+    cl::Buffer frames, frame_slot, lane_slot;
+    cl::Buffer row, peak, width, asym, centroid, valid;
+    cl::Buffer x, z, xz_valid, cam, profile, profile_valid, counts, top;
+    cl::Buffer thickness, thickness_valid;
+    std::vector<const cl::Buffer*> all() const {
+      return {
+          &frames,        &frame_slot, &lane_slot, &row,       &peak,           &width, &asym,
+          &centroid,      &valid,      &x,         &z,         &xz_valid,       &cam,   &profile,
+          &profile_valid, &counts,     &top,       &thickness, &thickness_valid};
+    }
+  };
+  Lines scratch;  // single-stage calls
+
+  // A batch slot: pinned staging for frames and lane slots, the batch's device buffers and
+  // the host side of its results.
+  struct Slot final : LineBatchSlot {
+    int queue = 0;
+    bool busy = false, submitted = false;
+    cl::Buffer pinned;
+    std::vector<int32_t> lanes_host, frame_slot_host;
+    Lines dev;
+    std::vector<cl_event> up, run, down;
+    // Results as read back (flags as the kernels write them).
+    std::vector<int32_t> valid_i, xz_valid_i, profile_valid_i, thickness_valid_i;
+    std::vector<kernel::FusionCountK> counts;
+    std::vector<float> top;
+    void set(uint8_t* f, int32_t* l, int cap) {
+      frames_ = f;
+      lane_slot_ = l;
+      capacity_ = cap;
+    }
+  };
+  std::array<Slot, 2> slots;
+  int next = 0;
+
+  cl_command_queue q(int i) const { return cx->queue(i); }
+
+  cl::Buffer buffer(size_t bytes, cl_mem_flags flags = CL_MEM_READ_WRITE) {
+    return cl::Buffer(cx->ctx(), flags, bytes, opt.guards ? 256 : 0, align, q(0));
+  }
+
+  void ensure(Lines& d, int lines) {
+    if (lines <= d.lines) return;
+    const size_t W = size_t(tables.width), H = size_t(tables.height);
+    const size_t cols = size_t(lines) * 2 * W, G = size_t(tables.grid_n), P = size_t(tables.pixels);
+    d.frames = buffer(cols * H, CL_MEM_READ_ONLY);
+    d.frame_slot = buffer(size_t(lines) * 2 * 4, CL_MEM_READ_ONLY);
+    d.lane_slot = buffer(size_t(lines) * 4, CL_MEM_READ_ONLY);
+    for (cl::Buffer* b :
+         {&d.row, &d.peak, &d.width, &d.asym, &d.centroid, &d.valid, &d.x, &d.z, &d.xz_valid})
+      *b = buffer(cols * 4);
+    d.cam = buffer(size_t(lines) * 2 * G * 4);
+    d.profile = buffer(size_t(lines) * G * 4);
+    d.profile_valid = buffer(size_t(lines) * G * 4);
+    d.counts = buffer(size_t(lines) * sizeof(kernel::FusionCountK));
+    d.top = buffer(size_t(lines) * 4);
+    d.thickness = buffer(size_t(lines) * P * 4);
+    d.thickness_valid = buffer(size_t(lines) * P * 4);
+    d.lines = lines;
+  }
+
+  void check_guards(const Lines& d, cl_command_queue qq) {
+    if (!opt.guards) return;
+    for (const cl::Buffer* b : d.all()) b->check_guards(qq, "batch");
+    for (const cl::Buffer* b : {&t_stripe, &t_rect, &t_nodes, &t_geom, &t_ln})
+      b->check_guards(qq, "tables");
+  }
+
+  void upload_tables() {
+    auto up = [&](cl::Buffer& b, const void* p, size_t n) {
+      b = buffer(std::max<size_t>(n, 4), CL_MEM_READ_ONLY);
+      check(clEnqueueWriteBuffer(q(0), b.mem(), CL_TRUE, 0, n, p, 0, nullptr, nullptr),
+            "clEnqueueWriteBuffer (tables)");
+    };
+    up(t_stripe, tables.stripe.data(), tables.stripe.size() * sizeof(kernel::StripeSlotK));
+    up(t_rect, tables.rect.data(), tables.rect.size() * sizeof(kernel::RectTableK));
+    up(t_nodes, tables.nodes.data(), tables.nodes.size() * 4);
+    up(t_geom, tables.geom.data(), tables.geom.size() * sizeof(kernel::LaneGeomK));
+    up(t_ln, tables.ln.data(), tables.ln.size() * 4);
+  }
+
+  // The stages, enqueued on queue qq over the device buffers d.
+  void enqueue_stripes(cl_command_queue qq, Lines& d, int count, std::vector<cl_event>& ev) {
+    args(k_stripe, d.frames.mem(), count, tables.width, tables.height, d.frame_slot.mem(),
+         t_stripe.mem(), t_ln.mem(), d.row.mem(), d.peak.mem(), d.width.mem(), d.asym.mem(),
+         d.centroid.mem(), d.valid.mem());
+    launch(qq, k_stripe, size_t(count) * tables.width, ev);
+  }
+  void enqueue_rectify(cl_command_queue qq, Lines& d, int count, std::vector<cl_event>& ev) {
+    args(k_rectify, d.row.mem(), d.valid.mem(), count, tables.width, d.frame_slot.mem(),
+         t_rect.mem(), t_nodes.mem(), d.x.mem(), d.z.mem(), d.xz_valid.mem());
+    launch(qq, k_rectify, size_t(count) * tables.width, ev);
+  }
+  void enqueue_fuse(cl_command_queue qq, Lines& d, int lines, std::vector<cl_event>& ev) {
+    args(k_resample, d.x.mem(), d.z.mem(), d.xz_valid.mem(), tables.width, lines, d.lane_slot.mem(),
+         t_geom.mem(), tables.grid_n, d.cam.mem());
+    launch(qq, k_resample, size_t(lines) * 2, ev);
+    args(k_merge, d.cam.mem(), lines, d.lane_slot.mem(), t_geom.mem(), tables.grid_n,
+         d.profile.mem(), d.profile_valid.mem(), d.counts.mem(), d.top.mem());
+    launch(qq, k_merge, size_t(lines), ev);
+  }
+  void enqueue_project(cl_command_queue qq, Lines& d, int lines, std::vector<cl_event>& ev) {
+    args(k_project, d.profile.mem(), d.profile_valid.mem(), d.top.mem(), lines, d.lane_slot.mem(),
+         t_geom.mem(), tables.grid_n, tables.pixels, d.thickness.mem(), d.thickness_valid.mem());
+    launch(qq, k_project, size_t(lines) * tables.pixels, ev);
+  }
+
+  void finish(cl_command_queue qq) { check(clFinish(qq), "clFinish"); }
+};
+
+OpenClBackend::OpenClBackend(const OpenClOptions& opt) : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.opt = opt;
+  const cl::DeviceChoice d = cl::choose(opt.device);
+  m.cx = std::make_unique<cl::Context>(d);
+  cl_uint bits = 1024;
+  clGetDeviceInfo(d.device, CL_DEVICE_MEM_BASE_ADDR_ALIGN, sizeof bits, &bits, nullptr);
+  m.align = std::max<size_t>(bits / 8, 4);
+  m.program = m.cx->program(kernels::kLineKernels, kernels::kLineKernelsHash, "-cl-std=CL1.2");
+  cl_int e;
+  auto kernel = [&](const char* name) {
+    cl_kernel k = clCreateKernel(m.program, name, &e);
+    check(e, (std::string("clCreateKernel ") + name).c_str());
+    return k;
+  };
+  m.k_stripe = kernel("stripe");
+  m.k_rectify = kernel("rectify");
+  m.k_resample = kernel("fuse_resample");
+  m.k_merge = kernel("fuse_merge");
+  m.k_project = kernel("project");
+  info_.name = "opencl";
+  info_.device = d.name + " (" + d.platform_name + ")";
+  info_.driver = d.version + ", driver " + d.driver;
+  info_.emulated = d.cpu;
+  info_.limits = std::to_string(d.compute_units) + " compute units, " +
+                 std::to_string(d.global_mem >> 20) + " MiB, max allocation " +
+                 std::to_string(d.max_alloc >> 20) + " MiB, work-groups of " +
+                 std::to_string(d.max_work_group) + "; " + m.cx->cache_note();
+  for (int i = 0; i < 2; ++i) m.slots[i].queue = i;
+}
+
+OpenClBackend::~OpenClBackend() {
+  Impl& m = *impl_;
+  for (int i = 0; i < 2; ++i)
+    if (m.cx) clFinish(m.q(i));
+  for (cl_kernel k : {m.k_stripe, m.k_rectify, m.k_resample, m.k_merge, m.k_project})
+    if (k) clReleaseKernel(k);
+  if (m.program) clReleaseProgram(m.program);
+  for (auto& s : m.slots)
+    for (auto* v : {&s.up, &s.run, &s.down}) seconds(*v);
+}
+
+void OpenClBackend::set_lanes(const std::vector<LaneConfig>& lanes) {
+  for (const auto& s : impl_->slots)
+    if (s.busy) fail("backend opencl: lanes changed with a batch in flight");
+  impl_->tables.set_lanes(lanes);
+  impl_->upload_tables();
+  lanes_ = lanes;
+  for (auto& s : impl_->slots) s.dev = {};  // sizes may have changed
+  impl_->scratch = {};
+}
+
+void OpenClBackend::update_lane(int slot, const LaneConfig& lane) {
+  for (const auto& s : impl_->slots)
+    if (s.busy) fail("backend opencl: a lane changed with a batch in flight");
+  impl_->tables.update_lane(slot, lane);
+  impl_->upload_tables();
+  lanes_.at(slot) = lane;
+}
+
+LineBatchSlot& OpenClBackend::acquire(int lines) {
+  Impl& m = *impl_;
+  if (lanes_.empty()) fail("backend opencl: no lanes set");
+  Impl::Slot& s = m.slots[m.next];
+  if (s.busy) fail("backend opencl: both staging slots are in flight; collect one first");
+  m.next = 1 - m.next;
+  if (lines > s.capacity()) {
+    // Pinned staging, mapped once for the slot's life: the engine writes frames straight
+    // into memory the device copies from.
+    const size_t frame = size_t(m.tables.width) * m.tables.height;
+    const size_t bytes = size_t(lines) * 2 * frame;
+    s.pinned = cl::Buffer(m.cx->ctx(), CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR, bytes, 0, m.align,
+                          m.q(s.queue));
+    cl_int e;
+    void* p = clEnqueueMapBuffer(m.q(s.queue), s.pinned.mem(), CL_TRUE, CL_MAP_WRITE, 0, bytes, 0,
+                                 nullptr, nullptr, &e);
+    check(e, "clEnqueueMapBuffer (staging)");
+    s.lanes_host.resize(size_t(lines));
+    s.set(static_cast<uint8_t*>(p), s.lanes_host.data(), lines);
+  }
+  m.ensure(s.dev, lines);
+  s.lines = lines;
+  s.busy = true;
+  s.submitted = false;
+  return s;
+}
+
+void OpenClBackend::submit(LineBatchSlot& batch) {
+  Impl& m = *impl_;
+  auto& s = static_cast<Impl::Slot&>(batch);
+  const cl_command_queue qq = m.q(s.queue);
+  const int lines = s.lines, count = lines * 2;
+  const size_t W = size_t(m.tables.width);
+  s.frame_slot_host.resize(size_t(count));
+  for (int l = 0; l < lines; ++l) {
+    if (s.lane_slot()[l] < 0 || s.lane_slot()[l] >= int(lanes_.size()))
+      fail("line ", l, " of the batch names lane slot ", s.lane_slot()[l], " which does not exist");
+    s.frame_slot_host[2 * l] = s.lane_slot()[l] * 2;
+    s.frame_slot_host[2 * l + 1] = s.lane_slot()[l] * 2 + 1;
+  }
+  write(qq, s.dev.frames.mem(), s.frames(), size_t(count) * W * m.tables.height, s.up);
+  write(qq, s.dev.frame_slot.mem(), s.frame_slot_host.data(), size_t(count) * 4, s.up);
+  write(qq, s.dev.lane_slot.mem(), s.lane_slot(), size_t(lines) * 4, s.up);
+  m.enqueue_stripes(qq, s.dev, count, s.run);
+  m.enqueue_rectify(qq, s.dev, count, s.run);
+  m.enqueue_fuse(qq, s.dev, lines, s.run);
+  m.enqueue_project(qq, s.dev, lines, s.run);
+  check(clFlush(qq), "clFlush");
+  s.submitted = true;
+}
+
+void OpenClBackend::collect(LineBatchSlot& batch, LineResults& out) {
+  Impl& m = *impl_;
+  auto& s = static_cast<Impl::Slot&>(batch);
+  if (!s.submitted) submit(batch);
+  const cl_command_queue qq = m.q(s.queue);
+  const int lines = s.lines, count = lines * 2;
+  const size_t cols = size_t(count) * m.tables.width, G = size_t(m.tables.grid_n),
+               P = size_t(m.tables.pixels);
+  out.stripes.resize(cols);
+  out.x.resize(cols);
+  out.z.resize(cols);
+  out.xz_valid.resize(cols);
+  out.profile.resize(size_t(lines) * G);
+  out.profile_valid.resize(size_t(lines) * G);
+  out.thickness.resize(size_t(lines) * P);
+  out.thickness_valid.resize(size_t(lines) * P);
+  s.valid_i.resize(cols);
+  s.xz_valid_i.resize(cols);
+  s.profile_valid_i.resize(size_t(lines) * G);
+  s.thickness_valid_i.resize(size_t(lines) * P);
+  s.counts.resize(size_t(lines));
+  const Impl::Lines& d = s.dev;
+  read(qq, d.row.mem(), out.stripes.row.data(), cols * 4, s.down);
+  read(qq, d.peak.mem(), out.stripes.peak.data(), cols * 4, s.down);
+  read(qq, d.width.mem(), out.stripes.width.data(), cols * 4, s.down);
+  read(qq, d.asym.mem(), out.stripes.asym.data(), cols * 4, s.down);
+  read(qq, d.centroid.mem(), out.stripes.centroid.data(), cols * 4, s.down);
+  read(qq, d.valid.mem(), s.valid_i.data(), cols * 4, s.down);
+  read(qq, d.x.mem(), out.x.data(), cols * 4, s.down);
+  read(qq, d.z.mem(), out.z.data(), cols * 4, s.down);
+  read(qq, d.xz_valid.mem(), s.xz_valid_i.data(), cols * 4, s.down);
+  read(qq, d.profile.mem(), out.profile.data(), size_t(lines) * G * 4, s.down);
+  read(qq, d.profile_valid.mem(), s.profile_valid_i.data(), size_t(lines) * G * 4, s.down);
+  read(qq, d.counts.mem(), s.counts.data(), size_t(lines) * sizeof(kernel::FusionCountK), s.down);
+  read(qq, d.thickness.mem(), out.thickness.data(), size_t(lines) * P * 4, s.down);
+  read(qq, d.thickness_valid.mem(), s.thickness_valid_i.data(), size_t(lines) * P * 4, s.down);
+  m.finish(qq);
+  m.check_guards(d, qq);
+  to_flags(s.valid_i, cols, out.stripes.valid.data());
+  to_flags(s.xz_valid_i, cols, out.xz_valid.data());
+  to_flags(s.profile_valid_i, size_t(lines) * G, out.profile_valid.data());
+  to_flags(s.thickness_valid_i, size_t(lines) * P, out.thickness_valid.data());
+  for (const auto& c : s.counts) {
+    out.fusion.both += c.both;
+    out.fusion.single += c.single_cam;
+    out.fusion.conflict += c.conflict;
+    out.fusion.filled += c.filled;
+    out.fusion.missing += c.missing;
+  }
+  times_ = {seconds(s.up), seconds(s.run), seconds(s.down)};
+  s.busy = s.submitted = false;
+}
+
+// Single stages: inputs uploaded, one stage run, outputs read back, on queue 0.
+
+void OpenClBackend::stripes(const uint8_t* frames, int count, const int* frame_slot,
+                            StripeOutput& out) {
+  Impl& m = *impl_;
+  if (lanes_.empty()) fail("backend opencl: no lanes set");
+  const cl_command_queue qq = m.q(0);
+  m.ensure(m.scratch, (count + 1) / 2);
+  const size_t cols = size_t(count) * m.tables.width;
+  std::vector<cl_event> up, run, down;
+  write(qq, m.scratch.frames.mem(), frames, cols * m.tables.height, up);
+  write(qq, m.scratch.frame_slot.mem(), frame_slot, size_t(count) * 4, up);
+  m.enqueue_stripes(qq, m.scratch, count, run);
+  out.resize(cols);
+  std::vector<int32_t> valid(cols);
+  read(qq, m.scratch.row.mem(), out.row.data(), cols * 4, down);
+  read(qq, m.scratch.peak.mem(), out.peak.data(), cols * 4, down);
+  read(qq, m.scratch.width.mem(), out.width.data(), cols * 4, down);
+  read(qq, m.scratch.asym.mem(), out.asym.data(), cols * 4, down);
+  read(qq, m.scratch.centroid.mem(), out.centroid.data(), cols * 4, down);
+  read(qq, m.scratch.valid.mem(), valid.data(), cols * 4, down);
+  m.finish(qq);
+  m.check_guards(m.scratch, qq);
+  to_flags(valid, cols, out.valid.data());
+  times_ = {seconds(up), seconds(run), seconds(down)};
+}
+
+void OpenClBackend::rectify(const float* row, const uint8_t* valid, int count,
+                            const int* frame_slot, float* x, float* z, uint8_t* out_valid) {
+  Impl& m = *impl_;
+  if (lanes_.empty()) fail("backend opencl: no lanes set");
+  const cl_command_queue qq = m.q(0);
+  m.ensure(m.scratch, (count + 1) / 2);
+  const size_t cols = size_t(count) * m.tables.width;
+  const std::vector<int32_t> vin = from_flags(valid, cols);
+  std::vector<int32_t> vout(cols);
+  std::vector<cl_event> up, run, down;
+  write(qq, m.scratch.row.mem(), row, cols * 4, up);
+  write(qq, m.scratch.valid.mem(), vin.data(), cols * 4, up);
+  write(qq, m.scratch.frame_slot.mem(), frame_slot, size_t(count) * 4, up);
+  m.enqueue_rectify(qq, m.scratch, count, run);
+  read(qq, m.scratch.x.mem(), x, cols * 4, down);
+  read(qq, m.scratch.z.mem(), z, cols * 4, down);
+  read(qq, m.scratch.xz_valid.mem(), vout.data(), cols * 4, down);
+  m.finish(qq);
+  m.check_guards(m.scratch, qq);
+  to_flags(vout, cols, out_valid);
+  times_ = {seconds(up), seconds(run), seconds(down)};
+}
+
+void OpenClBackend::fuse(const float* x, const float* z, const uint8_t* valid, int lines,
+                         const int* lane_slot, float* profile, uint8_t* profile_valid,
+                         FusionStats* stats) {
+  Impl& m = *impl_;
+  if (lanes_.empty()) fail("backend opencl: no lanes set");
+  const cl_command_queue qq = m.q(0);
+  m.ensure(m.scratch, lines);
+  const size_t cols = size_t(lines) * 2 * m.tables.width, G = size_t(m.tables.grid_n);
+  const std::vector<int32_t> vin = from_flags(valid, cols);
+  std::vector<int32_t> vout(size_t(lines) * G);
+  std::vector<kernel::FusionCountK> counts(static_cast<size_t>(lines));
+  std::vector<cl_event> up, run, down;
+  write(qq, m.scratch.x.mem(), x, cols * 4, up);
+  write(qq, m.scratch.z.mem(), z, cols * 4, up);
+  write(qq, m.scratch.xz_valid.mem(), vin.data(), cols * 4, up);
+  write(qq, m.scratch.lane_slot.mem(), lane_slot, size_t(lines) * 4, up);
+  m.enqueue_fuse(qq, m.scratch, lines, run);
+  read(qq, m.scratch.profile.mem(), profile, size_t(lines) * G * 4, down);
+  read(qq, m.scratch.profile_valid.mem(), vout.data(), size_t(lines) * G * 4, down);
+  read(qq, m.scratch.counts.mem(), counts.data(), size_t(lines) * sizeof(kernel::FusionCountK),
+       down);
+  m.finish(qq);
+  m.check_guards(m.scratch, qq);
+  to_flags(vout, size_t(lines) * G, profile_valid);
+  if (stats)
+    for (const auto& c : counts) {
+      stats->both += c.both;
+      stats->single += c.single_cam;
+      stats->conflict += c.conflict;
+      stats->filled += c.filled;
+      stats->missing += c.missing;
+    }
+  times_ = {seconds(up), seconds(run), seconds(down)};
+}
+
+void OpenClBackend::project(const float* profile, const uint8_t* profile_valid, int lines,
+                            const int* lane_slot, float* thickness, uint8_t* thickness_valid) {
+  Impl& m = *impl_;
+  if (lanes_.empty()) fail("backend opencl: no lanes set");
+  const cl_command_queue qq = m.q(0);
+  m.ensure(m.scratch, lines);
+  const size_t G = size_t(m.tables.grid_n), P = size_t(m.tables.pixels);
+  const std::vector<int32_t> vin = from_flags(profile_valid, size_t(lines) * G);
+  // The highest valid sample of each line, as the fusion kernel leaves it for the projection.
+  std::vector<float> top(size_t(lines), 0.f);
+  for (int l = 0; l < lines; ++l)
+    for (size_t g = 0; g < G; ++g)
+      if (profile_valid[size_t(l) * G + g]) top[l] = std::max(top[l], profile[size_t(l) * G + g]);
+  std::vector<int32_t> vout(size_t(lines) * P);
+  std::vector<cl_event> up, run, down;
+  write(qq, m.scratch.profile.mem(), profile, size_t(lines) * G * 4, up);
+  write(qq, m.scratch.profile_valid.mem(), vin.data(), size_t(lines) * G * 4, up);
+  write(qq, m.scratch.top.mem(), top.data(), size_t(lines) * 4, up);
+  write(qq, m.scratch.lane_slot.mem(), lane_slot, size_t(lines) * 4, up);
+  m.enqueue_project(qq, m.scratch, lines, run);
+  read(qq, m.scratch.thickness.mem(), thickness, size_t(lines) * P * 4, down);
+  read(qq, m.scratch.thickness_valid.mem(), vout.data(), size_t(lines) * P * 4, down);
+  m.finish(qq);
+  m.check_guards(m.scratch, qq);
+  to_flags(vout, size_t(lines) * P, thickness_valid);
+  times_ = {seconds(up), seconds(run), seconds(down)};
+}
+
+}  // namespace rangex

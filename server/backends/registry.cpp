@@ -1,0 +1,119 @@
+#include "backends/registry.h"
+
+#include "backends/backend_error.h"
+#include "backends/cpu/cpu_backend.h"
+#include "core/error.h"
+#if RANGEX_WITH_OPENCL
+#include "backends/opencl/cl_runtime.h"
+#include "backends/opencl/opencl_backend.h"
+#endif
+#if RANGEX_WITH_VULKAN
+#include "backends/vulkan/vulkan_backend.h"
+#endif
+
+namespace rangex {
+
+namespace {
+
+BackendProbe probe_opencl() {
+  BackendProbe p;
+  p.name = "opencl";
+#if RANGEX_WITH_OPENCL
+  try {
+    const auto devs = cl::devices();
+    if (devs.empty()) {
+      p.detail = "no OpenCL device with 64-bit floats";
+      return p;
+    }
+    p.available = true;
+    p.emulated = true;
+    for (size_t i = 0; i < devs.size(); ++i) {
+      p.emulated &= devs[i].cpu;
+      p.detail +=
+          (i ? "; " : "") + std::to_string(i) + ": " + devs[i].name + (devs[i].cpu ? " (CPU)" : "");
+    }
+  } catch (const std::exception& e) {
+    p.detail = e.what();
+  }
+#else
+  p.detail = "not built (OpenCL headers or loader missing at build time)";
+#endif
+  return p;
+}
+
+BackendProbe probe_vulkan() {
+  BackendProbe p;
+  p.name = "vulkan";
+#if RANGEX_WITH_VULKAN
+  try {
+    const auto devs = vulkan_devices();
+    if (devs.empty()) {
+      p.detail = "no Vulkan device with the features the shaders need";
+      return p;
+    }
+    p.available = true;
+    p.emulated = true;
+    for (size_t i = 0; i < devs.size(); ++i) {
+      p.emulated &= devs[i].cpu;
+      p.detail +=
+          (i ? "; " : "") + std::to_string(i) + ": " + devs[i].name + (devs[i].cpu ? " (CPU)" : "");
+    }
+  } catch (const std::exception& e) {
+    p.detail = e.what();
+  }
+#else
+  p.detail = "not built (Vulkan loader or glslangValidator missing at build time)";
+#endif
+  return p;
+}
+
+std::unique_ptr<Backend> start(const std::string& name, const BackendRequest& req) {
+  if (name == "cpu") return std::make_unique<CpuBackend>(req.threads);
+#if RANGEX_WITH_OPENCL
+  if (name == "opencl")
+    return std::make_unique<OpenClBackend>(OpenClOptions{req.device, req.guards});
+#endif
+#if RANGEX_WITH_VULKAN
+  if (name == "vulkan")
+    return std::make_unique<VulkanBackend>(VulkanOptions{req.device, req.guards});
+#endif
+  for (const BackendProbe& p : probe_backends())
+    if (p.name == name) throw BackendError(name + ": " + p.detail);
+  throw BackendError("unknown backend '" + name + "' (auto, cpu, opencl, vulkan)");
+}
+
+}  // namespace
+
+std::vector<BackendProbe> probe_backends() {
+  BackendProbe cpu{"cpu", true, false, "host CPU"};
+  return {cpu, probe_vulkan(), probe_opencl()};
+}
+
+std::unique_ptr<Backend> create_backend(const BackendRequest& req, std::string* why) {
+  if (req.name != "auto") return start(req.name, req);
+  std::string note;
+  for (const BackendProbe& p : probe_backends()) {
+    if (p.name == "cpu") continue;
+    if (!p.available) {
+      note += p.name + ": " + p.detail + "; ";
+      continue;
+    }
+    if (p.emulated) {
+      note += p.name + ": only CPU emulations (" + p.detail + "), the CPU backend is faster; ";
+      continue;
+    }
+    try {
+      auto b = start(p.name, req);
+      if (!b->info().emulated) {
+        if (why) *why = "auto: " + p.name + " on a GPU";
+        return b;
+      }
+    } catch (const std::exception& e) {
+      note += p.name + " could not start: " + e.what() + "; ";
+    }
+  }
+  if (why) *why = "auto: cpu (" + note.substr(0, note.size() > 2 ? note.size() - 2 : 0) + ")";
+  return start("cpu", req);
+}
+
+}  // namespace rangex

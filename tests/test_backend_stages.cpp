@@ -1,0 +1,448 @@
+// One suite, every backend (ggml's test-backend-ops, ncnn's testutil): each stage's cases are
+// written once and run on every backend against the CPU reference, with the tolerance the
+// case declares: valid flags, peaks and widths exactly; sub-pixel rows, mm and fusion counts
+// within a stated bound. Device buffers carry guard bytes, checked after every call.
+//
+// A backend that cannot start on this machine is skipped and says why, unless
+// RANGEX_REQUIRE_BACKENDS names it: then it fails (CI requires opencl on PoCL).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <random>
+#include <sstream>
+
+#include "backends/backend_error.h"
+#include "backends/registry.h"
+#include "core/error.h"
+#include "core/lane_config.h"
+#include "pipeline/stripe_extract.h"
+#include "sim/plant_simulator.h"
+#include "stripe_frames.h"
+
+using namespace rangex;
+
+namespace {
+
+bool required(const std::string& name) {
+  const char* r = std::getenv("RANGEX_REQUIRE_BACKENDS");
+  if (!r) return false;
+  std::stringstream ss(r);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (item == name) return true;
+  }
+  return false;
+}
+
+// A lane's configuration at another frame size (the camera models follow it).
+LaneConfig sized_lane(int id, int width, int height) {
+  LaneConfig l = default_lane_config(id);
+  l.frame_width = width;
+  l.frame_height = height;
+  for (auto& cam : l.cameras)
+    cam.model = CameraModel(cam.model.intrinsics(), cam.model.distortion(), cam.model.rotation(),
+                            cam.model.translation(), width, height);
+  return l;
+}
+
+// Three lanes with different settings and calibrations: stripe methods and constants, laser
+// plane, fusion tolerances, fan-beam geometry.
+std::vector<LaneConfig> three_lanes(int width = 640, int height = 200) {
+  std::vector<LaneConfig> v;
+  for (int i = 0; i < 3; ++i) v.push_back(sized_lane(i, width, height));
+  v[1].stripe.method = StripeMethod::kGaussian3;
+  v[1].stripe.threshold_rel = 0.3;
+  v[1].cameras[0].scatter = {0.1, -0.2, 0.05};
+  v[1].laser.offset_mm = 0.4;
+  v[1].fusion.agree_tol_mm = 0.5;
+  v[1].xray.source_x_mm = 6.0;
+  v[2].stripe.method = StripeMethod::kBinary;
+  v[2].stripe.min_peak = 60;
+  v[2].stripe.max_width = 20;
+  v[2].laser.offset_mm = -0.3;
+  v[2].fusion.max_gap_mm = 1.0;
+  v[2].xray.source_z_mm = 650.0;
+  return v;
+}
+
+std::vector<StripeSlot> stripe_slots(const std::vector<LaneConfig>& lanes) {
+  std::vector<StripeSlot> s;
+  for (const auto& l : lanes)
+    for (int c = 0; c < 2; ++c) s.push_back({l.stripe, l.cameras[c].scatter});
+  return s;
+}
+
+void expect_near_or_both_nan(float a, float b, double tol, const std::string& what) {
+  if (std::isnan(a) || std::isnan(b)) {
+    EXPECT_TRUE(std::isnan(a) && std::isnan(b)) << what << ": " << a << " vs " << b;
+    return;
+  }
+  EXPECT_NEAR(a, b, tol) << what;
+}
+
+// Lines of three simulated lanes (each with its own configuration), interleaved, fillets
+// passing under the laser: frames [line][camera] and each line's lane slot.
+struct SimLines {
+  std::vector<uint8_t> frames;
+  std::vector<int> lane_slot;
+  int lines = 0;
+  SimLines(const std::vector<LaneConfig>& lanes, int per_lane, int64_t first) {
+    sim::SimulationParams sp;
+    sp.scene.fillets = 1;
+    sp.seed = 11;
+    std::vector<sim::LaneSimulator> sims;
+    for (const auto& l : lanes) sims.emplace_back(l, sp);
+    const size_t frame = size_t(lanes[0].frame_width) * lanes[0].frame_height;
+    std::vector<uint16_t> xray(lanes[0].xray.pixels);
+    for (int n = 0; n < per_lane; ++n)
+      for (size_t s = 0; s < lanes.size(); ++s) {
+        frames.resize(frames.size() + 2 * frame);
+        uint8_t* f = frames.data() + frames.size() - 2 * frame;
+        sims[s].render(first + n, f, f + frame, xray.data(), nullptr, nullptr, nullptr);
+        lane_slot.push_back(int(s));
+        ++lines;
+      }
+  }
+  std::vector<int> frame_slot() const {
+    std::vector<int> fs;
+    for (int s : lane_slot) {
+      fs.push_back(2 * s);
+      fs.push_back(2 * s + 1);
+    }
+    return fs;
+  }
+};
+
+class OnEveryBackend : public ::testing::TestWithParam<std::string> {
+ protected:
+  void SetUp() override {
+    const std::string name = GetParam();
+    try {
+      BackendRequest req;
+      req.name = name;
+      req.guards = true;
+      backend_ = create_backend(req);
+    } catch (const std::exception& e) {
+      if (required(name)) FAIL() << name << " is required here but cannot start: " << e.what();
+      GTEST_SKIP() << name << " cannot start on this machine: " << e.what();
+    }
+  }
+  void use(const std::vector<LaneConfig>& lanes) {
+    backend_->set_lanes(lanes);
+    reference_ = std::make_unique<LinePipeline>(lanes, 1);
+  }
+  std::unique_ptr<Backend> backend_;
+  std::unique_ptr<LinePipeline> reference_;  // the CPU reference of every stage
+};
+
+// Stripes against extract_stripes_reference: flags, peaks, widths exact; rows, centroids and
+// asymmetries within 1e-4 px.
+void expect_stripes_equal(const StripeOutput& got, const StripeOutput& ref, size_t n) {
+  int bad = 0;
+  for (size_t i = 0; i < n && bad < 10; ++i) {
+    const std::string at = "column " + std::to_string(i);
+    const bool ok =
+        got.valid[i] == ref.valid[i] && got.peak[i] == ref.peak[i] && got.width[i] == ref.width[i];
+    EXPECT_EQ(got.valid[i], ref.valid[i]) << at;
+    EXPECT_EQ(got.peak[i], ref.peak[i]) << at;
+    EXPECT_EQ(got.width[i], ref.width[i]) << at;
+    bad += !ok;
+    if (!ref.valid[i]) {
+      EXPECT_TRUE(std::isnan(got.row[i])) << at;
+      continue;
+    }
+    expect_near_or_both_nan(got.row[i], ref.row[i], 1e-4, at + " row");
+    expect_near_or_both_nan(got.centroid[i], ref.centroid[i], 1e-4, at + " centroid");
+    expect_near_or_both_nan(got.asym[i], ref.asym[i], 1e-4, at + " asym");
+  }
+}
+
+}  // namespace
+
+TEST_P(OnEveryBackend, StripesOfEveryMethodWithGlareSaturationAndFlatTops) {
+  auto lanes = three_lanes();
+  const test::Frames fr = test::make_frames(12, 640, 200, 7);
+  std::vector<int> slot;
+  for (int f = 0; f < fr.count; ++f) slot.push_back(f % 6);  // every (lane, camera)
+  for (StripeMethod m : {StripeMethod::kCentroid, StripeMethod::kSquared, StripeMethod::kBinary,
+                         StripeMethod::kGaussian3, StripeMethod::kParabola, StripeMethod::kShifted,
+                         StripeMethod::kModified}) {
+    SCOPED_TRACE(std::string(stripe_method_name(m)));
+    lanes[0].stripe.method = lanes[1].stripe.method = m;  // lane 2 keeps binary
+    use(lanes);
+    StripeOutput got, ref;
+    backend_->stripes(fr.px.data(), fr.count, slot.data(), got);
+    const auto slots = stripe_slots(lanes);
+    extract_stripes_reference(fr.px.data(), fr.count, 640, 200, slot.data(), slots.data(), ref);
+    expect_stripes_equal(got, ref, size_t(fr.count) * 640);
+  }
+}
+
+TEST_P(OnEveryBackend, StripesOfRaggedWidthAndOfOneLine) {
+  const auto lanes = three_lanes(600, 200);
+  use(lanes);
+  const test::Frames fr = test::make_frames(2, 600, 200, 8);  // one line: two frames
+  const std::vector<int> slot = {4, 5};
+  StripeOutput got, ref;
+  backend_->stripes(fr.px.data(), fr.count, slot.data(), got);
+  const auto slots = stripe_slots(lanes);
+  extract_stripes_reference(fr.px.data(), fr.count, 600, 200, slot.data(), slots.data(), ref);
+  expect_stripes_equal(got, ref, size_t(fr.count) * 600);
+}
+
+TEST_P(OnEveryBackend, StripesOfEmptyAndSaturatedFrames) {
+  const auto lanes = three_lanes();
+  use(lanes);
+  std::vector<uint8_t> px(size_t(4) * 640 * 200, 0);
+  std::fill(px.begin() + 640 * 200, px.begin() + 2 * 640 * 200, 255);  // all saturated
+  for (int c = 0; c < 640; ++c) px[size_t(2) * 640 * 200 + size_t(100) * 640 + c] = 255;  // one row
+  const std::vector<int> slot = {0, 1, 2, 3};
+  StripeOutput got, ref;
+  backend_->stripes(px.data(), 4, slot.data(), got);
+  const auto slots = stripe_slots(lanes);
+  extract_stripes_reference(px.data(), 4, 640, 200, slot.data(), slots.data(), ref);
+  expect_stripes_equal(got, ref, size_t(4) * 640);
+}
+
+TEST_P(OnEveryBackend, RectificationOfLanesWithDifferentCalibrations) {
+  const auto lanes = three_lanes();
+  use(lanes);
+  const int count = 18, width = 640;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> row(0.f, 199.f);
+  std::vector<float> rows(size_t(count) * width);
+  std::vector<uint8_t> valid(rows.size());
+  std::vector<int> slot;
+  for (int f = 0; f < count; ++f) slot.push_back(f % 6);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    valid[i] = rng() % 7 != 0;
+    rows[i] = valid[i] ? row(rng) : NAN;
+  }
+  rows[5] = 0.f;  // the table's edges
+  rows[6] = 199.f;
+  valid[5] = valid[6] = 1;
+  std::vector<float> x(rows.size()), z(rows.size()), rx(rows.size()), rz(rows.size());
+  std::vector<uint8_t> v(rows.size()), rv(rows.size());
+  backend_->rectify(rows.data(), valid.data(), count, slot.data(), x.data(), z.data(), v.data());
+  reference_->rectify_rows(rows.data(), valid.data(), count, slot.data(), rx.data(), rz.data(),
+                           rv.data());
+  for (size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_EQ(v[i], rv[i]) << i;
+    expect_near_or_both_nan(x[i], rx[i], 1e-4, "x " + std::to_string(i));
+    expect_near_or_both_nan(z[i], rz[i], 1e-4, "z " + std::to_string(i));
+  }
+}
+
+TEST_P(OnEveryBackend, FusionAndProjectionOfSimulatedFilletsOnThreeLanes) {
+  const auto lanes = three_lanes();
+  use(lanes);
+  const SimLines sl(lanes, 8, 170);  // 24 lines through a fillet
+  LineResults r;
+  reference_->run(sl.frames.data(), sl.lines, sl.lane_slot.data(), r);
+  // Some columns lost, so that gaps are filled and left open.
+  std::vector<uint8_t> valid = r.xz_valid;
+  for (size_t i = 0; i < valid.size(); i += 97) valid[i] = 0;
+  for (size_t i = 3000; i < 3040; ++i) valid[i] = 0;
+  const int G = reference_->grid_samples(), P = reference_->pixels();
+  std::vector<float> prof(size_t(sl.lines) * G), rprof(prof.size());
+  std::vector<uint8_t> pv(prof.size()), rpv(prof.size());
+  FusionStats st, rst;
+  backend_->fuse(r.x.data(), r.z.data(), valid.data(), sl.lines, sl.lane_slot.data(), prof.data(),
+                 pv.data(), &st);
+  reference_->fuse(r.x.data(), r.z.data(), valid.data(), sl.lines, sl.lane_slot.data(),
+                   rprof.data(), rpv.data(), &rst);
+  for (size_t i = 0; i < prof.size(); ++i) {
+    ASSERT_EQ(pv[i], rpv[i]) << "sample " << i;
+    expect_near_or_both_nan(prof[i], rprof[i], 1e-4, "profile " + std::to_string(i));
+  }
+  EXPECT_EQ(st.both, rst.both);
+  EXPECT_EQ(st.single, rst.single);
+  EXPECT_EQ(st.conflict, rst.conflict);
+  EXPECT_EQ(st.filled, rst.filled);
+  EXPECT_EQ(st.missing, rst.missing);
+  EXPECT_GT(rst.filled, 0);
+  // Projection of the reference profiles, with invalid samples inside the meat.
+  for (size_t i = 500; i < rpv.size(); i += 1001 * 3) rpv[i] = 0;
+  std::vector<float> t(size_t(sl.lines) * P), rt(t.size());
+  std::vector<uint8_t> tv(t.size()), rtv(t.size());
+  backend_->project(rprof.data(), rpv.data(), sl.lines, sl.lane_slot.data(), t.data(), tv.data());
+  reference_->project(rprof.data(), rpv.data(), sl.lines, sl.lane_slot.data(), rt.data(),
+                      rtv.data());
+  size_t meat = 0, invalid = 0;
+  for (size_t i = 0; i < t.size(); ++i) {
+    ASSERT_EQ(tv[i], rtv[i]) << "pixel " << i;
+    expect_near_or_both_nan(t[i], rt[i], 1e-3, "thickness " + std::to_string(i));
+    meat += rtv[i] && rt[i] > 1.f;
+    invalid += !rtv[i];
+  }
+  EXPECT_GT(meat, 100u);
+  EXPECT_GT(invalid, 0u);
+}
+
+TEST_P(OnEveryBackend, FusionOfCraftedPolylinesGapsAtTheLimitConflictsAndFolds) {
+  const auto lanes = three_lanes();
+  use(lanes);
+  // Columns 0.15 mm apart over the grid, both cameras the same surface (camera 1 a little
+  // off: within or beyond the lane's agreement tolerance), then per line runs of columns lost
+  // on both cameras, 1 to 40 long, so that gaps of every length around max_gap (5 and 15
+  // samples) occur; a fold (x turning back) and a jump beyond max_column_step.
+  const int lines = 60, W = 640;
+  std::mt19937 rng(5);
+  std::vector<float> x(size_t(lines) * 2 * W), z(x.size());
+  std::vector<uint8_t> valid(x.size(), 1);
+  std::vector<int> lane_slot;
+  for (int l = 0; l < lines; ++l) {
+    lane_slot.push_back(l % 3);
+    const float off = (l % 4 == 0) ? 0.8f : 0.1f;  // lane 1 agrees within 0.5 mm only at 0.1
+    for (int cam = 0; cam < 2; ++cam)
+      for (int c = 0; c < W; ++c) {
+        const size_t o = (size_t(l) * 2 + cam) * W + c;
+        x[o] = -48.f + 0.15f * c;
+        z[o] = 10.f + 8.f * std::sin(0.02f * c) + (cam ? off : 0.f);
+      }
+    const size_t f0 = size_t(l) * 2 * W, f1 = f0 + W;
+    for (int c = 300; c < 310; ++c) x[f0 + c] = x[f0 + 300] - 0.1f * (c - 300);  // a fold
+    x[f1 + 400] += 3.f;                                                          // a jump
+    for (int run = 0; run < 6; ++run) {
+      const int len = 1 + int(rng() % 40), at = 20 + int(rng() % 560);
+      for (int c = at; c < std::min(W, at + len); ++c) valid[f0 + c] = valid[f1 + c] = 0;
+    }
+  }
+  const int G = reference_->grid_samples();
+  std::vector<float> prof(size_t(lines) * G), rprof(prof.size());
+  std::vector<uint8_t> pv(prof.size()), rpv(prof.size());
+  FusionStats st, rst;
+  backend_->fuse(x.data(), z.data(), valid.data(), lines, lane_slot.data(), prof.data(), pv.data(),
+                 &st);
+  reference_->fuse(x.data(), z.data(), valid.data(), lines, lane_slot.data(), rprof.data(),
+                   rpv.data(), &rst);
+  for (size_t i = 0; i < prof.size(); ++i) {
+    ASSERT_EQ(pv[i], rpv[i]) << "line " << i / G << " sample " << i % G;
+    expect_near_or_both_nan(prof[i], rprof[i], 1e-4, "profile " + std::to_string(i));
+  }
+  EXPECT_EQ(st.both, rst.both);
+  EXPECT_EQ(st.single, rst.single);
+  EXPECT_EQ(st.conflict, rst.conflict);
+  EXPECT_EQ(st.filled, rst.filled);
+  EXPECT_EQ(st.missing, rst.missing);
+  EXPECT_GT(rst.conflict, 0);
+  EXPECT_GT(rst.filled, 0);
+}
+
+TEST_P(OnEveryBackend, ProjectionOfCraftedProfilesStepsEdgesAndInvalidSamples) {
+  const auto lanes = three_lanes();
+  use(lanes);
+  // Profiles with plateaus, steep steps, heights below the belt, and invalid samples at the
+  // grid's first and last cells and inside the meat; rays from three source positions.
+  const int lines = 30, G = reference_->grid_samples(), P = reference_->pixels();
+  std::mt19937 rng(9);
+  std::vector<float> prof(size_t(lines) * G);
+  std::vector<uint8_t> pv(prof.size(), 1);
+  std::vector<int> lane_slot;
+  for (int l = 0; l < lines; ++l) {
+    lane_slot.push_back(l % 3);
+    float* h = &prof[size_t(l) * G];
+    uint8_t* v = &pv[size_t(l) * G];
+    const float lo = (l % 2) ? -95.f : -60.f, hi = (l % 2) ? 95.f : 50.f;  // meat under all rays
+    for (int g = 0; g < G; ++g) {
+      const float xg = -100.f + 0.2f * g;
+      h[g] = (xg > lo && xg < hi) ? 12.f + 10.f * std::cos(0.05f * xg) : -0.3f;
+      if (xg > 10 && xg < 12) h[g] = 40.f;  // a steep wall
+    }
+    v[0] = l % 5 != 0;
+    v[G - 1] = l % 5 != 1;
+    for (int k = 0; k < 1 + l % 3; ++k) v[25 + int(rng() % 950)] = 0;  // where the rays go
+  }
+  std::vector<float> t(size_t(lines) * P), rt(t.size());
+  std::vector<uint8_t> tv(t.size()), rtv(t.size());
+  backend_->project(prof.data(), pv.data(), lines, lane_slot.data(), t.data(), tv.data());
+  reference_->project(prof.data(), pv.data(), lines, lane_slot.data(), rt.data(), rtv.data());
+  size_t invalid = 0;
+  for (size_t i = 0; i < t.size(); ++i) {
+    ASSERT_EQ(tv[i], rtv[i]) << "line " << i / P << " pixel " << i % P;
+    expect_near_or_both_nan(t[i], rt[i], 1e-3, "thickness " + std::to_string(i));
+    invalid += !rtv[i];
+  }
+  EXPECT_GT(invalid, 0u);
+}
+
+TEST_P(OnEveryBackend, LinePathOfMixedLaneBatchesTwoInFlight) {
+  const auto lanes = three_lanes();
+  use(lanes);
+  const SimLines a(lanes, 5, 160), b(lanes, 1, 200);  // 15 lines, then one line per lane
+  const size_t frame = size_t(640) * 200;
+  auto fill = [&](LineBatchSlot& s, const SimLines& src) {
+    std::copy(src.frames.begin(), src.frames.end(), s.frames());
+    std::copy(src.lane_slot.begin(), src.lane_slot.end(), s.lane_slot());
+  };
+  LineBatchSlot& sa = backend_->acquire(a.lines);
+  ASSERT_GE(sa.capacity(), a.lines);
+  fill(sa, a);
+  backend_->submit(sa);
+  LineBatchSlot& sb = backend_->acquire(b.lines);
+  fill(sb, b);
+  backend_->submit(sb);
+  EXPECT_THROW(backend_->acquire(1), Error);  // two in flight at most
+  LineResults ra, rb, qa, qb;
+  backend_->collect(sa, ra);
+  backend_->collect(sb, rb);
+  reference_->run(a.frames.data(), a.lines, a.lane_slot.data(), qa);
+  reference_->run(b.frames.data(), b.lines, b.lane_slot.data(), qb);
+  for (auto [got, ref, lines] : {std::tuple{&ra, &qa, a.lines}, std::tuple{&rb, &qb, b.lines}}) {
+    expect_stripes_equal(got->stripes, ref->stripes, size_t(lines) * 2 * 640);
+    ASSERT_EQ(got->thickness.size(), ref->thickness.size());
+    for (size_t i = 0; i < got->thickness.size(); ++i) {
+      ASSERT_EQ(got->thickness_valid[i], ref->thickness_valid[i]) << i;
+      expect_near_or_both_nan(got->thickness[i], ref->thickness[i], 1e-3, "thickness");
+    }
+    EXPECT_EQ(got->fusion.both, ref->fusion.both);
+    EXPECT_EQ(got->fusion.missing, ref->fusion.missing);
+  }
+  (void)frame;
+}
+
+TEST_P(OnEveryBackend, ACalibrationUpdateReachesTheNextBatch) {
+  auto lanes = three_lanes();
+  use(lanes);
+  const SimLines sl(lanes, 4, 175);
+  auto run = [&](LineResults& r) {
+    LineBatchSlot& s = backend_->acquire(sl.lines);
+    std::copy(sl.frames.begin(), sl.frames.end(), s.frames());
+    std::copy(sl.lane_slot.begin(), sl.lane_slot.end(), s.lane_slot());
+    backend_->submit(s);
+    backend_->collect(s, r);
+  };
+  LineResults before, after, ref;
+  run(before);
+  lanes[1].laser.offset_mm = 1.5;  // a new calibration of lane 1 only
+  backend_->update_lane(1, lanes[1]);
+  reference_->update_lane(1, lanes[1]);
+  run(after);
+  reference_->run(sl.frames.data(), sl.lines, sl.lane_slot.data(), ref);
+  size_t changed = 0;
+  for (size_t i = 0; i < after.x.size(); ++i) {
+    expect_near_or_both_nan(after.x[i], ref.x[i], 1e-4, "x");
+    expect_near_or_both_nan(after.z[i], ref.z[i], 1e-4, "z");
+    changed += std::abs(after.z[i] - before.z[i]) > 0.01f;
+  }
+  EXPECT_GT(changed, 0u);
+}
+
+TEST_P(OnEveryBackend, BadBatchesAreRefusedWithAClearError) {
+  use(three_lanes());
+  LineBatchSlot& s = backend_->acquire(1);
+  std::fill(s.frames(), s.frames() + 2 * 640 * 200, uint8_t(0));
+  s.lane_slot()[0] = 7;  // no such lane
+  try {
+    backend_->submit(s);
+    LineResults r;
+    backend_->collect(s, r);
+    FAIL() << "a line naming lane slot 7 was processed";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("lane slot 7"), std::string::npos) << e.what();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, OnEveryBackend, ::testing::Values("cpu", "opencl", "vulkan"),
+                         [](const ::testing::TestParamInfo<std::string>& i) { return i.param; });
