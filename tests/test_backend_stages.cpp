@@ -4,7 +4,8 @@
 // within a stated bound. Device buffers carry guard bytes, checked after every call.
 //
 // A backend that cannot start on this machine is skipped and says why, unless
-// RANGEX_REQUIRE_BACKENDS names it: then it fails (CI requires opencl on PoCL).
+// RANGEX_REQUIRE_BACKENDS names it: then it fails (the test command requires opencl on
+// PoCL and vulkan on lavapipe).
 #include <gtest/gtest.h>
 
 #include <cmath>
