@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "args.h"
+#include "backend_args.h"
 #include "commands.h"
 #include "core/error.h"
 #include "feeder.h"
@@ -42,7 +43,8 @@ class MemorySource : public LineSource {
 // How many streams and subscribers one server holds: every lane fed by two streams at once
 // with the same lines (a camera that reconnected while its old stream is still open: one of
 // each pair of lines is a duplicate), two subscribers per lane reading every decision.
-void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans, int threads) {
+void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans,
+              const BackendRequest& backend) {
   std::printf("\ncapacity: 2 streams per lane sending the same %zu lines, 2 subscribers per lane\n",
               scans.size());
   std::printf("%-6s %8s %12s %10s %12s %14s %14s\n", "lanes", "streams", "subscribers", "lines/s",
@@ -62,7 +64,7 @@ void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans, 
     ServerOptions so;
     so.listen = "127.0.0.1:0";
     so.data_dir = dir;
-    so.engine.threads = threads;
+    so.engine.backend = backend;
     so.engine.images = false;
     so.engine.queue_lines = 4096;
     std::atomic<int> streams_ok{0}, subscribers_ok{0}, peak{0};
@@ -132,11 +134,19 @@ void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans, 
 }  // namespace
 
 int cmd_bench_server(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"capacity"}, {"lines", "threads"});
-  a.expect_positionals(0, "bench-server [--lines N] [--capacity]");
+  const Args a(argc, argv, 2, {"capacity"}, {"lines", "threads", "backend", "device"});
+  a.expect_positionals(0,
+                       "bench-server [--lines N] [--backend cpu|opencl|vulkan|auto|all] "
+                       "[--device D] [--capacity]");
   const int n = int(a.integer("lines", 1200));
   const int threads =
       int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
+  std::vector<BackendRequest> backends;
+  for (const std::string& name : backend_names(a.get("backend", "cpu"))) {
+    BackendRequest r{name, a.get("device", "")};
+    r.threads = threads;
+    backends.push_back(r);
+  }
   PlantConfig plant = default_plant_config(16);
   const LaneConfig& lc = plant.lanes[0];
   // One lane's worth of lines with fillets in them, reused on every lane.
@@ -159,16 +169,23 @@ int cmd_bench_server(int argc, char** argv) {
   std::printf(
       "end to end through gRPC on loopback, %d lines per lane (%d fillets each), %d threads\n",
       lines, sp.scene.fillets, threads);
-  std::printf("%-6s %16s %16s %8s %24s\n", "lanes", "in-process l/s", "gRPC l/s", "ratio",
-              "last line -> decision");
+  std::printf("%-6s %-8s %16s %16s %8s %24s\n", "lanes", "backend", "in-process l/s", "gRPC l/s",
+              "ratio", "last line -> decision");
   for (int nl : {1, 4, 16}) {
-    // In-process: the same lines through each lane's LaneProcessor, batches of 64.
+    // In-process: the same lines through the CPU backend and each lane's LaneProcessor,
+    // batches of 64: what the server adds is measured against this.
     std::vector<uint8_t> frames(frame * 2 * 64);
+    std::vector<int> slot(64, 0);
     std::vector<uint16_t> xray(size_t(lc.xray.pixels) * 64);
     std::vector<int64_t> enc(64);
+    LineResults res;
     const auto t0 = std::chrono::steady_clock::now();
     for (int lane = 0; lane < nl; ++lane) {
-      LaneProcessor proc(plant.lanes[lane], {threads, false, false}, [](InspectedFillet&&) {});
+      BackendRequest cpu{"cpu"};
+      cpu.threads = threads;
+      const std::unique_ptr<Backend> b = create_backend(cpu);
+      b->set_lanes({plant.lanes[lane]});
+      LaneProcessor proc(plant.lanes[lane], {false, false}, [](InspectedFillet&&) {});
       for (int k0 = 0; k0 < lines; k0 += 64) {
         const int c = std::min(64, lines - k0);
         for (int k = 0; k < c; ++k) {
@@ -178,7 +195,8 @@ int cmd_bench_server(int argc, char** argv) {
                       scans[k0 + k].xray().size());
           enc[k] = scans[k0 + k].encoder();
         }
-        proc.push(c, frames.data(), xray.data(), enc.data());
+        run_batch(*b, frames.data(), c, slot.data(), res);
+        proc.push(res, 0, c, xray.data(), enc.data());
       }
       proc.finish();
     }
@@ -186,54 +204,59 @@ int cmd_bench_server(int argc, char** argv) {
         double(nl) * lines /
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
-    // Through the server: one stream per lane, all at once.
-    const std::string dir =
-        (std::filesystem::temp_directory_path() /
-         ("rangex-bench-" + std::to_string(getpid()) + "-" + std::to_string(nl)))
-            .string();
-    std::filesystem::remove_all(dir);
-    PlantConfig pl = plant;
-    pl.lanes.resize(nl);
-    ServerOptions so;
-    so.listen = "127.0.0.1:0";
-    so.data_dir = dir;
-    so.engine.threads = threads;
-    so.engine.queue_lines = 4096;
-    double grpc_lps = 0;
-    LatencyStats::Summary lat;
-    {
-      RangexServer server(pl, so);
-      auto ch = rangex_channel(server.address());
-      const auto t1 = std::chrono::steady_clock::now();
-      std::vector<std::thread> feeders;
-      std::atomic<int64_t> refused{0};
-      for (int lane = 0; lane < nl; ++lane)
-        feeders.emplace_back([&, lane] {
-          MemorySource src(scans, lane);
-          FeedOptions fo;
-          fo.window = 128;
-          const FeedReport r = Feeder(ch, fo).run(src);
-          refused += int64_t(r.refused_total());
-          for (const auto& [code, n] : r.refused)
-            std::fprintf(stderr, "lane %d: %llu %s\n", lane, (unsigned long long)n, code.c_str());
-        });
-      for (auto& f : feeders) f.join();
-      server.shutdown();  // waits until every accepted line is decided
-      grpc_lps = double(nl) * lines /
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-      lat = server.engine().stats().decision;
-      if (refused.load()) std::printf("(%lld lines refused)\n", (long long)refused.load());
+    // Through the server on each backend: one stream per lane, all at once.
+    for (const BackendRequest& backend : backends) {
+      const std::string dir =
+          (std::filesystem::temp_directory_path() /
+           ("rangex-bench-" + std::to_string(getpid()) + "-" + std::to_string(nl)))
+              .string();
+      std::filesystem::remove_all(dir);
+      PlantConfig pl = plant;
+      pl.lanes.resize(nl);
+      ServerOptions so;
+      so.listen = "127.0.0.1:0";
+      so.data_dir = dir;
+      so.engine.backend = backend;
+      so.engine.queue_lines = 4096;
+      double grpc_lps = 0;
+      LatencyStats::Summary lat;
+      std::string running;
+      {
+        RangexServer server(pl, so);
+        auto ch = rangex_channel(server.address());
+        const auto t1 = std::chrono::steady_clock::now();
+        std::vector<std::thread> feeders;
+        std::atomic<int64_t> refused{0};
+        for (int lane = 0; lane < nl; ++lane)
+          feeders.emplace_back([&, lane] {
+            MemorySource src(scans, lane);
+            FeedOptions fo;
+            fo.window = 128;
+            const FeedReport r = Feeder(ch, fo).run(src);
+            refused += int64_t(r.refused_total());
+            for (const auto& [code, n] : r.refused)
+              std::fprintf(stderr, "lane %d: %llu %s\n", lane, (unsigned long long)n, code.c_str());
+          });
+        for (auto& f : feeders) f.join();
+        server.shutdown();  // waits until every accepted line is decided
+        grpc_lps = double(nl) * lines /
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+        const EngineStats st = server.engine().stats();
+        lat = st.decision;
+        running = st.backend.name;
+        if (refused.load()) std::printf("(%lld lines refused)\n", (long long)refused.load());
+      }
+      std::filesystem::remove_all(dir);
+      std::printf("%-6d %-8s %16.0f %16.0f %8.2f   p50 %7.1f ms  p99 %7.1f ms\n", nl,
+                  running.c_str(), inproc, grpc_lps, grpc_lps / inproc, lat.p50, lat.p99);
+      std::fflush(stdout);
     }
-    std::filesystem::remove_all(dir);
-    std::printf("%-6d %16.0f %16.0f %8.2f   p50 %7.1f ms  p99 %7.1f ms\n", nl, inproc, grpc_lps,
-                grpc_lps / inproc, lat.p50, lat.p99);
-    std::fflush(stdout);
   }
   if (a.flag("capacity"))
     capacity(plant,
              std::vector<pb::LineScan>(scans.begin(),
                                        scans.begin() + std::min<size_t>(scans.size(), 400)),
-             threads);
+             backends.front());
   return 0;
 }
 

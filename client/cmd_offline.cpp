@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "args.h"
+#include "backend_args.h"
 #include "commands.h"
 #include "core/error.h"
 #include "core/png_io.h"
@@ -189,13 +190,16 @@ int process_simulated(const Args& a, const PlantConfig& plant) {
   const Images images = parse_images(a.get("images", "rejects"));
   fs::create_directories(out);
   PlantRunOptions opt;
-  opt.threads = int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
+  opt.backend = backend_request(a, plant.backend);
   opt.on_fillet = [&](const InspectedFillet& f) {
     maybe_write_images(out / ("lane" + std::to_string(f.result.lane)), f, images);
   };
   ProgressBar bar("plant");
-  const auto lanes =
-      run_simulated_plant(plant, p, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
+  BackendInfo backend;
+  const auto lanes = run_simulated_plant(
+      plant, p, opt, [&](int64_t d, int64_t t) { bar.update(d, t); }, &backend);
+  std::printf("line stages on %s: %s (%s)\n", backend.name.c_str(), backend.device.c_str(),
+              backend.driver.c_str());
   std::vector<int> ids;
   std::vector<LaneEvaluation> acc;
   for (const PlantRunLane& l : lanes) {
@@ -229,9 +233,9 @@ int process_simulated(const Args& a, const PlantConfig& plant) {
 }  // namespace
 
 int cmd_process(int argc, char** argv) {
-  const Args a(
-      argc, argv, 2, {"simulate"},
-      {"out", "method", "batch", "config", "threads", "images", "lanes", "fillets", "seed"});
+  const Args a(argc, argv, 2, {"simulate"},
+               {"out", "method", "batch", "config", "threads", "images", "lanes", "fillets", "seed",
+                "backend", "device"});
   PlantConfig plant = load_config(a.get("config", ""));
   if (a.flag("simulate")) {
     a.expect_positionals(0, "process --simulate --out OUT [--lanes N] [--fillets M] [--seed S]");
@@ -244,14 +248,16 @@ int cmd_process(int argc, char** argv) {
   ReplayOptions opt;
   if (a.has("method")) opt.method = parse_stripe_method(a.get("method", ""));
   opt.batch_lines = int(a.integer("batch", 64));
-  opt.threads = int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
-  if (opt.threads < 1) fail("--threads must be >= 1 (got ", opt.threads, ")");
+  opt.backend = backend_request(a, plant.backend);
   const Images images = parse_images(a.get("images", "all"));
   const fs::path out = a.require("out");
   fs::create_directories(out);
   ProgressBar bar("process");
-  const auto lanes =
-      replay_recording(rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
+  BackendInfo backend;
+  const auto lanes = replay_recording(
+      rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); }, &backend);
+  std::printf("line stages on %s: %s (%s)\n", backend.name.c_str(), backend.device.c_str(),
+              backend.driver.c_str());
   std::ostringstream js;
   js << "{\"recording\": \"" << rec.dir() << "\", \"calibration_id\": \"" << plant.calibration_id
      << "\", \"lanes\": [";
@@ -296,10 +302,10 @@ int cmd_process(int argc, char** argv) {
        << ", \"inspection_seconds\": " << r.inspection_seconds << "}";
     std::printf(
         "lane %d: %lld lines, %.1f%% of thickness pixels valid, %zu fillets (%d pass, %d reject, "
-        "%d not inspected), %.0f lines/s (CPU, %d threads)\n",
+        "%d not inspected), %.0f lines/s (%s)\n",
         r.lane, (long long)r.lines, 100.0 * double(valid) / double(std::max<size_t>(1, png.size())),
         ours.fillets.size(), count_decision(ours, "pass"), count_decision(ours, "reject"),
-        count_decision(ours, "not_inspected"), lines_per_s, opt.threads);
+        count_decision(ours, "not_inspected"), lines_per_s, backend.name.c_str());
   }
   js << "]}\n";
   std::ofstream(out / "summary.json") << js.str();

@@ -18,9 +18,11 @@ double since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace
 
-std::vector<PlantRunLane> run_simulated_plant(
-    const PlantConfig& plant, const sim::SimulationParams& sp, const PlantRunOptions& opt,
-    const std::function<void(int64_t, int64_t)>& progress) {
+std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
+                                              const sim::SimulationParams& sp,
+                                              const PlantRunOptions& opt,
+                                              const std::function<void(int64_t, int64_t)>& progress,
+                                              BackendInfo* backend_info) {
   if (sp.lanes <= 0 || sp.lanes > int(plant.lanes.size()))
     fail("cannot simulate ", sp.lanes, " lanes: the plant configuration has ", plant.lanes.size());
   std::vector<sim::LaneSimulator> sims;
@@ -32,6 +34,10 @@ std::vector<PlantRunLane> run_simulated_plant(
   int64_t done = 0;
   std::vector<PlantRunLane> out;
   const int threads = std::max(1, opt.threads);
+  // One backend for every simulated lane: lane li is slot li.
+  const std::unique_ptr<Backend> backend = create_backend(opt.backend);
+  backend->set_lanes({plant.lanes.begin(), plant.lanes.begin() + sp.lanes});
+  if (backend_info) *backend_info = backend->info();
   for (int li = 0; li < sp.lanes; ++li) {
     const LaneConfig& lc = plant.lanes[li];
     const sim::LaneSimulator& sim = sims[li];
@@ -88,14 +94,14 @@ std::vector<PlantRunLane> run_simulated_plant(
         }
       }
     };
-    LaneProcessor proc(
-        lc, {threads, true, opt.keep_images || bool(opt.on_fillet)},
-        [&](InspectedFillet&& f) {
-          if (opt.on_fillet) opt.on_fillet(f);
-          lane.ours.add(f.result);
-          lane.baseline.add(f.baseline);
-        },
-        observe);
+    LaneProcessor proc(lc, {true, opt.keep_images || bool(opt.on_fillet)},
+                       [&](InspectedFillet&& f) {
+                         if (opt.on_fillet) opt.on_fillet(f);
+                         lane.ours.add(f.result);
+                         lane.baseline.add(f.baseline);
+                       });
+    LineResults res;
+    const std::vector<int> lane_slot(kBlock, li);
     for (n0 = 0; n0 < sim.lines(); n0 += kBlock) {
       const int count = int(std::min<int64_t>(kBlock, sim.lines() - n0));
       const auto t0 = std::chrono::steady_clock::now();
@@ -110,7 +116,11 @@ std::vector<PlantRunLane> run_simulated_plant(
       for (auto& t : pool) t.join();
       for (int k = 0; k < count; ++k) enc[k] = sim.encoder(n0 + k);
       lane.render_s += since(t0);
-      proc.push(count, frames.data(), xray.data(), enc.data());
+      const auto t1 = std::chrono::steady_clock::now();
+      run_batch(*backend, frames.data(), count, lane_slot.data(), res);
+      lane.pipeline_s += since(t1);
+      observe(res, enc.data(), count);
+      proc.push(res, 0, count, xray.data(), enc.data());
       // Thickness accuracy: X-ray line n's truth against the camera line n - delay.
       for (int k = 0; k < count; ++k) {
         auto it = registered.find(n0 + k);
@@ -131,8 +141,7 @@ std::vector<PlantRunLane> run_simulated_plant(
     }
     proc.finish();
     lane.assembly = proc.assembly();
-    lane.fusion = proc.fusion();
-    lane.pipeline_s = proc.pipeline_seconds();
+    lane.fusion = res.fusion;
     lane.inspection_s = proc.inspection_seconds();
     LaneEvaluation& ev = lane.accuracy;
     ev.lane = lc.id;

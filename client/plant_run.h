@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "backends/registry.h"
 #include "core/plant_config.h"
 #include "evaluation.h"
 #include "fillet_records.h"
@@ -27,15 +28,18 @@ struct PlantRunLane {
 };
 
 struct PlantRunOptions {
-  int threads = 1;
+  int threads = 1;                // rendering workers
+  BackendRequest backend{"cpu"};  // where the line stages run
   bool keep_images = false;
   // Called for every inspected fillet (e.g. to write its images).
   std::function<void(const InspectedFillet&)> on_fillet;
 };
 
+// `backend_info`, when given, receives what the line stages ran on.
 std::vector<PlantRunLane> run_simulated_plant(
     const PlantConfig& plant, const sim::SimulationParams& sim, const PlantRunOptions& opt,
-    const std::function<void(int64_t, int64_t)>& progress = {});
+    const std::function<void(int64_t, int64_t)>& progress = {},
+    BackendInfo* backend_info = nullptr);
 
 // Line accuracy of a lane as a small key,value CSV (for `rangexctl eval` of a simulated run).
 void write_line_accuracy(const std::string& path, const LaneEvaluation& e);

@@ -1,6 +1,7 @@
 #include "replay.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -9,7 +10,8 @@
 namespace rangex {
 
 std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const PlantConfig& plant,
-                                         const ReplayOptions& opt, const ReplayProgress& progress) {
+                                         const ReplayOptions& opt, const ReplayProgress& progress,
+                                         BackendInfo* backend_info) {
   const RecordingInfo& info = rec.info();
   if (info.calibration_id != plant.calibration_id)
     fail("calibration mismatch: the recording was made with calibration '", info.calibration_id,
@@ -22,7 +24,7 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
 
   const int64_t total = info.lines * int64_t(lanes.size());
   int64_t done = 0;
-  std::vector<LaneReplay> out;
+  std::vector<LaneConfig> configs;
   for (int id : lanes) {
     LaneConfig lc = plant.lane(id);
     if (lc.frame_width != info.width || lc.frame_height != info.height)
@@ -35,6 +37,16 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
       fail("lane ", id, ": recording encoder step is ", info.encoder_step_mm,
            " mm but the plant configuration says ", lc.encoder_step_mm, " mm");
     if (opt.method) lc.stripe.method = *opt.method;
+    configs.push_back(lc);
+  }
+  // One backend for every lane replayed: the lane's slot is its place in `lanes`.
+  const std::unique_ptr<Backend> backend = create_backend(opt.backend);
+  backend->set_lanes(configs);
+  if (backend_info) *backend_info = backend->info();
+  std::vector<LaneReplay> out;
+  for (size_t slot = 0; slot < lanes.size(); ++slot) {
+    const int id = lanes[slot];
+    const LaneConfig& lc = configs[slot];
     LaneReplay r;
     r.lane = id;
     r.lines = info.lines;
@@ -61,9 +73,10 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
         }
       }
     };
-    LaneProcessor proc(
-        lc, {opt.threads, opt.baseline, opt.keep_images},
-        [&](InspectedFillet&& f) { r.fillets.push_back(std::move(f)); }, observe);
+    LaneProcessor proc(lc, {opt.baseline, opt.keep_images},
+                       [&](InspectedFillet&& f) { r.fillets.push_back(std::move(f)); });
+    LineResults res;
+    const std::vector<int> lane_slot(size_t(opt.batch_lines), int(slot));
     const size_t frame = size_t(info.width) * info.height;
     std::vector<uint8_t> cam0, cam1, frames;
     std::vector<uint16_t> xray;
@@ -91,14 +104,17 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
         std::copy_n(&cam0[frame * k], frame, &frames[frame * (2 * k)]);
         std::copy_n(&cam1[frame * k], frame, &frames[frame * (2 * k + 1)]);
       }
-      proc.push(count, frames.data(), xray.data(), enc.data());
+      const auto t0 = std::chrono::steady_clock::now();
+      run_batch(*backend, frames.data(), count, lane_slot.data(), res);
+      r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      observe(res, enc.data(), count);
+      proc.push(res, 0, count, xray.data(), enc.data());
       done += count;
       if (progress) progress(done, total);
     }
     proc.finish();
-    r.fusion = proc.fusion();
+    r.fusion = res.fusion;
     r.assembly = proc.assembly();
-    r.seconds = proc.pipeline_seconds();
     r.inspection_seconds = proc.inspection_seconds();
     out.push_back(std::move(r));
   }

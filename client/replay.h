@@ -1,5 +1,6 @@
-// Offline replay: a recording through the same CPU line pipeline the server runs, batch by
-// batch, with the thickness lines registered to the X-ray lines by the calibrated delay.
+// Offline replay: a recording through the same line stages the server runs, on the backend
+// asked for (cpu, opencl, vulkan), batch by batch, with the thickness lines registered to the
+// X-ray lines by the calibrated delay.
 #pragma once
 #include <cstdint>
 #include <functional>
@@ -7,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "backends/registry.h"
 #include "core/plant_config.h"
 #include "core/recording.h"
 #include "pipeline/lane_processor.h"
@@ -18,7 +20,7 @@ struct ReplayOptions {
   int batch_lines = 64;
   std::optional<StripeMethod> method;  // overrides plant.yaml's stripe method
   std::vector<int> lanes;              // empty: every lane of the recording
-  int threads = 1;                     // stripe-stage workers
+  BackendRequest backend{"cpu"};       // where the line stages run (threads: CPU workers)
   bool keep_images = true;             // per-fillet pseudo-X-ray / residual images
   bool baseline = true;                // X-ray-only baseline beside every fillet
 };
@@ -34,14 +36,16 @@ struct LaneReplay {
   FusionStats fusion;
   AssemblyStats assembly;
   std::vector<InspectedFillet> fillets;
-  double seconds = 0;             // line pipeline time, reading excluded
+  double seconds = 0;             // line stages on the backend, reading excluded
   double inspection_seconds = 0;  // assembly is negligible; compensation + detection
 };
 
 using ReplayProgress = std::function<void(int64_t done, int64_t total)>;
 
+// `backend_info`, when given, receives what the line stages ran on.
 std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const PlantConfig& plant,
                                          const ReplayOptions& opt,
-                                         const ReplayProgress& progress = {});
+                                         const ReplayProgress& progress = {},
+                                         BackendInfo* backend_info = nullptr);
 
 }  // namespace rangex

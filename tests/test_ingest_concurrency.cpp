@@ -22,6 +22,7 @@
 #include <set>
 #include <thread>
 
+#include "backends/cpu/cpu_backend.h"
 #include "core/plant_config.h"
 #include "core/recording.h"
 #include "feeder.h"
@@ -100,7 +101,7 @@ ServerOptions options(const test::TempDir& t) {
   o.listen = "127.0.0.1:0";
   o.data_dir = t.str("data");
   o.engine.queue_lines = 4096;
-  o.engine.threads = 1;
+  o.engine.backend = {"cpu"};
   o.engine.images = false;
   o.engine.stall_s = 2;
   return o;
@@ -150,7 +151,11 @@ std::ostream& operator<<(std::ostream& os, const Decided& d) {
 // The decisions of one orderly pass over a recording lane, without the server.
 std::vector<Decided> reference(Lines& lines, int src, const LaneConfig& lane, int64_t shift = 0) {
   std::vector<Decided> out;
-  LaneProcessor proc(lane, {1, false, false}, [&](InspectedFillet&& f) {
+  CpuBackend cpu;
+  cpu.set_lanes({lane});
+  LineResults r;
+  const int slot = 0;
+  LaneProcessor proc(lane, {false, false}, [&](InspectedFillet&& f) {
     out.push_back({f.result.first_encoder, std::string(decision_name(f.result.decision)),
                    f.result.fragments.size()});
   });
@@ -164,7 +169,8 @@ std::vector<Decided> reference(Lines& lines, int src, const LaneConfig& lane, in
     std::memcpy(frames.data() + frame, l.cam1().data(), frame);
     std::memcpy(xray.data(), l.xray().data(), l.xray().size());
     const int64_t e = l.encoder();
-    proc.push(1, frames.data(), xray.data(), &e);
+    run_batch(cpu, frames.data(), 1, &slot, r);
+    proc.push(r, 0, 1, xray.data(), &e);
   }
   proc.finish();
   return out;

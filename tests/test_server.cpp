@@ -30,7 +30,8 @@ ServerOptions options(const test::TempDir& t, size_t queue = 2048) {
   o.listen = "127.0.0.1:0";
   o.data_dir = t.str("data");
   o.engine.queue_lines = queue;
-  o.engine.threads = 2;
+  o.engine.backend = {"cpu"};
+  o.engine.backend.threads = 2;
   return o;
 }
 

@@ -29,6 +29,11 @@ struct BackendInfo {
   std::string driver;     // platform / driver version
   std::string limits;     // one line: memory, work-group size, ...
   bool emulated = false;  // a CPU emulation of a GPU API (PoCL's CPU device, lavapipe)
+  // Computes between submit() and collect(), so a second batch can be filled meanwhile
+  // (device backends); the CPU backend computes inside collect().
+  bool overlaps = false;
+  // The CPU reference itself: nothing to verify it against.
+  bool reference = false;
 };
 
 // Seconds of the last collected batch (or single stage), split as the benchmarks report it.
@@ -87,5 +92,10 @@ class Backend {
   std::vector<LaneConfig> lanes_;
   StageTimes times_;
 };
+
+// One batch through a backend, waited for: `lines` lines of frames ([line][camera] in
+// caller memory) copied into the backend's staging, with their lane slots.
+void run_batch(Backend& b, const uint8_t* frames, int lines, const int* lane_slot,
+               LineResults& out);
 
 }  // namespace rangex

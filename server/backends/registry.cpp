@@ -2,6 +2,7 @@
 
 #include "backends/backend_error.h"
 #include "backends/cpu/cpu_backend.h"
+#include "backends/fault_injection.h"
 #include "core/error.h"
 #if RANGEX_WITH_OPENCL
 #include "backends/opencl/cl_runtime.h"
@@ -89,8 +90,14 @@ std::vector<BackendProbe> probe_backends() {
   return {cpu, probe_vulkan(), probe_opencl()};
 }
 
+static std::unique_ptr<Backend> with_faults(std::unique_ptr<Backend> b, const BackendRequest& req) {
+  if (req.fail_after < 0 && req.corrupt_after < 0) return b;
+  return std::make_unique<FaultInjectingBackend>(std::move(b),
+                                                 FaultPlan{req.fail_after, req.corrupt_after});
+}
+
 std::unique_ptr<Backend> create_backend(const BackendRequest& req, std::string* why) {
-  if (req.name != "auto") return start(req.name, req);
+  if (req.name != "auto") return with_faults(start(req.name, req), req);
   std::string note;
   for (const BackendProbe& p : probe_backends()) {
     if (p.name == "cpu") continue;
@@ -106,14 +113,14 @@ std::unique_ptr<Backend> create_backend(const BackendRequest& req, std::string* 
       auto b = start(p.name, req);
       if (!b->info().emulated) {
         if (why) *why = "auto: " + p.name + " on a GPU";
-        return b;
+        return with_faults(std::move(b), req);
       }
     } catch (const std::exception& e) {
       note += p.name + " could not start: " + e.what() + "; ";
     }
   }
   if (why) *why = "auto: cpu (" + note.substr(0, note.size() > 2 ? note.size() - 2 : 0) + ")";
-  return start("cpu", req);
+  return with_faults(start("cpu", req), req);
 }
 
 }  // namespace rangex

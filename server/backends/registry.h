@@ -25,6 +25,8 @@ struct BackendRequest {
   std::string device;         // index or name substring (opencl, vulkan)
   int threads = 1;            // CPU stripe threads
   bool guards = false;        // guard bytes around device buffers (tests)
+  int fail_after = -1;        // fault injection (tests): batches before every collect fails
+  int corrupt_after = -1;     // fault injection (tests): batches before results go wrong
 };
 
 // Starts the requested backend. For `auto`, `why` says what was chosen and why; a named

@@ -23,6 +23,9 @@ struct EngineSettings {
   double exit_after_s = 60;
   // A graceful stop that cannot decide the queued lines in this long exits non-zero.
   double drain_timeout_s = 30;
+  // Of the batches a device backend computes, the fraction recomputed on the CPU reference
+  // and compared (0: none; 1: every batch).
+  double verify_fraction = 0.01;
 };
 
 }  // namespace rangex

@@ -272,7 +272,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
 
 void read_engine(const Node& n, EngineSettings& e) {
   n.only_keys({"queue_lines", "batch_lines", "batch_wait_ms", "dedup_window", "auto_reset",
-               "idle_close_s", "stall_s", "exit_after_s", "drain_timeout_s"});
+               "idle_close_s", "stall_s", "exit_after_s", "drain_timeout_s", "verify_fraction"});
   int queue = int(e.queue_lines);
   n.positive("queue_lines", queue);
   if (queue > 1 << 20) n.at("queue_lines").bad("must be <= 1048576");
@@ -287,6 +287,9 @@ void read_engine(const Node& n, EngineSettings& e) {
   n.get("exit_after_s", e.exit_after_s);
   if (e.exit_after_s < 0) n.at("exit_after_s").bad("must be >= 0 (0: never)");
   n.positive("drain_timeout_s", e.drain_timeout_s);
+  n.get("verify_fraction", e.verify_fraction);
+  if (!(e.verify_fraction >= 0 && e.verify_fraction <= 1))
+    n.at("verify_fraction").bad("must be between 0 and 1");
 }
 
 }  // namespace
@@ -312,12 +315,13 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
   PlantConfig p;
   if (top.has("plant")) {
     const Node n = top.at("plant");
-    n.only_keys({"name", "calibration_id", "backend", "listen", "storage"});
+    n.only_keys({"name", "calibration_id", "backend", "device", "listen", "storage"});
     n.get("name", p.name);
     n.get("calibration_id", p.calibration_id);
     n.get("backend", p.backend);
     if (p.backend != "auto" && p.backend != "cpu" && p.backend != "opencl" && p.backend != "vulkan")
       n.at("backend").bad("must be one of auto, cpu, opencl, vulkan (got '" + p.backend + "')");
+    n.get("device", p.device);
     n.get("listen", p.listen);
     n.get("storage", p.storage);
   }

@@ -13,6 +13,7 @@ struct PlantConfig {
   std::string name = "plant";
   std::string calibration_id = "dissertation-default";
   std::string backend = "auto";  // auto | cpu | opencl | vulkan
+  std::string device;            // which device: an index or a name substring (empty: first)
   std::string listen = "127.0.0.1:50051";
   std::string storage = "rangex-data";
   EngineSettings engine;  // the `server:` section

@@ -1,11 +1,10 @@
-// One lane end to end on the CPU: batches of lines through the line pipeline, the thickness
-// and X-ray lines into the lane's assembly, and every fillet it cuts through the inspection
-// (and, on request, the X-ray-only baseline beside it). Offline replay, the simulated plant
-// and the server all drive lanes through this.
+// One lane after the line stages: its thickness lines and X-ray lines into the lane's
+// assembly, and every fillet it cuts through the inspection (and, on request, the
+// X-ray-only baseline). The line stages run on a backend, for one lane (offline tools) or
+// for a batch of every lane (the server); whoever ran them pushes each lane's lines here.
 #pragma once
 #include <cstdint>
 #include <functional>
-#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,7 +16,6 @@
 namespace rangex {
 
 struct LaneProcessorOptions {
-  int threads = 1;           // stripe-stage workers
   bool baseline = true;      // also run the X-ray-only baseline on every fillet
   bool keep_images = false;  // keep pseudo-X-ray / residual / z images in the results
 };
@@ -32,14 +30,16 @@ struct InspectedFillet {
 class LaneProcessor {
  public:
   using FilletSink = std::function<void(InspectedFillet&&)>;
-  // Called after each batch with the pipeline's per-line results (camera line encoders).
-  using LineObserver = std::function<void(const LineResults&, const int64_t* encoders, int count)>;
 
-  LaneProcessor(const LaneConfig& lane, LaneProcessorOptions opt, FilletSink sink,
-                LineObserver observer = {});
+  LaneProcessor(const LaneConfig& lane, LaneProcessorOptions opt, FilletSink sink);
 
-  // count lines: frames [line][camera][row][col], X-ray lines [line][pixel], encoder counts.
-  void push(int count, const uint8_t* frames, const uint16_t* xray, const int64_t* encoders);
+  // One line: its thickness line (detector pixels, with valid flags) from the line stages,
+  // its X-ray line and its encoder count.
+  void push(const float* thickness, const uint8_t* valid, const uint16_t* xray, int64_t encoder);
+  // Lines first .. first + count - 1 of `results`, all of this lane, with their X-ray lines
+  // ([line][pixel]) and encoder counts.
+  void push(const LineResults& results, int first, int count, const uint16_t* xray,
+            const int64_t* encoders);
   void push_missing(int64_t encoder);
   // Ends the open fillets as not inspected (an encoder reset, a lane no longer fed, a
   // processing error); the next line may have any count.
@@ -49,23 +49,19 @@ class LaneProcessor {
   const AssemblyStats& assembly() const { return assembler_.stats(); }
   const std::string& last_restart() const { return assembler_.last_restart(); }
   bool quiet() const { return assembler_.quiet(); }
-  // A new calibration or thresholds; the caller applies it only when quiet().
+  // New thresholds or calibration for the assembly and the inspection (the caller updates
+  // the backend's tables); applied only when quiet().
   void reconfigure(const LaneConfig& lane);
   const LaneConfig& lane() const { return lane_; }
-  const FusionStats& fusion() const { return results_.fusion; }
-  double pipeline_seconds() const { return pipeline_s_; }
   double inspection_seconds() const { return inspect_s_; }
 
  private:
   LaneConfig lane_;
   LaneProcessorOptions opt_;
   FilletSink sink_;
-  LineObserver observer_;
-  std::unique_ptr<LinePipeline> pipe_;
   LaneAssembler assembler_;
-  LineBatch batch_;
-  LineResults results_;
-  double pipeline_s_ = 0, inspect_s_ = 0;
+  std::vector<float> line_;
+  double inspect_s_ = 0;
 };
 
 }  // namespace rangex

@@ -1,5 +1,6 @@
 #include "service/engine.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -46,12 +47,23 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
         l->calibration_id = c.id;
       }
     l->admit_calibration = l->running_calibration = l->calibration_id;
+    l->xray.resize(size_t(l->pixels));
     Lane* raw = l.get();
     l->proc = std::make_unique<LaneProcessor>(
-        l->config, LaneProcessorOptions{opt_.threads, false, opt_.images},
+        l->config, LaneProcessorOptions{false, opt_.images},
         [this, raw](InspectedFillet&& f) { on_fillet(*raw, std::move(f)); });
+    by_id_[l->id] = l.get();
     lanes_.push_back(std::move(l));
   }
+  std::vector<LaneConfig> configs;
+  for (auto& l : lanes_) configs.push_back(l->config);
+  runner_ = std::make_unique<StageRunner>(
+      configs, StageRunnerOptions{opt_.backend, opt_.verify_fraction},
+      [this](std::vector<Queued>& lines, const LineResults& r, double ms) {
+        pipeline_.add(ms);
+        route(lines, r);
+      },
+      [this](std::vector<Queued>& lines, const std::string& why) { lose(lines, why); });
   worker_ = std::thread([this] { worker(); });
 }
 
@@ -60,8 +72,8 @@ Engine::~Engine() {
 }
 
 Engine::Lane& Engine::lane(int id) {
-  for (auto& l : lanes_)
-    if (l->id == id) return *l;
+  const auto it = by_id_.find(id);
+  if (it != by_id_.end()) return *it->second;
   fail_not_found("unknown lane ", id, " (the plant has lanes ", plant_.lanes.front().id, "..",
                  plant_.lanes.back().id, ")");
 }
@@ -87,9 +99,8 @@ int Engine::free_places() const {
 
 Engine::Verdict Engine::submit(IncomingLine&& line) {
   ++received_;
-  Lane* l = nullptr;
-  for (auto& x : lanes_)
-    if (x->id == line.lane) l = x.get();
+  const auto found = by_id_.find(line.lane);
+  Lane* l = found == by_id_.end() ? nullptr : found->second;
   if (!l)
     return refuse(Refusal::kUnknownLane, "unknown lane " + std::to_string(line.lane),
                   queued_.load());
@@ -167,15 +178,20 @@ void Engine::worker() {
   while (true) {
     {
       std::unique_lock<std::mutex> lock(mu_);
-      // Wake at least every 100 ms: idle lanes and unsaved decisions need looking after.
-      cv_.wait_for(lock, std::chrono::milliseconds(100),
-                   [&] { return (!queue_.empty() && !paused_) || stopping_; });
-      if (!stopping_ && !paused_ && !queue_.empty() && int(queue_.size()) < opt_.batch_lines)
+      // With a batch in flight the worker does not wait: it takes what is queued (or, with
+      // nothing queued, finishes the batch). Idle, it wakes at least every 100 ms: idle
+      // lanes and unsaved decisions need looking after.
+      const bool busy = runner_->busy();
+      if (!busy)
+        cv_.wait_for(lock, std::chrono::milliseconds(100),
+                     [&] { return (!queue_.empty() && !paused_) || stopping_; });
+      if (!busy && !stopping_ && !paused_ && !queue_.empty() &&
+          int(queue_.size()) < opt_.batch_lines)
         // Give a partial batch a moment to fill.
         cv_.wait_for(lock, std::chrono::milliseconds(opt_.batch_wait_ms), [&] {
           return int(queue_.size()) >= opt_.batch_lines || stopping_ || paused_;
         });
-      if (queue_.empty() && stopping_) break;
+      if (queue_.empty() && stopping_ && !busy) break;
       if (!queue_.empty() && (!paused_ || stopping_)) {
         const size_t n = std::min(queue_.size(), size_t(opt_.batch_lines));
         for (size_t i = 0; i < n; ++i) {
@@ -184,18 +200,21 @@ void Engine::worker() {
           if (batch.back().line.queued_by) --*batch.back().line.queued_by;
         }
         queued_ = queue_.size();
-        batch_started_ns_ = steady_ns();
       }
     }
+    batch_started_ns_ = steady_ns();
     if (!batch.empty()) {
       if (opt_.batch_hook) opt_.batch_hook();
       process(batch);
       batch.clear();
-      batch_started_ns_ = 0;
+    } else {
+      runner_->finish_all();
     }
+    batch_started_ns_ = 0;
     retry_unsaved();
-    close_idle_lanes();
+    if (!runner_->busy()) close_idle_lanes();
   }
+  runner_->finish_all();
   for (auto& l : lanes_) {
     try {
       l->proc->finish();
@@ -232,6 +251,9 @@ void Engine::apply_pending(Lane& l) {
     l.config = *next;
     l.calibration_id = id;
   }
+  // The backends' tables first (what is in flight finishes with the old ones), then the
+  // assembly and the inspection.
+  runner_->update_lane(l.id, *next);
   l.proc->reconfigure(*next);
   l.running_calibration = id;
   std::lock_guard<std::mutex> lock(mu_);
@@ -261,96 +283,105 @@ void Engine::note_assembly_restarts(Lane& l) {
   l.last_restart = why;
 }
 
-int Engine::push_lines(Lane& l, const std::vector<const Queued*>& lines, size_t from, size_t to) {
-  const int n = int(to - from);
-  if (n <= 0) return 0;
-  const size_t frame = size_t(l.width) * l.height;
-  l.frames.resize(frame * 2 * n);
-  l.xray.resize(size_t(l.pixels) * n);
-  l.encoders.resize(n);
-  for (int k = 0; k < n; ++k) {
-    const IncomingLine& in = lines[from + k]->line;
-    std::memcpy(&l.frames[frame * 2 * k], in.cam0.data(), frame);
-    std::memcpy(&l.frames[frame * (2 * k + 1)], in.cam1.data(), frame);
-    std::memcpy(&l.xray[size_t(l.pixels) * k], in.xray.data(), size_t(l.pixels) * 2);
-    l.encoders[k] = in.encoder;
-    l.arrivals.emplace_back(in.encoder, lines[from + k]->arrived_ns);
-  }
-  // While a configuration change is pending, lines go one by one so that every line
-  // boundary is a chance to take it over (quiet stretches can be shorter than a batch).
-  bool pending;
+bool Engine::changes_waiting(const std::vector<Queued>& batch) {
+  std::vector<Lane*> changing;
   {
     std::lock_guard<std::mutex> lock(ctl_mu_);
-    pending = l.pending.has_value();
+    for (auto& l : lanes_)
+      if (l->pending) changing.push_back(l.get());
   }
-  if (!pending) {
-    l.proc->push(n, l.frames.data(), l.xray.data(), l.encoders.data());
-  } else {
-    for (int k = 0; k < n; ++k) {
-      apply_pending(l);
-      l.proc->push(1, &l.frames[frame * 2 * k], &l.xray[size_t(l.pixels) * k], &l.encoders[k]);
-    }
-  }
-  // Arrival times are kept for the decision latency as long as a fillet can reach back.
-  const size_t keep = size_t(l.config.inspection.max_segment_lines) +
-                      size_t(l.config.xray.delay_lines) + 4 * size_t(opt_.batch_lines);
-  while (l.arrivals.size() > keep) l.arrivals.pop_front();
-  note_assembly_restarts(l);
-  return n;
+  if (changing.empty()) return false;
+  // A lane takes its change at a line boundary with no fillet in progress, and no batch in
+  // flight may still use its old tables.
+  runner_->finish_all();
+  for (Lane* l : changing) apply_pending(*l);
+  std::lock_guard<std::mutex> lock(ctl_mu_);
+  for (const Queued& q : batch)
+    if (lane(q.line.lane).pending) return true;
+  return false;
 }
 
 void Engine::process(std::vector<Queued>& batch) {
   const int64_t start = steady_ns();
   for (const Queued& q : batch) queue_wait_.add((start - q.arrived_ns) / 1e6);
-  uint64_t done = 0;
-  for (auto& lp : lanes_) {
-    Lane& l = *lp;
-    std::vector<const Queued*> mine;
-    for (const Queued& q : batch)
-      if (q.line.lane == l.id) mine.push_back(&q);
-    const double insp_before = l.proc->inspection_seconds();
-    const int64_t t0 = steady_ns();
-    size_t pushed = 0;
+  if (!changes_waiting(batch)) {
+    // The whole mixed-lane batch goes to the backend as one.
+    runner_->launch(std::move(batch));
+    return;
+  }
+  // A lane of this batch waits for a quiet moment to take its change: lines go one by one,
+  // so that every line boundary is a chance (quiet stretches can be shorter than a batch).
+  for (Queued& q : batch) {
+    Lane& l = lane(q.line.lane);
     try {
+      if (!q.restart.empty()) restart_lane(l, q.restart);
+      q.restart.clear();
       apply_pending(l);
-      // Runs of lines between restarts go through the pipeline together.
-      while (pushed < mine.size()) {
-        if (!mine[pushed]->restart.empty()) restart_lane(l, mine[pushed]->restart);
-        size_t end = pushed + 1;
-        while (end < mine.size() && mine[end]->restart.empty()) ++end;
-        push_lines(l, mine, pushed, end);
-        pushed = end;
-      }
     } catch (const std::exception& e) {
-      // The lane's state is suspect: its open fillets end not inspected, the lines of this
-      // batch not yet taken are dropped and counted.
-      const std::string why = std::string("processing error: ") + e.what();
-      dropped_[size_t(DropReason::kProcessingError)] += mine.size() - pushed;
-      try {
-        restart_lane(l, why);
-      } catch (const std::exception& e2) {
-        std::fprintf(stderr, "rangexd: lane %d: restart after an error failed too: %s\n", l.id,
-                     e2.what());
-        Lane* raw = &l;
-        l.proc = std::make_unique<LaneProcessor>(
-            l.config, LaneProcessorOptions{opt_.threads, false, opt_.images},
-            [this, raw](InspectedFillet&& f) { on_fillet(*raw, std::move(f)); });
-        l.assembly_restarts = 0;
-      }
+      recover(l, std::string("processing error: ") + e.what());
     }
-    done += pushed;
-    if (!mine.empty()) {
-      l.last_push_ns = steady_ns();
-      l.in_progress = !l.proc->quiet();
-      const double insp = l.proc->inspection_seconds() - insp_before;
-      pipeline_.add((steady_ns() - t0) / 1e6 - insp * 1e3);
+    std::vector<Queued> one;
+    one.push_back(std::move(q));
+    runner_->launch(std::move(one));
+    runner_->finish_all();
+  }
+}
+
+void Engine::route(std::vector<Queued>& lines, const LineResults& r) {
+  uint64_t done = 0;
+  for (size_t k = 0; k < lines.size(); ++k) {
+    const Queued& q = lines[k];
+    Lane& l = lane(q.line.lane);
+    try {
+      if (!q.restart.empty()) restart_lane(l, q.restart);
+      const size_t D = size_t(l.pixels);
+      std::memcpy(l.xray.data(), q.line.xray.data(), D * 2);
+      l.arrivals.emplace_back(q.line.encoder, q.arrived_ns);
+      l.proc->push(&r.thickness[k * D], &r.thickness_valid[k * D], l.xray.data(), q.line.encoder);
+      ++done;
+    } catch (const std::exception& e) {
+      // The lane's state is suspect: its open fillets end not inspected; the line is counted.
+      ++dropped_[size_t(DropReason::kProcessingError)];
+      recover(l, std::string("processing error: ") + e.what());
     }
+    // Arrival times are kept for the decision latency as long as a fillet can reach back.
+    const size_t keep = size_t(l.config.inspection.max_segment_lines) +
+                        size_t(l.config.xray.delay_lines) + 4 * size_t(opt_.batch_lines);
+    while (l.arrivals.size() > keep) l.arrivals.pop_front();
+    note_assembly_restarts(l);
+    l.last_push_ns = steady_ns();
+    l.in_progress = !l.proc->quiet();
   }
   processed_ += done;
   std::lock_guard<std::mutex> lock(rate_mu_);
   rate_.emplace_back(steady_ns(), processed_.load());
   while (rate_.size() > 2 && rate_.front().first < rate_.back().first - 2'000'000'000)
     rate_.pop_front();
+}
+
+void Engine::lose(std::vector<Queued>& lines, const std::string& why) {
+  std::fprintf(stderr, "rangexd: %zu lines lost: %s\n", lines.size(), why.c_str());
+  dropped_[size_t(DropReason::kProcessingError)] += lines.size();
+  std::vector<int> seen;
+  for (const Queued& q : lines) {
+    if (std::find(seen.begin(), seen.end(), q.line.lane) != seen.end()) continue;
+    seen.push_back(q.line.lane);
+    recover(lane(q.line.lane), why);
+  }
+}
+
+void Engine::recover(Lane& l, const std::string& why) {
+  try {
+    restart_lane(l, why);
+  } catch (const std::exception& e2) {
+    std::fprintf(stderr, "rangexd: lane %d: restart after an error failed too: %s\n", l.id,
+                 e2.what());
+    Lane* raw = &l;
+    l.proc = std::make_unique<LaneProcessor>(
+        l.config, LaneProcessorOptions{false, opt_.images},
+        [this, raw](InspectedFillet&& f) { on_fillet(*raw, std::move(f)); });
+    l.assembly_restarts = 0;
+  }
 }
 
 void Engine::close_idle_lanes() {
@@ -664,6 +695,9 @@ EngineStats Engine::stats() {
   s.inspection = inspection_.summary();
   s.decision = decision_.summary();
   s.health = health();
+  s.backend = runner_->running();
+  s.backend_note = runner_->note();
+  s.batches = runner_->stats();
   return s;
 }
 

@@ -26,31 +26,24 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <unordered_map>
 #include <vector>
 
 #include "core/plant_config.h"
 #include "pipeline/lane_processor.h"
+#include "service/incoming_line.h"
 #include "service/lane_admission.h"
 #include "service/latency_stats.h"
 #include "service/line_codes.h"
 #include "service/results_hub.h"
+#include "service/stage_runner.h"
 #include "service/store.h"
 
 namespace rangex {
 
-struct IncomingLine {
-  int lane = 0;
-  int64_t encoder = 0;
-  std::string cam0, cam1, xray;  // raw bytes as received
-  std::string calibration_id;    // what the sender believes active; empty: not checked
-  // The sending stream's count of its lines waiting in the queue (for its credit); the
-  // engine adds the line when it takes it and removes it when the worker does.
-  std::shared_ptr<std::atomic<int>> queued_by;
-};
-
 struct EngineOptions : EngineSettings {
-  int threads = 1;     // stripe-stage workers
-  bool images = true;  // store images of rejected / not inspected fillets
+  BackendRequest backend;  // where the line stages run (plant.backend, --backend)
+  bool images = true;      // store images of rejected / not inspected fillets
   // Fault injection for tests: runs on the worker before each batch. A hook that blocks
   // stalls the worker the way a hung disk or device would.
   std::function<void()> batch_hook;
@@ -72,6 +65,9 @@ struct EngineStats {
   LatencyStats::Summary queue_wait, pipeline, inspection, decision;
   Health health;
   std::vector<std::string> warnings;  // e.g. lanes that stopped being fed
+  BackendInfo backend;                // what runs the line stages now
+  std::string backend_note;           // why that one (a choice of auto, a fallback)
+  StageRunnerStats batches;           // batches, verified on the CPU, mismatches, failures
 };
 
 struct LaneState {
@@ -124,6 +120,8 @@ class Engine {
   Health health();
   const PlantConfig& plant() const { return plant_; }
   const EngineOptions& options() const { return opt_; }
+  BackendInfo backend() const { return runner_->running(); }
+  std::string backend_note() const { return runner_->note(); }
 
  private:
   struct Lane {
@@ -146,18 +144,12 @@ class Engine {
     std::deque<std::pair<int64_t, int64_t>> arrivals;  // (encoder, steady ns) of recent lines
     int64_t last_push_ns = 0;
     int64_t assembly_restarts = 0;
-    std::vector<uint8_t> frames;
-    std::vector<uint16_t> xray;
-    std::vector<int64_t> encoders;
+    std::vector<uint16_t> xray;  // one line, aligned for the assembly
     // Read anywhere:
     std::atomic<bool> in_progress{false};
     std::atomic<uint64_t> restarts{0};
   };
-  struct Queued {
-    IncomingLine line;
-    int64_t arrived_ns;
-    std::string restart;  // the lane restarts before this line (why)
-  };
+  using Queued = QueuedLine;
   struct Unsaved {  // a decision waiting for the store
     StoredFillet record;
     InspectedFillet fillet;
@@ -167,7 +159,10 @@ class Engine {
   Verdict refuse(Refusal code, std::string message, size_t queued);
   void worker();
   void process(std::vector<Queued>& batch);
-  int push_lines(Lane& l, const std::vector<const Queued*>& lines, size_t from, size_t to);
+  bool changes_waiting(const std::vector<Queued>& batch);
+  void route(std::vector<Queued>& lines, const LineResults& r);
+  void lose(std::vector<Queued>& lines, const std::string& why);
+  void recover(Lane& l, const std::string& why);
   void apply_pending(Lane& l);
   void restart_lane(Lane& l, const std::string& reason);
   void note_assembly_restarts(Lane& l);
@@ -182,6 +177,8 @@ class Engine {
   ResultsHub& hub_;
   EngineOptions opt_;
   std::vector<std::unique_ptr<Lane>> lanes_;
+  std::unordered_map<int, Lane*> by_id_;
+  std::unique_ptr<StageRunner> runner_;  // worker only, but for its read-only accessors
 
   std::mutex mu_;
   std::condition_variable cv_;

@@ -114,6 +114,13 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
   o->set_serving(s.health.serving);
   for (const std::string& r : s.health.reasons) o->add_health(r);
   for (const std::string& w : s.warnings) o->add_warnings(w);
+  o->set_backend(s.backend.name);
+  o->set_device(s.backend.device);
+  o->set_backend_note(s.backend_note);
+  o->set_batches(s.batches.batches);
+  o->set_batches_verified(s.batches.verified);
+  o->set_verify_mismatches(s.batches.mismatches);
+  o->set_backend_failures(s.batches.failures);
 }
 
 }  // namespace rangex

@@ -22,7 +22,10 @@ void on_signal(int) {
 
 constexpr const char* kUsage =
     "usage: rangexd [--config PLANT.yaml] [--listen HOST:PORT] [--data DIR] [--threads N]\n"
-    "               [--queue LINES] [--batch LINES]\n";
+    "               [--queue LINES] [--batch LINES] [--backend auto|cpu|opencl|vulkan]\n"
+    "               [--device INDEX|NAME]\n"
+    "  --backend and --device override plant.backend and plant.device; --threads is the\n"
+    "  CPU backend's stripe workers.\n";
 
 void print_stats(rangex::RangexServer& server) {
   const auto s = server.engine().stats();
@@ -33,7 +36,7 @@ void print_stats(rangex::RangexServer& server) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string config, listen, data;
+  std::string config, listen, data, backend, device;
   int threads = int(std::max(1u, std::thread::hardware_concurrency()));
   long queue = 0, batch = 0;
   for (int i = 1; i < argc; ++i) {
@@ -63,6 +66,10 @@ int main(int argc, char** argv) {
       data = value();
     else if (a == "--threads")
       threads = int(number(value()));
+    else if (a == "--backend")
+      backend = value();
+    else if (a == "--device")
+      device = value();
     else if (a == "--queue")
       queue = number(value());
     else if (a == "--batch")
@@ -74,6 +81,12 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "rangexd: unknown option %s\n%s", a.c_str(), kUsage);
       return 2;
     }
+  }
+  if (!backend.empty() && backend != "auto" && backend != "cpu" && backend != "opencl" &&
+      backend != "vulkan") {
+    std::fprintf(stderr, "rangexd: --backend must be auto, cpu, opencl or vulkan (got '%s')\n",
+                 backend.c_str());
+    return 2;
   }
   if (config.empty()) {
     if (const char* env = std::getenv("RANGEX_CONFIG"))
@@ -88,7 +101,9 @@ int main(int argc, char** argv) {
     opt.listen = listen;
     opt.data_dir = data;
     static_cast<rangex::EngineSettings&>(opt.engine) = plant.engine;
-    opt.engine.threads = threads;
+    opt.engine.backend.name = backend.empty() ? plant.backend : backend;
+    opt.engine.backend.device = device.empty() ? plant.device : device;
+    opt.engine.backend.threads = threads;
     if (queue) opt.engine.queue_lines = size_t(queue);
     if (batch) opt.engine.batch_lines = int(batch);
     opt.on_fatal = [](const rangex::Health& h) {
@@ -101,9 +116,13 @@ int main(int argc, char** argv) {
     rangex::RangexServer server(plant, opt);
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
-    std::printf("rangexd: plant '%s', %zu lanes, backend cpu, listening on %s, store %s\n",
-                plant.name.c_str(), plant.lanes.size(), server.address().c_str(),
+    const rangex::BackendInfo b = server.engine().backend();
+    std::printf("rangexd: plant '%s', %zu lanes, listening on %s, store %s\n", plant.name.c_str(),
+                plant.lanes.size(), server.address().c_str(),
                 (data.empty() ? plant.storage : data).c_str());
+    std::printf("rangexd: backend %s (%s): %s, %s; %s\n", b.name.c_str(),
+                server.engine().backend_note().c_str(), b.device.c_str(), b.driver.c_str(),
+                b.limits.c_str());
     std::fflush(stdout);
     while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
     std::printf("rangexd: stopping: draining queued lines and closing open fillets\n");

@@ -189,7 +189,6 @@ class ControlImpl final : public pb::ControlService::Service {
   Status GetStatistics(ServerContext*, const pb::GetStatisticsRequest*,
                        pb::GetStatisticsResponse* resp) override {
     fill(resp, engine_.stats());
-    resp->set_backend("cpu");
     resp->set_subscribers(hub_.subscribers());
     resp->set_ingest_streams(counters_.ingest);
     return Status::OK;
@@ -198,7 +197,12 @@ class ControlImpl final : public pb::ControlService::Service {
                        pb::GetServerInfoResponse* resp) override {
     resp->set_version("rangex 0.1.0");
     resp->set_plant(engine_.plant().name);
-    resp->set_backend("cpu");
+    const BackendInfo b = engine_.backend();
+    resp->set_backend(b.name);
+    resp->set_device(b.device);
+    resp->set_driver(b.driver);
+    resp->set_limits(b.limits);
+    resp->set_backend_note(engine_.backend_note());
     resp->set_storage(opt_.data_dir);
     resp->set_started_ns(started_);
     return Status::OK;

@@ -33,6 +33,7 @@ class CpuBackend::Slot final : public LineBatchSlot {
 
 CpuBackend::CpuBackend(int threads) : threads_(std::max(1, threads)) {
   info_.name = "cpu";
+  info_.reference = true;
 #if defined(__AVX512BW__)
   info_.device = "host CPU, AVX-512 blocks of 64 columns";
 #else

@@ -219,6 +219,7 @@ OpenClBackend::OpenClBackend(const OpenClOptions& opt) : impl_(std::make_unique<
   info_.device = d.name + " (" + d.platform_name + ")";
   info_.driver = d.version + ", driver " + d.driver;
   info_.emulated = d.cpu;
+  info_.overlaps = true;
   info_.limits = std::to_string(d.compute_units) + " compute units, " +
                  std::to_string(d.global_mem >> 20) + " MiB, max allocation " +
                  std::to_string(d.max_alloc >> 20) + " MiB, work-groups of " +

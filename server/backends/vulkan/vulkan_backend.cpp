@@ -370,6 +370,7 @@ VulkanBackend::VulkanBackend(const VulkanOptions& opt) : impl_(std::make_unique<
                  std::to_string(VK_API_VERSION_PATCH(d.props.apiVersion)) + ", driver " +
                  std::to_string(d.props.driverVersion);
   info_.emulated = d.cpu;
+  info_.overlaps = true;
   info_.limits =
       std::string(m.dev->unified() ? "unified" : "device") + " memory, buffers up to " +
       std::to_string(d.props.limits.maxStorageBufferRange >> 20) + " MiB, work-groups of " +

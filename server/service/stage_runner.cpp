@@ -1,0 +1,250 @@
+#include "service/stage_runner.h"
+
+#include <cstdio>
+#include <cstring>
+
+#include "backends/verify.h"
+#include "core/error.h"
+
+namespace rangex {
+
+namespace {
+bool same_shape(const LaneConfig& a, const LaneConfig& b) {
+  return a.frame_width == b.frame_width && a.frame_height == b.frame_height &&
+         a.fusion.grid_samples == b.fusion.grid_samples && a.xray.pixels == b.xray.pixels;
+}
+}  // namespace
+
+StageRunner::StageRunner(const std::vector<LaneConfig>& lanes, StageRunnerOptions opt, Sink sink,
+                         Lost lost)
+    : opt_(std::move(opt)), sink_(std::move(sink)), lost_(std::move(lost)) {
+  if (lanes.empty()) fail("the line stages need at least one lane");
+  std::vector<std::vector<LaneConfig>> configs;
+  for (const LaneConfig& l : lanes) {
+    size_t g = 0;
+    while (g < configs.size() && !same_shape(configs[g].front(), l)) ++g;
+    if (g == configs.size()) {
+      configs.emplace_back();
+      groups_.emplace_back();
+      groups_[g].frame_bytes = size_t(l.frame_width) * size_t(l.frame_height);
+      groups_[g].pixels = size_t(l.xray.pixels);
+    }
+    where_[l.id] = {int(g), int(configs[g].size())};
+    configs[g].push_back(l);
+    groups_[g].lane_ids.push_back(l.id);
+  }
+  BackendRequest cpu_req = opt_.backend;
+  cpu_req.name = "cpu";
+  cpu_req.fail_after = cpu_req.corrupt_after = -1;
+  std::string why;
+  for (size_t g = 0; g < groups_.size(); ++g) {
+    Group& gr = groups_[g];
+    gr.cpu = create_backend(cpu_req);
+    gr.cpu->set_lanes(configs[g]);
+    gr.active = gr.cpu.get();
+    if (!note_.empty() && running_.reference) continue;  // the first group fell back already
+    try {
+      std::unique_ptr<Backend> b = create_backend(opt_.backend, &why);
+      if (!b->info().reference) {
+        b->set_lanes(configs[g]);
+        gr.device = std::move(b);
+        gr.active = gr.device.get();
+      }
+      if (g == 0) note_ = why.empty() ? "requested" : why;
+    } catch (const std::exception& e) {
+      // Loud, and the plant keeps inspecting on the CPU.
+      note_ = "backend '" + opt_.backend.name + "' cannot start: " + e.what() + "; running on cpu";
+      std::fprintf(stderr, "rangex: %s\n", note_.c_str());
+      for (Group& earlier : groups_)
+        if (earlier.device) {
+          earlier.failed.push_back(std::move(earlier.device));
+          earlier.active = earlier.cpu.get();
+        }
+    }
+    running_ = groups_.front().active->info();
+  }
+}
+
+StageRunner::~StageRunner() = default;
+
+BackendInfo StageRunner::running() const {
+  std::lock_guard<std::mutex> lock(info_mu_);
+  return running_;
+}
+
+std::string StageRunner::note() const {
+  std::lock_guard<std::mutex> lock(info_mu_);
+  return note_;
+}
+
+StageRunnerStats StageRunner::stats() const {
+  return {batches_.load(), verified_.load(), mismatches_.load(), failures_.load()};
+}
+
+size_t StageRunner::in_flight(int group) const {
+  size_t n = 0;
+  for (const InFlight& f : inflight_) n += f.group == group;
+  return n;
+}
+
+void StageRunner::launch(std::vector<QueuedLine>&& lines) {
+  if (lines.empty()) return;
+  // One batch per group; with one group (the usual plant) the batch goes whole.
+  std::vector<std::vector<QueuedLine>> parts(groups_.size());
+  if (groups_.size() == 1) {
+    parts[0] = std::move(lines);
+  } else {
+    for (QueuedLine& q : lines) parts[where_.at(q.line.lane).first].push_back(std::move(q));
+  }
+  for (size_t g = 0; g < parts.size(); ++g) {
+    if (parts[g].empty()) continue;
+    Group& gr = groups_[g];
+    while (in_flight(int(g)) >= 2) finish_oldest();
+    InFlight f;
+    f.group = int(g);
+    f.lines = std::move(parts[g]);
+    f.launched = std::chrono::steady_clock::now();
+    try {
+      submit(gr, f);
+    } catch (const std::exception& e) {
+      if (gr.active == gr.cpu.get()) {
+        lost_(f.lines, std::string("line stages failed on the CPU: ") + e.what());
+        continue;
+      }
+      fail_over(e.what());
+      f.backend = nullptr;  // recomputed on the CPU when its turn comes
+    }
+    inflight_.push_back(std::move(f));
+    if (!gr.active->info().overlaps) finish_all();  // the CPU computes in collect()
+  }
+}
+
+void StageRunner::submit(Group& g, InFlight& f) {
+  const int n = int(f.lines.size());
+  LineBatchSlot& s = g.active->acquire(n);
+  uint8_t* frames = s.frames();
+  int32_t* slots = s.lane_slot();
+  for (int k = 0; k < n; ++k) {
+    const IncomingLine& in = f.lines[k].line;
+    // The engine checked the sizes at admission; this is the one copy of each frame.
+    std::memcpy(frames + g.frame_bytes * (2 * size_t(k)), in.cam0.data(), g.frame_bytes);
+    std::memcpy(frames + g.frame_bytes * (2 * size_t(k) + 1), in.cam1.data(), g.frame_bytes);
+    slots[k] = where_.at(in.lane).second;
+  }
+  s.lines = n;
+  g.active->submit(s);
+  f.backend = g.active;
+  f.slot = &s;
+}
+
+bool StageRunner::compute_on_cpu(Group& g, InFlight& f, LineResults& out) {
+  std::vector<uint8_t> frames(g.frame_bytes * 2 * f.lines.size());
+  std::vector<int> slots(f.lines.size());
+  for (size_t k = 0; k < f.lines.size(); ++k) {
+    const IncomingLine& in = f.lines[k].line;
+    std::memcpy(&frames[g.frame_bytes * 2 * k], in.cam0.data(), g.frame_bytes);
+    std::memcpy(&frames[g.frame_bytes * (2 * k + 1)], in.cam1.data(), g.frame_bytes);
+    slots[k] = where_.at(in.lane).second;
+  }
+  try {
+    run_batch(*g.cpu, frames.data(), int(f.lines.size()), slots.data(), out);
+    return true;
+  } catch (const std::exception& e) {
+    lost_(f.lines, std::string("line stages failed on the CPU: ") + e.what());
+    return false;
+  }
+}
+
+void StageRunner::finish_oldest() {
+  InFlight f = std::move(inflight_.front());
+  inflight_.pop_front();
+  Group& g = groups_[f.group];
+  bool ok = false;
+  if (f.backend && f.backend == g.active) {
+    try {
+      g.active->collect(*f.slot, results_);
+      ok = true;
+    } catch (const std::exception& e) {
+      if (g.active == g.cpu.get()) {
+        lost_(f.lines, std::string("line stages failed on the CPU: ") + e.what());
+        return;
+      }
+      fail_over(e.what());
+    }
+  }
+  if (!ok) {
+    // Submitted to a backend that has since failed: its results are not to be trusted.
+    if (!compute_on_cpu(g, f, results_)) return;
+  } else if (g.active != g.cpu.get() && verify_now()) {
+    verify(g, f, results_);
+  }
+  ++batches_;
+  sink_(f.lines, results_,
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - f.launched)
+            .count());
+}
+
+void StageRunner::finish_all() {
+  while (!inflight_.empty()) finish_oldest();
+}
+
+bool StageRunner::verify_now() {
+  if (opt_.verify_fraction <= 0) return false;
+  verify_credit_ += opt_.verify_fraction;
+  if (verify_credit_ < 1) return false;
+  verify_credit_ -= 1;
+  return true;
+}
+
+void StageRunner::verify(Group& g, InFlight& f, LineResults& r) {
+  // The staging still holds the batch's frames: collect() does not touch them.
+  try {
+    run_batch(*g.cpu, f.slot->frames(), int(f.lines.size()), f.slot->lane_slot(), reference_);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rangex: verification on the CPU failed: %s\n", e.what());
+    return;
+  }
+  ++verified_;
+  const auto m = compare_line_results(r, reference_, int(f.lines.size()));
+  if (!m) return;
+  ++mismatches_;
+  const IncomingLine& in = f.lines.at(std::min(m->line, f.lines.size() - 1)).line;
+  std::fprintf(stderr,
+               "rangex: backend %s differs from the CPU reference: %s (lane %d, encoder %lld); "
+               "this batch is decided from the CPU's results\n",
+               g.active->info().name.c_str(), m->describe().c_str(), in.lane,
+               (long long)in.encoder);
+  std::swap(r, reference_);
+}
+
+void StageRunner::fail_over(const std::string& why) {
+  ++failures_;
+  std::string name;
+  for (Group& g : groups_) {
+    if (!g.device) continue;
+    name = g.device->info().name;
+    g.failed.push_back(std::move(g.device));
+    g.active = g.cpu.get();
+  }
+  std::lock_guard<std::mutex> lock(info_mu_);
+  note_ = "backend " + name + " failed: " + why + "; switched to cpu";
+  running_ = groups_.front().active->info();
+  std::fprintf(stderr,
+               "rangex: %s (the batches in flight are recomputed on the CPU, no line is lost)\n",
+               note_.c_str());
+}
+
+void StageRunner::update_lane(int lane_id, const LaneConfig& lane) {
+  finish_all();
+  const auto [g, slot] = where_.at(lane_id);
+  Group& gr = groups_[g];
+  gr.cpu->update_lane(slot, lane);
+  if (!gr.device) return;
+  try {
+    gr.device->update_lane(slot, lane);
+  } catch (const std::exception& e) {
+    fail_over(std::string("updating lane tables: ") + e.what());
+  }
+}
+
+}  // namespace rangex
