@@ -143,7 +143,9 @@ int cmd_bench_server(int argc, char** argv) {
       int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
   std::vector<BackendRequest> backends;
   for (const std::string& name : backend_names(a.get("backend", "cpu"))) {
-    BackendRequest r{name, a.get("device", "")};
+    BackendRequest r;
+    r.name = name;
+    r.device = a.get("device", "");
     r.threads = threads;
     backends.push_back(r);
   }
@@ -181,9 +183,7 @@ int cmd_bench_server(int argc, char** argv) {
     LineResults res;
     const auto t0 = std::chrono::steady_clock::now();
     for (int lane = 0; lane < nl; ++lane) {
-      BackendRequest cpu{"cpu"};
-      cpu.threads = threads;
-      const std::unique_ptr<Backend> b = create_backend(cpu);
+      const std::unique_ptr<Backend> b = create_backend(cpu_request(threads));
       b->set_lanes({plant.lanes[lane]});
       LaneProcessor proc(plant.lanes[lane], {false, false}, [](InspectedFillet&&) {});
       for (int k0 = 0; k0 < lines; k0 += 64) {

@@ -28,8 +28,8 @@ struct PlantRunLane {
 };
 
 struct PlantRunOptions {
-  int threads = 1;                // rendering workers
-  BackendRequest backend{"cpu"};  // where the line stages run
+  int threads = 1;                         // rendering workers
+  BackendRequest backend = cpu_request();  // where the line stages run
   bool keep_images = false;
   // Called for every inspected fillet (e.g. to write its images).
   std::function<void(const InspectedFillet&)> on_fillet;

@@ -18,11 +18,11 @@ namespace rangex {
 
 struct ReplayOptions {
   int batch_lines = 64;
-  std::optional<StripeMethod> method;  // overrides plant.yaml's stripe method
-  std::vector<int> lanes;              // empty: every lane of the recording
-  BackendRequest backend{"cpu"};       // where the line stages run (threads: CPU workers)
-  bool keep_images = true;             // per-fillet pseudo-X-ray / residual images
-  bool baseline = true;                // X-ray-only baseline beside every fillet
+  std::optional<StripeMethod> method;      // overrides plant.yaml's stripe method
+  std::vector<int> lanes;                  // empty: every lane of the recording
+  BackendRequest backend = cpu_request();  // where the line stages run (threads: CPU workers)
+  bool keep_images = true;                 // per-fillet pseudo-X-ray / residual images
+  bool baseline = true;                    // X-ray-only baseline beside every fillet
 };
 
 struct LaneReplay {

@@ -101,7 +101,7 @@ ServerOptions options(const test::TempDir& t) {
   o.listen = "127.0.0.1:0";
   o.data_dir = t.str("data");
   o.engine.queue_lines = 4096;
-  o.engine.backend = {"cpu"};
+  o.engine.backend = cpu_request();
   o.engine.images = false;
   o.engine.stall_s = 2;
   return o;

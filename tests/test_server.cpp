@@ -12,11 +12,13 @@
 #include "grpc_raw.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "replay.h"
+#include "server_client.h"
 #include "service/server.h"
 #include "sim/plant_simulator.h"
 #include "temp_dir.h"
 
 using namespace rangex;
+using namespace rangex::test;
 namespace pb = rangex::v1;
 
 namespace {
@@ -30,15 +32,8 @@ ServerOptions options(const test::TempDir& t, size_t queue = 2048) {
   o.listen = "127.0.0.1:0";
   o.data_dir = t.str("data");
   o.engine.queue_lines = queue;
-  o.engine.backend = {"cpu"};
-  o.engine.backend.threads = 2;
+  o.engine.backend = cpu_request(2);
   return o;
-}
-
-std::shared_ptr<grpc::Channel> connect(const RangexServer& s) {
-  grpc::ChannelArguments args;
-  args.SetMaxSendMessageSize(64 << 20);
-  return grpc::CreateCustomChannel(s.address(), grpc::InsecureChannelCredentials(), args);
 }
 
 // Lines of one simulated lane, in memory.
@@ -66,34 +61,6 @@ struct Lines {
   }
 };
 
-// Streams lines, returns the acks in order.
-std::vector<pb::StreamLinesResponse> stream(const std::shared_ptr<grpc::Channel>& ch,
-                                            const std::vector<pb::LineScan>& lines) {
-  auto stub = pb::IngestService::NewStub(ch);
-  grpc::ClientContext ctx;
-  auto s = stub->StreamLines(&ctx);
-  std::vector<pb::StreamLinesResponse> acks;
-  std::thread reader([&] {
-    pb::StreamLinesResponse r;
-    while (s->Read(&r)) acks.push_back(r);
-  });
-  uint64_t seq = 0;
-  for (const auto& l : lines) {
-    pb::StreamLinesRequest req;
-    req.set_sequence(seq++);
-    *req.mutable_line() = l;
-    if (!s->Write(req)) break;
-  }
-  s->WritesDone();
-  reader.join();
-  EXPECT_TRUE(s->Finish().ok());
-  return acks;
-}
-
-std::vector<StoredFillet> all_fillets(Store& st) {
-  return st.list_fillets(0, 0, -1, 0, 100000);
-}
-
 }  // namespace
 
 TEST(Server, DecisionsEqualOfflineProcess) {
@@ -109,22 +76,7 @@ TEST(Server, DecisionsEqualOfflineProcess) {
   ASSERT_EQ(offline.size(), 1u);
   ASSERT_GE(offline[0].fillets.size(), 3u);
 
-  std::vector<pb::LineScan> lines;
-  const size_t frame = 640 * 200;
-  for (int64_t n = 0; n < rec.info().lines; ++n) {
-    pb::LineScan l;
-    std::string c0(frame, '\0'), c1(frame, '\0'), x(480 * 2, '\0');
-    int64_t enc;
-    rec.read(0, n, 1, reinterpret_cast<uint8_t*>(c0.data()), reinterpret_cast<uint8_t*>(c1.data()),
-             reinterpret_cast<uint16_t*>(x.data()), &enc);
-    l.set_lane(0);
-    l.set_encoder(enc);
-    l.set_cam0(c0);
-    l.set_cam1(c1);
-    l.set_xray(x);
-    l.set_calibration_id(rec.info().calibration_id);
-    lines.push_back(std::move(l));
-  }
+  const std::vector<pb::LineScan> lines = recording_lines(rec, p);
   RangexServer server(p, options(t));
   const auto acks = stream(connect(server), lines);
   ASSERT_EQ(acks.size(), lines.size());

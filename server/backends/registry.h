@@ -29,6 +29,14 @@ struct BackendRequest {
   int corrupt_after = -1;     // fault injection (tests): batches before results go wrong
 };
 
+// The CPU reference backend with `threads` stripe workers.
+inline BackendRequest cpu_request(int threads = 1) {
+  BackendRequest r;
+  r.name = "cpu";
+  r.threads = threads;
+  return r;
+}
+
 // Starts the requested backend. For `auto`, `why` says what was chosen and why; a named
 // backend that cannot start throws BackendError with the reason.
 std::unique_ptr<Backend> create_backend(const BackendRequest& req, std::string* why = nullptr);
