@@ -14,6 +14,8 @@
 #include <vector>
 
 #include "args.h"
+#include "backend_args.h"
+#include "bench_backends.h"
 #include "commands.h"
 #include "core/error.h"
 #include "naive_inspection.h"
@@ -65,6 +67,22 @@ struct Rounds {
   }
 };
 
+std::vector<int> int_list(const std::string& v, const char* what) {
+  std::vector<int> out;
+  size_t i = 0;
+  while (i <= v.size()) {
+    const size_t j = std::min(v.find(',', i), v.size());
+    const std::string item = v.substr(i, j - i);
+    char* end = nullptr;
+    const long n = std::strtol(item.c_str(), &end, 10);
+    if (item.empty() || *end || n < 1 || n > 4096)
+      fail(what, " takes numbers from 1 to 4096 separated by commas (got '", v, "')");
+    out.push_back(int(n));
+    i = j + 1;
+  }
+  return out;
+}
+
 Rounds measure_rounds(int frames, int rounds, double seconds,
                       const std::vector<std::function<void()>>& passes) {
   Rounds r;
@@ -78,8 +96,28 @@ Rounds measure_rounds(int frames, int rounds, double seconds,
 }  // namespace
 
 int cmd_bench(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"frames", "seconds", "rounds", "config"});
-  a.expect_positionals(0, "bench [--frames N] [--seconds S] [--rounds R]");
+  const Args a(argc, argv, 2, {},
+               {"frames", "seconds", "rounds", "config", "backend", "device", "threads", "lanes",
+                "batches"});
+  a.expect_positionals(0,
+                       "bench [--frames N] [--seconds S] [--rounds R] | bench --backend "
+                       "cpu|opencl|vulkan|all [--device D] [--seconds S] [--lanes 1,4,16] "
+                       "[--batches 1,16,64,256]");
+  if (a.has("backend")) {
+    BackendBenchOptions o;
+    o.backends = backend_names(a.get("backend", "all"));
+    // The CPU first, always: every other backend is reported as a ratio to it.
+    o.backends.erase(std::remove(o.backends.begin(), o.backends.end(), "cpu"), o.backends.end());
+    o.backends.insert(o.backends.begin(), "cpu");
+    o.device = a.get("device", "");
+    o.threads = int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
+    if (o.threads < 1) fail("--threads must be >= 1");
+    o.seconds = std::stod(a.get("seconds", "0.25"));
+    if (!(o.seconds > 0)) fail("--seconds must be > 0");
+    if (a.has("lanes")) o.lanes = int_list(a.get("lanes", ""), "--lanes");
+    if (a.has("batches")) o.batches = int_list(a.get("batches", ""), "--batches");
+    return bench_backends(load_config(a.get("config", "")), o);
+  }
   const int nframes = int(a.integer("frames", 256));
   const double secs = std::stod(a.get("seconds", "1.0"));
   const int nrounds = int(a.integer("rounds", 9));

@@ -18,6 +18,7 @@ commands:
       replay a recording through the pipeline and inspect every fillet
   process --simulate --out OUT [--lanes N] [--fillets M] [--seed S] [--images ...]
       simulate a plant in memory (no recording) and inspect it; prints the evaluation
+      (both: [--backend auto|cpu|opencl|vulkan] [--device D] for the line stages)
   eval DIR OUT [--json]   |   eval OUT [--json]
       compare processed output with the truth of its recording (or of its simulation)
   fit FILE.csv [--c C] [--json]
@@ -26,8 +27,12 @@ commands:
       fit the scattering constants K1, K2 per camera from a recording with truth
   bench [--frames N]
       stripe extraction and inspection throughput beside their baselines
+  bench --backend cpu|opencl|vulkan|all [--device D] [--lanes 1,4,16] [--batches 1,16,64,256]
+      each line stage on each backend (upload / compute / download), the line path with two
+      batches in flight, beside the CPU backend; a device's stripe stage against its
+      host-to-device bandwidth
 
-  bench-server [--lines N] [--capacity]
+  bench-server [--lines N] [--backend NAME|all] [--capacity]
       lines/s through gRPC on loopback for 1, 4, 16 lanes beside the in-process pipeline
 
 server commands (--server HOST:PORT, default: plant.yaml's listen address):

@@ -88,6 +88,11 @@ class Backend {
 
   const StageTimes& last_times() const { return times_; }
 
+  // Host-to-device copy bandwidth (bytes/s) measured over `bytes` from pinned or
+  // host-visible staging into device memory, best of a few; 0 where the device reads host
+  // memory in place (the CPU, unified memory) and nothing is copied.
+  virtual double upload_bandwidth(size_t /*bytes*/) { return 0; }
+
  protected:
   std::vector<LaneConfig> lanes_;
   StageTimes times_;

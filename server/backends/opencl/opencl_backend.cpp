@@ -474,3 +474,31 @@ void OpenClBackend::project(const float* profile, const uint8_t* profile_valid, 
 }
 
 }  // namespace rangex
+
+namespace rangex {
+
+double OpenClBackend::upload_bandwidth(size_t bytes) {
+  Impl& m = *impl_;
+  if (info_.emulated) return 0;  // PoCL's CPU device: "device" memory is host memory
+  const cl_command_queue q = m.q(0);
+  cl::Buffer host(m.cx->ctx(), CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR, bytes, 0, m.align, q);
+  cl::Buffer dev(m.cx->ctx(), CL_MEM_READ_WRITE, bytes, 0, m.align, q);
+  cl_int e;
+  void* p =
+      clEnqueueMapBuffer(q, host.mem(), CL_TRUE, CL_MAP_WRITE, 0, bytes, 0, nullptr, nullptr, &e);
+  check(e, "clEnqueueMapBuffer (bandwidth)");
+  std::memset(p, 1, bytes);
+  double best = 0;
+  for (int i = 0; i < 5; ++i) {
+    std::vector<cl_event> ev;
+    write(q, dev.mem(), p, bytes, ev);
+    check(clFinish(q), "clFinish");
+    const double s = seconds(ev);
+    if (s > 0) best = std::max(best, double(bytes) / s);
+  }
+  clEnqueueUnmapMemObject(q, host.mem(), p, 0, nullptr, nullptr);
+  clFinish(q);
+  return best;
+}
+
+}  // namespace rangex

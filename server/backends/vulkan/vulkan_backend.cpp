@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cstring>
 
 #include "../../../kernels/shared/push_constants.h"
@@ -664,6 +665,31 @@ void VulkanBackend::project(const float* profile, const uint8_t* profile_valid, 
   std::memcpy(thickness, d.thickness.ptr(), size_t(lines) * P * 4);
   to_flags(d.thickness_valid.ptr(), size_t(lines) * P, thickness_valid);
   times_ = m.times(d);
+}
+
+}  // namespace rangex
+
+namespace rangex {
+
+double VulkanBackend::upload_bandwidth(size_t bytes) {
+  Impl& m = *impl_;
+  if (m.dev->unified()) return 0;  // the shaders read host-visible memory in place
+  vk::Buffer host = m.dev->buffer(bytes, true);
+  vk::Buffer dev = m.dev->buffer(bytes, false);
+  std::memset(host.data(), 1, bytes);
+  double best = 0;
+  for (int i = 0; i < 5; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    m.once([&](VkCommandBuffer cb) {
+      VkBufferCopy r{host.offset, dev.offset, bytes};
+      vkCmdCopyBuffer(cb, host.buf, dev.buf, 1, &r);
+    });
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (s > 0) best = std::max(best, double(bytes) / s);
+  }
+  m.dev->destroy(host);
+  m.dev->destroy(dev);
+  return best;
 }
 
 }  // namespace rangex

@@ -1,0 +1,262 @@
+#include "bench_backends.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <deque>
+#include <map>
+#include <memory>
+
+#include "backends/registry.h"
+#include "core/error.h"
+#include "sim/plant_simulator.h"
+
+namespace rangex::cli {
+
+namespace {
+
+using clk = std::chrono::steady_clock;
+
+// Batches of `lines` lines over `lanes` lanes (line k on lane k % lanes), frames of a
+// simulated lane with fillets in it, every line distinct up to 64.
+struct BenchBatch {
+  int lanes = 0, lines = 0;
+  size_t frame = 0;
+  std::vector<uint8_t> frames;
+  std::vector<int> lane_slot, frame_slot;
+};
+
+BenchBatch make_batch(const std::vector<uint8_t>& rendered, size_t frame, int lanes, int lines) {
+  BenchBatch b;
+  b.lanes = lanes;
+  b.lines = lines;
+  b.frame = frame;
+  const size_t distinct = rendered.size() / (2 * frame);
+  b.frames.resize(size_t(lines) * 2 * frame);
+  for (int k = 0; k < lines; ++k) {
+    std::memcpy(&b.frames[2 * frame * k], &rendered[2 * frame * (k % distinct)], 2 * frame);
+    b.lane_slot.push_back(k % lanes);
+    b.frame_slot.push_back(2 * (k % lanes));
+    b.frame_slot.push_back(2 * (k % lanes) + 1);
+  }
+  return b;
+}
+
+struct Cell {
+  double per_s = 0;  // batches per second
+  StageTimes t;      // mean per batch
+};
+
+// Repeats `pass` for `seconds` (at least 3 times, after one warm-up); the backend's own
+// split of each pass is averaged.
+template <class F>
+Cell measure(Backend& b, double seconds, F&& pass) {
+  pass();
+  Cell c;
+  int n = 0;
+  const auto t0 = clk::now();
+  double el = 0;
+  do {
+    pass();
+    ++n;
+    const StageTimes& t = b.last_times();
+    c.t.upload += t.upload;
+    c.t.compute += t.compute;
+    c.t.download += t.download;
+    el = std::chrono::duration<double>(clk::now() - t0).count();
+  } while (el < seconds || n < 3);
+  c.per_s = n / el;
+  c.t.upload /= n;
+  c.t.compute /= n;
+  c.t.download /= n;
+  return c;
+}
+
+// The line path as the server runs it: fill staging, submit, two batches in flight.
+Cell line_path(Backend& b, const BenchBatch& batch, double seconds) {
+  std::deque<LineBatchSlot*> flight;
+  LineResults r;
+  const size_t bytes = batch.frames.size();
+  auto one = [&] {
+    if (flight.size() == 2) {
+      b.collect(*flight.front(), r);
+      flight.pop_front();
+    }
+    LineBatchSlot& s = b.acquire(batch.lines);
+    std::memcpy(s.frames(), batch.frames.data(), bytes);
+    std::copy(batch.lane_slot.begin(), batch.lane_slot.end(), s.lane_slot());
+    b.submit(s);
+    flight.push_back(&s);
+  };
+  Cell c = measure(b, seconds, one);
+  while (!flight.empty()) {
+    b.collect(*flight.front(), r);
+    flight.pop_front();
+  }
+  return c;
+}
+
+void print_cell(const char* backend, int lanes, int lines, double items_per_batch,
+                double bytes_per_batch, const Cell& c, const Cell* cpu, const char* unit) {
+  std::printf("%-8s %5d %6d %12.0f %s %8.2f GB/s %9.3f %9.3f %9.3f ms", backend, lanes, lines,
+              c.per_s * items_per_batch, unit, c.per_s * bytes_per_batch / 1e9, 1e3 * c.t.upload,
+              1e3 * c.t.compute, 1e3 * c.t.download);
+  if (cpu) std::printf("  %6.2fx cpu", c.per_s / cpu->per_s);
+  std::printf("\n");
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
+  const int max_lanes = *std::max_element(opt.lanes.begin(), opt.lanes.end());
+  const PlantConfig p = default_plant_config(max_lanes);
+  const LaneConfig& lc = plant.lanes.front();
+  const size_t frame = size_t(lc.frame_width) * lc.frame_height;
+  std::vector<LaneConfig> lanes = p.lanes;
+  for (LaneConfig& l : lanes) {
+    const int id = l.id;
+    l = lc;
+    l.id = id;
+  }
+  // 64 distinct lines of a simulated lane with fillets in it.
+  sim::SimulationParams sp;
+  sp.scene.fillets = 2;
+  sp.scene.lead_in_mm = 5;
+  const sim::LaneSimulator sim(lc, sp);
+  const int distinct = 64;
+  std::vector<uint8_t> rendered(2 * frame * distinct);
+  std::vector<uint16_t> xray(lc.xray.pixels);
+  for (int k = 0; k < distinct; ++k)
+    sim.render(int64_t(k) * std::max<int64_t>(1, sim.lines() / distinct), &rendered[2 * frame * k],
+               &rendered[2 * frame * k + frame], xray.data(), nullptr, nullptr, nullptr);
+
+  std::vector<std::unique_ptr<Backend>> backends;
+  for (const std::string& name : opt.backends) {
+    BackendRequest r;
+    r.name = name;
+    r.device = opt.device;
+    r.threads = opt.threads;
+    try {
+      backends.push_back(create_backend(r));
+    } catch (const std::exception& e) {
+      std::printf("%s: cannot start: %s\n", name.c_str(), e.what());
+      continue;
+    }
+    const BackendInfo& i = backends.back()->info();
+    std::printf("%-8s %s; %s; %s%s\n", i.name.c_str(), i.device.c_str(), i.driver.c_str(),
+                i.limits.c_str(), i.emulated ? " (a CPU emulation)" : "");
+  }
+  if (backends.empty()) fail("no backend could start");
+  std::map<std::string, double> bandwidth;
+  for (auto& b : backends) {
+    b->set_lanes(lanes);
+    const double bw = b->upload_bandwidth(size_t(256) << 20);
+    bandwidth[b->info().name] = bw;
+    if (bw > 0)
+      std::printf("%-8s host-to-device copy: %.2f GB/s (256 MiB from pinned staging, best of 5)\n",
+                  b->info().name.c_str(), bw / 1e9);
+  }
+  const bool has_cpu = backends.front()->info().name == "cpu";
+
+  std::printf(
+      "\nstripe stage: %dx%d Mono8 frames, both cameras of every line in one dispatch; per "
+      "batch: upload / compute / download\n",
+      lc.frame_width, lc.frame_height);
+  std::printf("%-8s %5s %6s %21s %13s %9s %9s %9s\n", "backend", "lanes", "lines", "frames/s", "",
+              "up", "compute", "down");
+  std::map<std::pair<int, int>, Cell> cpu_stripes, cpu_path;
+  std::map<std::string, double> best_stripe_bytes;
+  for (int nl : opt.lanes)
+    for (int lines : opt.batches) {
+      const BenchBatch bb = make_batch(rendered, frame, nl, lines);
+      for (auto& b : backends) {
+        StripeOutput so;
+        const Cell c = measure(*b, opt.seconds, [&] {
+          b->stripes(bb.frames.data(), 2 * lines, bb.frame_slot.data(), so);
+        });
+        const bool is_cpu = b->info().name == "cpu";
+        if (is_cpu) cpu_stripes[{nl, lines}] = c;
+        const double bytes = double(bb.frames.size());
+        best_stripe_bytes[b->info().name] =
+            std::max(best_stripe_bytes[b->info().name], c.per_s * bytes);
+        print_cell(b->info().name.c_str(), nl, lines, 2.0 * lines, bytes, c,
+                   has_cpu && !is_cpu ? &cpu_stripes[{nl, lines}] : nullptr, "frames/s");
+      }
+    }
+
+  std::printf(
+      "\nline path: stripes, rectification, fusion, projection; one upload and one download per "
+      "batch, two batches in flight\n");
+  std::printf("%-8s %5s %6s %21s %13s %9s %9s %9s\n", "backend", "lanes", "lines", "lines/s", "",
+              "up", "compute", "down");
+  for (int nl : opt.lanes)
+    for (int lines : opt.batches) {
+      const BenchBatch bb = make_batch(rendered, frame, nl, lines);
+      for (auto& b : backends) {
+        const Cell c = line_path(*b, bb, opt.seconds);
+        const bool is_cpu = b->info().name == "cpu";
+        if (is_cpu) cpu_path[{nl, lines}] = c;
+        print_cell(b->info().name.c_str(), nl, lines, lines, double(bb.frames.size()), c,
+                   has_cpu && !is_cpu ? &cpu_path[{nl, lines}] : nullptr, "lines/s ");
+      }
+    }
+
+  // The later stages alone, on the results of a CPU run of the largest batch.
+  const int nl = max_lanes, lines = *std::max_element(opt.batches.begin(), opt.batches.end());
+  const BenchBatch bb = make_batch(rendered, frame, nl, lines);
+  LineResults ref;
+  {
+    const LinePipeline pipe(lanes, opt.threads);
+    pipe.run(bb.frames.data(), lines, bb.lane_slot.data(), ref);
+  }
+  std::printf("\nlater stages alone, %d lanes, %d lines per batch (items: columns, lines, lines)\n",
+              nl, lines);
+  std::printf("%-8s %-9s %14s %9s %9s %9s\n", "backend", "stage", "items/s", "up", "compute",
+              "down");
+  const int count = 2 * lines;
+  const size_t cols = size_t(count) * lc.frame_width;
+  std::vector<float> x(cols), z(cols), prof(ref.profile.size()), th(ref.thickness.size());
+  std::vector<uint8_t> xzv(cols), pv(ref.profile.size()), tv(ref.thickness.size());
+  std::map<std::string, double> cpu_stage;
+  for (auto& b : backends) {
+    const std::string name = b->info().name;
+    auto row = [&](const char* stage, double items, const Cell& c) {
+      std::printf("%-8s %-9s %14.0f %9.3f %9.3f %9.3f ms", name.c_str(), stage, c.per_s * items,
+                  1e3 * c.t.upload, 1e3 * c.t.compute, 1e3 * c.t.download);
+      if (name == "cpu")
+        cpu_stage[stage] = c.per_s;
+      else if (cpu_stage.count(stage))
+        std::printf("  %6.2fx cpu", c.per_s / cpu_stage[stage]);
+      std::printf("\n");
+    };
+    row("rectify", double(cols), measure(*b, opt.seconds, [&] {
+          b->rectify(ref.stripes.row.data(), ref.stripes.valid.data(), count, bb.frame_slot.data(),
+                     x.data(), z.data(), xzv.data());
+        }));
+    row("fuse", lines, measure(*b, opt.seconds, [&] {
+          b->fuse(ref.x.data(), ref.z.data(), ref.xz_valid.data(), lines, bb.lane_slot.data(),
+                  prof.data(), pv.data(), nullptr);
+        }));
+    row("project", lines, measure(*b, opt.seconds, [&] {
+          b->project(ref.profile.data(), ref.profile_valid.data(), lines, bb.lane_slot.data(),
+                     th.data(), tv.data());
+        }));
+  }
+
+  std::printf("\nstripe stage at its best batch, against the device's host-to-device copy:\n");
+  for (auto& b : backends) {
+    const std::string name = b->info().name;
+    const double bw = bandwidth[name];
+    if (bw > 0)
+      std::printf("%-8s %.2f GB/s of frames = %.2f of the %.2f GB/s copy bandwidth\n", name.c_str(),
+                  best_stripe_bytes[name] / 1e9, best_stripe_bytes[name] / bw, bw / 1e9);
+    else
+      std::printf("%-8s %.2f GB/s of frames (reads host memory in place: no copy to compare)\n",
+                  name.c_str(), best_stripe_bytes[name] / 1e9);
+  }
+  return 0;
+}
+
+}  // namespace rangex::cli
