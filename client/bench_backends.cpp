@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <deque>
@@ -251,6 +252,46 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
           b->project(ref.profile.data(), ref.profile_valid.data(), lines, bb.lane_slot.data(),
                      th.data(), tv.data());
         }));
+  }
+
+  // The pseudo-X-ray stages on a batch of 16 fillets of 60,000 pixels (a 500 x 250 px fillet
+  // holds about that many), one IRLS iteration's sums.
+  const int nf = 16, per = 60000;
+  std::vector<float> ft(size_t(nf) * per);
+  std::vector<uint16_t> fx(ft.size());
+  std::vector<uint8_t> fu(ft.size(), 1);
+  std::vector<int32_t> fo(nf + 1, 0);
+  std::vector<FilletModel> fm(nf);
+  for (int f = 0; f < nf; ++f) {
+    fo[f + 1] = fo[f] + per;
+    fm[f] = {std::log(3600.0), -0.03, 0.02, 5.0, 4.0, 800.0};
+    for (int i = 0; i < per; ++i) {
+      const size_t k = size_t(f) * per + i;
+      ft[k] = float(30.0 * ((i * 7919) % per) / per);
+      fx[k] = uint16_t(3600.0 * std::exp(-0.03 * ft[k]) * (1 + 0.01 * ((i % 13) - 6)));
+    }
+  }
+  const FilletBatch fb{ft.data(), fx.data(), fu.data(), fo.data(), nf, fm.data()};
+  std::vector<float> lp(ft.size()), pp(ft.size()), res(ft.size()), zz(ft.size());
+  std::vector<double> rr(ft.size()), sums(size_t(nf) * IRLS_SUMS);
+  std::printf("\npseudo-X-ray stages, %d fillets of %d pixels (items: pixels)\n", nf, per);
+  std::printf("%-8s %-9s %14s %9s %9s %9s\n", "backend", "stage", "items/s", "up", "compute",
+              "down");
+  for (auto& b : backends) {
+    const std::string name = b->info().name;
+    auto row = [&](const char* stage, const Cell& c) {
+      std::printf("%-8s %-9s %14.0f %9.3f %9.3f %9.3f ms", name.c_str(), stage,
+                  c.per_s * double(ft.size()), 1e3 * c.t.upload, 1e3 * c.t.compute,
+                  1e3 * c.t.download);
+      if (name == "cpu")
+        cpu_stage[stage] = c.per_s;
+      else if (cpu_stage.count(stage))
+        std::printf("  %6.2fx cpu", c.per_s / cpu_stage[stage]);
+      std::printf("\n");
+    };
+    row("map", measure(*b, opt.seconds,
+                       [&] { b->pseudo_xray(fb, lp.data(), pp.data(), res.data(), zz.data()); }));
+    row("irls", measure(*b, opt.seconds, [&] { b->irls_sums(fb, rr.data(), sums.data()); }));
   }
 
   std::printf("\nstripe stage at its best batch, against the device's host-to-device copy:\n");

@@ -4,6 +4,7 @@
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL FP_CONTRACT OFF
 #include "shared/lane_tables.h"
+#include "shared/fillet_tables.h"
 
 #define METHOD_CENTROID 0
 #define METHOD_SQUARED 1

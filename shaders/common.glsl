@@ -2,6 +2,7 @@
 // C++, OpenCL C and GLSL; frames read as 32-bit words (no 8-bit storage feature needed); NaN.
 #include "shared/lane_tables.h"
 #include "shared/push_constants.h"
+#include "shared/fillet_tables.h"
 
 #define METHOD_CENTROID 0
 #define METHOD_SQUARED 1

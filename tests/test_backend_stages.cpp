@@ -8,6 +8,7 @@
 // PoCL and vulkan on lavapipe).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <random>
@@ -18,6 +19,7 @@
 #include "backends/registry.h"
 #include "core/error.h"
 #include "core/lane_config.h"
+#include "pipeline/pseudo_xray.h"
 #include "pipeline/stripe_extract.h"
 #include "sim/plant_simulator.h"
 #include "stripe_frames.h"
@@ -355,6 +357,88 @@ TEST_P(OnEveryBackend, ACalibrationUpdateReachesTheNextBatch) {
     changed += std::abs(after.z[i] - before.z[i]) > 0.01f;
   }
   EXPECT_GT(changed, 0u);
+}
+
+// A batch of fillets for the pseudo-X-ray stages: sizes from empty to more than a work-group
+// many times over, a mask with holes, X-ray lines through bone (low DN) and near saturation,
+// models at the OLS start (scale 0) and in later iterations, with and without a noise model.
+struct FilletCases {
+  std::vector<float> thickness;
+  std::vector<uint16_t> xray;
+  std::vector<uint8_t> use;
+  std::vector<int32_t> offsets{0};
+  std::vector<FilletModel> models;
+  FilletBatch batch() const {
+    return {thickness.data(), xray.data(),        use.data(),
+            offsets.data(),   int(models.size()), models.data()};
+  }
+  FilletCases() {
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(0, 1);
+    const int sizes[] = {0, 1, 255, 257, 5000, 70000, 3};
+    int k = 0;
+    for (int n : sizes) {
+      const double b0 = std::log(3600.0) + 0.1 * k, b1 = -0.03 - 0.002 * k;
+      for (int i = 0; i < n; ++i) {
+        const double t = 30 * u(rng);
+        thickness.push_back(float(t));
+        // ln I about the model, outliers (bone) now and then; DN within 1 .. 65535.
+        double ln = b0 + b1 * t + 0.02 * (u(rng) - 0.5) - (u(rng) < 0.03 ? 0.4 : 0.0);
+        if (i % 97 == 5) ln = std::log(65535.0);
+        if (i % 89 == 7) ln = 0;  // DN 1
+        xray.push_back(uint16_t(std::clamp(std::lround(std::exp(ln)), 1L, 65535L)));
+        use.push_back(uint8_t(u(rng) > 0.1));
+      }
+      offsets.push_back(offsets.back() + n);
+      const double scale = k % 2 ? 0.01 + 0.005 * k : 0.0;
+      const double a = k % 3 ? 2.0 + k : 0.0, b = k % 3 ? 400.0 * k : 0.0;
+      models.push_back({b0 + 0.001, b1 * 1.01, scale, 5.0, a, b});
+      ++k;
+    }
+  }
+};
+
+bool near_rel(double a, double b, double rel, double abs_tol) {
+  if (std::isnan(a) || std::isnan(b)) return std::isnan(a) && std::isnan(b);
+  return std::fabs(a - b) <= abs_tol + rel * std::fabs(b);
+}
+
+// ln P within float rounding of the double model, P within exp's error (relative), residual
+// and z to float rounding of the same values; the IRLS residuals in double; the sums to the
+// rounding of another summation order.
+TEST_P(OnEveryBackend, PseudoXrayMapAndIrlsSumsOfABatchOfFillets) {
+  const FilletCases fc;
+  const FilletBatch b = fc.batch();
+  const size_t n = size_t(b.pixels());
+  std::vector<float> lp(n), p(n), res(n), z(n), rlp(n), rp(n), rres(n), rz(n);
+  backend_->pseudo_xray(b, lp.data(), p.data(), res.data(), z.data());
+  pseudo_xray_map(b, rlp.data(), rp.data(), rres.data(), rz.data());
+  size_t off = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const bool ok = near_rel(lp[i], rlp[i], 0, 1e-6) && near_rel(p[i], rp[i], 1e-5, 0) &&
+                    near_rel(res[i], rres[i], 0, 2e-6) && near_rel(z[i], rz[i], 1e-5, 1e-5);
+    if (!ok && off++ < 5)
+      ADD_FAILURE() << "pixel " << i << ": ln P " << lp[i] << " / " << rlp[i] << ", P " << p[i]
+                    << " / " << rp[i] << ", residual " << res[i] << " / " << rres[i] << ", z "
+                    << z[i] << " / " << rz[i];
+  }
+  EXPECT_EQ(off, 0u);
+  std::vector<double> r(n), rr(n), sums(b.fillets * IRLS_SUMS), rsums(sums.size());
+  backend_->irls_sums(b, r.data(), sums.data());
+  irls_sums(b, rr.data(), rsums.data());
+  for (size_t i = 0; i < n; ++i) ASSERT_TRUE(near_rel(r[i], rr[i], 0, 1e-12)) << "pixel " << i;
+  for (size_t i = 0; i < sums.size(); ++i)
+    EXPECT_TRUE(near_rel(sums[i], rsums[i], 1e-11, 1e-12))
+        << "fillet " << i / IRLS_SUMS << " sum " << i % IRLS_SUMS << ": " << sums[i] << " / "
+        << rsums[i];
+  // The weights did their work: a later iteration's sum of weights is below the pixel count.
+  EXPECT_LT(rsums[3 * IRLS_SUMS], double(fc.offsets[4] - fc.offsets[3]));
+  // A batch that names falling offsets is refused.
+  std::vector<int32_t> bad = fc.offsets;
+  std::swap(bad[2], bad[3]);
+  FilletBatch bb = b;
+  bb.offsets = bad.data();
+  EXPECT_THROW(backend_->irls_sums(bb, r.data(), sums.data()), Error);
 }
 
 TEST_P(OnEveryBackend, BadBatchesAreRefusedWithAClearError) {

@@ -35,9 +35,16 @@ struct ProjectPush {
   int pad0;
 };
 
+struct FilletPush {
+  int fillets;
+  int pad0;
+  int pad1;
+  int pad2;
+};
+
 #ifdef __cplusplus
 static_assert(sizeof(StripePush) == 16 && sizeof(RectifyPush) == 16 && sizeof(FusePush) == 16 &&
-                  sizeof(ProjectPush) == 16,
+                  sizeof(ProjectPush) == 16 && sizeof(FilletPush) == 16,
               "push constants must match the shaders' blocks");
 }  // namespace rangex::kernel
 #endif

@@ -20,6 +20,7 @@
 
 #include "core/lane_config.h"
 #include "pipeline/line_pipeline.h"
+#include "pipeline/pseudo_xray.h"
 
 namespace rangex {
 
@@ -85,6 +86,13 @@ class Backend {
                     FusionStats* stats) = 0;
   virtual void project(const float* profile, const uint8_t* profile_valid, int lines,
                        const int* lane_slot, float* thickness, uint8_t* thickness_valid) = 0;
+
+  // The pseudo-X-ray stages over a batch of fillets (pipeline/pseudo_xray.h); they need no
+  // lanes set. pseudo_xray: ln P, P, residual and z per pixel. irls_sums: each pixel's
+  // residual and each fillet's IRLS_SUMS weighted sums for the model in `b`.
+  virtual void pseudo_xray(const FilletBatch& b, float* ln_p, float* p, float* residual,
+                           float* z) = 0;
+  virtual void irls_sums(const FilletBatch& b, double* r, double* sums) = 0;
 
   const StageTimes& last_times() const { return times_; }
 

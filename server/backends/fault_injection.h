@@ -39,6 +39,13 @@ class FaultInjectingBackend final : public Backend {
                float* thickness, uint8_t* thickness_valid) override {
     inner_->project(profile, profile_valid, lines, lane_slot, thickness, thickness_valid);
   }
+  void pseudo_xray(const FilletBatch& b, float* ln_p, float* p, float* residual,
+                   float* z) override {
+    inner_->pseudo_xray(b, ln_p, p, residual, z);
+  }
+  void irls_sums(const FilletBatch& b, double* r, double* sums) override {
+    inner_->irls_sums(b, r, sums);
+  }
 
  private:
   std::unique_ptr<Backend> inner_;

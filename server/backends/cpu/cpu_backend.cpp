@@ -111,4 +111,17 @@ void CpuBackend::project(const float* profile, const uint8_t* profile_valid, int
   times_ = {0, since(t0), 0};
 }
 
+void CpuBackend::pseudo_xray(const FilletBatch& b, float* ln_p, float* p, float* residual,
+                             float* z) {
+  const auto t0 = std::chrono::steady_clock::now();
+  pseudo_xray_map(b, ln_p, p, residual, z);
+  times_ = {0, since(t0), 0};
+}
+
+void CpuBackend::irls_sums(const FilletBatch& b, double* r, double* sums) {
+  const auto t0 = std::chrono::steady_clock::now();
+  rangex::irls_sums(b, r, sums);
+  times_ = {0, since(t0), 0};
+}
+
 }  // namespace rangex

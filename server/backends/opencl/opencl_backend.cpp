@@ -28,10 +28,11 @@ void args(cl_kernel k, const A&... a) {
   (arg(k, i++, a), ...);
 }
 
-void launch(cl_command_queue q, cl_kernel k, size_t n, std::vector<cl_event>& ev) {
+void launch(cl_command_queue q, cl_kernel k, size_t n, std::vector<cl_event>& ev,
+            size_t local = 0) {
   if (n == 0) return;
   cl_event e;
-  check(clEnqueueNDRangeKernel(q, k, 1, nullptr, &n, nullptr, 0, nullptr, &e),
+  check(clEnqueueNDRangeKernel(q, k, 1, nullptr, &n, local ? &local : nullptr, 0, nullptr, &e),
         "clEnqueueNDRangeKernel");
   ev.push_back(e);
 }
@@ -77,7 +78,7 @@ struct OpenClBackend::Impl {
   std::unique_ptr<cl::Context> cx;
   cl_program program = nullptr;
   cl_kernel k_stripe = nullptr, k_rectify = nullptr, k_resample = nullptr, k_merge = nullptr,
-            k_project = nullptr;
+            k_project = nullptr, k_pseudo = nullptr, k_irls = nullptr;
   size_t align = 128;
   KernelTables tables;
   cl::Buffer t_stripe, t_rect, t_nodes, t_geom, t_ln;
@@ -97,6 +98,59 @@ struct OpenClBackend::Impl {
     }
   };
   Lines scratch;  // single-stage calls
+
+  // Buffers of a batch of fillets (pseudo-X-ray stages), grown as needed.
+  struct Fillets {
+    size_t pixels = 0;
+    int fillets = 0;
+    cl::Buffer thickness, xray, use, offsets, models, ln_p, p, residual, z, r, sums;
+    std::vector<const cl::Buffer*> all() const {
+      return {&thickness, &xray, &use, &offsets, &models, &ln_p, &p, &residual, &z, &r, &sums};
+    }
+  };
+  Fillets fb;
+  cl::Buffer t_ln_dn;  // ln(I) of every 16-bit DN, in double
+
+  void ensure(Fillets& d, const FilletBatch& b) {
+    const size_t n = std::max<size_t>(size_t(b.pixels()), 1);
+    if (n > d.pixels) {
+      d.thickness = buffer(n * 4, CL_MEM_READ_ONLY);
+      d.xray = buffer(n * 2, CL_MEM_READ_ONLY);
+      d.use = buffer(n, CL_MEM_READ_ONLY);
+      for (cl::Buffer* x : {&d.ln_p, &d.p, &d.residual, &d.z}) *x = buffer(n * 4);
+      d.r = buffer(n * 8);
+      d.pixels = n;
+    }
+    if (b.fillets > d.fillets) {
+      d.offsets = buffer(size_t(b.fillets + 1) * 4, CL_MEM_READ_ONLY);
+      d.models = buffer(size_t(b.fillets) * sizeof(kernel::FilletModelK), CL_MEM_READ_ONLY);
+      d.sums = buffer(size_t(b.fillets) * IRLS_SUMS * 8);
+      d.fillets = b.fillets;
+    }
+    if (!t_ln_dn.mem()) {
+      std::vector<double> ln(65536);
+      for (size_t i = 0; i < ln.size(); ++i) ln[i] = std::log(double(i));
+      t_ln_dn = buffer(ln.size() * 8, CL_MEM_READ_ONLY);
+      check(clEnqueueWriteBuffer(q(0), t_ln_dn.mem(), CL_TRUE, 0, ln.size() * 8, ln.data(), 0,
+                                 nullptr, nullptr),
+            "clEnqueueWriteBuffer (ln table)");
+    }
+  }
+  // Uploads a batch of fillets' inputs.
+  void write_fillets(cl_command_queue qq, const FilletBatch& b, std::vector<cl_event>& up) {
+    check_fillet_batch(b);
+    ensure(fb, b);
+    const size_t n = size_t(b.pixels());
+    write(qq, fb.thickness.mem(), b.thickness, n * 4, up);
+    write(qq, fb.xray.mem(), b.xray, n * 2, up);
+    write(qq, fb.use.mem(), b.use, n, up);
+    write(qq, fb.offsets.mem(), b.offsets, size_t(b.fillets + 1) * 4, up);
+    write(qq, fb.models.mem(), b.models, size_t(b.fillets) * sizeof(kernel::FilletModelK), up);
+  }
+  void check_guards(const Fillets& d, cl_command_queue qq) {
+    if (!opt.guards) return;
+    for (const cl::Buffer* x : d.all()) x->check_guards(qq, "fillets");
+  }
 
   // A batch slot: pinned staging for frames and lane slots, the batch's device buffers and
   // the host side of its results.
@@ -215,6 +269,8 @@ OpenClBackend::OpenClBackend(const OpenClOptions& opt) : impl_(std::make_unique<
   m.k_resample = kernel("fuse_resample");
   m.k_merge = kernel("fuse_merge");
   m.k_project = kernel("project");
+  m.k_pseudo = kernel("pseudo_xray");
+  m.k_irls = kernel("irls_sums");
   info_.name = "opencl";
   info_.device = d.name + " (" + d.platform_name + ")";
   info_.driver = d.version + ", driver " + d.driver;
@@ -231,7 +287,8 @@ OpenClBackend::~OpenClBackend() {
   Impl& m = *impl_;
   for (int i = 0; i < 2; ++i)
     if (m.cx) clFinish(m.q(i));
-  for (cl_kernel k : {m.k_stripe, m.k_rectify, m.k_resample, m.k_merge, m.k_project})
+  for (cl_kernel k :
+       {m.k_stripe, m.k_rectify, m.k_resample, m.k_merge, m.k_project, m.k_pseudo, m.k_irls})
     if (k) clReleaseKernel(k);
   if (m.program) clReleaseProgram(m.program);
   for (auto& s : m.slots)
@@ -499,6 +556,54 @@ double OpenClBackend::upload_bandwidth(size_t bytes) {
   clEnqueueUnmapMemObject(q, host.mem(), p, 0, nullptr, nullptr);
   clFinish(q);
   return best;
+}
+
+}  // namespace rangex
+
+namespace rangex {
+
+namespace {
+constexpr size_t kFilletGroup = 256;  // work-items per fillet (a power of two: the reduction)
+}  // namespace
+
+void OpenClBackend::pseudo_xray(const FilletBatch& b, float* ln_p, float* p, float* residual,
+                                float* z) {
+  Impl& m = *impl_;
+  if (b.fillets == 0) return;
+  const cl_command_queue qq = m.q(0);
+  std::vector<cl_event> up, run, down;
+  m.write_fillets(qq, b, up);
+  Impl::Fillets& d = m.fb;
+  args(m.k_pseudo, d.thickness.mem(), d.xray.mem(), d.use.mem(), d.offsets.mem(), d.models.mem(),
+       m.t_ln_dn.mem(), d.ln_p.mem(), d.p.mem(), d.residual.mem(), d.z.mem());
+  launch(qq, m.k_pseudo, size_t(b.fillets) * kFilletGroup, run, kFilletGroup);
+  const size_t n = size_t(b.pixels());
+  read(qq, d.ln_p.mem(), ln_p, n * 4, down);
+  read(qq, d.p.mem(), p, n * 4, down);
+  read(qq, d.residual.mem(), residual, n * 4, down);
+  read(qq, d.z.mem(), z, n * 4, down);
+  m.finish(qq);
+  m.check_guards(d, qq);
+  times_ = {seconds(up), seconds(run), seconds(down)};
+}
+
+void OpenClBackend::irls_sums(const FilletBatch& b, double* r, double* sums) {
+  Impl& m = *impl_;
+  if (b.fillets == 0) return;
+  const cl_command_queue qq = m.q(0);
+  std::vector<cl_event> up, run, down;
+  m.write_fillets(qq, b, up);
+  Impl::Fillets& d = m.fb;
+  args(m.k_irls, d.thickness.mem(), d.xray.mem(), d.use.mem(), d.offsets.mem(), d.models.mem(),
+       m.t_ln_dn.mem(), d.r.mem(), d.sums.mem());
+  check(clSetKernelArg(m.k_irls, 8, kFilletGroup * IRLS_SUMS * sizeof(double), nullptr),
+        "clSetKernelArg (local sums)");
+  launch(qq, m.k_irls, size_t(b.fillets) * kFilletGroup, run, kFilletGroup);
+  read(qq, d.r.mem(), r, size_t(b.pixels()) * 8, down);
+  read(qq, d.sums.mem(), sums, size_t(b.fillets) * IRLS_SUMS * 8, down);
+  m.finish(qq);
+  m.check_guards(d, qq);
+  times_ = {seconds(up), seconds(run), seconds(down)};
 }
 
 }  // namespace rangex

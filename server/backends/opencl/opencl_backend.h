@@ -36,6 +36,8 @@ class OpenClBackend final : public Backend {
             float* profile, uint8_t* profile_valid, FusionStats* stats) override;
   void project(const float* profile, const uint8_t* profile_valid, int lines, const int* lane_slot,
                float* thickness, uint8_t* thickness_valid) override;
+  void pseudo_xray(const FilletBatch& b, float* ln_p, float* p, float* residual, float* z) override;
+  void irls_sums(const FilletBatch& b, double* r, double* sums) override;
   double upload_bandwidth(size_t bytes) override;
 
  private:

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 
 #include "../../../kernels/shared/push_constants.h"
@@ -28,7 +29,7 @@ std::vector<VulkanDevice> vulkan_devices() {
 
 namespace {
 
-enum K { kStripe, kRectify, kResample, kMerge, kProject, kKernels };
+enum K { kStripe, kRectify, kResample, kMerge, kProject, kPseudo, kIrls, kKernels };
 
 // An array the shaders use: on the device, and (when the device's memory is not mappable)
 // a host mirror that inputs are written to and results read from, copied in the command
@@ -96,6 +97,96 @@ struct VulkanBackend::Impl {
     }
   };
   std::array<Lines, 3> lines_bufs;  // two batch slots and the single-stage scratch
+
+  // Buffers of a batch of fillets (pseudo-X-ray stages), grown as needed; their commands
+  // run on the scratch command buffer with its descriptor sets for kPseudo and kIrls.
+  struct Fillets {
+    size_t pixels = 0;
+    int fillets = 0;
+    Arr thickness, xray, use, offsets, models, ln_p, p, residual, z, r, sums;
+    std::vector<Arr*> all() {
+      return {&thickness, &xray, &use, &offsets, &models, &ln_p, &p, &residual, &z, &r, &sums};
+    }
+  };
+  Fillets fb;
+  vk::Buffer t_ln_dn;  // ln(I) of every 16-bit DN, in double
+
+  void ensure(Fillets& d, const FilletBatch& b) {
+    const size_t n = std::max<size_t>(size_t(b.pixels()), 4);
+    bool changed = false;
+    if (n > d.pixels) {
+      for (Arr* a : {&d.thickness, &d.xray, &d.use, &d.ln_p, &d.p, &d.residual, &d.z, &d.r})
+        free(*a);
+      d.thickness = array(n * 4);
+      d.xray = array((n * 2 + 3) / 4 * 4);
+      d.use = array((n + 3) / 4 * 4);
+      for (Arr* a : {&d.ln_p, &d.p, &d.residual, &d.z}) *a = array(n * 4);
+      d.r = array(n * 8);
+      d.pixels = n;
+      changed = true;
+    }
+    if (b.fillets > d.fillets) {
+      for (Arr* a : {&d.offsets, &d.models, &d.sums}) free(*a);
+      d.offsets = array(size_t(b.fillets + 1) * 4);
+      d.models = array(size_t(b.fillets) * sizeof(kernel::FilletModelK));
+      d.sums = array(size_t(b.fillets) * IRLS_SUMS * 8);
+      d.fillets = b.fillets;
+      changed = true;
+    }
+    if (!t_ln_dn.buf) {
+      std::vector<double> ln(65536);
+      for (size_t i = 0; i < ln.size(); ++i) ln[i] = std::log(double(i));
+      upload(t_ln_dn, ln.data(), ln.size() * 8);
+      changed = true;
+    }
+    if (!changed) return;
+    Lines& s = lines_bufs[2];
+    write_set(s.sets[kPseudo],
+              {&d.thickness.dev, &d.xray.dev, &d.use.dev, &d.offsets.dev, &d.models.dev, &t_ln_dn,
+               &d.ln_p.dev, &d.p.dev, &d.residual.dev, &d.z.dev});
+    write_set(s.sets[kIrls], {&d.thickness.dev, &d.xray.dev, &d.use.dev, &d.offsets.dev,
+                              &d.models.dev, &t_ln_dn, &d.r.dev, &d.sums.dev});
+  }
+  // Writes a batch of fillets' inputs into the arrays (their host side) and records the
+  // copies to the device; returns the scratch command buffer's batch, begun.
+  Lines& begin_fillets(const FilletBatch& b) {
+    check_fillet_batch(b);
+    Fillets& d = fb;
+    ensure(d, b);
+    const size_t n = size_t(b.pixels());
+    std::memcpy(d.thickness.ptr(), b.thickness, n * 4);
+    std::memcpy(d.xray.ptr(), b.xray, n * 2);
+    std::memcpy(d.use.ptr(), b.use, n);
+    std::memcpy(d.offsets.ptr(), b.offsets, size_t(b.fillets + 1) * 4);
+    std::memcpy(d.models.ptr(), b.models, size_t(b.fillets) * sizeof(kernel::FilletModelK));
+    Lines& s = lines_bufs[2];
+    begin(s);
+    stamp(s, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
+    copy_in(s, {{&d.thickness, VkDeviceSize(n * 4)},
+                {&d.xray, VkDeviceSize((n * 2 + 3) / 4 * 4)},
+                {&d.use, VkDeviceSize((n + 3) / 4 * 4)},
+                {&d.offsets, VkDeviceSize(b.fillets + 1) * 4},
+                {&d.models, VkDeviceSize(b.fillets) * sizeof(kernel::FilletModelK)}});
+    stamp(s, 1, VK_PIPELINE_STAGE_TRANSFER_BIT);
+    return s;
+  }
+  void dispatch_fillets(Lines& s, K which, int fillets) {
+    const vk::Kernel& kk = k[which];
+    const kernel::FilletPush push{fillets, 0, 0, 0};
+    vkCmdBindPipeline(s.cb, VK_PIPELINE_BIND_POINT_COMPUTE, kk.pipeline);
+    vkCmdBindDescriptorSets(s.cb, VK_PIPELINE_BIND_POINT_COMPUTE, kk.layout, 0, 1, &s.sets[which],
+                            0, nullptr);
+    vkCmdPushConstants(s.cb, kk.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, kk.push_bytes, &push);
+    vkCmdDispatch(s.cb, uint32_t(fillets), 1, 1);
+    stamp(s, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+  }
+  void finish_fillets(Lines& s) {
+    stamp(s, 3, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
+    end_and_submit(s);
+    wait(s);
+    if (opt.guards)
+      for (Arr* a : fb.all()) dev->check_guards(a->dev, "fillets");
+  }
   std::array<Slot, 2> slots;
   int next = 0;
 
@@ -321,10 +412,14 @@ VulkanBackend::VulkanBackend(const VulkanOptions& opt) : impl_(std::make_unique<
                                 sizeof(kernel::FusePush));
   m.k[kProject] = vk::make_kernel(*m.dev, shaders::kProject, sizeof shaders::kProject, 7,
                                   sizeof(kernel::ProjectPush));
+  m.k[kPseudo] = vk::make_kernel(*m.dev, shaders::kPseudoXray, sizeof shaders::kPseudoXray, 10,
+                                 sizeof(kernel::FilletPush));
+  m.k[kIrls] = vk::make_kernel(*m.dev, shaders::kIrlsSums, sizeof shaders::kIrlsSums, 8,
+                               sizeof(kernel::FilletPush));
   m.dev->save_cache();
   // Descriptor sets for the three buffer groups, allocated once and updated when buffers
   // or tables change (never while a batch that uses them is in flight).
-  VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3 * (10 + 8 + 6 + 7 + 7)};
+  VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3 * (10 + 8 + 6 + 7 + 7 + 10 + 8)};
   VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   pi.maxSets = 3 * kKernels;
   pi.poolSizeCount = 1;
@@ -387,7 +482,9 @@ VulkanBackend::~VulkanBackend() {
     for (Arr* a : L.all()) m.free(*a);
     if (L.fence) vkDestroyFence(dv, L.fence, nullptr);
   }
-  for (vk::Buffer* b : {&m.t_stripe, &m.t_rect, &m.t_nodes, &m.t_geom, &m.t_ln}) m.dev->destroy(*b);
+  for (vk::Buffer* b : {&m.t_stripe, &m.t_rect, &m.t_nodes, &m.t_geom, &m.t_ln, &m.t_ln_dn})
+    m.dev->destroy(*b);
+  for (Arr* a : m.fb.all()) m.free(*a);
   if (m.queries) vkDestroyQueryPool(dv, m.queries, nullptr);
   if (m.cmd_pool) vkDestroyCommandPool(dv, m.cmd_pool, nullptr);
   if (m.pool) vkDestroyDescriptorPool(dv, m.pool, nullptr);
@@ -690,6 +787,41 @@ double VulkanBackend::upload_bandwidth(size_t bytes) {
   m.dev->destroy(host);
   m.dev->destroy(dev);
   return best;
+}
+
+}  // namespace rangex
+
+namespace rangex {
+
+void VulkanBackend::pseudo_xray(const FilletBatch& b, float* ln_p, float* p, float* residual,
+                                float* z) {
+  Impl& m = *impl_;
+  if (b.fillets == 0) return;
+  Impl::Lines& s = m.begin_fillets(b);
+  Impl::Fillets& d = m.fb;
+  m.dispatch_fillets(s, kPseudo, b.fillets);
+  const VkDeviceSize n = VkDeviceSize(b.pixels());
+  m.copy_out(s, {{&d.ln_p, n * 4}, {&d.p, n * 4}, {&d.residual, n * 4}, {&d.z, n * 4}});
+  m.finish_fillets(s);
+  std::memcpy(ln_p, d.ln_p.ptr(), n * 4);
+  std::memcpy(p, d.p.ptr(), n * 4);
+  std::memcpy(residual, d.residual.ptr(), n * 4);
+  std::memcpy(z, d.z.ptr(), n * 4);
+  times_ = m.times(s);
+}
+
+void VulkanBackend::irls_sums(const FilletBatch& b, double* r, double* sums) {
+  Impl& m = *impl_;
+  if (b.fillets == 0) return;
+  Impl::Lines& s = m.begin_fillets(b);
+  Impl::Fillets& d = m.fb;
+  m.dispatch_fillets(s, kIrls, b.fillets);
+  const VkDeviceSize n = VkDeviceSize(b.pixels()), k = VkDeviceSize(b.fillets) * IRLS_SUMS * 8;
+  m.copy_out(s, {{&d.r, n * 8}, {&d.sums, k}});
+  m.finish_fillets(s);
+  std::memcpy(r, d.r.ptr(), n * 8);
+  std::memcpy(sums, d.sums.ptr(), k);
+  times_ = m.times(s);
 }
 
 }  // namespace rangex
