@@ -148,8 +148,13 @@ Device::Device(const Instance&, const DeviceChoice& d) : choice_(d), family_(d.q
   check(vkCreateDevice(d.physical, &ci, nullptr, &dev_), "vkCreateDevice");
   vkGetDeviceQueue(dev_, family_, 0, &queue_);
   vkGetPhysicalDeviceMemoryProperties(d.physical, &mem_);
-  // Unified when some memory type is both device-local and host-visible for most of the heap.
-  for (uint32_t i = 0; i < mem_.memoryTypeCount; ++i) {
+  // Unified when the device shares the host's memory (an integrated GPU, a CPU emulation)
+  // and some memory type is both device-local and host-visible. A discrete GPU whose whole
+  // memory the host can map (resizable BAR) is not: host reads across the bus crawl, so its
+  // results come back through copies into cached host memory.
+  const bool shares_host = d.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU ||
+                           d.props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  for (uint32_t i = 0; shares_host && i < mem_.memoryTypeCount; ++i) {
     const auto f = mem_.memoryTypes[i].propertyFlags;
     const auto heap = mem_.memoryHeaps[mem_.memoryTypes[i].heapIndex].size;
     if ((f & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) && (f & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) &&
