@@ -9,10 +9,11 @@ namespace rangex::cli {
 
 namespace {
 void check_name(const std::string& n, bool all_allowed) {
-  if (n == "auto" || n == "cpu" || n == "opencl" || n == "vulkan" || (all_allowed && n == "all"))
+  if (n == "auto" || n == "cpu" || n == "cpu-portable" || n == "opencl" || n == "vulkan" ||
+      (all_allowed && n == "all"))
     return;
-  fail("--backend must be ", all_allowed ? "all, " : "", "auto, cpu, opencl or vulkan (got '", n,
-       "')");
+  fail("--backend must be ", all_allowed ? "all, " : "",
+       "auto, cpu, cpu-portable, opencl or vulkan (got '", n, "')");
 }
 }  // namespace
 

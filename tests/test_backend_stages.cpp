@@ -456,5 +456,10 @@ TEST_P(OnEveryBackend, BadBatchesAreRefusedWithAClearError) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, OnEveryBackend, ::testing::Values("cpu", "opencl", "vulkan"),
-                         [](const ::testing::TestParamInfo<std::string>& i) { return i.param; });
+INSTANTIATE_TEST_SUITE_P(Backends, OnEveryBackend,
+                         ::testing::Values("cpu", "cpu-portable", "opencl", "vulkan"),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           std::replace(n.begin(), n.end(), '-', '_');
+                           return n;
+                         });

@@ -5,6 +5,7 @@
 // results are injected into the backend under test (FaultInjectingBackend) after N batches.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -170,8 +171,13 @@ TEST_P(StageRunnerOn, AFailureMidStreamRerunsTheBatchesInFlightOnTheCpu) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, StageRunnerOn, ::testing::Values("cpu", "opencl", "vulkan"),
-                         [](const auto& info) { return info.param; });
+INSTANTIATE_TEST_SUITE_P(Backends, StageRunnerOn,
+                         ::testing::Values("cpu", "cpu-portable", "opencl", "vulkan"),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           std::replace(n.begin(), n.end(), '-', '_');
+                           return n;
+                         });
 
 TEST(StageRunner, ABackendThatCannotStartLeavesTheServerOnTheCpuAndSaysWhy) {
   BackendRequest req;

@@ -70,6 +70,7 @@ BackendProbe probe_vulkan() {
 
 std::unique_ptr<Backend> start(const std::string& name, const BackendRequest& req) {
   if (name == "cpu") return std::make_unique<CpuBackend>(req.threads);
+  if (name == "cpu-portable") return std::make_unique<CpuBackend>(req.threads, true);
 #if RANGEX_WITH_OPENCL
   if (name == "opencl")
     return std::make_unique<OpenClBackend>(OpenClOptions{req.device, req.guards});
@@ -80,14 +81,15 @@ std::unique_ptr<Backend> start(const std::string& name, const BackendRequest& re
 #endif
   for (const BackendProbe& p : probe_backends())
     if (p.name == name) throw BackendError(name + ": " + p.detail);
-  throw BackendError("unknown backend '" + name + "' (auto, cpu, opencl, vulkan)");
+  throw BackendError("unknown backend '" + name + "' (auto, cpu, cpu-portable, opencl, vulkan)");
 }
 
 }  // namespace
 
 std::vector<BackendProbe> probe_backends() {
-  BackendProbe cpu{"cpu", true, false, "host CPU"};
-  return {cpu, probe_vulkan(), probe_opencl()};
+  BackendProbe cpu{"cpu", true, false, std::string("host CPU, ") + stripe_vector_path()};
+  BackendProbe portable{"cpu-portable", true, false, "host CPU, portable groups of 16 columns"};
+  return {cpu, portable, probe_vulkan(), probe_opencl()};
 }
 
 static std::unique_ptr<Backend> with_faults(std::unique_ptr<Backend> b, const BackendRequest& req) {
@@ -100,7 +102,7 @@ std::unique_ptr<Backend> create_backend(const BackendRequest& req, std::string* 
   if (req.name != "auto") return with_faults(start(req.name, req), req);
   std::string note;
   for (const BackendProbe& p : probe_backends()) {
-    if (p.name == "cpu") continue;
+    if (p.name.rfind("cpu", 0) == 0) continue;
     if (!p.available) {
       note += p.name + ": " + p.detail + "; ";
       continue;

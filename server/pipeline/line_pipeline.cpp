@@ -7,8 +7,8 @@
 
 namespace rangex {
 
-LinePipeline::LinePipeline(std::vector<LaneConfig> lanes, int threads)
-    : lanes_(std::move(lanes)), threads_(std::max(1, threads)) {
+LinePipeline::LinePipeline(std::vector<LaneConfig> lanes, int threads, bool vector_blocks)
+    : lanes_(std::move(lanes)), threads_(std::max(1, threads)), vector_blocks_(vector_blocks) {
   if (lanes_.empty()) fail("pipeline needs at least one lane");
   const LaneConfig& first = lanes_.front();
   width_ = first.frame_width;
@@ -89,7 +89,8 @@ void LinePipeline::run(const uint8_t* frames, int lines, const int* lane_slot,
 
 void LinePipeline::stripes(const uint8_t* frames, int count, const int* frame_slot,
                            StripeOutput& out) const {
-  extract_stripes(frames, count, width_, height_, frame_slot, stripe_slots_.data(), out, threads_);
+  extract_stripes(frames, count, width_, height_, frame_slot, stripe_slots_.data(), out, threads_,
+                  vector_blocks_);
 }
 
 void LinePipeline::rectify_rows(const float* row, const uint8_t* valid, int count,

@@ -32,7 +32,8 @@ struct LineResults {
 class LinePipeline {
  public:
   // threads: workers for the stripe stage, the one that reads every pixel.
-  explicit LinePipeline(std::vector<LaneConfig> lanes, int threads = 1);
+  // vector_blocks false: the portable stripe groups whatever the CPU has.
+  explicit LinePipeline(std::vector<LaneConfig> lanes, int threads = 1, bool vector_blocks = true);
 
   int slot_of(int lane_id) const;  // throws Error for an unknown lane
   const LaneConfig& lane(int slot) const { return lanes_[slot]; }
@@ -66,6 +67,7 @@ class LinePipeline {
   std::vector<FanBeam> beams_;
   int width_ = 0, height_ = 0, grid_n_ = 0, pixels_ = 0;
   int threads_ = 1;
+  bool vector_blocks_ = true;
 };
 
 }  // namespace rangex

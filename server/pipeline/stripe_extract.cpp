@@ -272,7 +272,8 @@ namespace {
 
 namespace {
 void extract_range(const uint8_t* frames, int first, int last, int width, int height,
-                   const int* slot, const StripeSlot* slots, StripeOutput& out) {
+                   const int* slot, const StripeSlot* slots, StripeOutput& out,
+                   [[maybe_unused]] bool vector_blocks) {
   constexpr int kGroup = 16;
   std::vector<uint8_t> mx(width, 0), arg8(width, 0);
   std::vector<uint16_t> arg16(width, 0);
@@ -292,7 +293,7 @@ void extract_range(const uint8_t* frames, int first, int last, int width, int he
     if (height <= 256) {
       column_max8(f, width, height, mx.data(), arg8.data());
 #if defined(__AVX512BW__)
-      {
+      if (vector_blocks) {
         pf.skip_to(f + frame);  // the scan above has read this frame
         for (; c0 + 64 <= width; c0 += 64)
           stripe::column_block64(f, width, height, c0, mx.data(), arg8.data(), sl, out,
@@ -318,16 +319,25 @@ void extract_range(const uint8_t* frames, int first, int last, int width, int he
 }  // namespace
 
 void extract_stripes(const uint8_t* frames, int count, int width, int height, const int* slot,
-                     const StripeSlot* slots, StripeOutput& out, int threads) {
+                     const StripeSlot* slots, StripeOutput& out, int threads, bool vector_blocks) {
   out.resize(size_t(count) * width);
   threads = std::max(1, std::min(threads, count));
-  if (threads == 1) return extract_range(frames, 0, count, width, height, slot, slots, out);
+  if (threads == 1)
+    return extract_range(frames, 0, count, width, height, slot, slots, out, vector_blocks);
   // Frames are independent: each thread takes a contiguous share and writes its own columns.
   std::vector<std::thread> pool;
   for (int t = 0; t < threads; ++t)
     pool.emplace_back(extract_range, frames, count * t / threads, count * (t + 1) / threads, width,
-                      height, slot, slots, std::ref(out));
+                      height, slot, slots, std::ref(out), vector_blocks);
   for (auto& th : pool) th.join();
+}
+
+const char* stripe_vector_path() {
+#if defined(__AVX512BW__)
+  return "AVX-512 blocks of 64 columns";
+#else
+  return "portable groups of 16 columns";
+#endif
 }
 
 void extract_stripes_reference(const uint8_t* frames, int count, int width, int height,

@@ -48,9 +48,14 @@ struct StripeOutput {
 // window walks and sums run over small bands of rows for blocks of neighbouring columns,
 // one vector lane per column (AVX-512 blocks of 64 where the CPU has it, else groups of 16
 // that the compiler vectorises), while the next frame is prefetched. Frames are shared
-// among `threads` threads.
+// among `threads` threads. `vector_blocks` false takes the portable groups whatever the CPU
+// has (the CPU backend's `cpu-portable` variant, tested like every backend).
 void extract_stripes(const uint8_t* frames, int count, int width, int height, const int* slot,
-                     const StripeSlot* slots, StripeOutput& out, int threads = 1);
+                     const StripeSlot* slots, StripeOutput& out, int threads = 1,
+                     bool vector_blocks = true);
+
+// Which vector blocks this build uses: "AVX-512 blocks of 64 columns" or the portable groups.
+const char* stripe_vector_path();
 
 // The same result computed one column at a time, exactly as a GPU kernel work-item does it;
 // the reference the CPU path and the GPU kernels are tested against.

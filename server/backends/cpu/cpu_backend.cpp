@@ -31,14 +31,12 @@ class CpuBackend::Slot final : public LineBatchSlot {
   std::vector<int32_t> lanes_buf_;
 };
 
-CpuBackend::CpuBackend(int threads) : threads_(std::max(1, threads)) {
-  info_.name = "cpu";
-  info_.reference = true;
-#if defined(__AVX512BW__)
-  info_.device = "host CPU, AVX-512 blocks of 64 columns";
-#else
-  info_.device = "host CPU, portable groups of 16 columns";
-#endif
+CpuBackend::CpuBackend(int threads, bool portable)
+    : threads_(std::max(1, threads)), portable_(portable) {
+  info_.name = portable ? "cpu-portable" : "cpu";
+  info_.reference = !portable;
+  info_.device = std::string("host CPU, ") +
+                 (portable ? "portable groups of 16 columns" : stripe_vector_path());
   info_.driver = "rangex";
   info_.limits = std::to_string(threads_) + " stripe threads of " +
                  std::to_string(std::max(1u, std::thread::hardware_concurrency())) + " cores";
@@ -53,7 +51,7 @@ const LinePipeline& CpuBackend::pipe() const {
 }
 
 void CpuBackend::set_lanes(const std::vector<LaneConfig>& lanes) {
-  pipe_ = std::make_unique<LinePipeline>(lanes, threads_);
+  pipe_ = std::make_unique<LinePipeline>(lanes, threads_, !portable_);
   lanes_ = lanes;
 }
 

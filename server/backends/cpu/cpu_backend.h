@@ -11,7 +11,9 @@ namespace rangex {
 
 class CpuBackend final : public Backend {
  public:
-  explicit CpuBackend(int threads = 1);
+  // portable: the portable stripe groups whatever the CPU has (the `cpu-portable` variant,
+  // which the suite runs like any backend and the server verifies like a device).
+  explicit CpuBackend(int threads = 1, bool portable = false);
   ~CpuBackend() override;
   const BackendInfo& info() const override { return info_; }
   void set_lanes(const std::vector<LaneConfig>& lanes) override;
@@ -36,6 +38,7 @@ class CpuBackend final : public Backend {
   const LinePipeline& pipe() const;
   BackendInfo info_;
   int threads_;
+  bool portable_;
   std::unique_ptr<LinePipeline> pipe_;
   std::array<std::unique_ptr<Slot>, 2> slots_;
   int next_ = 0;
