@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
-#if defined(__AVX512BW__)
+#if defined(__AVX512BW__) || defined(__AVX2__)
 #include <immintrin.h>
 #endif
 #include <limits>
@@ -292,7 +292,7 @@ void extract_range(const uint8_t* frames, int first, int last, int width, int he
     int c0 = 0;
     if (height <= 256) {
       column_max8(f, width, height, mx.data(), arg8.data());
-#if defined(__AVX512BW__)
+#if defined(RANGEX_STRIPE_BLOCK64)
       if (vector_blocks) {
         pf.skip_to(f + frame);  // the scan above has read this frame
         for (; c0 + 64 <= width; c0 += 64)
@@ -311,7 +311,7 @@ void extract_range(const uint8_t* frames, int first, int last, int width, int he
     for (; c0 < width; ++c0)
       column_group<1>(f, width, height, c0, mx.data(), p.data(), sl, out, size_t(i) * width);
   }
-#if defined(__AVX512BW__)
+#if defined(RANGEX_STRIPE_BLOCK64)
   if (stream) _mm_sfence();  // streamed results are visible before the caller reads them
 #endif
 }
@@ -335,6 +335,8 @@ void extract_stripes(const uint8_t* frames, int count, int width, int height, co
 const char* stripe_vector_path() {
 #if defined(__AVX512BW__)
   return "AVX-512 blocks of 64 columns";
+#elif defined(__AVX2__)
+  return "AVX2 blocks of 64 columns";
 #else
   return "portable groups of 16 columns";
 #endif
