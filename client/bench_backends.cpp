@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "backends/registry.h"
+#include "backends/robust_fit_batch.h"
 #include "core/error.h"
 #include "sim/plant_simulator.h"
 
@@ -292,6 +293,9 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
     row("map", measure(*b, opt.seconds,
                        [&] { b->pseudo_xray(fb, lp.data(), pp.data(), res.data(), zz.data()); }));
     row("irls", measure(*b, opt.seconds, [&] { b->irls_sums(fb, rr.data(), sums.data()); }));
+    // The whole robust fit: every iteration's per-pixel work on the backend, the iteration
+    // logic (MAD scale, weighted line, deviance) on the host.
+    row("fit", measure(*b, opt.seconds, [&] { fit_tukey_lines(*b, fb); }));
   }
 
   std::printf("\nstripe stage at its best batch, against the device's host-to-device copy:\n");

@@ -17,6 +17,7 @@
 #include "backend_cases.h"
 #include "backends/backend_error.h"
 #include "backends/registry.h"
+#include "backends/robust_fit_batch.h"
 #include "core/error.h"
 #include "core/lane_config.h"
 #include "pipeline/pseudo_xray.h"
@@ -439,6 +440,46 @@ TEST_P(OnEveryBackend, PseudoXrayMapAndIrlsSumsOfABatchOfFillets) {
   FilletBatch bb = b;
   bb.offsets = bad.data();
   EXPECT_THROW(backend_->irls_sums(bb, r.data(), sums.data()), Error);
+}
+
+// The robust fit of a batch of fillets with each iteration's per-pixel work on the backend
+// and the iteration logic on the host gives fit_tukey_line's result for every fillet (the
+// sums differ from the CPU's by the rounding of another order, nothing more).
+TEST_P(OnEveryBackend, RobustFitOfABatchOfFilletsEqualsTheCpuFit) {
+  const FilletCases fc;
+  const FilletBatch b = fc.batch();
+  const RobustFitOptions opt{5.0, 50, 1e-8, true};
+  const std::vector<BatchFit> got = fit_tukey_lines(*backend_, b, opt);
+  ASSERT_EQ(got.size(), size_t(b.fillets));
+  int fitted = 0;
+  for (int f = 0; f < b.fillets; ++f) {
+    SCOPED_TRACE("fillet " + std::to_string(f));
+    std::vector<double> t, y;
+    for (int i = b.offsets[f]; i < b.offsets[f + 1]; ++i)
+      if (b.use[i]) {
+        t.push_back(b.thickness[i]);
+        y.push_back(std::log(double(b.xray[i])));
+      }
+    RobustFit want;
+    std::string error;
+    try {
+      want = fit_tukey_line(t.data(), y.data(), t.size(), opt);
+    } catch (const Error& e) {
+      error = e.what();
+    }
+    EXPECT_EQ(got[f].error.empty(), error.empty()) << got[f].error << " / " << error;
+    if (!error.empty()) continue;
+    ++fitted;
+    const RobustFit& g = got[f].fit;
+    EXPECT_NEAR(g.beta0, want.beta0, 1e-9 * std::fabs(want.beta0));
+    EXPECT_NEAR(g.beta1, want.beta1, 1e-8 * std::fabs(want.beta1) + 1e-12);
+    EXPECT_NEAR(g.scale, want.scale, 1e-8 * want.scale + 1e-15);
+    EXPECT_EQ(g.converged, want.converged);
+    EXPECT_NEAR(g.iterations, want.iterations, 1);
+    EXPECT_EQ(g.n, want.n);
+    EXPECT_NEAR(double(g.inliers), double(want.inliers), 1);
+  }
+  EXPECT_GE(fitted, 4);
 }
 
 TEST_P(OnEveryBackend, BadBatchesAreRefusedWithAClearError) {
