@@ -101,7 +101,7 @@ Cell line_path(Backend& b, const BenchBatch& batch, double seconds) {
 
 void print_cell(const char* backend, int lanes, int lines, double items_per_batch,
                 double bytes_per_batch, const Cell& c, const Cell* cpu, const char* unit) {
-  std::printf("%-8s %5d %6d %12.0f %s %8.2f GB/s %9.3f %9.3f %9.3f ms", backend, lanes, lines,
+  std::printf("%-12s %5d %6d %12.0f %s %8.2f GB/s %9.3f %9.3f %9.3f ms", backend, lanes, lines,
               c.per_s * items_per_batch, unit, c.per_s * bytes_per_batch / 1e9, 1e3 * c.t.upload,
               1e3 * c.t.compute, 1e3 * c.t.download);
   if (cpu) std::printf("  %6.2fx cpu", c.per_s / cpu->per_s);
@@ -147,7 +147,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
       continue;
     }
     const BackendInfo& i = backends.back()->info();
-    std::printf("%-8s %s; %s; %s%s\n", i.name.c_str(), i.device.c_str(), i.driver.c_str(),
+    std::printf("%-12s %s; %s; %s%s\n", i.name.c_str(), i.device.c_str(), i.driver.c_str(),
                 i.limits.c_str(), i.emulated ? " (a CPU emulation)" : "");
   }
   if (backends.empty()) fail("no backend could start");
@@ -157,7 +157,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
     const double bw = b->upload_bandwidth(size_t(256) << 20);
     bandwidth[b->info().name] = bw;
     if (bw > 0)
-      std::printf("%-8s host-to-device copy: %.2f GB/s (256 MiB from pinned staging, best of 5)\n",
+      std::printf("%-12s host-to-device copy: %.2f GB/s (256 MiB from pinned staging, best of 5)\n",
                   b->info().name.c_str(), bw / 1e9);
   }
   const bool has_cpu = backends.front()->info().name == "cpu";
@@ -166,7 +166,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
       "\nstripe stage: %dx%d Mono8 frames from the backend's staging, both cameras of every line "
       "in one dispatch; per batch: upload / compute / download\n",
       lc.frame_width, lc.frame_height);
-  std::printf("%-8s %5s %6s %21s %13s %9s %9s %9s\n", "backend", "lanes", "lines", "frames/s", "",
+  std::printf("%-12s %5s %6s %21s %13s %9s %9s %9s\n", "backend", "lanes", "lines", "frames/s", "",
               "up", "compute", "down");
   std::map<std::pair<int, int>, Cell> cpu_stripes, cpu_path;
   std::map<std::string, double> best_stripe_bytes;
@@ -199,7 +199,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
   std::printf(
       "\nline path: stripes, rectification, fusion, projection; one upload and one download per "
       "batch, two batches in flight\n");
-  std::printf("%-8s %5s %6s %21s %13s %9s %9s %9s\n", "backend", "lanes", "lines", "lines/s", "",
+  std::printf("%-12s %5s %6s %21s %13s %9s %9s %9s\n", "backend", "lanes", "lines", "lines/s", "",
               "up", "compute", "down");
   for (int nl : opt.lanes)
     for (int lines : opt.batches) {
@@ -223,7 +223,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
   }
   std::printf("\nlater stages alone, %d lanes, %d lines per batch (items: columns, lines, lines)\n",
               nl, lines);
-  std::printf("%-8s %-9s %14s %9s %9s %9s\n", "backend", "stage", "items/s", "up", "compute",
+  std::printf("%-12s %-9s %14s %9s %9s %9s\n", "backend", "stage", "items/s", "up", "compute",
               "down");
   const int count = 2 * lines;
   const size_t cols = size_t(count) * lc.frame_width;
@@ -233,7 +233,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
   for (auto& b : backends) {
     const std::string name = b->info().name;
     auto row = [&](const char* stage, double items, const Cell& c) {
-      std::printf("%-8s %-9s %14.0f %9.3f %9.3f %9.3f ms", name.c_str(), stage, c.per_s * items,
+      std::printf("%-12s %-9s %14.0f %9.3f %9.3f %9.3f ms", name.c_str(), stage, c.per_s * items,
                   1e3 * c.t.upload, 1e3 * c.t.compute, 1e3 * c.t.download);
       if (name == "cpu")
         cpu_stage[stage] = c.per_s;
@@ -276,12 +276,12 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
   std::vector<float> lp(ft.size()), pp(ft.size()), res(ft.size()), zz(ft.size());
   std::vector<double> rr(ft.size()), sums(size_t(nf) * IRLS_SUMS);
   std::printf("\npseudo-X-ray stages, %d fillets of %d pixels (items: pixels)\n", nf, per);
-  std::printf("%-8s %-9s %14s %9s %9s %9s\n", "backend", "stage", "items/s", "up", "compute",
+  std::printf("%-12s %-9s %14s %9s %9s %9s\n", "backend", "stage", "items/s", "up", "compute",
               "down");
   for (auto& b : backends) {
     const std::string name = b->info().name;
     auto row = [&](const char* stage, const Cell& c) {
-      std::printf("%-8s %-9s %14.0f %9.3f %9.3f %9.3f ms", name.c_str(), stage,
+      std::printf("%-12s %-9s %14.0f %9.3f %9.3f %9.3f ms", name.c_str(), stage,
                   c.per_s * double(ft.size()), 1e3 * c.t.upload, 1e3 * c.t.compute,
                   1e3 * c.t.download);
       if (name == "cpu")
@@ -303,10 +303,10 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
     const std::string name = b->info().name;
     const double bw = bandwidth[name];
     if (bw > 0)
-      std::printf("%-8s %.2f GB/s of frames = %.2f of the %.2f GB/s copy bandwidth\n", name.c_str(),
+      std::printf("%-12s %.2f GB/s of frames = %.2f of the %.2f GB/s copy bandwidth\n", name.c_str(),
                   best_stripe_bytes[name] / 1e9, best_stripe_bytes[name] / bw, bw / 1e9);
     else
-      std::printf("%-8s %.2f GB/s of frames (reads host memory in place: no copy to compare)\n",
+      std::printf("%-12s %.2f GB/s of frames (reads host memory in place: no copy to compare)\n",
                   name.c_str(), best_stripe_bytes[name] / 1e9);
   }
   return 0;
