@@ -99,6 +99,11 @@ void StageRunner::launch(std::vector<QueuedLine>&& lines) {
   for (size_t g = 0; g < parts.size(); ++g) {
     if (parts[g].empty()) continue;
     Group& gr = groups_[g];
+    // Batches submitted to a backend that has since failed go first (recomputed on the CPU
+    // while its staging slots are free), then at most two in flight.
+    while (!inflight_.empty() &&
+           inflight_.front().backend != groups_[inflight_.front().group].active)
+      finish_oldest();
     while (in_flight(int(g)) >= 2) finish_oldest();
     InFlight f;
     f.group = int(g);
@@ -112,10 +117,13 @@ void StageRunner::launch(std::vector<QueuedLine>&& lines) {
         continue;
       }
       fail_over(e.what());
-      f.backend = nullptr;  // recomputed on the CPU when its turn comes
+      f.backend = nullptr;  // recomputed on the CPU, with every batch in flight before it
+      inflight_.push_back(std::move(f));
+      finish_all();
+      continue;
     }
     inflight_.push_back(std::move(f));
-    if (!gr.active->info().overlaps) finish_all();  // the CPU computes in collect()
+    if (!gr.active->info().overlaps) finish_all();  // computes inside collect()
   }
 }
 

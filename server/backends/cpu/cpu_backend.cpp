@@ -1,6 +1,7 @@
 #include "backends/cpu/cpu_backend.h"
 
 #include <chrono>
+#include <future>
 #include <thread>
 
 #include "core/error.h"
@@ -13,7 +14,9 @@ double since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace
 
-// Staging is plain memory: the CPU reads the frames where the engine wrote them.
+// Staging is plain memory: the CPU reads the frames where the engine wrote them. A submitted
+// batch computes on its own thread, so that the caller can fill the next batch, or decide
+// the fillets of the last one, meanwhile.
 class CpuBackend::Slot final : public LineBatchSlot {
  public:
   void reserve(int lines, size_t frame_bytes) {
@@ -25,6 +28,8 @@ class CpuBackend::Slot final : public LineBatchSlot {
     capacity_ = lines;
   }
   bool busy = false;
+  std::future<double> running;  // seconds of the batch's stages
+  LineResults results;
 
  private:
   std::vector<uint8_t> frames_buf_;
@@ -35,6 +40,7 @@ CpuBackend::CpuBackend(int threads, bool portable)
     : threads_(std::max(1, threads)), portable_(portable) {
   info_.name = portable ? "cpu-portable" : "cpu";
   info_.reference = !portable;
+  info_.overlaps = true;
   info_.device = std::string("host CPU, ") +
                  (portable ? "portable groups of 16 columns" : stripe_vector_path());
   info_.driver = "rangex";
@@ -62,6 +68,8 @@ void CpuBackend::update_lane(int slot, const LaneConfig& lane) {
 }
 
 LineBatchSlot& CpuBackend::acquire(int lines) {
+  // The free slot (batches may be collected in any order).
+  if (slots_[next_]->busy) next_ = 1 - next_;
   Slot& s = *slots_[next_];
   if (s.busy) fail("backend cpu: both staging slots are in flight; collect one first");
   next_ = 1 - next_;
@@ -71,13 +79,22 @@ LineBatchSlot& CpuBackend::acquire(int lines) {
   return s;
 }
 
-void CpuBackend::submit(LineBatchSlot&) {}  // computed when collected: nothing to overlap
+void CpuBackend::submit(LineBatchSlot& batch) {
+  Slot& s = static_cast<Slot&>(batch);
+  const LinePipeline& p = pipe();
+  s.running = std::async(std::launch::async, [&p, &s] {
+    const auto t0 = std::chrono::steady_clock::now();
+    p.run(s.frames(), s.lines, s.lane_slot(), s.results);
+    return since(t0);
+  });
+}
 
 void CpuBackend::collect(LineBatchSlot& batch, LineResults& out) {
-  const auto t0 = std::chrono::steady_clock::now();
-  pipe().run(batch.frames(), batch.lines, batch.lane_slot(), out);
-  times_ = {0, since(t0), 0};
-  static_cast<Slot&>(batch).busy = false;
+  Slot& s = static_cast<Slot&>(batch);
+  s.busy = false;
+  if (!s.running.valid()) fail("backend cpu: a batch was collected that was not submitted");
+  times_ = {0, s.running.get(), 0};  // rethrows what the stages threw
+  std::swap(out, s.results);
 }
 
 void CpuBackend::stripes(const uint8_t* frames, int count, const int* frame_slot,

@@ -316,6 +316,8 @@ void OpenClBackend::update_lane(int slot, const LaneConfig& lane) {
 LineBatchSlot& OpenClBackend::acquire(int lines) {
   Impl& m = *impl_;
   if (lanes_.empty()) fail("backend opencl: no lanes set");
+  // The free slot (batches may be collected in any order).
+  if (m.slots[m.next].busy) m.next = 1 - m.next;
   Impl::Slot& s = m.slots[m.next];
   if (s.busy) fail("backend opencl: both staging slots are in flight; collect one first");
   m.next = 1 - m.next;
