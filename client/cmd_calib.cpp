@@ -9,8 +9,8 @@
 #include "commands.h"
 #include "core/error.h"
 #include "core/recording.h"
-#include "pipeline/rectify_table.h"
 #include "pipeline/stripe_extract.h"
+#include "truth_heights.h"
 
 namespace rangex::cli {
 
@@ -38,14 +38,9 @@ int cmd_calib(int argc, char** argv) {
       StripeSlot slot{lc.stripe, {}};
       slot.params.method = StripeMethod::kCentroid;
       const auto truth = rec.truth_f32(lane, "stripe_cam" + std::to_string(cam) + ".f32", W);
-      const RectifyTable table =
-          build_rectify_table(lc.cameras[cam].model, lc.laser, lc.lut_step_px);
-      std::vector<float> tx(truth.size()), tz(truth.size());
-      std::vector<uint8_t> tvalid(truth.size()), tv2(truth.size());
-      for (size_t i = 0; i < truth.size(); ++i) tvalid[i] = std::isfinite(truth[i]);
-      const std::vector<int> tslot(size_t(info.lines), 0);
-      rectify(truth.data(), tvalid.data(), int(info.lines), W, tslot.data(), &table, tx.data(),
-              tz.data(), tv2.data());
+      std::vector<float> tz;
+      std::vector<uint8_t> tv2;
+      TruthHeights(lc, cam).heights(truth, W, tz, tv2);
       std::vector<uint8_t> frames(frame * 64);
       std::vector<int> slots(64, 0);
       StripeOutput so;

@@ -6,7 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
-#include "pipeline/rectify_table.h"
+#include "truth_heights.h"
 
 namespace rangex {
 
@@ -58,14 +58,9 @@ LaneEvaluation evaluate_lane(const RecordingReader& rec, const LaneConfig& lc,
     if (truth.size() != stripe_rows[c].size())
       fail("lane ", lane, " camera ", c, ": ", stripe_rows[c].size(), " measured columns for ",
            truth.size(), " truth columns");
-    // Height of each true stripe point, from the exact rectification of its row.
-    const RectifyTable table = build_rectify_table(lc.cameras[c].model, lc.laser, lc.lut_step_px);
-    std::vector<float> tx(truth.size()), tz(truth.size());
-    std::vector<uint8_t> tv(truth.size()), tv2(truth.size());
-    for (size_t i = 0; i < truth.size(); ++i) tv[i] = std::isfinite(truth[i]);
-    const std::vector<int> slots(size_t(info.lines), 0);
-    rectify(truth.data(), tv.data(), int(info.lines), info.width, slots.data(), &table, tx.data(),
-            tz.data(), tv2.data());
+    std::vector<float> tz;
+    std::vector<uint8_t> tv;
+    TruthHeights(lc, c).heights(truth, info.width, tz, tv);
     ErrorAccumulator err, err_fillet;
     size_t with = 0, found = 0, without = 0, false_pos = 0;
     for (size_t i = 0; i < truth.size(); ++i) {

@@ -8,7 +8,7 @@
 #include <thread>
 
 #include "core/error.h"
-#include "pipeline/rectify_table.h"
+#include "truth_heights.h"
 
 namespace rangex {
 
@@ -54,9 +54,7 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
     std::vector<uint16_t> xray(size_t(D) * kBlock);
     std::vector<float> rows(size_t(2 * W) * kBlock), truth_t(size_t(D) * kBlock);
     std::vector<int64_t> enc(kBlock);
-    const RectifyTable tables[2] = {
-        build_rectify_table(lc.cameras[0].model, lc.laser, lc.lut_step_px),
-        build_rectify_table(lc.cameras[1].model, lc.laser, lc.lut_step_px)};
+    const TruthHeights truth_heights[2] = {TruthHeights(lc, 0), TruthHeights(lc, 1)};
     ErrorAccumulator stripe_all[2], stripe_fillet[2], thick;
     size_t truth_cols[2] = {0, 0}, found_cols[2] = {0, 0}, blank_cols[2] = {0, 0},
            false_cols[2] = {0, 0};
@@ -64,18 +62,16 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
     std::map<int64_t, std::vector<float>> registered;  // X-ray line -> measured thickness
     int64_t n0 = 0;
     auto observe = [&](const LineResults& res, const int64_t* e, int count) {
-      std::vector<float> tx(W), tz(W);
-      std::vector<uint8_t> tv(W), tv2(W);
-      const int zero = 0;
+      std::vector<float> tz(W);
+      std::vector<uint8_t> tv2(W);
       for (int k = 0; k < count; ++k) {
         const int64_t n = e[k] - sim.encoder(0);
         for (int c = 0; c < 2; ++c) {
           const float* truth = &rows[size_t(2 * k + c) * W];
           const float* meas = &res.stripes.row[size_t(2 * k + c) * W];
-          for (int u = 0; u < W; ++u) tv[u] = std::isfinite(truth[u]);
-          rectify(truth, tv.data(), 1, W, &zero, &tables[c], tx.data(), tz.data(), tv2.data());
+          truth_heights[c].heights(truth, 1, W, tz.data(), tv2.data());
           for (int u = 0; u < W; ++u) {
-            const bool t = tv[u], m = std::isfinite(meas[u]);
+            const bool t = std::isfinite(truth[u]), m = std::isfinite(meas[u]);
             truth_cols[c] += t;
             found_cols[c] += t && m;
             blank_cols[c] += !t;
