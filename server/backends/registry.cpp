@@ -2,6 +2,7 @@
 
 #include "backends/backend_error.h"
 #include "backends/cpu/cpu_backend.h"
+#include "backends/device_select.h"
 #include "backends/fault_injection.h"
 #include "core/error.h"
 #if RANGEX_WITH_OPENCL
@@ -27,12 +28,7 @@ BackendProbe probe_opencl() {
       return p;
     }
     p.available = true;
-    p.emulated = true;
-    for (size_t i = 0; i < devs.size(); ++i) {
-      p.emulated &= devs[i].cpu;
-      p.detail +=
-          (i ? "; " : "") + std::to_string(i) + ": " + devs[i].name + (devs[i].cpu ? " (CPU)" : "");
-    }
+    p.detail = describe_devices(devs, p.emulated);
   } catch (const std::exception& e) {
     p.detail = e.what();
   }
@@ -53,12 +49,7 @@ BackendProbe probe_vulkan() {
       return p;
     }
     p.available = true;
-    p.emulated = true;
-    for (size_t i = 0; i < devs.size(); ++i) {
-      p.emulated &= devs[i].cpu;
-      p.detail +=
-          (i ? "; " : "") + std::to_string(i) + ": " + devs[i].name + (devs[i].cpu ? " (CPU)" : "");
-    }
+    p.detail = describe_devices(devs, p.emulated);
   } catch (const std::exception& e) {
     p.detail = e.what();
   }

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "backends/device_select.h"
 #include "core/error.h"
 
 namespace fs = std::filesystem;
@@ -172,24 +173,7 @@ DeviceChoice choose(const std::string& selector) {
     throw BackendError(
         "opencl: no OpenCL device with 64-bit floats (no platform installed, or its devices "
         "lack cl_khr_fp64)");
-  std::string names;
-  for (size_t i = 0; i < all.size(); ++i)
-    names += (i ? ", " : "") + std::to_string(i) + ": " + all[i].name;
-  if (selector.empty()) {
-    for (const auto& c : all)
-      if (!c.cpu) return c;
-    return all.front();
-  }
-  char* end = nullptr;
-  const long idx = std::strtol(selector.c_str(), &end, 10);
-  if (*end == '\0') {
-    if (idx < 0 || idx >= long(all.size()))
-      throw BackendError(join("opencl: no device ", selector, " (devices: ", names, ")"));
-    return all[size_t(idx)];
-  }
-  for (const auto& c : all)
-    if (c.name.find(selector) != std::string::npos) return c;
-  throw BackendError(join("opencl: no device named like '", selector, "' (devices: ", names, ")"));
+  return select_device(all, selector, "opencl");
 }
 
 Buffer::Buffer(cl_context ctx, cl_mem_flags flags, size_t bytes, size_t guard, size_t align,

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "backends/device_select.h"
 #include "core/error.h"
 
 namespace fs = std::filesystem;
@@ -113,24 +114,7 @@ std::vector<DeviceChoice> Instance::devices() const {
 DeviceChoice Instance::choose(const std::string& selector) const {
   const auto all = devices();
   if (all.empty()) throw BackendError("vulkan: no device with a compute queue and 64-bit floats");
-  std::string names;
-  for (size_t i = 0; i < all.size(); ++i)
-    names += (i ? ", " : "") + std::to_string(i) + ": " + all[i].name;
-  if (selector.empty()) {
-    for (const auto& c : all)
-      if (!c.cpu) return c;
-    return all.front();
-  }
-  char* end = nullptr;
-  const long idx = std::strtol(selector.c_str(), &end, 10);
-  if (*end == '\0') {
-    if (idx < 0 || idx >= long(all.size()))
-      throw BackendError(join("vulkan: no device ", selector, " (devices: ", names, ")"));
-    return all[size_t(idx)];
-  }
-  for (const auto& c : all)
-    if (c.name.find(selector) != std::string::npos) return c;
-  throw BackendError(join("vulkan: no device named like '", selector, "' (devices: ", names, ")"));
+  return select_device(all, selector, "vulkan");
 }
 
 Device::Device(const Instance&, const DeviceChoice& d) : choice_(d), family_(d.queue_family) {
