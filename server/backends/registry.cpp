@@ -17,14 +17,15 @@ namespace rangex {
 
 namespace {
 
-BackendProbe probe_opencl() {
+// A device backend's probe: the devices `list` finds, or why there are none.
+template <class F>
+BackendProbe probe_devices(const char* name, F&& list, const char* none) {
   BackendProbe p;
-  p.name = "opencl";
-#if RANGEX_WITH_OPENCL
+  p.name = name;
   try {
-    const auto devs = cl::devices();
+    const auto devs = list();
     if (devs.empty()) {
-      p.detail = "no OpenCL device with 64-bit floats";
+      p.detail = none;
       return p;
     }
     p.available = true;
@@ -32,31 +33,25 @@ BackendProbe probe_opencl() {
   } catch (const std::exception& e) {
     p.detail = e.what();
   }
-#else
-  p.detail = "not built (OpenCL headers or loader missing at build time)";
-#endif
   return p;
 }
 
-BackendProbe probe_vulkan() {
-  BackendProbe p;
-  p.name = "vulkan";
-#if RANGEX_WITH_VULKAN
-  try {
-    const auto devs = vulkan_devices();
-    if (devs.empty()) {
-      p.detail = "no Vulkan device with the features the shaders need";
-      return p;
-    }
-    p.available = true;
-    p.detail = describe_devices(devs, p.emulated);
-  } catch (const std::exception& e) {
-    p.detail = e.what();
-  }
+BackendProbe probe_opencl() {
+#if RANGEX_WITH_OPENCL
+  return probe_devices("opencl", cl::devices, "no OpenCL device with 64-bit floats");
 #else
-  p.detail = "not built (Vulkan loader or glslangValidator missing at build time)";
+  return {"opencl", false, false, "not built (OpenCL headers or loader missing at build time)"};
 #endif
-  return p;
+}
+
+BackendProbe probe_vulkan() {
+#if RANGEX_WITH_VULKAN
+  return probe_devices("vulkan", vulkan_devices,
+                       "no Vulkan device with the features the shaders need");
+#else
+  return {"vulkan", false, false,
+          "not built (Vulkan loader or glslangValidator missing at build time)"};
+#endif
 }
 
 std::unique_ptr<Backend> start(const std::string& name, const BackendRequest& req) {
