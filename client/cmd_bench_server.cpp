@@ -4,6 +4,7 @@
 #include <grpcpp/grpcpp.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -176,8 +177,6 @@ int cmd_bench_server(int argc, char** argv) {
   for (int nl : {1, 4, 16}) {
     // In-process: the same lines through the CPU backend and each lane's LaneProcessor,
     // batches of 64: what the server adds is measured against this.
-    std::vector<uint8_t> frames(frame * 2 * 64);
-    std::vector<int> slot(64, 0);
     std::vector<uint16_t> xray(size_t(lc.xray.pixels) * 64);
     std::vector<int64_t> enc(64);
     LineResults res;
@@ -188,14 +187,18 @@ int cmd_bench_server(int argc, char** argv) {
       LaneProcessor proc(plant.lanes[lane], {false, false}, [](InspectedFillet&&) {});
       for (int k0 = 0; k0 < lines; k0 += 64) {
         const int c = std::min(64, lines - k0);
+        // The frames straight into the backend's staging: one copy, as in the server.
+        LineBatchSlot& batch = b->acquire(c);
         for (int k = 0; k < c; ++k) {
-          std::memcpy(&frames[frame * 2 * k], scans[k0 + k].cam0().data(), frame);
-          std::memcpy(&frames[frame * (2 * k + 1)], scans[k0 + k].cam1().data(), frame);
+          std::memcpy(batch.frames() + frame * 2 * k, scans[k0 + k].cam0().data(), frame);
+          std::memcpy(batch.frames() + frame * (2 * k + 1), scans[k0 + k].cam1().data(), frame);
           std::memcpy(&xray[size_t(lc.xray.pixels) * k], scans[k0 + k].xray().data(),
                       scans[k0 + k].xray().size());
           enc[k] = scans[k0 + k].encoder();
         }
-        run_batch(*b, frames.data(), c, slot.data(), res);
+        std::fill_n(batch.lane_slot(), c, 0);
+        b->submit(batch);
+        b->collect(batch, res);
         proc.push(res, 0, c, xray.data(), enc.data());
       }
       proc.finish();

@@ -50,7 +50,6 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
               delay = lc.xray.delay_lines;
     const size_t frame = size_t(W) * H;
     constexpr int kBlock = 64;
-    std::vector<uint8_t> frames(frame * 2 * kBlock);
     std::vector<uint16_t> xray(size_t(D) * kBlock);
     std::vector<float> rows(size_t(2 * W) * kBlock), truth_t(size_t(D) * kBlock);
     std::vector<int64_t> enc(kBlock);
@@ -97,9 +96,11 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
                          lane.baseline.add(f.baseline);
                        });
     LineResults res;
-    const std::vector<int> lane_slot(kBlock, li);
     for (n0 = 0; n0 < sim.lines(); n0 += kBlock) {
       const int count = int(std::min<int64_t>(kBlock, sim.lines() - n0));
+      // Frames are rendered straight into the backend's staging, as the server copies them.
+      LineBatchSlot& batch = backend->acquire(count);
+      uint8_t* frames = batch.frames();
       const auto t0 = std::chrono::steady_clock::now();
       std::vector<std::thread> pool;
       for (int w = 0; w < threads; ++w)
@@ -113,7 +114,9 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
       for (int k = 0; k < count; ++k) enc[k] = sim.encoder(n0 + k);
       lane.render_s += since(t0);
       const auto t1 = std::chrono::steady_clock::now();
-      run_batch(*backend, frames.data(), count, lane_slot.data(), res);
+      std::fill_n(batch.lane_slot(), count, li);
+      backend->submit(batch);
+      backend->collect(batch, res);
       lane.pipeline_s += since(t1);
       observe(res, enc.data(), count);
       proc.push(res, 0, count, xray.data(), enc.data());

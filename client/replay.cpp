@@ -76,9 +76,8 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
     LaneProcessor proc(lc, {opt.baseline, opt.keep_images},
                        [&](InspectedFillet&& f) { r.fillets.push_back(std::move(f)); });
     LineResults res;
-    const std::vector<int> lane_slot(size_t(opt.batch_lines), int(slot));
     const size_t frame = size_t(info.width) * info.height;
-    std::vector<uint8_t> cam0, cam1, frames;
+    std::vector<uint8_t> cam0, cam1;
     std::vector<uint16_t> xray;
     std::vector<int64_t> enc;
     int64_t last_encoder = std::numeric_limits<int64_t>::min();
@@ -99,13 +98,16 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
         last_encoder = enc[k];
       }
       if (n0 == 0) first_encoder = enc[0];
-      frames.resize(frame * 2 * count);
-      for (int k = 0; k < count; ++k) {
-        std::copy_n(&cam0[frame * k], frame, &frames[frame * (2 * k)]);
-        std::copy_n(&cam1[frame * k], frame, &frames[frame * (2 * k + 1)]);
-      }
+      // Both cameras' frames interleaved straight into the backend's staging.
       const auto t0 = std::chrono::steady_clock::now();
-      run_batch(*backend, frames.data(), count, lane_slot.data(), res);
+      LineBatchSlot& batch = backend->acquire(count);
+      for (int k = 0; k < count; ++k) {
+        std::copy_n(&cam0[frame * k], frame, batch.frames() + frame * (2 * k));
+        std::copy_n(&cam1[frame * k], frame, batch.frames() + frame * (2 * k + 1));
+      }
+      std::fill_n(batch.lane_slot(), count, int(slot));
+      backend->submit(batch);
+      backend->collect(batch, res);
       r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       observe(res, enc.data(), count);
       proc.push(res, 0, count, xray.data(), enc.data());

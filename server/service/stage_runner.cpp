@@ -127,35 +127,34 @@ void StageRunner::launch(std::vector<QueuedLine>&& lines) {
   }
 }
 
-void StageRunner::submit(Group& g, InFlight& f) {
-  const int n = int(f.lines.size());
-  LineBatchSlot& s = g.active->acquire(n);
+LineBatchSlot& StageRunner::fill(Group& g, Backend& b, const std::vector<QueuedLine>& lines) {
+  const int n = int(lines.size());
+  LineBatchSlot& s = b.acquire(n);
   uint8_t* frames = s.frames();
   int32_t* slots = s.lane_slot();
   for (int k = 0; k < n; ++k) {
-    const IncomingLine& in = f.lines[k].line;
+    const IncomingLine& in = lines[k].line;
     // The engine checked the sizes at admission; this is the one copy of each frame.
     std::memcpy(frames + g.frame_bytes * (2 * size_t(k)), in.cam0.data(), g.frame_bytes);
     std::memcpy(frames + g.frame_bytes * (2 * size_t(k) + 1), in.cam1.data(), g.frame_bytes);
     slots[k] = where_.at(in.lane).second;
   }
   s.lines = n;
+  return s;
+}
+
+void StageRunner::submit(Group& g, InFlight& f) {
+  LineBatchSlot& s = fill(g, *g.active, f.lines);
   g.active->submit(s);
   f.backend = g.active;
   f.slot = &s;
 }
 
 bool StageRunner::compute_on_cpu(Group& g, InFlight& f, LineResults& out) {
-  std::vector<uint8_t> frames(g.frame_bytes * 2 * f.lines.size());
-  std::vector<int> slots(f.lines.size());
-  for (size_t k = 0; k < f.lines.size(); ++k) {
-    const IncomingLine& in = f.lines[k].line;
-    std::memcpy(&frames[g.frame_bytes * 2 * k], in.cam0.data(), g.frame_bytes);
-    std::memcpy(&frames[g.frame_bytes * (2 * k + 1)], in.cam1.data(), g.frame_bytes);
-    slots[k] = where_.at(in.lane).second;
-  }
   try {
-    run_batch(*g.cpu, frames.data(), int(f.lines.size()), slots.data(), out);
+    LineBatchSlot& s = fill(g, *g.cpu, f.lines);
+    g.cpu->submit(s);
+    g.cpu->collect(s, out);
     return true;
   } catch (const std::exception& e) {
     lost_(f.lines, std::string("line stages failed on the CPU: ") + e.what());

@@ -79,6 +79,8 @@ class StageRunner {
     std::chrono::steady_clock::time_point launched;
   };
 
+  // The lines' frames into `b`'s staging (their one copy) and their lane slots.
+  LineBatchSlot& fill(Group& g, Backend& b, const std::vector<QueuedLine>& lines);
   void submit(Group& g, InFlight& f);
   void finish_oldest();
   bool compute_on_cpu(Group& g, InFlight& f, LineResults& out);
