@@ -78,7 +78,8 @@ struct OpenClBackend::Impl {
   std::unique_ptr<cl::Context> cx;
   cl_program program = nullptr;
   cl_kernel k_stripe = nullptr, k_rectify = nullptr, k_resample = nullptr, k_merge = nullptr,
-            k_project = nullptr, k_pseudo = nullptr, k_irls = nullptr;
+            k_project = nullptr, k_pseudo = nullptr, k_irls = nullptr, k_stripe16 = nullptr;
+  bool cpu_device = false;
   size_t align = 128;
   KernelTables tables;
   cl::Buffer t_stripe, t_rect, t_nodes, t_geom, t_ln;
@@ -222,10 +223,14 @@ struct OpenClBackend::Impl {
 
   // The stages, enqueued on queue qq over the device buffers d.
   void enqueue_stripes(cl_command_queue qq, Lines& d, int count, std::vector<cl_event>& ev) {
-    args(k_stripe, d.frames.mem(), count, tables.width, tables.height, d.frame_slot.mem(),
-         t_stripe.mem(), t_ln.mem(), d.row.mem(), d.peak.mem(), d.width.mem(), d.asym.mem(),
-         d.centroid.mem(), d.valid.mem());
-    launch(qq, k_stripe, size_t(count) * tables.width, ev);
+    // A CPU device runs 16 columns per work-item as vector instructions; a GPU one column
+    // per work-item (neighbouring work-items read neighbouring bytes).
+    const bool by16 = cpu_device && tables.height <= 256 && tables.width % 16 == 0;
+    const cl_kernel k = by16 ? k_stripe16 : k_stripe;
+    args(k, d.frames.mem(), count, tables.width, tables.height, d.frame_slot.mem(), t_stripe.mem(),
+         t_ln.mem(), d.row.mem(), d.peak.mem(), d.width.mem(), d.asym.mem(), d.centroid.mem(),
+         d.valid.mem());
+    launch(qq, k, size_t(count) * (by16 ? tables.width / 16 : tables.width), ev);
   }
   void enqueue_rectify(cl_command_queue qq, Lines& d, int count, std::vector<cl_event>& ev) {
     args(k_rectify, d.row.mem(), d.valid.mem(), count, tables.width, d.frame_slot.mem(),
@@ -265,6 +270,8 @@ OpenClBackend::OpenClBackend(const OpenClOptions& opt) : impl_(std::make_unique<
     return k;
   };
   m.k_stripe = kernel("stripe");
+  m.k_stripe16 = kernel("stripe16");
+  m.cpu_device = d.cpu;
   m.k_rectify = kernel("rectify");
   m.k_resample = kernel("fuse_resample");
   m.k_merge = kernel("fuse_merge");
@@ -288,7 +295,8 @@ OpenClBackend::~OpenClBackend() {
   for (int i = 0; i < 2; ++i)
     if (m.cx) clFinish(m.q(i));
   for (cl_kernel k :
-       {m.k_stripe, m.k_rectify, m.k_resample, m.k_merge, m.k_project, m.k_pseudo, m.k_irls})
+       {m.k_stripe, m.k_stripe16, m.k_rectify, m.k_resample, m.k_merge, m.k_project, m.k_pseudo,
+        m.k_irls})
     if (k) clReleaseKernel(k);
   if (m.program) clReleaseProgram(m.program);
   for (auto& s : m.slots)
