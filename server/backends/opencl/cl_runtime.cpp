@@ -200,6 +200,13 @@ Buffer::Buffer(cl_context ctx, cl_mem_flags flags, size_t bytes, size_t guard, s
   check(clFinish(q), "clFinish (guards)");
 }
 
+Buffer::Buffer(cl_context ctx, cl_mem_flags flags, size_t bytes, const void* host) : bytes_(bytes) {
+  cl_int e;
+  mem_ = clCreateBuffer(ctx, flags | CL_MEM_USE_HOST_PTR, std::max<size_t>(bytes, 4),
+                        const_cast<void*>(host), &e);
+  check(e, "clCreateBuffer (host view)");
+}
+
 Buffer::Buffer(Buffer&& o) noexcept {
   *this = std::move(o);
 }

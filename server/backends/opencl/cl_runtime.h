@@ -41,6 +41,9 @@ class Buffer {
   Buffer() = default;
   Buffer(cl_context ctx, cl_mem_flags flags, size_t bytes, size_t guard, size_t align,
          cl_command_queue q);
+  // A view of host memory the device reads in place (CL_MEM_USE_HOST_PTR): on a CPU device
+  // the kernels read the caller's bytes without a copy. No guards.
+  Buffer(cl_context ctx, cl_mem_flags flags, size_t bytes, const void* host);
   Buffer(Buffer&& o) noexcept;
   Buffer& operator=(Buffer&& o) noexcept;
   Buffer(const Buffer&) = delete;

@@ -158,7 +158,7 @@ struct OpenClBackend::Impl {
   struct Slot final : LineBatchSlot {
     int queue = 0;
     bool busy = false, submitted = false;
-    cl::Buffer pinned;
+    cl::Buffer pinned, view;
     std::vector<int32_t> lanes_host, frame_slot_host;
     Lines dev;
     std::vector<cl_event> up, run, down;
@@ -222,12 +222,25 @@ struct OpenClBackend::Impl {
   }
 
   // The stages, enqueued on queue qq over the device buffers d.
-  void enqueue_stripes(cl_command_queue qq, Lines& d, int count, std::vector<cl_event>& ev) {
+  // The frames as the stripe kernel reads them: on a CPU device a view of the host bytes
+  // (kept alive in `view` until the kernel has run), on a GPU uploaded into d.frames.
+  cl_mem frames_in(cl_command_queue qq, Lines& d, const uint8_t* host, size_t bytes,
+                   cl::Buffer& view, std::vector<cl_event>& up) {
+    if (cpu_device) {
+      view = cl::Buffer(cx->ctx(), CL_MEM_READ_ONLY, bytes, host);
+      return view.mem();
+    }
+    write(qq, d.frames.mem(), host, bytes, up);
+    return d.frames.mem();
+  }
+
+  void enqueue_stripes(cl_command_queue qq, Lines& d, cl_mem frames, int count,
+                       std::vector<cl_event>& ev) {
     // A CPU device runs 16 columns per work-item as vector instructions; a GPU one column
     // per work-item (neighbouring work-items read neighbouring bytes).
     const bool by16 = cpu_device && tables.height <= 256 && tables.width % 16 == 0;
     const cl_kernel k = by16 ? k_stripe16 : k_stripe;
-    args(k, d.frames.mem(), count, tables.width, tables.height, d.frame_slot.mem(), t_stripe.mem(),
+    args(k, frames, count, tables.width, tables.height, d.frame_slot.mem(), t_stripe.mem(),
          t_ln.mem(), d.row.mem(), d.peak.mem(), d.width.mem(), d.asym.mem(), d.centroid.mem(),
          d.valid.mem());
     launch(qq, k, size_t(count) * (by16 ? tables.width / 16 : tables.width), ev);
@@ -294,9 +307,8 @@ OpenClBackend::~OpenClBackend() {
   Impl& m = *impl_;
   for (int i = 0; i < 2; ++i)
     if (m.cx) clFinish(m.q(i));
-  for (cl_kernel k :
-       {m.k_stripe, m.k_stripe16, m.k_rectify, m.k_resample, m.k_merge, m.k_project, m.k_pseudo,
-        m.k_irls})
+  for (cl_kernel k : {m.k_stripe, m.k_stripe16, m.k_rectify, m.k_resample, m.k_merge, m.k_project,
+                      m.k_pseudo, m.k_irls})
     if (k) clReleaseKernel(k);
   if (m.program) clReleaseProgram(m.program);
   for (auto& s : m.slots)
@@ -363,10 +375,11 @@ void OpenClBackend::submit(LineBatchSlot& batch) {
     s.frame_slot_host[2 * l] = s.lane_slot()[l] * 2;
     s.frame_slot_host[2 * l + 1] = s.lane_slot()[l] * 2 + 1;
   }
-  write(qq, s.dev.frames.mem(), s.frames(), size_t(count) * W * m.tables.height, s.up);
+  const cl_mem frames =
+      m.frames_in(qq, s.dev, s.frames(), size_t(count) * W * m.tables.height, s.view, s.up);
   write(qq, s.dev.frame_slot.mem(), s.frame_slot_host.data(), size_t(count) * 4, s.up);
   write(qq, s.dev.lane_slot.mem(), s.lane_slot(), size_t(lines) * 4, s.up);
-  m.enqueue_stripes(qq, s.dev, count, s.run);
+  m.enqueue_stripes(qq, s.dev, frames, count, s.run);
   m.enqueue_rectify(qq, s.dev, count, s.run);
   m.enqueue_fuse(qq, s.dev, lines, s.run);
   m.enqueue_project(qq, s.dev, lines, s.run);
@@ -437,9 +450,10 @@ void OpenClBackend::stripes(const uint8_t* frames, int count, const int* frame_s
   m.ensure(m.scratch, (count + 1) / 2);
   const size_t cols = size_t(count) * m.tables.width;
   std::vector<cl_event> up, run, down;
-  write(qq, m.scratch.frames.mem(), frames, cols * m.tables.height, up);
+  cl::Buffer view;
+  const cl_mem in = m.frames_in(qq, m.scratch, frames, cols * m.tables.height, view, up);
   write(qq, m.scratch.frame_slot.mem(), frame_slot, size_t(count) * 4, up);
-  m.enqueue_stripes(qq, m.scratch, count, run);
+  m.enqueue_stripes(qq, m.scratch, in, count, run);
   out.resize(cols);
   std::vector<int32_t> valid(cols);
   read(qq, m.scratch.row.mem(), out.row.data(), cols * 4, down);
