@@ -18,6 +18,7 @@
 #include "backends/backend_error.h"
 #include "backends/registry.h"
 #include "backends/robust_fit_batch.h"
+#include "backends/verify.h"
 #include "core/error.h"
 #include "core/lane_config.h"
 #include "pipeline/pseudo_xray.h"
@@ -83,9 +84,9 @@ void expect_stripes_equal(const StripeOutput& got, const StripeOutput& ref, size
       EXPECT_TRUE(std::isnan(got.row[i])) << at;
       continue;
     }
-    expect_near_or_both_nan(got.row[i], ref.row[i], 1e-4, at + " row");
-    expect_near_or_both_nan(got.centroid[i], ref.centroid[i], 1e-4, at + " centroid");
-    expect_near_or_both_nan(got.asym[i], ref.asym[i], 1e-4, at + " asym");
+    expect_near_or_both_nan(got.row[i], ref.row[i], Tolerance::kRowPx, at + " row");
+    expect_near_or_both_nan(got.centroid[i], ref.centroid[i], Tolerance::kRowPx, at + " centroid");
+    expect_near_or_both_nan(got.asym[i], ref.asym[i], Tolerance::kRowPx, at + " asym");
   }
 }
 
@@ -160,8 +161,8 @@ TEST_P(OnEveryBackend, RectificationOfLanesWithDifferentCalibrations) {
                            rv.data());
   for (size_t i = 0; i < rows.size(); ++i) {
     ASSERT_EQ(v[i], rv[i]) << i;
-    expect_near_or_both_nan(x[i], rx[i], 1e-4, "x " + std::to_string(i));
-    expect_near_or_both_nan(z[i], rz[i], 1e-4, "z " + std::to_string(i));
+    expect_near_or_both_nan(x[i], rx[i], Tolerance::kRectifiedMm, "x " + std::to_string(i));
+    expect_near_or_both_nan(z[i], rz[i], Tolerance::kRectifiedMm, "z " + std::to_string(i));
   }
 }
 
@@ -185,7 +186,8 @@ TEST_P(OnEveryBackend, FusionAndProjectionOfSimulatedFilletsOnThreeLanes) {
                    rprof.data(), rpv.data(), &rst);
   for (size_t i = 0; i < prof.size(); ++i) {
     ASSERT_EQ(pv[i], rpv[i]) << "sample " << i;
-    expect_near_or_both_nan(prof[i], rprof[i], 1e-4, "profile " + std::to_string(i));
+    expect_near_or_both_nan(prof[i], rprof[i], Tolerance::kProfileMm,
+                            "profile " + std::to_string(i));
   }
   EXPECT_EQ(st.both, rst.both);
   EXPECT_EQ(st.single, rst.single);
@@ -203,7 +205,7 @@ TEST_P(OnEveryBackend, FusionAndProjectionOfSimulatedFilletsOnThreeLanes) {
   size_t meat = 0, invalid = 0;
   for (size_t i = 0; i < t.size(); ++i) {
     ASSERT_EQ(tv[i], rtv[i]) << "pixel " << i;
-    expect_near_or_both_nan(t[i], rt[i], 1e-3, "thickness " + std::to_string(i));
+    expect_near_or_both_nan(t[i], rt[i], Tolerance::kThicknessMm, "thickness " + std::to_string(i));
     meat += rtv[i] && rt[i] > 1.f;
     invalid += !rtv[i];
   }
@@ -250,7 +252,8 @@ TEST_P(OnEveryBackend, FusionOfCraftedPolylinesGapsAtTheLimitConflictsAndFolds) 
                    rpv.data(), &rst);
   for (size_t i = 0; i < prof.size(); ++i) {
     ASSERT_EQ(pv[i], rpv[i]) << "line " << i / G << " sample " << i % G;
-    expect_near_or_both_nan(prof[i], rprof[i], 1e-4, "profile " + std::to_string(i));
+    expect_near_or_both_nan(prof[i], rprof[i], Tolerance::kProfileMm,
+                            "profile " + std::to_string(i));
   }
   EXPECT_EQ(st.both, rst.both);
   EXPECT_EQ(st.single, rst.single);
@@ -292,7 +295,7 @@ TEST_P(OnEveryBackend, ProjectionOfCraftedProfilesStepsEdgesAndInvalidSamples) {
   size_t invalid = 0;
   for (size_t i = 0; i < t.size(); ++i) {
     ASSERT_EQ(tv[i], rtv[i]) << "line " << i / P << " pixel " << i % P;
-    expect_near_or_both_nan(t[i], rt[i], 1e-3, "thickness " + std::to_string(i));
+    expect_near_or_both_nan(t[i], rt[i], Tolerance::kThicknessMm, "thickness " + std::to_string(i));
     invalid += !rtv[i];
   }
   EXPECT_GT(invalid, 0u);
@@ -325,7 +328,8 @@ TEST_P(OnEveryBackend, LinePathOfMixedLaneBatchesTwoInFlight) {
     ASSERT_EQ(got->thickness.size(), ref->thickness.size());
     for (size_t i = 0; i < got->thickness.size(); ++i) {
       ASSERT_EQ(got->thickness_valid[i], ref->thickness_valid[i]) << i;
-      expect_near_or_both_nan(got->thickness[i], ref->thickness[i], 1e-3, "thickness");
+      expect_near_or_both_nan(got->thickness[i], ref->thickness[i], Tolerance::kThicknessMm,
+                              "thickness");
     }
     EXPECT_EQ(got->fusion.both, ref->fusion.both);
     EXPECT_EQ(got->fusion.missing, ref->fusion.missing);
@@ -353,8 +357,8 @@ TEST_P(OnEveryBackend, ACalibrationUpdateReachesTheNextBatch) {
   reference_->run(sl.frames.data(), sl.lines, sl.lane_slot.data(), ref);
   size_t changed = 0;
   for (size_t i = 0; i < after.x.size(); ++i) {
-    expect_near_or_both_nan(after.x[i], ref.x[i], 1e-4, "x");
-    expect_near_or_both_nan(after.z[i], ref.z[i], 1e-4, "z");
+    expect_near_or_both_nan(after.x[i], ref.x[i], Tolerance::kRectifiedMm, "x");
+    expect_near_or_both_nan(after.z[i], ref.z[i], Tolerance::kRectifiedMm, "z");
     changed += std::abs(after.z[i] - before.z[i]) > 0.01f;
   }
   EXPECT_GT(changed, 0u);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "backends/device_select.h"
+#include "backends/kernel_cache.h"
 #include "core/error.h"
 
 namespace fs = std::filesystem;
@@ -122,13 +123,6 @@ uint64_t fnv1a(const std::string& s) {
   uint64_t h = 1469598103934665603ull;
   for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
   return h;
-}
-
-fs::path cache_dir() {
-  if (const char* d = std::getenv("RANGEX_KERNEL_CACHE")) return d;
-  if (const char* d = std::getenv("XDG_CACHE_HOME")) return fs::path(d) / "rangex" / "kernels";
-  if (const char* d = std::getenv("HOME")) return fs::path(d) / ".cache" / "rangex" / "kernels";
-  return {};
 }
 
 }  // namespace
@@ -266,7 +260,7 @@ Context::~Context() {
 cl_program Context::program(const char* source, const char* hash, const std::string& options) {
   const std::string key = std::string(hash) + "|" + dev_.name + "|" + dev_.platform_name + "|" +
                           dev_.driver + "|" + dev_.version + "|" + options;
-  const fs::path dir = cache_dir();
+  const fs::path dir = kernel_cache_dir();
   char name[32];
   std::snprintf(name, sizeof name, "%016llx.clbin", (unsigned long long)fnv1a(key));
   const fs::path file = dir.empty() ? fs::path() : dir / name;

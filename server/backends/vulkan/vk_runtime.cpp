@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "backends/device_select.h"
+#include "backends/kernel_cache.h"
 #include "core/error.h"
 
 namespace fs = std::filesystem;
@@ -57,15 +58,6 @@ void check(VkResult r, const char* what) {
   if (r != VK_SUCCESS)
     throw BackendError(join("vulkan: ", what, " failed: ", result_name(r), " (", int(r), ")"));
 }
-
-namespace {
-fs::path cache_dir() {
-  if (const char* d = std::getenv("RANGEX_KERNEL_CACHE")) return d;
-  if (const char* d = std::getenv("XDG_CACHE_HOME")) return fs::path(d) / "rangex" / "kernels";
-  if (const char* d = std::getenv("HOME")) return fs::path(d) / ".cache" / "rangex" / "kernels";
-  return {};
-}
-}  // namespace
 
 Instance::Instance() {
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
@@ -147,7 +139,7 @@ Device::Device(const Instance&, const DeviceChoice& d) : choice_(d), family_(d.q
   }
   // The pipeline cache, from disk when this device and driver wrote one.
   std::vector<char> initial;
-  const fs::path dir = cache_dir();
+  const fs::path dir = kernel_cache_dir();
   if (!dir.empty()) {
     char name[96];
     std::snprintf(name, sizeof name, "vk-%04x-%04x-%08x.bin", d.props.vendorID, d.props.deviceID,
