@@ -19,6 +19,11 @@ double since(std::chrono::steady_clock::time_point t0) {
 // the fillets of the last one, meanwhile.
 class CpuBackend::Slot final : public LineBatchSlot {
  public:
+  // A batch never collected (its backend failed and was set aside) may still be computing
+  // into this slot's memory: wait for it before any member goes.
+  ~Slot() override {
+    if (running.valid()) running.wait();
+  }
   void reserve(int lines, size_t frame_bytes) {
     if (lines <= capacity_) return;
     frames_buf_.resize(size_t(lines) * 2 * frame_bytes);
