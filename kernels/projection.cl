@@ -21,7 +21,8 @@ kernel void project(global const float* profile, global const int* profile_valid
   const struct LaneGeomK gp = geom[lane_slot[l]];
   global const float* h = profile + (size_t)l * grid_n;
   global const int* hv = profile_valid + (size_t)l * grid_n;
-  const double xd = gp.first_pixel_x_mm + gp.pitch_mm * i, zd = gp.detector_z_mm;
+  const double xd = gp.first_pixel_x_mm + gp.pitch_mm * i;
+  const double zd = gp.detector_z_mm + gp.pitch_z_mm * i;
   const double xs = gp.source_x_mm, zs = gp.source_z_mm;
   const double slope = (xs - xd) / (zs - zd);  // dx/dz along the ray
   const double sec = sqrt(1 + slope * slope);

@@ -30,7 +30,8 @@ void main() {
   const int grid_n = pc.grid_n, h = l * grid_n;
   const LaneGeomK gp = geom[lane_slot[l]];
   precise const double xd = gp.first_pixel_x_mm + gp.pitch_mm * double(i);
-  const double zd = gp.detector_z_mm, xs = gp.source_x_mm, zs = gp.source_z_mm;
+  precise const double zd = gp.detector_z_mm + gp.pitch_z_mm * double(i);
+  const double xs = gp.source_x_mm, zs = gp.source_z_mm;
   precise const double slope = (xs - xd) / (zs - zd);  // dx/dz along the ray
   precise const double sec = sqrt(1.0lf + slope * slope);
   const double ztop = max(double(top[l]), 1e-6lf);

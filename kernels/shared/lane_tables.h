@@ -36,12 +36,12 @@ struct LaneGeomK {
   double grid_pitch_mm;
   double agree_tol_mm;
   double max_column_step_mm;
-  double first_pixel_x_mm;  // detector pixel i sits at first_pixel_x_mm + pitch_mm * i
-  double pitch_mm;
+  double first_pixel_x_mm;  // detector pixel i sits at (first_pixel_x_mm + pitch_mm * i,
+  double pitch_mm;          //  detector_z_mm + pitch_z_mm * i): a tilted detector rises
   double detector_z_mm;
   double source_x_mm;
   double source_z_mm;
-  double pad0;
+  double pitch_z_mm;
   int grid_n;
   int pixels;
   int max_gap;  // samples: floor(max_gap_mm / grid_pitch_mm + 1e-9)

@@ -63,7 +63,8 @@ void KernelTables::pack() {
     g.agree_tol_mm = fp.agree_tol_mm;
     g.max_column_step_mm = fp.max_column_step_mm;
     g.first_pixel_x_mm = fb.first_pixel_x_mm;
-    g.pitch_mm = fb.pitch_mm;
+    g.pitch_mm = fb.pitch_x();
+    g.pitch_z_mm = fb.pitch_z();
     g.detector_z_mm = fb.detector_z_mm;
     g.source_x_mm = fb.source_x_mm;
     g.source_z_mm = fb.source_z_mm;

@@ -2,6 +2,7 @@
 // below it, both in the X-ray plane, which lies delay_lines encoder steps downstream of the
 // laser plane and parallel to it.
 #pragma once
+#include <cmath>
 
 namespace rangex {
 
@@ -12,10 +13,19 @@ struct FanBeam {
   double detector_z_mm = -15.0;      // detector surface below the belt
   double source_x_mm = 0.0;
   double source_z_mm = 700.0;  // focal spot above the belt
+  double tilt_deg = 0;         // detector line rotated in the x-z plane (pixel i rises)
   int delay_lines = 50;        // X-ray plane offset from the laser plane, in encoder steps
   int bits = 12;
+  // Measured optics (calib xray): the detector's line-spread function and the focal spot,
+  // for a pseudo-X-ray that matches the real one at edges.
+  double detector_sigma_px = 0;
+  double focal_spot_sigma_mm = 0;
 
-  double pixel_x(int i) const { return first_pixel_x_mm + pitch_mm * i; }
+  // Pixel i's centre at (first_pixel_x_mm + pitch_x() * i, detector_z_mm + pitch_z() * i).
+  double pitch_x() const { return pitch_mm * std::cos(tilt_deg * M_PI / 180); }
+  double pitch_z() const { return pitch_mm * std::sin(tilt_deg * M_PI / 180); }
+  double pixel_x(int i) const { return first_pixel_x_mm + pitch_x() * i; }
+  double pixel_z(int i) const { return detector_z_mm + pitch_z() * i; }
 };
 
 }  // namespace rangex

@@ -192,7 +192,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
   }
   if (auto n = section("xray")) {
     n->only_keys({"pixels", "pitch_mm", "first_pixel_x_mm", "detector_z_mm", "source_mm",
-                  "delay_lines", "bits"});
+                  "tilt_deg", "delay_lines", "bits", "detector_sigma_px", "focal_spot_sigma_mm"});
     n->positive("pixels", c.xray.pixels);
     n->positive("pitch_mm", c.xray.pitch_mm);
     n->get("first_pixel_x_mm", c.xray.first_pixel_x_mm);
@@ -206,6 +206,15 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     }
     if (c.xray.source_z_mm < 100)
       n->at("source_mm").bad("the source must be at least 100 mm above the belt");
+    n->get("tilt_deg", c.xray.tilt_deg);
+    n->get("detector_sigma_px", c.xray.detector_sigma_px);
+    n->get("focal_spot_sigma_mm", c.xray.focal_spot_sigma_mm);
+    if (!(c.xray.detector_sigma_px >= 0 && c.xray.detector_sigma_px < 20))
+      n->at("detector_sigma_px").bad("must be within 0..20 px");
+    if (!(c.xray.focal_spot_sigma_mm >= 0 && c.xray.focal_spot_sigma_mm < 10))
+      n->at("focal_spot_sigma_mm").bad("must be within 0..10 mm");
+    if (!(std::abs(c.xray.tilt_deg) <= 10))
+      n->at("tilt_deg").bad("must be within +-10 degrees (a detector line, not a second plane)");
     n->get("delay_lines", c.xray.delay_lines);
     if (c.xray.delay_lines < 0) n->at("delay_lines").bad("must be >= 0");
     n->get("bits", c.xray.bits);
@@ -371,6 +380,45 @@ PlantConfig default_plant_config(int lanes) {
   PlantConfig p;
   for (int i = 0; i < lanes; ++i) p.lanes.push_back(default_lane_config(i));
   return p;
+}
+
+std::string lane_calibration_yaml(const LaneConfig& l) {
+  std::ostringstream o;
+  o.precision(15);
+  auto list = [&o](const double* v, int n) {
+    o << "[";
+    for (int i = 0; i < n; ++i) o << (i ? ", " : "") << v[i];
+    o << "]";
+  };
+  o << "encoder_step_mm: " << l.encoder_step_mm << "\ncameras:\n";
+  for (const LaneCamera& c : l.cameras) {
+    const Intrinsics& k = c.model.intrinsics();
+    const Distortion& d = c.model.distortion();
+    const double dist[5] = {d.k1, d.k2, d.p1, d.p2, d.k3};
+    const Vec3 ctr = c.model.center();
+    const double centre[3] = {ctr.x, ctr.y, ctr.z};
+    o << "  - name: " << c.name << "\n    intrinsics: {fx: " << k.fx << ", fy: " << k.fy
+      << ", cx: " << k.cx << ", cy: " << k.cy << ", skew: " << k.skew << "}\n    distortion: ";
+    list(dist, 5);
+    o << "\n    rotation: ";
+    list(c.model.rotation().m.data(), 9);
+    o << "\n    center_mm: ";
+    list(centre, 3);
+    o << "\n    scatter: {k1: " << c.scatter.k1 << ", k2: " << c.scatter.k2
+      << ", k2_offset: " << c.scatter.k2_offset << "}\n";
+  }
+  const double n[3] = {l.laser.normal.x, l.laser.normal.y, l.laser.normal.z};
+  o << "laser_plane: {normal: ";
+  list(n, 3);
+  o << ", offset_mm: " << l.laser.offset_mm << "}\n";
+  const FanBeam& x = l.xray;
+  o << "xray:\n  pixels: " << x.pixels << "\n  pitch_mm: " << x.pitch_mm
+    << "\n  first_pixel_x_mm: " << x.first_pixel_x_mm << "\n  detector_z_mm: " << x.detector_z_mm
+    << "\n  source_mm: [" << x.source_x_mm << ", " << x.source_z_mm
+    << "]\n  tilt_deg: " << x.tilt_deg << "\n  delay_lines: " << x.delay_lines
+    << "\n  bits: " << x.bits << "\n  detector_sigma_px: " << x.detector_sigma_px
+    << "\n  focal_spot_sigma_mm: " << x.focal_spot_sigma_mm << "\n";
+  return o.str();
 }
 
 }  // namespace rangex

@@ -30,5 +30,7 @@ PlantConfig default_plant_config(int lanes);
 // sections, as in plant.yaml) applied over `base`; refused like plant.yaml, naming the key.
 LaneConfig apply_lane_calibration(const LaneConfig& base, const std::string& yaml,
                                   const std::string& origin);
+// The calibration sections of one lane as apply_lane_calibration reads them (full precision).
+std::string lane_calibration_yaml(const LaneConfig& lane);
 
 }  // namespace rangex

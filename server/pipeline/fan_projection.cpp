@@ -21,9 +21,11 @@ void project_fan_beam(const float* profile, const uint8_t* profile_valid, int li
       if (hv[g]) top = std::max(top, h[g]);
     // Samples below the belt (noise) must not make negative meat.
     const ProfileGrid grid{h, hv, grid_n, gp.grid_x0_mm, gp.grid_pitch_mm, top};
+    const double px = fb.pitch_x(), pz = fb.pitch_z();
     for (int i = 0; i < pixels; ++i) {
       const PathResult r =
-          ray_path_length(grid, fb.pixel_x(i), fb.detector_z_mm, fb.source_x_mm, fb.source_z_mm);
+          ray_path_length(grid, fb.first_pixel_x_mm + px * i, fb.detector_z_mm + pz * i,
+                          fb.source_x_mm, fb.source_z_mm);
       const size_t o = size_t(l) * pixels + i;
       thickness[o] = r.valid ? float(r.length_mm) : std::numeric_limits<float>::quiet_NaN();
       thickness_valid[o] = r.valid ? 1 : 0;

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "sim/calib_objects.h"
 #include "sim/stripe_profile.h"
 
 namespace rangex::sim {
@@ -42,7 +43,8 @@ CameraRenderer::CameraRenderer(const LaneConfig& lane, int camera, CameraRenderP
     n = uint8_t(std::clamp(std::lround(p_.background + p_.read_noise * rng.normal()), 0L, 255L));
 }
 
-void CameraRenderer::render(const LaneScene& scene, double s, Rng& rng, uint8_t* frame,
+template <typename Scene>
+void CameraRenderer::render(const Scene& scene, double s, Rng& rng, uint8_t* frame,
                             float* truth_row) const {
   const size_t npx = size_t(width_) * height_;
   // Background and read noise from the pre-drawn table at random offsets.
@@ -120,7 +122,7 @@ void CameraRenderer::render(const LaneScene& scene, double s, Rng& rng, uint8_t*
       hit.v = q.y;
       hit.p = P;
       hit.normal = Vec3{-slope, dhdb, 1.0}.normalized();  // world y = s - b flips d/db
-      hit.meat = P.z > 0.05;
+      hit.meat = scene.is_meat(P);
       hits[c] = hit;
       has[c] = 1;
     }
@@ -148,5 +150,8 @@ void CameraRenderer::render(const LaneScene& scene, double s, Rng& rng, uint8_t*
                hit.meat ? &meat_kernel_ : &belt_kernel_);
   }
 }
+
+template void CameraRenderer::render(const LaneScene&, double, Rng&, uint8_t*, float*) const;
+template void CameraRenderer::render(const CalibScene&, double, Rng&, uint8_t*, float*) const;
 
 }  // namespace rangex::sim

@@ -33,7 +33,9 @@ class CameraRenderer {
   CameraRenderer(const LaneConfig& lane, int camera, CameraRenderParams p = {});
 
   // belt_offset_mm = line * encoder step. truth_row: width entries, NaN where no stripe.
-  void render(const LaneScene& scene, double belt_offset_mm, Rng& rng, uint8_t* frame,
+  // Scene: LaneScene (fillets) or CalibScene (calibration objects).
+  template <typename Scene>
+  void render(const Scene& scene, double belt_offset_mm, Rng& rng, uint8_t* frame,
               float* truth_row) const;
 
  private:

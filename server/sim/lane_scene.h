@@ -26,6 +26,7 @@ class LaneScene {
   const std::vector<Fillet>& fillets() const { return fillets_; }
   // Highest fillet surface among the fillets that overlap [b_lo, b_hi] (0 if none).
   float max_height(double b_lo, double b_hi) const;
+  bool is_meat(const Vec3& p) const { return p.z > 0.05; }  // above the belt: a fillet
 
  private:
   std::vector<Fillet> fillets_;  // ordered by b

@@ -28,17 +28,16 @@ void XrayRenderer::render(const LaneScene& scene, double s, Rng& rng, uint16_t* 
     if (b >= f.b_min - 10 && b <= (f.ib0 + f.nb) * kRasterPitchMm + 10) here.push_back(&f);
   const double maxv = double((1 << fb_.bits) - 1);
   for (int i = 0; i < fb_.pixels; ++i) {
-    const double xd = fb_.pixel_x(i);
-    const PathResult r =
-        ray_path_length(grid, xd, fb_.detector_z_mm, fb_.source_x_mm, fb_.source_z_mm);
+    const double xd = fb_.pixel_x(i), zd = fb_.pixel_z(i);
+    const PathResult r = ray_path_length(grid, xd, zd, fb_.source_x_mm, fb_.source_z_mm);
     thickness[i] = float(r.length_mm);
     double att = 0;
     if (r.length_mm > 0) {
       // The ray crosses the meat close to its foot; the fillet under it gives mu.
-      const double dz = fb_.source_z_mm - fb_.detector_z_mm;
-      const Vec3 o{xd, b, fb_.detector_z_mm};
+      const double dz = fb_.source_z_mm - zd;
+      const Vec3 o{xd, b, zd};
       const Vec3 d = Vec3{fb_.source_x_mm - xd, 0, dz}.normalized();
-      const double xm = xd + (fb_.source_x_mm - xd) * (0.5 * top - fb_.detector_z_mm) / dz;
+      const double xm = xd + (fb_.source_x_mm - xd) * (0.5 * top - zd) / dz;
       double mu = 0.03;
       for (const Fillet* f : here)
         if (f->height_at(xm, b) > 0 || f->height_at(xd, b) > 0) mu = f->mu_at(xm, b);
