@@ -18,6 +18,8 @@ int cmd_status(int argc, char** argv);
 int cmd_fillets(int argc, char** argv);
 int cmd_image(int argc, char** argv);
 int cmd_calib_remote(int argc, char** argv);
+// calib simulate|camera|staircase|xray|registration|validate; -1 for another verb.
+int cmd_calib_solve(int argc, char** argv);
 int cmd_lanes(int argc, char** argv);
 int cmd_bench(int argc, char** argv);
 int cmd_bench_server(int argc, char** argv);

@@ -25,6 +25,19 @@ commands:
       robust fit ln I = b0 + b1 T (Tukey biweight) of a two-column CSV with a header
   calib scatter DIR [--lines N] [--config ...]
       fit the scattering constants K1, K2 per camera from a recording with truth
+
+calibration of a lane (docs/calibration.md); each solve reads --calibration FILE (else the
+plant's lane), writes the updated calibration to --out FILE and its report to FILE.reports/:
+  calib simulate targets|staircase|pins|blocks OUT [--lane L] [--rig-seed S] [--cam N]
+      calibration scans from the simulator (--rig-seed: a rig that differs from plant.yaml)
+  calib camera DIR [--cam N] [--fix-skew] [--skip-unfound]
+      intrinsics and distortion from target images (DIR/board.yaml describes the board)
+  calib staircase SCAN     both cameras' poses from a staircase scan (SCAN/staircase.yaml)
+  calib xray SCAN | --pins CSV [--hold-pitch] [--row-offsets]
+      fan-beam geometry and blur from a pin-phantom scan (SCAN/pin_phantom.yaml) or pins
+  calib registration SCAN  delay and plane angles from blocks (SCAN/blocks.yaml)
+  calib validate SCAN --calibration FILE
+      measure a known object (staircase, blocks) with a candidate calibration
   bench [--frames N]
       stripe extraction and inspection throughput beside their baselines
   bench --backend cpu|opencl|vulkan|all [--device D] [--lanes 1,4,16] [--batches 1,16,64,256]

@@ -1,0 +1,109 @@
+#include "calib_rig.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+#include "sim/rng.h"
+
+namespace fs = std::filesystem;
+
+namespace rangex::cli {
+
+namespace {
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) fail(path, ": cannot open");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+Mat3 rot(double ax, double ay, double az) {
+  const double cx = std::cos(ax), sx = std::sin(ax), cy = std::cos(ay), sy = std::sin(ay),
+               cz = std::cos(az), sz = std::sin(az);
+  Mat3 X, Y, Z;
+  X.m = {1, 0, 0, 0, cx, -sx, 0, sx, cx};
+  Y.m = {cy, 0, sy, 0, 1, 0, -sy, 0, cy};
+  Z.m = {cz, -sz, 0, sz, cz, 0, 0, 0, 1};
+  return Z * Y * X;
+}
+
+}  // namespace
+
+LaneConfig load_lane_calibration(const PlantConfig& plant, int lane, const std::string& file) {
+  const LaneConfig& base = plant.lane(lane);
+  if (file.empty() || !fs::exists(file)) return base;
+  return apply_lane_calibration(base, read_file(file), file);
+}
+
+void save_lane_calibration(const LaneConfig& lane, const std::string& file,
+                           const SolveReport& report) {
+  {
+    std::ofstream out(file);
+    out << "# rangex lane " << lane.id << " calibration, written by rangexctl calib "
+        << report.solver << "\n"
+        << lane_calibration_yaml(lane);
+    if (!out) fail(file, ": write failed");
+  }
+  const fs::path dir = file + ".reports";
+  fs::create_directories(dir);
+  std::string name = report.solver + "-" + report.subject;
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-') c = '_';
+  std::ofstream out(dir / (name + ".json"));
+  out << reports_json({report});
+  if (!out) fail((dir / name).string(), ": write failed");
+}
+
+std::string lane_reports_json(const std::string& file) {
+  const fs::path dir = file + ".reports";
+  if (!fs::is_directory(dir)) return "";
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().extension() == ".json") files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  std::string body;
+  for (const auto& p : files) {
+    // Each file is {"reports": [\n<one report>\n]}: take the report between the brackets.
+    const std::string t = read_file(p.string());
+    const size_t a = t.find('['), b = t.rfind(']');
+    if (a == std::string::npos || b == std::string::npos || b <= a) continue;
+    body += (body.empty() ? "" : ",\n") + t.substr(a + 1, b - a - 1);
+  }
+  return body.empty() ? "" : "{\"reports\": [" + body + "]}\n";
+}
+
+SimulatedRig perturbed_rig(const LaneConfig& nominal, unsigned long seed) {
+  sim::Rng r(seed, 0x819);
+  SimulatedRig s;
+  s.lane = nominal;
+  const double d2r = M_PI / 180;
+  for (auto& cam : s.lane.cameras) {
+    const CameraModel& c = cam.model;
+    Intrinsics k = c.intrinsics();
+    k.fx *= 1 + r.uniform(-0.005, 0.005);
+    k.fy *= 1 + r.uniform(-0.005, 0.005);
+    const Mat3 R = rot(r.uniform(-0.4, 0.4) * d2r, r.uniform(-0.4, 0.4) * d2r,
+                       r.uniform(-0.3, 0.3) * d2r) *
+                   c.rotation();
+    const Vec3 centre = c.center() + Vec3{r.uniform(-3, 3), r.uniform(-3, 3), r.uniform(-3, 3)};
+    cam.model = CameraModel(k, c.distortion(), R, (R * centre) * -1.0, c.width(), c.height());
+  }
+  FanBeam& x = s.lane.xray;
+  x.source_x_mm += r.uniform(-3, 3);
+  x.source_z_mm += r.uniform(-10, 10);
+  x.first_pixel_x_mm += r.uniform(-1.5, 1.5);
+  x.tilt_deg = r.uniform(-0.3, 0.3);
+  s.xray_plane_y_mm =
+      nominal.laser.offset_mm + (nominal.xray.delay_lines + r.integer(-2, 2)) * nominal.encoder_step_mm;
+  s.alpha_rad = r.uniform(-0.3, 0.3) * d2r;
+  s.beta_rad = r.uniform(-0.5, 0.5) * d2r;
+  return s;
+}
+
+}  // namespace rangex::cli

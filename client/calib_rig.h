@@ -1,0 +1,30 @@
+// The integrator's calibration files: a lane's calibration YAML (the sections of
+// plant.yaml) read over the plant's lane, written back after each solve, and the solvers'
+// reports kept beside it in <file>.reports/ (one JSON per solver and subject).
+#pragma once
+#include <string>
+#include <vector>
+
+#include "calib/solve_report.h"
+#include "core/plant_config.h"
+
+namespace rangex::cli {
+
+// --calibration FILE over the plant's lane, or the plant's lane itself.
+LaneConfig load_lane_calibration(const PlantConfig& plant, int lane, const std::string& file);
+void save_lane_calibration(const LaneConfig& lane, const std::string& file,
+                           const SolveReport& report);
+// Every report saved beside `file`, as one {"reports": [...]} document ("" when none).
+std::string lane_reports_json(const std::string& file);
+
+// A rig that differs from `nominal` as a real plant's would (cameras moved on their mounts,
+// the fan beam shifted and tilted, the X-ray plane at a fractional delay and small angles),
+// drawn from `seed`; the X-ray optics it has.
+struct SimulatedRig {
+  LaneConfig lane;
+  double xray_plane_y_mm, alpha_rad, beta_rad;
+  double detector_sigma_px = 0.6, focal_spot_sigma_mm = 0.8;
+};
+SimulatedRig perturbed_rig(const LaneConfig& nominal, unsigned long seed);
+
+}  // namespace rangex::cli

@@ -1,0 +1,316 @@
+// calib camera|staircase|xray|registration|validate: the integrator's solves. Each reads
+// the lane's current calibration (--calibration FILE, else the plant's lane), solves one
+// part from a scan, prints the report and writes the updated calibration to --out with
+// its report beside it (FILE.reports/).
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "args.h"
+#include "calib/camera_intrinsics.h"
+#include "calib/fan_beam_fit.h"
+#include "calib/pin_shadows.h"
+#include "calib/registration_fit.h"
+#include "calib/staircase_fit.h"
+#include "calib/target_corners.h"
+#include "calib/xray_blur.h"
+#include "calib_rig.h"
+#include "commands.h"
+#include "core/error.h"
+#include "core/png_io.h"
+#include "core/recording.h"
+#include "pipeline/stripe_extract.h"
+
+namespace fs = std::filesystem;
+
+namespace rangex::cli {
+
+namespace {
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  if (!in) fail(p.string(), ": cannot open (the object's drawing belongs beside the scan)");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void print_report(const SolveReport& r) {
+  std::printf("%s", reports_json({r}).c_str());
+  for (const auto& w : r.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  if (!r.passed)
+    for (const auto& f : r.failures) std::fprintf(stderr, "FAILED: %s\n", f.c_str());
+}
+
+// Both cameras' plain-centroid stripe rows of one lane (machined objects do not scatter).
+std::vector<float> stripe_rows(const RecordingReader& rec, int lane, int cam,
+                               const StripeParams& params) {
+  const RecordingInfo& info = rec.info();
+  const int W = info.width, H = info.height;
+  StripeSlot slot{params, {}};
+  slot.params.method = StripeMethod::kCentroid;
+  std::vector<uint8_t> frames(size_t(W) * H * 64);
+  std::vector<int> slots(64, 0);
+  StripeOutput so;
+  std::vector<float> rows;
+  rows.reserve(size_t(info.lines) * W);
+  for (int64_t n0 = 0; n0 < info.lines; n0 += 64) {
+    const int count = int(std::min<int64_t>(64, info.lines - n0));
+    rec.read(lane, n0, count, cam == 0 ? frames.data() : nullptr,
+             cam == 1 ? frames.data() : nullptr, nullptr, nullptr);
+    extract_stripes(frames.data(), count, W, H, slots.data(), &slot, so);
+    for (size_t i = 0; i < size_t(count) * W; ++i)
+      rows.push_back(so.valid[i] ? so.row[i] : std::nanf(""));
+  }
+  return rows;
+}
+
+std::vector<uint16_t> xray_lines(const RecordingReader& rec, int lane) {
+  const RecordingInfo& info = rec.info();
+  std::vector<uint16_t> x(size_t(info.lines) * info.xray_pixels);
+  rec.read(lane, 0, info.lines, nullptr, nullptr, x.data(), nullptr);
+  return x;
+}
+
+struct Session {
+  PlantConfig plant;
+  LaneConfig lane;
+  std::string out;
+};
+
+Session open_session(const Args& a, int lane) {
+  Session s;
+  s.plant = load_config(a.get("config", ""));
+  s.lane = load_lane_calibration(s.plant, lane, a.get("calibration", ""));
+  s.out = a.get("out", a.get("calibration", "lane" + std::to_string(lane) + ".calib.yaml"));
+  return s;
+}
+
+int solve_camera(int argc, char** argv) {
+  const Args a(argc, argv, 3, {"skip-unfound", "fix-skew"},
+               {"config", "lane", "cam", "calibration", "out"});
+  a.expect_positionals(1, "calib camera DIR [--cam N] [--calibration FILE] [--out FILE]");
+  const fs::path dir = a.positional(0, "image folder");
+  const YAML::Node b = YAML::Load(read_text(dir / "board.yaml"));
+  const int cols = b["board"]["cols"].as<int>(), rows = b["board"]["rows"].as<int>();
+  const double square = b["board"]["square_mm"].as<double>();
+  const int cam = int(a.integer("cam", b["camera"] ? b["camera"].as<int>() : 0));
+  if (cam < 0 || cam > 1) fail("--cam must be 0 or 1");
+  Session s = open_session(a, int(a.integer("lane", 0)));
+  std::vector<fs::path> images;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().extension() == ".png") images.push_back(e.path());
+  std::sort(images.begin(), images.end());
+  std::vector<TargetView> views;
+  std::vector<Vec3> board;
+  for (int j = 0; j < rows; ++j)
+    for (int i = 0; i < cols; ++i) board.push_back({i * square, j * square, 0});
+  for (const auto& p : images) {
+    const cv::Mat img = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
+    if (img.empty()) fail(p.string(), ": cannot read the image");
+    if (img.cols != s.lane.frame_width || img.rows != s.lane.frame_height)
+      fail(p.string(), ": ", img.cols, "x", img.rows, " image, the camera is ",
+           s.lane.frame_width, "x", s.lane.frame_height);
+    const auto c = find_target_corners(img.ptr<uint8_t>(), img.cols, img.rows, cols, rows);
+    if (!c) {
+      if (a.flag("skip-unfound")) {
+        std::fprintf(stderr, "warning: %s: target not found, skipped\n", p.string().c_str());
+        continue;
+      }
+      fail(p.string(), ": the ", cols, "x", rows,
+           " target was not found (whole board in view, in focus, lit evenly?); "
+           "--skip-unfound leaves such images out");
+    }
+    views.push_back({p.filename().string(), {board, *c}});
+  }
+  std::printf("# %zu of %zu images with the target; solving cam%d\n", views.size(),
+              images.size(), cam);
+  CameraSolveOptions opt;
+  opt.fixed[4] = a.flag("fix-skew");
+  opt.progress = [](const std::string& l) { std::fprintf(stderr, "%s\n", l.c_str()); };
+  const CameraFit f = calibrate_camera(views, s.lane.frame_width, s.lane.frame_height, opt);
+  LaneCamera& lc = s.lane.cameras[cam];
+  lc.model = CameraModel(f.intrinsics, f.distortion, lc.model.rotation(), lc.model.translation(),
+                         lc.model.width(), lc.model.height());
+  const SolveReport r = f.report("lane " + std::to_string(s.lane.id) + " cam" + std::to_string(cam));
+  print_report(r);
+  // The uncertainty map as an image (255 = the worst node), one pixel per node.
+  std::vector<uint8_t> map(f.map.px.size());
+  for (size_t i = 0; i < map.size(); ++i)
+    map[i] = uint8_t(std::lround(255 * f.map.px[i] / std::max(1e-12, f.map.worst)));
+  write_png8(s.out + ".cam" + std::to_string(cam) + "-uncertainty.png", map.data(), f.map.cols,
+             f.map.rows);
+  save_lane_calibration(s.lane, s.out, r);
+  std::printf("# cam%d: RMS %.4f px (%.4f mm), uncertainty median %.3f px worst %.3f px; "
+              "written to %s\n",
+              cam, f.rms_px, f.rms_mm, f.map.median, f.map.worst, s.out.c_str());
+  return r.passed ? 0 : 2;
+}
+
+int solve_staircase(int argc, char** argv, bool validate) {
+  const Args a(argc, argv, 3, {}, {"config", "lane", "calibration", "out"});
+  a.expect_positionals(1, validate ? "calib validate SCAN --calibration FILE"
+                                   : "calib staircase SCAN [--calibration FILE] [--out FILE]");
+  const RecordingReader rec(a.positional(0, "scan folder"));
+  const int lane = rec.info().lanes.at(0);
+  Session s = open_session(a, lane);
+  const fs::path dir = rec.dir();
+  int status = 0;
+  if (fs::exists(dir / "staircase.yaml")) {
+    const Staircase st = parse_staircase(read_text(dir / "staircase.yaml"), "staircase.yaml");
+    std::printf("# staircase, lane %d: %s\n", lane, validate ? "measured with the calibration"
+                                                            : "solving both cameras");
+    std::printf("# %-8s %10s %10s %10s   %10s %10s %10s\n", "depth", "cam0 mean", "std", "error",
+                "cam1 mean", "std", "error");
+    StaircaseFit fits[2];
+    for (int cam = 0; cam < 2; ++cam) {
+      const auto rows = stripe_rows(rec, lane, cam, s.lane.stripe);
+      fits[cam] = fit_staircase(rows.data(), rec.info().lines, rec.info().width,
+                                s.lane.cameras[cam].model, st, "cam" + std::to_string(cam),
+                                !validate);
+    }
+    for (size_t k = 0; k < st.heights_mm.size(); ++k)
+      std::printf("  %-8g %10.3f %10.4f %+10.4f   %10.3f %10.4f %+10.4f\n", st.heights_mm[k],
+                  fits[0].steps[k].mean_mm, fits[0].steps[k].std_mm, fits[0].steps[k].error_mm,
+                  fits[1].steps[k].mean_mm, fits[1].steps[k].std_mm, fits[1].steps[k].error_mm);
+    for (int cam = 0; cam < 2; ++cam) {
+      const SolveReport r = fits[cam].report("lane " + std::to_string(lane) + " cam" +
+                                              std::to_string(cam));
+      std::printf("# cam%d worst step error %.4f mm%s\n", cam, fits[cam].worst_step_error_mm,
+                  r.passed ? "" : "  FAILED");
+      if (!r.passed) status = 2;
+      if (validate) continue;
+      print_report(r);
+      s.lane.cameras[cam].model = fits[cam].camera;
+      s.lane.laser = LaserPlane{};  // the plane defines the frame: y = 0
+      save_lane_calibration(s.lane, s.out, r);
+    }
+    if (!validate) std::printf("# written to %s\n", s.out.c_str());
+  }
+  if (validate && fs::exists(dir / "blocks.yaml")) {
+    const BlockSet set = parse_block_set(read_text(dir / "blocks.yaml"), "blocks.yaml");
+    const auto r0 = stripe_rows(rec, lane, 0, s.lane.stripe), r1 = stripe_rows(rec, lane, 1, s.lane.stripe);
+    const auto x = xray_lines(rec, lane);
+    const LaserProfiles L = laser_profiles(r0.data(), r1.data(), rec.info().lines,
+                                           rec.info().width, s.lane.cameras[0].model,
+                                           s.lane.cameras[1].model);
+    const RegistrationFit f = fit_registration(L, x.data(), rec.info().lines, s.lane.xray,
+                                               s.lane.encoder_step_mm, set);
+    const double err = (f.delay_lines - s.lane.xray.delay_lines) * s.lane.encoder_step_mm;
+    std::printf("# blocks, lane %d: measured delay %.3f lines, the calibration says %d: "
+                "registration error %.3f mm at the belt centre; planes at %.3f / %.3f deg\n",
+                lane, f.delay_lines, s.lane.xray.delay_lines, err, f.alpha_deg, f.beta_deg);
+    if (std::abs(err) > 0.2) status = 2;
+  } else if (validate && !fs::exists(dir / "staircase.yaml")) {
+    fail(dir.string(), ": no staircase.yaml or blocks.yaml: validate needs a known object");
+  }
+  return status;
+}
+
+int solve_xray(int argc, char** argv) {
+  const Args a(argc, argv, 3, {"hold-pitch", "row-offsets", "no-tilt"},
+               {"config", "lane", "calibration", "out", "pins"});
+  Session s = open_session(a, int(a.integer("lane", 0)));
+  FanBeamSolveOptions opt;
+  opt.start = s.lane.xray;
+  opt.fit_pitch = !a.flag("hold-pitch");
+  opt.fit_tilt = !a.flag("no-tilt");
+  opt.row_offsets = a.flag("row-offsets");
+  std::vector<PinObservation> pins;
+  std::vector<PinShadow> shadows;
+  if (a.has("pins")) {
+    // Measured pin positions (e.g. tests/data/table9_pins.csv): x_mm,z_mm,pixel.
+    std::ifstream in(a.require("pins"));
+    if (!in) fail(a.require("pins"), ": cannot open");
+    std::string line;
+    int n = 0;
+    while (std::getline(in, line)) {
+      ++n;
+      if (line.empty() || line[0] == '#' || line[0] == 'x') continue;
+      PinObservation o;
+      char c1 = 0, c2 = 0;
+      std::istringstream ss(line);
+      if (!(ss >> o.x_mm >> c1 >> o.z_mm >> c2 >> o.pixel) || c1 != ',' || c2 != ',')
+        fail(a.require("pins"), ":", n, ": expected x_mm,z_mm,pixel");
+      o.name = join(a.require("pins"), ":", n);
+      pins.push_back(o);
+    }
+  } else {
+    a.expect_positionals(1, "calib xray SCAN | --pins CSV [--hold-pitch] [--row-offsets]");
+    const RecordingReader rec(a.positional(0, "scan folder"));
+    const PinPhantom ph =
+        parse_pin_phantom(read_text(fs::path(rec.dir()) / "pin_phantom.yaml"), "pin_phantom.yaml");
+    const auto x = xray_lines(rec, rec.info().lanes.at(0));
+    shadows = measure_pin_shadows(x.data(), rec.info().lines, rec.info().xray_pixels, ph,
+                                  s.lane.xray);
+    for (const auto& sh : shadows) pins.push_back(sh.at);
+  }
+  const FanBeamFit f = fit_fan_beam(pins, opt);
+  const SolveReport r = f.report("lane " + std::to_string(s.lane.id) + " xray");
+  print_report(r);
+  std::printf("# fan beam: %zu pins, residual RMS %.4f px (%.4f mm), worst %.4f px (%s)\n",
+              pins.size(), f.rms_px, f.rms_mm, f.worst_px, f.worst_pin.c_str());
+  FanBeam fb = f.beam;
+  if (!shadows.empty()) {
+    const XrayBlurFit b = fit_xray_blur(shadows, f.beam);
+    print_report(b.report("lane " + std::to_string(s.lane.id) + " xray"));
+    fb.detector_sigma_px = b.detector_sigma_px;
+    fb.focal_spot_sigma_mm = b.focal_spot_sigma_mm;
+    std::printf("# blur: detector %.3f px, focal spot %.3f mm\n", b.detector_sigma_px,
+                b.focal_spot_sigma_mm);
+  }
+  if (!a.has("pins") || a.has("out")) {
+    s.lane.xray = fb;
+    save_lane_calibration(s.lane, s.out, r);
+    std::printf("# written to %s\n", s.out.c_str());
+  }
+  return r.passed ? 0 : 2;
+}
+
+int solve_registration(int argc, char** argv) {
+  const Args a(argc, argv, 3, {}, {"config", "lane", "calibration", "out"});
+  a.expect_positionals(1, "calib registration SCAN [--calibration FILE] [--out FILE]");
+  const RecordingReader rec(a.positional(0, "scan folder"));
+  const int lane = rec.info().lanes.at(0);
+  Session s = open_session(a, lane);
+  const BlockSet set =
+      parse_block_set(read_text(fs::path(rec.dir()) / "blocks.yaml"), "blocks.yaml");
+  const auto r0 = stripe_rows(rec, lane, 0, s.lane.stripe), r1 = stripe_rows(rec, lane, 1, s.lane.stripe);
+  const auto x = xray_lines(rec, lane);
+  const LaserProfiles L = laser_profiles(r0.data(), r1.data(), rec.info().lines, rec.info().width,
+                                         s.lane.cameras[0].model, s.lane.cameras[1].model);
+  const RegistrationFit f =
+      fit_registration(L, x.data(), rec.info().lines, s.lane.xray, s.lane.encoder_step_mm, set);
+  const SolveReport r = f.report("lane " + std::to_string(lane));
+  print_report(r);
+  s.lane.xray.delay_lines = int(std::lround(f.delay_lines));
+  save_lane_calibration(s.lane, s.out, r);
+  std::printf("# delay %.3f lines (%d used), alpha %.3f deg, beta %.3f deg; wall positions "
+              "laser vs X-ray %.3f mm mean; written to %s\n",
+              f.delay_lines, s.lane.xray.delay_lines, f.alpha_deg, f.beta_deg, f.corner_mean_mm,
+              s.out.c_str());
+  return r.passed ? 0 : 2;
+}
+
+}  // namespace
+
+int cmd_calib_simulate(int argc, char** argv);
+
+int cmd_calib_solve(int argc, char** argv) {
+  const std::string verb = argv[2];
+  if (verb == "simulate") return cmd_calib_simulate(argc, argv);
+  if (verb == "camera") return solve_camera(argc, argv);
+  if (verb == "staircase") return solve_staircase(argc, argv, false);
+  if (verb == "validate") return solve_staircase(argc, argv, true);
+  if (verb == "xray") return solve_xray(argc, argv);
+  if (verb == "registration") return solve_registration(argc, argv);
+  return -1;
+}
+
+}  // namespace rangex::cli
