@@ -88,9 +88,9 @@ SimulatedRig perturbed_rig(const LaneConfig& nominal, unsigned long seed) {
     Intrinsics k = c.intrinsics();
     k.fx *= 1 + r.uniform(-0.005, 0.005);
     k.fy *= 1 + r.uniform(-0.005, 0.005);
-    const Mat3 R = rot(r.uniform(-0.4, 0.4) * d2r, r.uniform(-0.4, 0.4) * d2r,
-                       r.uniform(-0.3, 0.3) * d2r) *
-                   c.rotation();
+    const Mat3 R =
+        rot(r.uniform(-0.4, 0.4) * d2r, r.uniform(-0.4, 0.4) * d2r, r.uniform(-0.3, 0.3) * d2r) *
+        c.rotation();
     const Vec3 centre = c.center() + Vec3{r.uniform(-3, 3), r.uniform(-3, 3), r.uniform(-3, 3)};
     cam.model = CameraModel(k, c.distortion(), R, (R * centre) * -1.0, c.width(), c.height());
   }
@@ -99,8 +99,8 @@ SimulatedRig perturbed_rig(const LaneConfig& nominal, unsigned long seed) {
   x.source_z_mm += r.uniform(-10, 10);
   x.first_pixel_x_mm += r.uniform(-1.5, 1.5);
   x.tilt_deg = r.uniform(-0.3, 0.3);
-  s.xray_plane_y_mm =
-      nominal.laser.offset_mm + (nominal.xray.delay_lines + r.integer(-2, 2)) * nominal.encoder_step_mm;
+  s.xray_plane_y_mm = nominal.laser.offset_mm +
+                      (nominal.xray.delay_lines + r.integer(-2, 2)) * nominal.encoder_step_mm;
   s.alpha_rad = r.uniform(-0.3, 0.3) * d2r;
   s.beta_rad = r.uniform(-0.5, 0.5) * d2r;
   return s;

@@ -16,8 +16,9 @@ namespace rangex::cli {
 
 int cmd_calib(int argc, char** argv) {
   if (argc < 3)
-    fail("usage: calib simulate|camera|staircase|xray|registration|validate|scatter|upload|"
-         "list|activate ...");
+    fail(
+        "usage: calib simulate|camera|staircase|xray|registration|validate|scatter|upload|"
+        "list|activate ...");
   if (const int r = cmd_calib_solve(argc, argv); r >= 0) return r;
   if (std::string(argv[2]) != "scatter") return cmd_calib_remote(argc, argv);
   const Args a(argc, argv, 3, {}, {"lines", "config", "min-height-mm"});

@@ -39,7 +39,8 @@ int cmd_calib_simulate(int argc, char** argv) {
     rig = perturbed_rig(nominal, (unsigned long)a.integer("rig-seed", 1));
   } else {
     rig.lane = nominal;
-    rig.xray_plane_y_mm = nominal.laser.offset_mm + nominal.xray.delay_lines * nominal.encoder_step_mm;
+    rig.xray_plane_y_mm =
+        nominal.laser.offset_mm + nominal.xray.delay_lines * nominal.encoder_step_mm;
     rig.alpha_rad = rig.beta_rad = 0;
   }
   const uint64_t seed = uint64_t(a.integer("seed", 1));

@@ -115,8 +115,8 @@ int solve_camera(int argc, char** argv) {
     const cv::Mat img = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
     if (img.empty()) fail(p.string(), ": cannot read the image");
     if (img.cols != s.lane.frame_width || img.rows != s.lane.frame_height)
-      fail(p.string(), ": ", img.cols, "x", img.rows, " image, the camera is ",
-           s.lane.frame_width, "x", s.lane.frame_height);
+      fail(p.string(), ": ", img.cols, "x", img.rows, " image, the camera is ", s.lane.frame_width,
+           "x", s.lane.frame_height);
     const auto c = find_target_corners(img.ptr<uint8_t>(), img.cols, img.rows, cols, rows);
     if (!c) {
       if (a.flag("skip-unfound")) {
@@ -129,8 +129,8 @@ int solve_camera(int argc, char** argv) {
     }
     views.push_back({p.filename().string(), {board, *c}});
   }
-  std::printf("# %zu of %zu images with the target; solving cam%d\n", views.size(),
-              images.size(), cam);
+  std::printf("# %zu of %zu images with the target; solving cam%d\n", views.size(), images.size(),
+              cam);
   CameraSolveOptions opt;
   opt.fixed[4] = a.flag("fix-skew");
   opt.progress = [](const std::string& l) { std::fprintf(stderr, "%s\n", l.c_str()); };
@@ -138,7 +138,8 @@ int solve_camera(int argc, char** argv) {
   LaneCamera& lc = s.lane.cameras[cam];
   lc.model = CameraModel(f.intrinsics, f.distortion, lc.model.rotation(), lc.model.translation(),
                          lc.model.width(), lc.model.height());
-  const SolveReport r = f.report("lane " + std::to_string(s.lane.id) + " cam" + std::to_string(cam));
+  const SolveReport r =
+      f.report("lane " + std::to_string(s.lane.id) + " cam" + std::to_string(cam));
   print_report(r);
   // The uncertainty map as an image (255 = the worst node), one pixel per node.
   std::vector<uint8_t> map(f.map.px.size());
@@ -147,9 +148,10 @@ int solve_camera(int argc, char** argv) {
   write_png8(s.out + ".cam" + std::to_string(cam) + "-uncertainty.png", map.data(), f.map.cols,
              f.map.rows);
   save_lane_calibration(s.lane, s.out, r);
-  std::printf("# cam%d: RMS %.4f px (%.4f mm), uncertainty median %.3f px worst %.3f px; "
-              "written to %s\n",
-              cam, f.rms_px, f.rms_mm, f.map.median, f.map.worst, s.out.c_str());
+  std::printf(
+      "# cam%d: RMS %.4f px (%.4f mm), uncertainty median %.3f px worst %.3f px; "
+      "written to %s\n",
+      cam, f.rms_px, f.rms_mm, f.map.median, f.map.worst, s.out.c_str());
   return r.passed ? 0 : 2;
 }
 
@@ -164,24 +166,24 @@ int solve_staircase(int argc, char** argv, bool validate) {
   int status = 0;
   if (fs::exists(dir / "staircase.yaml")) {
     const Staircase st = parse_staircase(read_text(dir / "staircase.yaml"), "staircase.yaml");
-    std::printf("# staircase, lane %d: %s\n", lane, validate ? "measured with the calibration"
-                                                            : "solving both cameras");
+    std::printf("# staircase, lane %d: %s\n", lane,
+                validate ? "measured with the calibration" : "solving both cameras");
     std::printf("# %-8s %10s %10s %10s   %10s %10s %10s\n", "depth", "cam0 mean", "std", "error",
                 "cam1 mean", "std", "error");
     StaircaseFit fits[2];
     for (int cam = 0; cam < 2; ++cam) {
       const auto rows = stripe_rows(rec, lane, cam, s.lane.stripe);
-      fits[cam] = fit_staircase(rows.data(), rec.info().lines, rec.info().width,
-                                s.lane.cameras[cam].model, st, "cam" + std::to_string(cam),
-                                !validate);
+      fits[cam] =
+          fit_staircase(rows.data(), rec.info().lines, rec.info().width, s.lane.cameras[cam].model,
+                        st, "cam" + std::to_string(cam), !validate);
     }
     for (size_t k = 0; k < st.heights_mm.size(); ++k)
       std::printf("  %-8g %10.3f %10.4f %+10.4f   %10.3f %10.4f %+10.4f\n", st.heights_mm[k],
                   fits[0].steps[k].mean_mm, fits[0].steps[k].std_mm, fits[0].steps[k].error_mm,
                   fits[1].steps[k].mean_mm, fits[1].steps[k].std_mm, fits[1].steps[k].error_mm);
     for (int cam = 0; cam < 2; ++cam) {
-      const SolveReport r = fits[cam].report("lane " + std::to_string(lane) + " cam" +
-                                              std::to_string(cam));
+      const SolveReport r =
+          fits[cam].report("lane " + std::to_string(lane) + " cam" + std::to_string(cam));
       std::printf("# cam%d worst step error %.4f mm%s\n", cam, fits[cam].worst_step_error_mm,
                   r.passed ? "" : "  FAILED");
       if (!r.passed) status = 2;
@@ -195,17 +197,18 @@ int solve_staircase(int argc, char** argv, bool validate) {
   }
   if (validate && fs::exists(dir / "blocks.yaml")) {
     const BlockSet set = parse_block_set(read_text(dir / "blocks.yaml"), "blocks.yaml");
-    const auto r0 = stripe_rows(rec, lane, 0, s.lane.stripe), r1 = stripe_rows(rec, lane, 1, s.lane.stripe);
+    const auto r0 = stripe_rows(rec, lane, 0, s.lane.stripe),
+               r1 = stripe_rows(rec, lane, 1, s.lane.stripe);
     const auto x = xray_lines(rec, lane);
-    const LaserProfiles L = laser_profiles(r0.data(), r1.data(), rec.info().lines,
-                                           rec.info().width, s.lane.cameras[0].model,
-                                           s.lane.cameras[1].model);
-    const RegistrationFit f = fit_registration(L, x.data(), rec.info().lines, s.lane.xray,
-                                               s.lane.encoder_step_mm, set);
+    const LaserProfiles L = laser_profiles(r0.data(), r1.data(), rec.info().lines, rec.info().width,
+                                           s.lane.cameras[0].model, s.lane.cameras[1].model);
+    const RegistrationFit f =
+        fit_registration(L, x.data(), rec.info().lines, s.lane.xray, s.lane.encoder_step_mm, set);
     const double err = (f.delay_lines - s.lane.xray.delay_lines) * s.lane.encoder_step_mm;
-    std::printf("# blocks, lane %d: measured delay %.3f lines, the calibration says %d: "
-                "registration error %.3f mm at the belt centre; planes at %.3f / %.3f deg\n",
-                lane, f.delay_lines, s.lane.xray.delay_lines, err, f.alpha_deg, f.beta_deg);
+    std::printf(
+        "# blocks, lane %d: measured delay %.3f lines, the calibration says %d: "
+        "registration error %.3f mm at the belt centre; planes at %.3f / %.3f deg\n",
+        lane, f.delay_lines, s.lane.xray.delay_lines, err, f.alpha_deg, f.beta_deg);
     if (std::abs(err) > 0.2) status = 2;
   } else if (validate && !fs::exists(dir / "staircase.yaml")) {
     fail(dir.string(), ": no staircase.yaml or blocks.yaml: validate needs a known object");
@@ -247,8 +250,8 @@ int solve_xray(int argc, char** argv) {
     const PinPhantom ph =
         parse_pin_phantom(read_text(fs::path(rec.dir()) / "pin_phantom.yaml"), "pin_phantom.yaml");
     const auto x = xray_lines(rec, rec.info().lanes.at(0));
-    shadows = measure_pin_shadows(x.data(), rec.info().lines, rec.info().xray_pixels, ph,
-                                  s.lane.xray);
+    shadows =
+        measure_pin_shadows(x.data(), rec.info().lines, rec.info().xray_pixels, ph, s.lane.xray);
     for (const auto& sh : shadows) pins.push_back(sh.at);
   }
   const FanBeamFit f = fit_fan_beam(pins, opt);
@@ -281,7 +284,8 @@ int solve_registration(int argc, char** argv) {
   Session s = open_session(a, lane);
   const BlockSet set =
       parse_block_set(read_text(fs::path(rec.dir()) / "blocks.yaml"), "blocks.yaml");
-  const auto r0 = stripe_rows(rec, lane, 0, s.lane.stripe), r1 = stripe_rows(rec, lane, 1, s.lane.stripe);
+  const auto r0 = stripe_rows(rec, lane, 0, s.lane.stripe),
+             r1 = stripe_rows(rec, lane, 1, s.lane.stripe);
   const auto x = xray_lines(rec, lane);
   const LaserProfiles L = laser_profiles(r0.data(), r1.data(), rec.info().lines, rec.info().width,
                                          s.lane.cameras[0].model, s.lane.cameras[1].model);
@@ -291,10 +295,11 @@ int solve_registration(int argc, char** argv) {
   print_report(r);
   s.lane.xray.delay_lines = int(std::lround(f.delay_lines));
   save_lane_calibration(s.lane, s.out, r);
-  std::printf("# delay %.3f lines (%d used), alpha %.3f deg, beta %.3f deg; wall positions "
-              "laser vs X-ray %.3f mm mean; written to %s\n",
-              f.delay_lines, s.lane.xray.delay_lines, f.alpha_deg, f.beta_deg, f.corner_mean_mm,
-              s.out.c_str());
+  std::printf(
+      "# delay %.3f lines (%d used), alpha %.3f deg, beta %.3f deg; wall positions "
+      "laser vs X-ray %.3f mm mean; written to %s\n",
+      f.delay_lines, s.lane.xray.delay_lines, f.alpha_deg, f.beta_deg, f.corner_mean_mm,
+      s.out.c_str());
   return r.passed ? 0 : 2;
 }
 

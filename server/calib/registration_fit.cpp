@@ -47,6 +47,33 @@ double crossing(V v, int64_t from, int dir, int64_t lines, double level, int64_t
   return std::numeric_limits<double>::quiet_NaN();
 }
 
+struct Line {
+  double a = 0, b = 0;
+  bool ok = false;
+  double at(double x) const { return a + b * x; }
+};
+
+// Least-squares line through the finite points, refitted without those more than 1.5
+// lines off (a column that saw a side wall or an occluded stripe).
+Line robust_line(const std::vector<double>& x, const std::vector<double>& y) {
+  Line l;
+  std::vector<uint8_t> use(x.size());
+  for (size_t i = 0; i < x.size(); ++i) use[i] = std::isfinite(y[i]);
+  for (int pass = 0; pass < 3; ++pass) {
+    double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (size_t i = 0; i < x.size(); ++i)
+      if (use[i]) n += 1, sx += x[i], sy += y[i], sxx += x[i] * x[i], sxy += x[i] * y[i];
+    const double den = n * sxx - sx * sx;
+    if (n < 6 || std::abs(den) < 1e-9) return Line{};
+    l.b = (n * sxy - sx * sy) / den;
+    l.a = (sy - l.b * sx) / n;
+    l.ok = true;
+    for (size_t i = 0; i < x.size(); ++i)
+      use[i] = std::isfinite(y[i]) && std::abs(y[i] - l.at(x[i])) < (pass == 0 ? 3.0 : 1.5);
+  }
+  return l;
+}
+
 }  // namespace
 
 LaserProfiles laser_profiles(const float* rows0, const float* rows1, int64_t lines, int width,
@@ -112,7 +139,7 @@ RegistrationFit fit_registration(const LaserProfiles& L, const uint16_t* xray, i
          " (a block missed a plane, or blocks touch)");
   std::vector<double> ox, oz, od;  // observations: x, z, delay (lines)
   struct Corner {
-    double x, lead_l, lead_x, trail_l, trail_x, z;
+    double x, laser, xray, z;  // a wall's crossing line in each plane at x
   };
   std::vector<Corner> corners;
   RegistrationFit f;
@@ -132,25 +159,37 @@ RegistrationFit fit_registration(const LaserProfiles& L, const uint16_t* xray, i
     const double xl = L.x0_mm + L.pitch_mm * kmin, xh = L.x0_mm + L.pitch_mm * kmax;
     const double zm = 0.5 * h;
     const double reach = double(l.b - l.a) / 2 + 40;
-    // Across the block's inner width (3 mm from its sides), every X-ray pixel whose ray at
-    // mid-height lies there: walls' crossing lines in both planes.
+    // Each wall's crossing line as a function of x, in each plane, for the block's inner
+    // width (3 mm from its sides). The blocks stand askew, so a wall crosses a plane over
+    // several lines across the belt: a straight line through the (whole-line) laser
+    // crossings measures the wall to a fraction of a line.
+    std::vector<double> lx, ll, lt, px, pl, pt;
+    for (int g = 0; g < L.n; ++g) {
+      const double xg = L.x0_mm + L.pitch_mm * g;
+      if (xg < xl + 3 || xg > xh - 3) continue;
+      auto lv = [&](int64_t n) { return double(L.h[n * L.n + g]); };
+      lx.push_back(xg);
+      ll.push_back(crossing(lv, mid, -1, lines, 0.5 * h, int64_t(reach)));
+      lt.push_back(crossing(lv, mid, +1, lines, 0.5 * h, int64_t(reach)));
+    }
+    const int64_t xmid = (x.a + x.b) / 2;
     for (int i = 0; i < P; ++i) {
       const double xd = fb.pixel_x(i), zd = fb.pixel_z(i);
       const double xm = xd + (fb.source_x_mm - xd) * (zm - zd) / (fb.source_z_mm - zd);
       if (xm < xl + 3 || xm > xh - 3) continue;
-      const int g = int(std::lround((xm - L.x0_mm) / L.pitch_mm));
-      auto lv = [&](int64_t n) { return double(L.h[n * L.n + g]); };
-      const double plateau = att((x.a + x.b) / 2, i);
+      const double plateau = att(xmid, i);
       auto xv = [&](int64_t n) { return att(n, i); };
-      const double ll = crossing(lv, (l.a + l.b) / 2, -1, lines, 0.5 * h, int64_t(reach));
-      const double lt = crossing(lv, (l.a + l.b) / 2, +1, lines, 0.5 * h, int64_t(reach));
-      const double xlead = crossing(xv, (x.a + x.b) / 2, -1, lines, 0.5 * plateau, int64_t(reach));
-      const double xtrail = crossing(xv, (x.a + x.b) / 2, +1, lines, 0.5 * plateau, int64_t(reach));
-      for (auto [a, b] : {std::pair{ll, xlead}, std::pair{lt, xtrail}})
-        if (std::isfinite(a) && std::isfinite(b))
-          ox.push_back(xm), oz.push_back(zm), od.push_back(b - a);
-      if (std::isfinite(ll) && std::isfinite(xlead) && std::isfinite(lt) && std::isfinite(xtrail))
-        corners.push_back({xm, ll, xlead, lt, xtrail, zm});
+      px.push_back(xm);
+      pl.push_back(crossing(xv, xmid, -1, lines, 0.5 * plateau, int64_t(reach)));
+      pt.push_back(crossing(xv, xmid, +1, lines, 0.5 * plateau, int64_t(reach)));
+    }
+    for (int wall = 0; wall < 2; ++wall) {
+      const Line a = robust_line(lx, wall ? lt : ll), b = robust_line(px, wall ? pt : pl);
+      if (!a.ok || !b.ok) continue;
+      for (double xs = xl + 3; xs <= xh - 3; xs += 2) {
+        ox.push_back(xs), oz.push_back(zm), od.push_back(b.at(xs) - a.at(xs));
+        corners.push_back({xs, a.at(xs), b.at(xs), zm});
+      }
     }
     ++f.blocks;
   }
@@ -183,12 +222,11 @@ RegistrationFit fit_registration(const LaserProfiles& L, const uint16_t* xray, i
   double sum = 0;
   for (const Corner& c : corners) {
     const double d = s(0) + s(1) * c.x / step + (fit_beta ? s(2) * c.z / step : 0.0);
-    for (double e : {c.lead_x - (c.lead_l + d), c.trail_x - (c.trail_l + d)}) {
-      sum += std::abs(e) * step;
-      f.corner_worst_mm = std::max(f.corner_worst_mm, std::abs(e) * step);
-    }
+    const double e = std::abs(c.xray - (c.laser + d)) * step;
+    sum += e;
+    f.corner_worst_mm = std::max(f.corner_worst_mm, e);
   }
-  f.corner_mean_mm = corners.empty() ? 0 : sum / double(2 * corners.size());
+  f.corner_mean_mm = corners.empty() ? 0 : sum / double(corners.size());
   return f;
 }
 

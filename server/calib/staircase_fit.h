@@ -36,8 +36,9 @@ struct StaircaseFit {
 // rows: lines x width stripe rows of one camera (NaN where none), from a scan of `stairs`.
 // Throws Error naming the camera and step when steps are missing or the scan holds no
 // block.
+// solve = false: only measure the steps through `start` (calib validate).
 StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const CameraModel& start,
-                           const Staircase& stairs, const std::string& camera);
+                           const Staircase& stairs, const std::string& camera, bool solve = true);
 
 // Heights of every stripe point on the plane y = 0 through `cam` (NaN where none).
 double plane_height(const CameraModel& cam, double u, double v, double* x_mm = nullptr);

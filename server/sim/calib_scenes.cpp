@@ -38,8 +38,11 @@ CalibScene block_scene(const BlockSet& b, uint64_t seed, double half_width_mm) {
     const double room = std::max(0.0, 2 * half_width_mm - k.width_mm);
     const double x0 = -half_width_mm + rng.uniform(0, room);
     const double b0 = at + rng.uniform(0, 10);
-    sc.boxes.push_back({x0, x0 + k.width_mm, b0, b0 + k.length_mm, 0, k.height_mm});
-    at = b0 + k.length_mm + b.gap_mm;
+    // Set askew by 4..10 degrees either way: a wall then crosses a plane over several lines
+    // across the belt, which makes its crossing measurable to a fraction of a line.
+    const double yaw = (rng.chance(0.5) ? 1 : -1) * rng.uniform(4, 10) * M_PI / 180;
+    sc.boxes.push_back({x0, x0 + k.width_mm, b0, b0 + k.length_mm, 0, k.height_mm, yaw});
+    at = b0 + k.length_mm + k.width_mm * std::abs(std::sin(yaw)) + b.gap_mm;
   }
   return sc;
 }

@@ -9,7 +9,12 @@ namespace rangex::sim {
 namespace {
 
 // Length of the segment a + t (c - a), t in [0, 1], inside the box (object coordinates).
-double box_path(const CalibBox& k, const Vec3& a, const Vec3& c) {
+double box_path(const CalibBox& k, Vec3 a, Vec3 c) {
+  double lx, lb;  // into the box's own frame (a turn about the vertical)
+  k.local(a.x, a.y, lx, lb);
+  a.x = lx, a.y = lb;
+  k.local(c.x, c.y, lx, lb);
+  c.x = lx, c.y = lb;
   double t0 = 0, t1 = 1;
   const double lo[3] = {k.x0, k.b0, k.z0}, hi[3] = {k.x1, k.b1, k.z1};
   const double o[3] = {a.x, a.y, a.z}, d[3] = {c.x - a.x, c.y - a.y, c.z - a.z};
