@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# The integrator's calibration workflow through rangexctl on a simulated rig that differs
+# from plant.yaml (--rig-seed): target images, staircase, pin phantom and blocks are
+# scanned, each part is solved into one lane calibration, and `calib validate` measures
+# the staircase and blocks with it. The solved values are compared with the rig's truth.
+set -u
+ctl="$1"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cd "$work" || exit 1
+fails=0
+check() {  # check NAME CONDITION-COMMAND...
+  local name=$1; shift
+  if "$@"; then echo "ok   $name"; else echo "FAIL $name"; fails=$((fails + 1)); fi
+}
+run() { "$@" >>log.txt 2>&1 || { echo "FAIL: $*"; tail -20 log.txt; exit 1; }; }
+near() { awk -v a="$1" -v b="$2" -v t="$3" 'BEGIN { d = a - b; if (d < 0) d = -d; exit !(d <= t) }'; }
+key() { grep -m1 "$2" "$1" | sed 's/.*: //'; }  # key FILE PATTERN: the value after ': '
+
+for s in staircase pins blocks; do run "$ctl" calib simulate "$s" "$s" --rig-seed 3; done
+run "$ctl" calib simulate targets t0 --cam 0 --rig-seed 3 --views 30
+run "$ctl" calib camera t0 --skip-unfound --out lane0.yaml
+check "camera solve wrote the calibration" test -f lane0.yaml
+check "camera report beside it" test -f lane0.yaml.reports/camera-lane_0_cam0.json
+check "uncertainty map written" test -f lane0.yaml.cam0-uncertainty.png
+run "$ctl" calib staircase staircase --calibration lane0.yaml
+run "$ctl" calib xray pins --calibration lane0.yaml
+run "$ctl" calib registration blocks --calibration lane0.yaml
+
+truth=staircase/lane0/truth/rig.yaml
+src_t=$(key "$truth" "source_mm" | tr -d '[],' | awk '{print $1, $2}')
+src_f=$(key lane0.yaml "source_mm" | tr -d '[],' | awk '{print $1, $2}')
+check "source x within 0.2 mm of the rig's" near "$(echo "$src_f" | cut -d' ' -f1)" "$(echo "$src_t" | cut -d' ' -f1)" 0.2
+check "source z within 0.2 mm of the rig's" near "$(echo "$src_f" | cut -d' ' -f2)" "$(echo "$src_t" | cut -d' ' -f2)" 0.2
+check "detector offset within 0.2 mm" near "$(key lane0.yaml first_pixel_x_mm)" "$(key "$truth" first_pixel_x_mm)" 0.2
+plane=$(key blocks/lane0/truth/optics.yaml plane_y_mm)
+check "delay is the rig's" test "$(key lane0.yaml delay_lines)" = "$(awk -v p="$plane" 'BEGIN { printf "%d", p / 0.4 + 0.5 }')"
+
+out=$("$ctl" calib validate staircase --calibration lane0.yaml 2>&1); rc=$?
+echo "$out" | grep "worst step"
+check "validate: staircase within 0.1 mm on both cameras" \
+  test "$(echo "$out" | awk '/worst step error/ { if ($6 > 0.1) bad = 1 } END { print bad + 0 }')" = 0
+check "validate exits 0" test $rc -eq 0
+out=$("$ctl" calib validate staircase 2>&1); rc=$?
+echo "$out" | grep "worst step" | sed 's/^/  plant.yaml: /'
+check "validate fails with plant.yaml's calibration on the moved rig" test $rc -eq 2
+
+out=$("$ctl" calib camera staircase 2>&1); rc=$?
+check "camera on a folder without board.yaml is refused" test $rc -eq 1
+rm -f pins/pin_phantom.yaml
+out=$("$ctl" calib xray pins 2>&1); rc=$?
+check "xray without the phantom's drawing names it" grep -q "pin_phantom.yaml" <<<"$out"
+
+echo "$fails failed"
+exit $((fails > 0))
