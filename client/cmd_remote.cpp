@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "args.h"
+#include "calib_rig.h"
 #include "commands.h"
 #include "core/error.h"
 #include "feeder.h"
@@ -243,7 +244,8 @@ int cmd_image(int argc, char** argv) {
 
 int cmd_calib_remote(int argc, char** argv) {
   const std::string verb = argv[2];
-  const Args a(argc, argv, 3, {}, {"server", "config", "lane", "id", "file", "who"});
+  const Args a(argc, argv, 3, {"force"},
+               {"server", "config", "lane", "id", "file", "who", "report"});
   auto stub = pb::CalibrationService::NewStub(channel(a));
   Call ctx;
   const char* who = std::getenv("USER");
@@ -257,22 +259,47 @@ int cmd_calib_remote(int argc, char** argv) {
     req.set_id(a.require("id"));
     req.set_yaml(ss.str());
     req.set_who(a.get("who", who ? who : "rangexctl"));
+    // The solvers' reports: --report FILE, else those rangexctl calib wrote beside the file.
+    std::string report;
+    if (a.has("report")) {
+      std::ifstream r(a.require("report"));
+      if (!r) fail(a.require("report"), ": cannot open");
+      std::stringstream rs;
+      rs << r.rdbuf();
+      report = rs.str();
+    } else {
+      report = lane_reports_json(a.require("file"));
+    }
+    req.set_report_json(report);
     pb::UploadCalibrationResponse resp;
     check(stub->UploadCalibration(&ctx, req, &resp), "upload");
-    std::printf("uploaded calibration '%s' for lane %d\n", resp.calibration().id().c_str(),
-                resp.calibration().lane());
+    std::printf("uploaded calibration '%s' for lane %d; report: %s\n",
+                resp.calibration().id().c_str(), resp.calibration().lane(),
+                resp.calibration().report_status().c_str());
   } else if (verb == "list") {
     pb::ListCalibrationsRequest req;
     req.set_lane(int(a.integer("lane", -1)));
     pb::ListCalibrationsResponse resp;
     check(stub->ListCalibrations(&ctx, req, &resp), "list");
     for (const auto& c : resp.calibrations())
-      std::printf("lane %d  %-24s %s\n", c.lane(), c.id().c_str(), c.active() ? "active" : "");
+      std::printf("lane %d  %-24s %-7s report: %s\n", c.lane(), c.id().c_str(),
+                  c.active() ? "active" : "", c.report_status().c_str());
+  } else if (verb == "show") {
+    pb::GetCalibrationRequest req;
+    req.set_lane(int(a.integer("lane", 0)));
+    req.set_id(a.require("id"));
+    pb::GetCalibrationResponse resp;
+    check(stub->GetCalibration(&ctx, req, &resp), "show");
+    const auto& c = resp.calibration();
+    std::printf("# lane %d calibration '%s'%s; report: %s\n%s", c.lane(), c.id().c_str(),
+                c.active() ? " (active)" : "", c.report_status().c_str(), c.yaml().c_str());
+    if (!c.report_json().empty()) std::printf("# report\n%s", c.report_json().c_str());
   } else if (verb == "activate") {
     pb::ActivateCalibrationRequest req;
     req.set_lane(int(a.integer("lane", 0)));
     req.set_id(a.require("id"));
     req.set_who(a.get("who", who ? who : "rangexctl"));
+    req.set_force(a.flag("force"));
     pb::ActivateCalibrationResponse resp;
     check(stub->ActivateCalibration(&ctx, req, &resp), "activate");
     std::printf(
@@ -280,7 +307,9 @@ int cmd_calib_remote(int argc, char** argv) {
         "in progress\n",
         req.id().c_str(), req.lane());
   } else {
-    fail("calib: unknown verb '", verb, "' (upload, list, activate, scatter)");
+    fail("calib: unknown verb '", verb,
+         "' (simulate, camera, staircase, xray, registration, validate, scatter, upload, list, "
+         "show, activate)");
   }
   return 0;
 }

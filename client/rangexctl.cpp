@@ -56,7 +56,9 @@ server commands (--server HOST:PORT, default: plant.yaml's listen address):
   status                      statistics: lines/s, latencies, queue, drops by reason
   fillets [--lane L] [--limit N] [--from-ns T] [--to-ns T]  |  fillets --uid U
   image --uid U [--kind overlay|xray|thickness|pseudo_xray|residual] --out FILE.png
-  calib upload --lane L --id ID --file CAL.yaml  |  calib list [--lane L]  |  calib activate --lane L --id ID
+  calib upload --lane L --id ID --file CAL.yaml [--report R.json]  (default: CAL.yaml.reports/)
+  calib list [--lane L]  |  calib show --lane L --id ID  |  calib activate --lane L --id ID [--force]
+      activation refuses a set whose report is missing or failed unless --force (audited)
   lanes  |  lanes set --lane L [--z-threshold Z] [--min-area-mm2 A] [--floor-mm F]
 
 stripe methods: centroid, squared, binary, gaussian3, parabola, shifted, modified

@@ -45,6 +45,26 @@ out=$("$ctl" calib validate staircase 2>&1); rc=$?
 echo "$out" | grep "worst step" | sed 's/^/  plant.yaml: /'
 check "validate fails with plant.yaml's calibration on the moved rig" test $rc -eq 2
 
+# The solved set with its reports goes to a running rangexd and is activated: the reports
+# passed, so no --force is needed; a hand-made set without reports is refused.
+srv="$(dirname "$ctl")/../server/service/rangexd"
+"$srv" --listen 127.0.0.1:0 --data "$work/data" >rangexd.log 2>&1 &
+pid=$!
+for _ in $(seq 100); do grep -q "listening on" rangexd.log && break; sleep 0.1; done
+addr=$(sed -nE 's/.*listening on ([0-9.]+:[0-9]+).*/\1/p' rangexd.log)
+up=$("$ctl" calib upload --server "$addr" --lane 0 --id solved --file lane0.yaml 2>&1)
+check "upload carries the reports" grep -q "report: passed" <<<"$up"
+check "activation of a passed set" "$ctl" calib activate --server "$addr" --lane 0 --id solved
+check "show prints the report" grep -q '"solver": "registration"' \
+  <<<"$("$ctl" calib show --server "$addr" --lane 0 --id solved)"
+printf 'laser_plane: {normal: [0, 1, 0], offset_mm: 0.0}\n' >hand.yaml
+"$ctl" calib upload --server "$addr" --lane 0 --id hand --file hand.yaml >/dev/null
+out=$("$ctl" calib activate --server "$addr" --lane 0 --id hand 2>&1); rc=$?
+check "a set without a report is refused" test $rc -eq 1
+check "the refusal says why" grep -q "has no report" <<<"$out"
+kill -TERM $pid
+wait $pid
+
 out=$("$ctl" calib camera staircase 2>&1); rc=$?
 check "camera on a folder without board.yaml is refused" test $rc -eq 1
 rm -f pins/pin_phantom.yaml

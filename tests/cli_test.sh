@@ -70,7 +70,9 @@ check "status shows latencies" grep -q "latency last_line_to_decision" "$work/st
 check "lanes listed" grep -q "^lane 3:" "$work/lanes.txt"
 printf 'laser_plane: {normal: [0, 1, 0], offset_mm: 0.02}\n' >"$work/cal.yaml"
 "$ctl" calib upload --server "$addr" --lane 1 --id cal-7 --file "$work/cal.yaml" >/dev/null || fails=$((fails + 1))
-"$ctl" calib activate --server "$addr" --lane 1 --id cal-7 >/dev/null || fails=$((fails + 1))
+expect_error "activation without a report is refused" "has no report" \
+  "$ctl" calib activate --server "$addr" --lane 1 --id cal-7
+"$ctl" calib activate --server "$addr" --lane 1 --id cal-7 --force >/dev/null || fails=$((fails + 1))
 check "calibration listed active" grep -q "cal-7 *active" <<<"$("$ctl" calib list --server "$addr")"
 printf 'xray: {pitch_mm: -1}\n' >"$work/badcal.yaml"
 expect_error "malformed calibration" "xray.pitch_mm: must be > 0" \

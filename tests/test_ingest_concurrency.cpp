@@ -415,6 +415,7 @@ TEST(IngestConcurrency, ManyStreamsOverlappingOnLanesHostileLinesSubscribersAndC
       act.set_lane(lane);
       act.set_id(up.id());
       act.set_who("suite");
+      act.set_force(true);
       pb::ActivateCalibrationResponse ar;
       ASSERT_TRUE(cal->ActivateCalibration(&c2, act, &ar).ok());
       pb::UpdateLaneThresholdsRequest th;

@@ -258,6 +258,7 @@ TEST(Server, CalibrationActivatesBetweenFillets) {
     act.set_lane(0);
     act.set_id("recal-2026-11-22");
     act.set_who("test");
+    act.set_force(true);  // a hand-written set without a solver report
     pb::ActivateCalibrationResponse r;
     ASSERT_TRUE(cal->ActivateCalibration(&c, act, &r).ok());
     EXPECT_TRUE(r.pending());
@@ -279,8 +280,89 @@ TEST(Server, CalibrationActivatesBetweenFillets) {
   const auto log = server.store().audit_log(20);
   bool audited = false;
   for (const auto& l : log)
-    audited |= l.find("test calibration.activate lane 0 id recal-2026-11-22") != std::string::npos;
+    audited |= l.find(
+                   "test calibration.activate.forced lane 0 id recal-2026-11-22: the "
+                   "calibration has no report") != std::string::npos;
   EXPECT_TRUE(audited);
+}
+
+// Activation reads the solvers' report stored with the set: missing or failed refuses
+// (FAILED_PRECONDITION, naming what failed) unless forced; an unreadable report is refused
+// at upload; GetCalibration returns the report and its status.
+TEST(Server, ActivationIsGatedByTheCalibrationReport) {
+  test::TempDir t;
+  const PlantConfig p = plant();
+  RangexServer server(p, options(t));
+  auto cal = pb::CalibrationService::NewStub(connect(server));
+  const std::string yaml = "laser_plane: {normal: [0, 1, 0], offset_mm: 0.0}\n";
+  const std::string passed =
+      R"({"reports": [{"solver": "staircase", "subject": "lane 0 cam0", "passed": true,
+          "parameters": [], "figures": {}, "warnings": [], "failures": []}]})";
+  const std::string failed =
+      R"({"reports": [{"solver": "xray", "subject": "lane 0 xray", "passed": false,
+          "parameters": [], "figures": {}, "warnings": [],
+          "failures": ["the fan-beam fit did not converge"]}]})";
+  auto upload = [&](const std::string& id, const std::string& report) {
+    grpc::ClientContext c;
+    pb::UploadCalibrationRequest up;
+    up.set_lane(0);
+    up.set_id(id);
+    up.set_yaml(yaml);
+    up.set_who("integrator");
+    up.set_report_json(report);
+    pb::UploadCalibrationResponse r;
+    return cal->UploadCalibration(&c, up, &r);
+  };
+  auto activate = [&](const std::string& id, bool force) {
+    grpc::ClientContext c;
+    pb::ActivateCalibrationRequest act;
+    act.set_lane(0);
+    act.set_id(id);
+    act.set_who("integrator");
+    act.set_force(force);
+    pb::ActivateCalibrationResponse r;
+    return cal->ActivateCalibration(&c, act, &r);
+  };
+  ASSERT_TRUE(upload("good", passed).ok());
+  ASSERT_TRUE(upload("bad", failed).ok());
+  ASSERT_TRUE(upload("none", "").ok());
+  const grpc::Status garbled = upload("garbled", "{\"reports\": [");
+  EXPECT_EQ(garbled.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(garbled.error_message().find("cannot be read"), std::string::npos)
+      << garbled.error_message();
+
+  const grpc::Status s_bad = activate("bad", false);
+  EXPECT_EQ(s_bad.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(s_bad.error_message().find("the fan-beam fit did not converge"), std::string::npos)
+      << s_bad.error_message();
+  const grpc::Status s_none = activate("none", false);
+  EXPECT_EQ(s_none.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(s_none.error_message().find("has no report"), std::string::npos)
+      << s_none.error_message();
+  EXPECT_TRUE(activate("good", false).ok());
+  EXPECT_TRUE(activate("bad", true).ok());
+
+  {
+    grpc::ClientContext c;
+    pb::GetCalibrationRequest g;
+    g.set_lane(0);
+    g.set_id("bad");
+    pb::GetCalibrationResponse r;
+    ASSERT_TRUE(cal->GetCalibration(&c, g, &r).ok());
+    EXPECT_EQ(r.calibration().report_json(), failed);
+    EXPECT_NE(r.calibration().report_status().find("xray solve of lane 0 xray failed"),
+              std::string::npos)
+        << r.calibration().report_status();
+    EXPECT_TRUE(r.calibration().active());
+  }
+  bool plain = false, forced = false;
+  for (const auto& l : server.store().audit_log(20)) {
+    plain |= l.find("integrator calibration.activate lane 0 id good") != std::string::npos;
+    forced |= l.find("integrator calibration.activate.forced lane 0 id bad: the xray solve") !=
+              std::string::npos;
+  }
+  EXPECT_TRUE(plain);
+  EXPECT_TRUE(forced);
 }
 
 TEST(Server, RestartKeepsResultsAndCalibrations) {
@@ -291,7 +373,7 @@ TEST(Server, RestartKeepsResultsAndCalibrations) {
   {
     RangexServer server(p, options(t));
     server.engine().upload_calibration(0, "cal-b", "laser_plane: {offset_mm: 0.0}\n", "test");
-    server.engine().activate_calibration(0, "cal-b", "test");
+    server.engine().activate_calibration(0, "cal-b", "test", true);
     stream(connect(server), lines.lines);
     server.shutdown();
     stored = all_fillets(server.store()).size();

@@ -1,7 +1,5 @@
 #include "calib/solve_report.h"
 
-#include <yaml-cpp/yaml.h>
-
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -57,31 +55,6 @@ std::string reports_json(const std::vector<SolveReport>& reports) {
   std::string o = "{\"reports\": [\n";
   for (size_t i = 0; i < reports.size(); ++i) o += (i ? ",\n" : "") + reports[i].json();
   return o + "\n]}\n";
-}
-
-bool reports_passed(const std::string& json, std::string* why) {
-  auto say = [why](const std::string& w) {
-    if (why) *why = w;
-    return false;
-  };
-  try {
-    // JSON is YAML's flow style: yaml-cpp reads it.
-    const YAML::Node doc = YAML::Load(json);
-    if (!doc["reports"] || !doc["reports"].IsSequence() || doc["reports"].size() == 0)
-      return say("no calibration report");
-    for (const auto& r : doc["reports"]) {
-      if (!r["passed"] || !r["passed"].as<bool>()) {
-        std::string w = "the " + r["solver"].as<std::string>("?") + " solve of " +
-                        r["subject"].as<std::string>("?") + " failed";
-        if (r["failures"] && r["failures"].size() > 0)
-          w += ": " + r["failures"][0].as<std::string>();
-        return say(w);
-      }
-    }
-    return true;
-  } catch (const YAML::Exception& e) {
-    return say(std::string("the calibration report cannot be read: ") + e.what());
-  }
 }
 
 }  // namespace rangex

@@ -26,9 +26,8 @@ struct SolveReport {
   std::string json() const;
 };
 
-// Reports of several solvers as one JSON document {"reports": [...]}, and back: the
-// "passed" flags of a stored document (false when it cannot be read).
+// Reports of several solvers as one JSON document {"reports": [...]} (read back by
+// core/calibration_report.h when a set is activated).
 std::string reports_json(const std::vector<SolveReport>& reports);
-bool reports_passed(const std::string& json, std::string* why);
 
 }  // namespace rangex

@@ -20,6 +20,10 @@ class AlreadyExists : public Error {
  public:
   using Error::Error;
 };
+class FailedPrecondition : public Error {  // refused in the current state (a gate)
+ public:
+  using Error::Error;
+};
 
 template <typename... Parts>
 std::string join(const Parts&... parts) {

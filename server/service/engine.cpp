@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "core/calibration_report.h"
 #include "core/error.h"
 #include "pipeline/fillet_images.h"
 
@@ -549,7 +550,8 @@ std::string Engine::calibration_of(int id) {
 }
 
 StoredCalibration Engine::upload_calibration(int id, const std::string& cid,
-                                             const std::string& yaml, const std::string& who) {
+                                             const std::string& yaml, const std::string& who,
+                                             const std::string& report) {
   Lane& l = lane(id);
   if (cid.empty()) fail("a calibration needs an id");
   LaneConfig base;
@@ -562,16 +564,28 @@ StoredCalibration Engine::upload_calibration(int id, const std::string& cid,
   if (parsed.xray.pixels != l.pixels || parsed.frame_width != l.width ||
       parsed.frame_height != l.height)
     fail("calibration '", cid, "' changes the sensor sizes of lane ", id, "; that needs a restart");
-  StoredCalibration c{id, cid, yaml, now_ns(), false};
+  const ReportStatus rs = check_calibration_report(report);
+  if (rs.present && !rs.passed && rs.why.rfind("the report cannot be read", 0) == 0)
+    fail("calibration '", cid, "': ", rs.why);
+  StoredCalibration c{id, cid, yaml, now_ns(), false, report};
   store_.add_calibration(c);
-  store_.audit(who, "calibration.upload", "lane " + std::to_string(id) + " id " + cid);
+  store_.audit(who, "calibration.upload",
+               "lane " + std::to_string(id) + " id " + cid + " report " +
+                   (rs.passed    ? "passed"
+                    : rs.present ? "failed"
+                                 : "missing"));
   return c;
 }
 
-bool Engine::activate_calibration(int id, const std::string& cid, const std::string& who) {
+bool Engine::activate_calibration(int id, const std::string& cid, const std::string& who,
+                                  bool force) {
   Lane& l = lane(id);
   const auto c = store_.calibration(id, cid);
   if (!c) fail_not_found("lane ", id, " has no calibration '", cid, "'");
+  const ReportStatus rs = check_calibration_report(c->report);
+  if (!rs.passed && !force)
+    throw FailedPrecondition(join("calibration '", cid, "' of lane ", id, " is not activated: ",
+                                  rs.why, " (force the activation to override; it is audited)"));
   LaneConfig base = plant_.lane(id);
   {
     std::lock_guard<std::mutex> lock(ctl_mu_);
@@ -584,7 +598,11 @@ bool Engine::activate_calibration(int id, const std::string& cid, const std::str
     l.pending_id = cid;
   }
   store_.set_active_calibration(id, cid);
-  store_.audit(who, "calibration.activate", "lane " + std::to_string(id) + " id " + cid);
+  if (rs.passed)
+    store_.audit(who, "calibration.activate", "lane " + std::to_string(id) + " id " + cid);
+  else
+    store_.audit(who, "calibration.activate.forced",
+                 "lane " + std::to_string(id) + " id " + cid + ": " + rs.why);
   return true;
 }
 

@@ -108,9 +108,13 @@ class Engine {
   std::vector<LaneState> lanes();
   LaneState lane_state(int lane);
   std::string calibration_of(int lane);
+  // report: the solvers' JSON report, stored with the set ("" when none); an unreadable
+  // report is refused. Activation refuses a set whose report is missing or failed unless
+  // `force` (audited as calibration.activate.forced with what it overrode).
   StoredCalibration upload_calibration(int lane, const std::string& id, const std::string& yaml,
-                                       const std::string& who);
-  bool activate_calibration(int lane, const std::string& id, const std::string& who);
+                                       const std::string& who, const std::string& report = "");
+  bool activate_calibration(int lane, const std::string& id, const std::string& who,
+                            bool force = false);
   LaneConfig update_thresholds(int lane, std::optional<double> z, std::optional<double> area,
                                std::optional<double> floor, const std::string& who);
   // The lane's next line starts it afresh whatever its count (an encoder reset); its open

@@ -1,5 +1,7 @@
 #include "service/pb_convert.h"
 
+#include "core/calibration_report.h"
+
 namespace rangex {
 
 namespace pb = rangex::v1;
@@ -55,7 +57,9 @@ void fill(pb::CalibrationInfo* o, const StoredCalibration& c, bool with_yaml) {
   o->set_id(c.id);
   o->set_uploaded_ns(c.uploaded_ns);
   o->set_active(c.active);
-  if (with_yaml) o->set_yaml(c.yaml);
+  if (with_yaml) o->set_yaml(c.yaml), o->set_report_json(c.report);
+  const ReportStatus rs = check_calibration_report(c.report);
+  o->set_report_status(rs.passed ? "passed" : rs.why);
 }
 
 void fill(pb::LaneInfo* o, const LaneState& s) {

@@ -34,6 +34,8 @@ Status guarded(F&& f) {
     return Status(StatusCode::NOT_FOUND, e.what());
   } catch (const AlreadyExists& e) {
     return Status(StatusCode::ALREADY_EXISTS, e.what());
+  } catch (const FailedPrecondition& e) {
+    return Status(StatusCode::FAILED_PRECONDITION, e.what());
   } catch (const Error& e) {
     return Status(StatusCode::INVALID_ARGUMENT, e.what());
   } catch (const std::exception& e) {
@@ -121,7 +123,9 @@ class CalibrationImpl final : public pb::CalibrationService::Service {
                            pb::UploadCalibrationResponse* resp) override {
     return guarded([&] {
       fill(resp->mutable_calibration(),
-           engine_.upload_calibration(req->lane(), req->id(), req->yaml(), req->who()), false);
+           engine_.upload_calibration(req->lane(), req->id(), req->yaml(), req->who(),
+                                      req->report_json()),
+           false);
       return Status::OK;
     });
   }
@@ -147,7 +151,8 @@ class CalibrationImpl final : public pb::CalibrationService::Service {
   Status ActivateCalibration(ServerContext*, const pb::ActivateCalibrationRequest* req,
                              pb::ActivateCalibrationResponse* resp) override {
     return guarded([&] {
-      resp->set_pending(engine_.activate_calibration(req->lane(), req->id(), req->who()));
+      resp->set_pending(
+          engine_.activate_calibration(req->lane(), req->id(), req->who(), req->force()));
       return Status::OK;
     });
   }

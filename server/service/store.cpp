@@ -108,6 +108,13 @@ Store::Store(const std::string& dir) : dir_(dir) {
   exec(
       "CREATE TABLE IF NOT EXISTS calibrations (lane INTEGER, id TEXT, yaml TEXT, "
       "uploaded_ns INTEGER, active INTEGER, PRIMARY KEY(lane, id))");
+  {
+    // Stores made before calibration reports: add the column (their sets have none).
+    bool has_report = false;
+    Stmt q(db_, "PRAGMA table_info(calibrations)");
+    while (q.step()) has_report = has_report || q.str(1) == "report";
+    if (!has_report) exec("ALTER TABLE calibrations ADD COLUMN report TEXT DEFAULT ''");
+  }
   exec("CREATE TABLE IF NOT EXISTS audit (ts_ns INTEGER, who TEXT, what TEXT, detail TEXT)");
 }
 
@@ -230,33 +237,38 @@ void Store::add_calibration(const StoredCalibration& c) {
       fail_exists("lane ", c.lane, " already has a calibration '", c.id,
                   "' (versions are immutable)");
   }
-  Stmt q(db_, "INSERT INTO calibrations VALUES (?,?,?,?,?)");
+  Stmt q(db_,
+         "INSERT INTO calibrations (lane, id, yaml, uploaded_ns, active, report) "
+         "VALUES (?,?,?,?,?,?)");
   q.bind(1, int64_t(c.lane))
       .bind(2, c.id)
       .bind(3, c.yaml)
       .bind(4, c.uploaded_ns)
-      .bind(5, int64_t(c.active));
+      .bind(5, int64_t(c.active))
+      .bind(6, c.report);
   q.step();
 }
 
 std::vector<StoredCalibration> Store::calibrations(int lane) {
   std::lock_guard<std::mutex> lock(mu_);
   Stmt q(db_,
-         "SELECT lane, id, yaml, uploaded_ns, active FROM calibrations WHERE (? < 0 OR lane = ?) "
-         "ORDER BY lane, uploaded_ns");
+         "SELECT lane, id, yaml, uploaded_ns, active, report FROM calibrations "
+         "WHERE (? < 0 OR lane = ?) ORDER BY lane, uploaded_ns");
   q.bind(1, int64_t(lane)).bind(2, int64_t(lane));
   std::vector<StoredCalibration> out;
-  while (q.step()) out.push_back({int(q.i64(0)), q.str(1), q.str(2), q.i64(3), q.i64(4) != 0});
+  while (q.step())
+    out.push_back({int(q.i64(0)), q.str(1), q.str(2), q.i64(3), q.i64(4) != 0, q.str(5)});
   return out;
 }
 
 std::optional<StoredCalibration> Store::calibration(int lane, const std::string& id) {
   std::lock_guard<std::mutex> lock(mu_);
   Stmt q(db_,
-         "SELECT lane, id, yaml, uploaded_ns, active FROM calibrations WHERE lane = ? AND id = ?");
+         "SELECT lane, id, yaml, uploaded_ns, active, report FROM calibrations "
+         "WHERE lane = ? AND id = ?");
   q.bind(1, int64_t(lane)).bind(2, id);
   if (!q.step()) return std::nullopt;
-  return StoredCalibration{int(q.i64(0)), q.str(1), q.str(2), q.i64(3), q.i64(4) != 0};
+  return StoredCalibration{int(q.i64(0)), q.str(1), q.str(2), q.i64(3), q.i64(4) != 0, q.str(5)};
 }
 
 void Store::set_active_calibration(int lane, const std::string& id) {

@@ -35,6 +35,7 @@ struct StoredCalibration {
   std::string id, yaml;
   int64_t uploaded_ns = 0;
   bool active = false;
+  std::string report;  // the solvers' JSON report; empty when none came with it
 };
 
 class Store {
