@@ -303,8 +303,9 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
     const std::string name = b->info().name;
     const double bw = bandwidth[name];
     if (bw > 0)
-      std::printf("%-12s %.2f GB/s of frames = %.2f of the %.2f GB/s copy bandwidth\n", name.c_str(),
-                  best_stripe_bytes[name] / 1e9, best_stripe_bytes[name] / bw, bw / 1e9);
+      std::printf("%-12s %.2f GB/s of frames = %.2f of the %.2f GB/s copy bandwidth\n",
+                  name.c_str(), best_stripe_bytes[name] / 1e9, best_stripe_bytes[name] / bw,
+                  bw / 1e9);
     else
       std::printf("%-12s %.2f GB/s of frames (reads host memory in place: no copy to compare)\n",
                   name.c_str(), best_stripe_bytes[name] / 1e9);

@@ -79,7 +79,7 @@ std::string lane_reports_json(const std::string& file) {
 }
 
 SimulatedRig perturbed_rig(const LaneConfig& nominal, unsigned long seed) {
-  sim::Rng r(seed, 0x819);
+  sim::Rng r(seed, 0x819, uint64_t(nominal.id));  // each lane its own rig
   SimulatedRig s;
   s.lane = nominal;
   const double d2r = M_PI / 180;
@@ -99,8 +99,9 @@ SimulatedRig perturbed_rig(const LaneConfig& nominal, unsigned long seed) {
   x.source_z_mm += r.uniform(-10, 10);
   x.first_pixel_x_mm += r.uniform(-1.5, 1.5);
   x.tilt_deg = r.uniform(-0.3, 0.3);
-  s.xray_plane_y_mm = nominal.laser.offset_mm +
-                      (nominal.xray.delay_lines + r.integer(-2, 2)) * nominal.encoder_step_mm;
+  // The line path registers whole lines; the plant simulator renders parallel planes.
+  x.delay_lines = nominal.xray.delay_lines + r.integer(-2, 2);
+  s.xray_plane_y_mm = nominal.laser.offset_mm + x.delay_lines * nominal.encoder_step_mm;
   s.alpha_rad = r.uniform(-0.3, 0.3) * d2r;
   s.beta_rad = r.uniform(-0.5, 0.5) * d2r;
   return s;

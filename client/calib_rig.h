@@ -19,7 +19,9 @@ std::string lane_reports_json(const std::string& file);
 
 // A rig that differs from `nominal` as a real plant's would (cameras moved on their mounts,
 // the fan beam shifted and tilted, the X-ray plane at a fractional delay and small angles),
-// drawn from `seed`; the X-ray optics it has.
+// drawn from `seed` (and the lane's id); the X-ray optics it has. The plant simulator
+// renders its lane (parallel planes at the whole-line delay); calibration scans also render
+// the planes' small angles.
 struct SimulatedRig {
   LaneConfig lane;
   double xray_plane_y_mm, alpha_rad, beta_rad;

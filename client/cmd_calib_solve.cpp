@@ -93,8 +93,8 @@ Session open_session(const Args& a, int lane) {
 }
 
 int solve_camera(int argc, char** argv) {
-  const Args a(argc, argv, 3, {"skip-unfound", "fix-skew"},
-               {"config", "lane", "cam", "calibration", "out"});
+  const Args a(argc, argv, 3, {"skip-unfound"},
+               {"config", "lane", "cam", "calibration", "out", "fix"});
   a.expect_positionals(1, "calib camera DIR [--cam N] [--calibration FILE] [--out FILE]");
   const fs::path dir = a.positional(0, "image folder");
   const YAML::Node b = YAML::Load(read_text(dir / "board.yaml"));
@@ -132,7 +132,18 @@ int solve_camera(int argc, char** argv) {
   std::printf("# %zu of %zu images with the target; solving cam%d\n", views.size(), images.size(),
               cam);
   CameraSolveOptions opt;
-  opt.fixed[4] = a.flag("fix-skew");
+  // --fix k3,p1,p2,skew: parameters held (distortion terms at 0, skew at 0).
+  {
+    std::stringstream list(a.get("fix", ""));
+    std::string name;
+    while (std::getline(list, name, ',')) {
+      const auto& names = CameraFit::kNames;
+      const auto it = std::find(names.begin(), names.end(), name);
+      if (it == names.end() || it - names.begin() < 4)
+        fail("--fix: '", name, "' is not a parameter that can be held (skew, k1, k2, p1, p2, k3)");
+      opt.fixed[size_t(it - names.begin())] = true;
+    }
+  }
   opt.progress = [](const std::string& l) { std::fprintf(stderr, "%s\n", l.c_str()); };
   const CameraFit f = calibrate_camera(views, s.lane.frame_width, s.lane.frame_height, opt);
   LaneCamera& lc = s.lane.cameras[cam];

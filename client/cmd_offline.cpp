@@ -11,6 +11,7 @@
 
 #include "args.h"
 #include "backend_args.h"
+#include "calib_rig.h"
 #include "commands.h"
 #include "core/error.h"
 #include "core/png_io.h"
@@ -60,9 +61,12 @@ std::vector<float> read_f32(const fs::path& p, size_t expect) {
 }  // namespace
 
 int cmd_simulate(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"lanes", "fillets", "seed", "out", "config"});
-  a.expect_positionals(0, "simulate --out DIR [--lanes N] [--fillets M] [--seed S]");
-  const PlantConfig plant = load_config(a.get("config", ""));
+  const Args a(argc, argv, 2, {}, {"lanes", "fillets", "seed", "out", "config", "rig-seed"});
+  a.expect_positionals(0, "simulate --out DIR [--lanes N] [--fillets M] [--seed S] [--rig-seed R]");
+  PlantConfig plant = load_config(a.get("config", ""));
+  // A plant whose rigs differ from plant.yaml (as `calib simulate --rig-seed` draws them).
+  if (a.has("rig-seed"))
+    for (auto& l : plant.lanes) l = perturbed_rig(l, (unsigned long)a.integer("rig-seed", 1)).lane;
   sim::SimulationParams p;
   p.lanes = int(a.integer("lanes", long(plant.lanes.size())));
   p.scene.fillets = int(a.integer("fillets", 5));
@@ -235,8 +239,29 @@ int process_simulated(const Args& a, const PlantConfig& plant) {
 int cmd_process(int argc, char** argv) {
   const Args a(argc, argv, 2, {"simulate"},
                {"out", "method", "batch", "config", "threads", "images", "lanes", "fillets", "seed",
-                "backend", "device"});
+                "backend", "device", "calibration"});
   PlantConfig plant = load_config(a.get("config", ""));
+  // Replay with new calibrations: --calibration FILE (every lane) or L:FILE,L:FILE.
+  if (a.has("calibration")) {
+    std::stringstream list(a.get("calibration", ""));
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      const size_t colon = item.find(':');
+      const bool one =
+          colon != std::string::npos && colon > 0 && item.find_first_not_of("0123456789") == colon;
+      for (auto& l : plant.lanes)
+        if (!one || l.id == std::stoi(item.substr(0, colon))) {
+          const std::string file = one ? item.substr(colon + 1) : item;
+          if (!fs::exists(file)) fail(file, ": no such calibration file");
+          l = load_lane_calibration(plant, l.id, file);
+        }
+    }
+    plant.calibration_id = a.get("calibration", "");
+    std::printf("replaying %s (made with calibration '%s') with %s\n",
+                a.positional(0, "recording folder").c_str(),
+                RecordingReader(a.positional(0, "recording folder")).info().calibration_id.c_str(),
+                plant.calibration_id.c_str());
+  }
   if (a.flag("simulate")) {
     a.expect_positionals(0, "process --simulate --out OUT [--lanes N] [--fillets M] [--seed S]");
     if (a.has("method"))
@@ -248,6 +273,7 @@ int cmd_process(int argc, char** argv) {
   ReplayOptions opt;
   if (a.has("method")) opt.method = parse_stripe_method(a.get("method", ""));
   opt.batch_lines = int(a.integer("batch", 64));
+  opt.recalibrated = a.has("calibration");
   opt.backend = backend_request(a, plant.backend);
   const Images images = parse_images(a.get("images", "all"));
   const fs::path out = a.require("out");

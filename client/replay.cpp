@@ -13,7 +13,7 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
                                          const ReplayOptions& opt, const ReplayProgress& progress,
                                          BackendInfo* backend_info) {
   const RecordingInfo& info = rec.info();
-  if (info.calibration_id != plant.calibration_id)
+  if (info.calibration_id != plant.calibration_id && !opt.recalibrated)
     fail("calibration mismatch: the recording was made with calibration '", info.calibration_id,
          "' but the plant configuration holds '", plant.calibration_id, "'");
   if (opt.batch_lines <= 0) fail("batch size must be > 0 (got ", opt.batch_lines, ")");

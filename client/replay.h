@@ -23,6 +23,9 @@ struct ReplayOptions {
   BackendRequest backend = cpu_request();  // where the line stages run (threads: CPU workers)
   bool keep_images = true;                 // per-fillet pseudo-X-ray / residual images
   bool baseline = true;                    // X-ray-only baseline beside every fillet
+  // A recording made under another calibration is refused unless the caller replays it
+  // with a new one on purpose (rangexctl process --calibration).
+  bool recalibrated = false;
 };
 
 struct LaneReplay {

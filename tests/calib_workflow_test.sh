@@ -19,7 +19,9 @@ key() { grep -m1 "$2" "$1" | sed 's/.*: //'; }  # key FILE PATTERN: the value af
 
 for s in staircase pins blocks; do run "$ctl" calib simulate "$s" "$s" --rig-seed 3; done
 run "$ctl" calib simulate targets t0 --cam 0 --rig-seed 3 --views 30
+run "$ctl" calib simulate targets t1 --cam 1 --rig-seed 3 --views 30
 run "$ctl" calib camera t0 --skip-unfound --out lane0.yaml
+run "$ctl" calib camera t1 --skip-unfound --calibration lane0.yaml
 check "camera solve wrote the calibration" test -f lane0.yaml
 check "camera report beside it" test -f lane0.yaml.reports/camera-lane_0_cam0.json
 check "uncertainty map written" test -f lane0.yaml.cam0-uncertainty.png
@@ -44,6 +46,33 @@ check "validate exits 0" test $rc -eq 0
 out=$("$ctl" calib validate staircase 2>&1); rc=$?
 echo "$out" | grep "worst step" | sed 's/^/  plant.yaml: /'
 check "validate fails with plant.yaml's calibration on the moved rig" test $rc -eq 2
+
+# End to end: the same plant (seed) rendered through the nominal rig and through the moved
+# rig; the moved one replayed with plant.yaml and with the solved calibration.
+run "$ctl" simulate --lanes 1 --fillets 16 --seed 5 --rig-seed 3 --out moved
+run "$ctl" simulate --lanes 1 --fillets 16 --seed 5 --out nominal
+run "$ctl" process nominal --out out_nominal --images none
+run "$ctl" process moved --out out_plain --images none
+run "$ctl" process moved --out out_solved --images none --calibration lane0.yaml
+for r in nominal:nominal moved:plain moved:solved; do
+  "$ctl" eval "${r%%:*}" "out_${r##*:}" >"eval_${r##*:}.txt" || fails=$((fails + 1))
+done
+thick() { awk '$1 == "0" { print $10 }' "eval_$1.txt"; }       # thickness mean |error|, mm
+bias() { awk '$1 == "0" { print $12 }' "eval_$1.txt"; }
+pct() { grep "$2" "eval_$1.txt" | awk '{ v = $(NF-1); sub("%", "", v); print v }'; }
+for r in nominal plain solved; do
+  echo "  $r: thickness mean|e| $(thick $r) mm, bias $(bias $r) mm, recall >= 2 mm $(pct $r 'recall, calcified') %," \
+    "false rejects $(pct $r 'false rejects') %, bone fillets rejected $(pct $r 'fillets with bone') %"
+done
+check "plant.yaml on the moved rig is far off (> 1 mm)" \
+  awk -v t="$(thick plain)" 'BEGIN { exit !(t > 1) }'
+check "calibrated thickness error within 0.03 mm of the nominal rig's" \
+  awk -v a="$(thick solved)" -v b="$(thick nominal)" 'BEGIN { exit !(a <= b + 0.03) }'
+check "calibrated thickness bias within 0.03 mm" near "$(bias solved)" 0 0.03
+check "calibrated recall of calcified fragments as the nominal rig's" \
+  test "$(pct solved 'recall, calcified')" = "$(pct nominal 'recall, calcified')"
+check "calibrated false rejects no more than the nominal rig's" \
+  awk -v a="$(pct solved 'false rejects')" -v b="$(pct nominal 'false rejects')" 'BEGIN { exit !(a <= b) }'
 
 # The solved set with its reports goes to a running rangexd and is activated: the reports
 # passed, so no --force is needed; a hand-made set without reports is refused.

@@ -14,7 +14,16 @@ float CalibScene::height(double x, double b) const {
 }
 
 void CalibScene::slice(double b, float* out, int n) const {
-  for (int k = 0; k < n; ++k) out[k] = height(kLaneX0Mm + k * kRasterPitchMm, b);
+  // Each raster node holds the mean height over its own 0.2 mm: the renderer joins nodes
+  // by straight segments, so a wall becomes a ramp whose middle is exactly the wall (a
+  // point sample would put every wall up to a node's width off).
+  constexpr int kSub = 8;
+  for (int k = 0; k < n; ++k) {
+    double s = 0;
+    for (int j = 0; j < kSub; ++j)
+      s += height(kLaneX0Mm + (k - 0.5 + (j + 0.5) / kSub) * kRasterPitchMm, b);
+    out[k] = float(s / kSub);
+  }
 }
 
 float CalibScene::max_height(double b_lo, double b_hi) const {

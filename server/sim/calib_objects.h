@@ -40,7 +40,7 @@ class CalibScene {
   std::vector<CalibPin> pins;  // held in a transparent fixture: invisible to the laser
 
   float height(double x, double b) const;         // highest box top at (x, b), 0 on the belt
-  void slice(double b, float* out, int n) const;  // as LaneScene::slice
+  void slice(double b, float* out, int n) const;  // as LaneScene::slice, box-filtered
   float max_height(double b_lo, double b_hi) const;
   bool is_meat(const Vec3&) const { return false; }  // machined metal barely scatters
   double end_b() const;
