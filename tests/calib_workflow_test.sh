@@ -51,6 +51,9 @@ check "validate fails with plant.yaml's calibration on the moved rig" test $rc -
 # rig; the moved one replayed with plant.yaml and with the solved calibration.
 run "$ctl" simulate --lanes 1 --fillets 16 --seed 5 --rig-seed 3 --out moved
 run "$ctl" simulate --lanes 1 --fillets 16 --seed 5 --out nominal
+# K1/K2 from the plant's own recording (its truth stands in for coated reference profiles).
+run "$ctl" calib scatter moved --calibration lane0.yaml
+check "scatter report beside the calibration" test -f lane0.yaml.reports/scatter-lane_0_cam1.json
 run "$ctl" process nominal --out out_nominal --images none
 run "$ctl" process moved --out out_plain --images none
 run "$ctl" process moved --out out_solved --images none --calibration lane0.yaml
