@@ -26,6 +26,7 @@
 #include "core/png_io.h"
 #include "core/recording.h"
 #include "pipeline/stripe_extract.h"
+#include "report_plots.h"
 
 namespace fs = std::filesystem;
 
@@ -158,6 +159,20 @@ int solve_camera(int argc, char** argv) {
     map[i] = uint8_t(std::lround(255 * f.map.px[i] / std::max(1e-12, f.map.worst)));
   write_png8(s.out + ".cam" + std::to_string(cam) + "-uncertainty.png", map.data(), f.map.cols,
              f.map.rows);
+  // Residuals across the sensor: every corner where it was seen (image rows down), grey
+  // below the RMS, orange to 3x, red beyond.
+  {
+    Series low{{}, {}, 150, 150, 150}, mid{{}, {}, 240, 140, 0}, high{{}, {}, 210, 0, 0};
+    for (size_t i = 0; i < f.corner_px.size(); ++i) {
+      const double e = std::hypot(f.residual_px[i].x, f.residual_px[i].y);
+      Series& ser = e < f.rms_px ? low : e < 3 * f.rms_px ? mid : high;
+      ser.x.push_back(f.corner_px[i].x);
+      ser.y.push_back(s.lane.frame_height - 1 - f.corner_px[i].y);
+    }
+    plot_points(s.out + ".cam" + std::to_string(cam) + "-residuals.png", {low, mid, high}, 0,
+                s.lane.frame_width - 1, 0, s.lane.frame_height - 1, 80, 50, s.lane.frame_width,
+                s.lane.frame_height);
+  }
   save_lane_calibration(s.lane, s.out, r);
   std::printf(
       "# cam%d: RMS %.4f px (%.4f mm), uncertainty median %.3f px worst %.3f px; "
@@ -192,6 +207,17 @@ int solve_staircase(int argc, char** argv, bool validate) {
       std::printf("  %-8g %10.3f %10.4f %+10.4f   %10.3f %10.4f %+10.4f\n", st.heights_mm[k],
                   fits[0].steps[k].mean_mm, fits[0].steps[k].std_mm, fits[0].steps[k].error_mm,
                   fits[1].steps[k].mean_mm, fits[1].steps[k].std_mm, fits[1].steps[k].error_mm);
+    // Table 5 as a plot: each step's error (mm, +-0.3 full scale) for cam0 (red) and cam1
+    // (blue), beside the drawing's height.
+    {
+      Series c0{{}, {}, 210, 30, 30}, c1{{}, {}, 30, 60, 210};
+      for (size_t k = 0; k < st.heights_mm.size(); ++k) {
+        c0.x.push_back(st.heights_mm[k] - 0.6), c0.y.push_back(fits[0].steps[k].error_mm);
+        c1.x.push_back(st.heights_mm[k] + 0.6), c1.y.push_back(fits[1].steps[k].error_mm);
+      }
+      const std::string png = (validate ? dir.string() + "/validate" : s.out) + "-steps.png";
+      plot_points(png, {c0, c1}, 0, st.heights_mm.back() + 5, -0.3, 0.3, 5, 0.1, 480, 240);
+    }
     for (int cam = 0; cam < 2; ++cam) {
       const SolveReport r =
           fits[cam].report("lane " + std::to_string(lane) + " cam" + std::to_string(cam));
@@ -270,6 +296,29 @@ int solve_xray(int argc, char** argv) {
   print_report(r);
   std::printf("# fan beam: %zu pins, residual RMS %.4f px (%.4f mm), worst %.4f px (%s)\n",
               pins.size(), f.rms_px, f.rms_mm, f.worst_px, f.worst_pin.c_str());
+  // Pin residuals along the detector (px, +-4 RMS full scale), one colour per row.
+  {
+    std::vector<Series> rows;
+    std::vector<double> heights;
+    for (size_t i = 0; i < pins.size(); ++i) {
+      const auto it = std::find(heights.begin(), heights.end(), pins[i].z_mm);
+      const size_t k = size_t(it - heights.begin());
+      if (it == heights.end()) {
+        heights.push_back(pins[i].z_mm);
+        rows.push_back({{},
+                        {},
+                        (unsigned char)(40 + 50 * (k % 4)),
+                        (unsigned char)(30 * (k % 7)),
+                        (unsigned char)(220 - 25 * (k % 8))});
+      }
+      rows[k].x.push_back(pins[i].pixel);
+      rows[k].y.push_back(f.residual_px[i]);
+    }
+    const double span = std::max(4 * f.rms_px, 1e-3);
+    if (!a.has("pins") || a.has("out"))
+      plot_points(s.out + ".xray-pins.png", rows, 0, s.lane.xray.pixels - 1, -span, span, 40, 0,
+                  640, 240);
+  }
   FanBeam fb = f.beam;
   if (!shadows.empty()) {
     const XrayBlurFit b = fit_xray_blur(shadows, f.beam);

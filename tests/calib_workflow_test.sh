@@ -28,6 +28,9 @@ check "uncertainty map written" test -f lane0.yaml.cam0-uncertainty.png
 run "$ctl" calib staircase staircase --calibration lane0.yaml
 run "$ctl" calib xray pins --calibration lane0.yaml
 run "$ctl" calib registration blocks --calibration lane0.yaml
+for png in lane0.yaml.cam0-residuals.png lane0.yaml-steps.png lane0.yaml.xray-pins.png; do
+  check "report plot $png" test -s "$png"
+done
 
 truth=staircase/lane0/truth/rig.yaml
 src_t=$(key "$truth" "source_mm" | tr -d '[],' | awk '{print $1, $2}')
