@@ -5,6 +5,7 @@
 # the staircase and blocks with it. The solved values are compared with the rig's truth.
 set -u
 ctl="$1"
+table9=$(realpath "$2")  # the dissertation's pin measurements (appendix F)
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cd "$work" || exit 1
@@ -99,6 +100,15 @@ check "a set without a report is refused" test $rc -eq 1
 check "the refusal says why" grep -q "has no report" <<<"$out"
 kill -TERM $pid
 wait $pid
+
+# Table 9's real pins: the fan beam with tilt and per-row offsets against a plain one.
+full=$("$ctl" calib xray --pins "$table9" --hold-pitch --row-offsets 2>/dev/null | grep "^# fan beam")
+plain=$("$ctl" calib xray --pins "$table9" --hold-pitch --no-tilt 2>/dev/null | grep "^# fan beam")
+echo "  Table 9, full model: ${full#\# fan beam: }"
+echo "  Table 9, plain fan:  ${plain#\# fan beam: }"
+rms() { sed -E 's/.*RMS ([0-9.]+) px.*/\1/' <<<"$1"; }
+check "Table 9: the full model's RMS below the plain fan beam's" \
+  awk -v a="$(rms "$full")" -v b="$(rms "$plain")" 'BEGIN { exit !(a < b) }'
 
 out=$("$ctl" calib camera staircase 2>&1); rc=$?
 check "camera on a folder without board.yaml is refused" test $rc -eq 1
