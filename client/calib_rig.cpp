@@ -23,16 +23,6 @@ std::string read_file(const std::string& path) {
   return ss.str();
 }
 
-Mat3 rot(double ax, double ay, double az) {
-  const double cx = std::cos(ax), sx = std::sin(ax), cy = std::cos(ay), sy = std::sin(ay),
-               cz = std::cos(az), sz = std::sin(az);
-  Mat3 X, Y, Z;
-  X.m = {1, 0, 0, 0, cx, -sx, 0, sx, cx};
-  Y.m = {cy, 0, sy, 0, 1, 0, -sy, 0, cy};
-  Z.m = {cz, -sz, 0, sz, cz, 0, 0, 0, 1};
-  return Z * Y * X;
-}
-
 }  // namespace
 
 LaneConfig load_lane_calibration(const PlantConfig& plant, int lane, const std::string& file) {
@@ -88,10 +78,15 @@ SimulatedRig perturbed_rig(const LaneConfig& nominal, unsigned long seed) {
     Intrinsics k = c.intrinsics();
     k.fx *= 1 + r.uniform(-0.005, 0.005);
     k.fy *= 1 + r.uniform(-0.005, 0.005);
-    const Mat3 R =
-        rot(r.uniform(-0.4, 0.4) * d2r, r.uniform(-0.4, 0.4) * d2r, r.uniform(-0.3, 0.3) * d2r) *
-        c.rotation();
-    const Vec3 centre = c.center() + Vec3{r.uniform(-3, 3), r.uniform(-3, 3), r.uniform(-3, 3)};
+    // One draw per statement: the order of arguments' evaluation is unspecified.
+    const double ax = r.uniform(-0.4, 0.4) * d2r;
+    const double ay = r.uniform(-0.4, 0.4) * d2r;
+    const double az = r.uniform(-0.3, 0.3) * d2r;
+    const Mat3 R = rotation_xyz(ax, ay, az) * c.rotation();
+    Vec3 centre = c.center();
+    centre.x += r.uniform(-3, 3);
+    centre.y += r.uniform(-3, 3);
+    centre.z += r.uniform(-3, 3);
     cam.model = CameraModel(k, c.distortion(), R, (R * centre) * -1.0, c.width(), c.height());
   }
   FanBeam& x = s.lane.xray;

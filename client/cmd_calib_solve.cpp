@@ -79,6 +79,17 @@ std::vector<uint16_t> xray_lines(const RecordingReader& rec, int lane) {
   return x;
 }
 
+// The registration of a blocks scan (its drawing beside it) under the lane's calibration.
+RegistrationFit measure_registration(const RecordingReader& rec, int lane, const LaneConfig& lc) {
+  const BlockSet set =
+      parse_block_set(read_text(fs::path(rec.dir()) / "blocks.yaml"), "blocks.yaml");
+  const auto r0 = stripe_rows(rec, lane, 0, lc.stripe), r1 = stripe_rows(rec, lane, 1, lc.stripe);
+  const auto x = xray_lines(rec, lane);
+  const LaserProfiles L = laser_profiles(r0.data(), r1.data(), rec.info().lines, rec.info().width,
+                                         lc.cameras[0].model, lc.cameras[1].model);
+  return fit_registration(L, x.data(), rec.info().lines, lc.xray, lc.encoder_step_mm, set);
+}
+
 struct Session {
   PlantConfig plant;
   LaneConfig lane;
@@ -233,14 +244,7 @@ int solve_staircase(int argc, char** argv, bool validate) {
     if (!validate) std::printf("# written to %s\n", s.out.c_str());
   }
   if (validate && fs::exists(dir / "blocks.yaml")) {
-    const BlockSet set = parse_block_set(read_text(dir / "blocks.yaml"), "blocks.yaml");
-    const auto r0 = stripe_rows(rec, lane, 0, s.lane.stripe),
-               r1 = stripe_rows(rec, lane, 1, s.lane.stripe);
-    const auto x = xray_lines(rec, lane);
-    const LaserProfiles L = laser_profiles(r0.data(), r1.data(), rec.info().lines, rec.info().width,
-                                           s.lane.cameras[0].model, s.lane.cameras[1].model);
-    const RegistrationFit f =
-        fit_registration(L, x.data(), rec.info().lines, s.lane.xray, s.lane.encoder_step_mm, set);
+    const RegistrationFit f = measure_registration(rec, lane, s.lane);
     const double err = (f.delay_lines - s.lane.xray.delay_lines) * s.lane.encoder_step_mm;
     std::printf(
         "# blocks, lane %d: measured delay %.3f lines, the calibration says %d: "
@@ -342,15 +346,7 @@ int solve_registration(int argc, char** argv) {
   const RecordingReader rec(a.positional(0, "scan folder"));
   const int lane = rec.info().lanes.at(0);
   Session s = open_session(a, lane);
-  const BlockSet set =
-      parse_block_set(read_text(fs::path(rec.dir()) / "blocks.yaml"), "blocks.yaml");
-  const auto r0 = stripe_rows(rec, lane, 0, s.lane.stripe),
-             r1 = stripe_rows(rec, lane, 1, s.lane.stripe);
-  const auto x = xray_lines(rec, lane);
-  const LaserProfiles L = laser_profiles(r0.data(), r1.data(), rec.info().lines, rec.info().width,
-                                         s.lane.cameras[0].model, s.lane.cameras[1].model);
-  const RegistrationFit f =
-      fit_registration(L, x.data(), rec.info().lines, s.lane.xray, s.lane.encoder_step_mm, set);
+  const RegistrationFit f = measure_registration(rec, lane, s.lane);
   const SolveReport r = f.report("lane " + std::to_string(lane));
   print_report(r);
   s.lane.xray.delay_lines = int(std::lround(f.delay_lines));

@@ -13,20 +13,9 @@
 namespace rangex {
 namespace {
 
-Mat3 small_rotation(double ax, double ay, double az) {
-  const double d2r = M_PI / 180;
-  const double cx = std::cos(ax * d2r), sx = std::sin(ax * d2r), cy = std::cos(ay * d2r),
-               sy = std::sin(ay * d2r), cz = std::cos(az * d2r), sz = std::sin(az * d2r);
-  Mat3 X, Y, Z;
-  X.m = {1, 0, 0, 0, cx, -sx, 0, sx, cx};
-  Y.m = {cy, 0, sy, 0, 1, 0, -sy, 0, cy};
-  Z.m = {cz, -sz, 0, sz, cz, 0, 0, 0, 1};
-  return Z * Y * X;
-}
-
-// The camera moved on its mount: turned and shifted.
+// The camera moved on its mount: turned (degrees) and shifted.
 CameraModel moved(const CameraModel& c, double ax, double ay, double az, Vec3 shift) {
-  const Mat3 R = small_rotation(ax, ay, az) * c.rotation();
+  const Mat3 R = rotation_xyz(ax * M_PI / 180, ay * M_PI / 180, az * M_PI / 180) * c.rotation();
   const Vec3 centre = c.center() + shift;
   return CameraModel(c.intrinsics(), c.distortion(), R, (R * centre) * -1.0, c.width(), c.height());
 }

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <set>
 
+#include "calib/block_covariance.h"
 #include "core/error.h"
 
 namespace rangex {
@@ -160,18 +161,12 @@ FanBeamFit fit_fan_beam(const std::vector<PinObservation>& pins, const FanBeamSo
   fit.worst_mm = fit.worst_px * p[3];
   const int free_params = 6 - int(held.size()) + (offsets ? int(rows.size()) - 2 : 0);
   const double sigma2 = ss / std::max(1.0, double(pins.size()) - free_params);
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::DENSE_SVD;
-  co.null_space_rank = -1;
-  ceres::Covariance cov(co);
-  double C[36] = {};
-  const std::vector<std::pair<const double*, const double*>> blocks = {{p, p}};
-  const bool have_cov = cov.Compute(blocks, &problem) && cov.GetCovarianceBlock(p, p, C);
+  const std::vector<double> sds = block_stddev(problem, p, 6, sigma2);
   const char* names[6] = {"source_x_mm", "source_z_mm",   "first_pixel_x_mm",
                           "pitch_mm",    "detector_z_mm", "tilt_deg"};
   for (int i = 0; i < 6; ++i) {
     const bool is_held = std::find(held.begin(), held.end(), i) != held.end();
-    double sd = have_cov && !is_held ? std::sqrt(std::max(0.0, C[i * 7] * sigma2)) : 0;
+    double sd = !sds.empty() && !is_held ? sds[i] : 0;
     double v = p[i];
     if (i == 5) v *= 180 / M_PI, sd *= 180 / M_PI;
     fit.estimates.push_back({names[i], v, sd, i == 5 ? "deg" : "mm"});

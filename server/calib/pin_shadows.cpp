@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "calib/block_covariance.h"
 #include "core/error.h"
 
 namespace rangex {
@@ -132,17 +133,12 @@ std::vector<PinShadow> measure_pin_shadows(const uint16_t* xray, int64_t lines, 
       ceres::Solve(so, &problem, &sum);
       if (!sum.IsSolutionUsable() || std::abs(p[1] - best) > 3)
         fail("the shadow of ", name, " could not be fitted near pixel ", best);
-      double C[16] = {};
-      ceres::Covariance::Options co;
-      co.algorithm_type = ceres::DENSE_SVD;
-      ceres::Covariance cov(co);
-      const std::vector<std::pair<const double*, const double*>> blocks = {{p, p}};
-      const double s2 = 2 * sum.final_cost / std::max(1, nres - 4);
-      const bool ok = cov.Compute(blocks, &problem) && cov.GetCovarianceBlock(p, p, C);
+      const std::vector<double> sds =
+          block_stddev(problem, p, 4, 2 * sum.final_cost / std::max(1, nres - 4));
       PinShadow s;
       s.at = {name, x, row.z_mm, p[1]};
       s.sigma_px = std::abs(p[2]) + 0.05;
-      s.sigma_std = ok ? std::sqrt(std::max(0.0, C[10] * s2)) : 0;
+      s.sigma_std = sds.empty() ? 0 : sds[2];
       out.push_back(s);
     }
   }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "calib/block_covariance.h"
 #include "core/error.h"
 
 namespace rangex {
@@ -247,21 +248,14 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
   f.edge_rms_px = std::sqrt(se / std::max(1, ne));
   // Standard deviations from the covariance (residuals already scaled by their sigma;
   // rescaled by the fit's own residual variance).
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::DENSE_SVD;
-  co.null_space_rank = -1;
-  ceres::Covariance cov(co);
-  double C[36] = {};
-  const std::vector<std::pair<const double*, const double*>> blocks = {{p, p}};
-  const bool have = cov.Compute(blocks, &problem) && cov.GetCovarianceBlock(p, p, C);
-  const double s2 = 2 * sum.final_cost / std::max(1, nh + ne - 6);
+  const std::vector<double> sds =
+      block_stddev(problem, p, 6, 2 * sum.final_cost / std::max(1, nh + ne - 6));
   const char* names[6] = {"rotation_x_deg", "rotation_y_deg", "rotation_z_deg",
                           "centre_x_mm",    "centre_y_mm",    "centre_z_mm"};
   for (int i = 0; i < 6; ++i) {
     const double k = i < 3 ? 180 / M_PI : 1.0;
-    f.estimates.push_back({names[i], p[i] * k,
-                           have ? std::sqrt(std::max(0.0, C[i * 7] * s2)) * k : 0,
-                           i < 3 ? "deg (change)" : "mm"});
+    f.estimates.push_back(
+        {names[i], p[i] * k, sds.empty() ? 0 : sds[i] * k, i < 3 ? "deg (change)" : "mm"});
   }
   // Table 5: every line's columns on each step, through the solved pose.
   for (int k = 0; k < N; ++k) {

@@ -54,6 +54,17 @@ struct Mat3 {
   }
 };
 
+// Rotation by az about z, after ay about y, after ax about x (radians): Rz * Ry * Rx.
+inline Mat3 rotation_xyz(double ax, double ay, double az) {
+  const double cx = std::cos(ax), sx = std::sin(ax), cy = std::cos(ay), sy = std::sin(ay),
+               cz = std::cos(az), sz = std::sin(az);
+  Mat3 X, Y, Z;
+  X.m = {1, 0, 0, 0, cx, -sx, 0, sx, cx};
+  Y.m = {cy, 0, sy, 0, 1, 0, -sy, 0, cy};
+  Z.m = {cz, -sz, 0, sz, cz, 0, 0, 0, 1};
+  return Z * Y * X;
+}
+
 struct Ray {
   Vec3 origin;
   Vec3 dir;  // unit length

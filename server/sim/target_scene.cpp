@@ -16,16 +16,6 @@ std::vector<Vec3> TargetBoard::corners() const {
 
 namespace {
 
-Mat3 rotation_xyz(double ax, double ay, double az) {
-  const double cx = std::cos(ax), sx = std::sin(ax), cy = std::cos(ay), sy = std::sin(ay),
-               cz = std::cos(az), sz = std::sin(az);
-  Mat3 X, Y, Z;
-  X.m = {1, 0, 0, 0, cx, -sx, 0, sx, cx};
-  Y.m = {cy, 0, sy, 0, 1, 0, -sy, 0, cy};
-  Z.m = {cz, -sz, 0, sz, cz, 0, 0, 0, 1};
-  return Z * Y * X;
-}
-
 // The board's outer edge: the pattern's squares and a white margin of one square.
 std::vector<Vec3> outline(const TargetBoard& b) {
   const double s = b.square_mm, x0 = -2 * s, y0 = -2 * s, x1 = (b.cols + 1) * s,
