@@ -135,9 +135,9 @@ CameraFit calibrate_camera(const std::vector<TargetView>& views, int width, int 
   so.linear_solver_type = ceres::DENSE_SCHUR;
   so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   so.max_num_iterations = opt.max_iterations;
-  so.function_tolerance = 1e-15;
-  so.gradient_tolerance = 1e-15;
-  so.parameter_tolerance = 1e-14;
+  so.function_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-12;
+  so.parameter_tolerance = 1e-12;
   Progress progress(opt.progress);
   if (opt.progress) {
     so.callbacks.push_back(&progress);

@@ -131,9 +131,9 @@ FanBeamFit fit_fan_beam(const std::vector<PinObservation>& pins, const FanBeamSo
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = 200;
-  so.function_tolerance = 1e-15;
-  so.gradient_tolerance = 1e-15;
-  so.parameter_tolerance = 1e-15;
+  so.function_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-12;
+  so.parameter_tolerance = 1e-12;
   ceres::Solver::Summary sum;
   ceres::Solve(so, &problem, &sum);
   if (!sum.IsSolutionUsable()) fail("the fan-beam fit failed: ", sum.message);
