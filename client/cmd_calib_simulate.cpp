@@ -50,7 +50,7 @@ int cmd_calib_simulate(int argc, char** argv) {
     const CameraModel& model = rig.lane.cameras[cam].model;
     const sim::TargetBoard board;
     const sim::TargetRenderer renderer(model, board);
-    const auto poses = sim::random_target_poses(model, board, int(a.integer("views", 40)), seed);
+    const auto poses = sim::random_target_poses(model, board, int(a.integer("views", 60)), seed);
     fs::create_directories(fs::path(out) / "truth");
     std::ofstream corners(fs::path(out) / "truth" / "corners.csv");
     corners << "image,corner,u,v\n";

@@ -139,7 +139,14 @@ int solve_camera(int argc, char** argv) {
            " target was not found (whole board in view, in focus, lit evenly?); "
            "--skip-unfound leaves such images out");
     }
-    views.push_back({p.filename().string(), {board, *c}});
+    TargetView v{p.filename().string(), {}};
+    for (size_t i = 0; i < c->size(); ++i)
+      if (std::isfinite((*c)[i].x))
+        v.points.board.push_back(board[i]), v.points.pixels.push_back((*c)[i]);
+    if (v.points.pixels.size() < c->size())
+      std::fprintf(stderr, "warning: %s: %zu corner(s) off the board's grid left out\n",
+                   p.string().c_str(), c->size() - v.points.pixels.size());
+    views.push_back(std::move(v));
   }
   std::printf("# %zu of %zu images with the target; solving cam%d\n", views.size(), images.size(),
               cam);

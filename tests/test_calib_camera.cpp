@@ -1,9 +1,9 @@
 // Camera intrinsics from simulated target images (issue 10 targets): focal lengths within
-// 0.1 % of truth, reprojection RMS within 10 % of the corner noise the images carry, and no
-// worse than cv::calibrateCamera on the same corners. The principal point of this narrow
-// lens (20 x 13 degrees) is known to about 2 px from 40 views at 0.05 px corner noise, not
-// the 0.5 px the issue asks: the test holds it to its reported standard deviation instead
-// (the staircase fit absorbs it into the pose; see docs/calibration.md).
+// 0.1 % of truth, principal point within 0.5 px, reprojection RMS within 10 % of the corner
+// noise the images carry, and no worse than cv::calibrateCamera on the same corners. This
+// lens is narrow (20 x 13 degrees): the principal point needs the saddle-fitted corners
+// (0.014 px) and 60 views to be known to 0.2-0.4 px (1 sigma); it is also held to 3 of its
+// reported standard deviations.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -40,10 +40,12 @@ Scenes render_views(const CameraModel& cam, int n, uint64_t seed) {
     if (!found) continue;
     TargetView v;
     v.name = "view" + std::to_string(k);
-    v.points.board = board.corners();
-    v.points.pixels = *found;
+    const auto all = board.corners();
+    for (size_t i = 0; i < found->size(); ++i)
+      if (std::isfinite((*found)[i].x))
+        v.points.board.push_back(all[i]), v.points.pixels.push_back((*found)[i]);
     // OpenCV may number the corners from either end; compare each with its nearest truth.
-    for (const Vec2& p : *found) {
+    for (const Vec2& p : v.points.pixels) {
       double best = 1e30;
       for (const Vec2& t : truth) best = std::min(best, std::hypot(p.x - t.x, p.y - t.y));
       ss += best * best;
@@ -78,14 +80,16 @@ class CameraCalibration : public ::testing::TestWithParam<int> {};
 TEST_P(CameraCalibration, RecoversTheLensOfEachCamera) {
   const LaneConfig lane = default_lane_config(0);
   const CameraModel& cam = lane.cameras[GetParam()].model;
-  const Scenes s = render_views(cam, 40, 11 + GetParam());
-  ASSERT_GE(s.views.size(), 34u) << "the target was not found in most views";
+  const Scenes s = render_views(cam, 60, 11 + GetParam());
+  ASSERT_GE(s.views.size(), 54u) << "the target was not found in most views";
   CameraSolveOptions opt;
   opt.fixed[4] = true;  // OpenCV's model has no skew; compared like with like below
   const CameraFit fit = calibrate_camera(s.views, cam.width(), cam.height(), opt);
   const Intrinsics& t = cam.intrinsics();
   EXPECT_LT(std::abs(fit.intrinsics.fx / t.fx - 1), 1e-3) << fit.intrinsics.fx << " vs " << t.fx;
   EXPECT_LT(std::abs(fit.intrinsics.fy / t.fy - 1), 1e-3) << fit.intrinsics.fy << " vs " << t.fy;
+  EXPECT_LT(std::abs(fit.intrinsics.cx - t.cx), 0.5);
+  EXPECT_LT(std::abs(fit.intrinsics.cy - t.cy), 0.5);
   EXPECT_LT(std::abs(fit.intrinsics.cx - t.cx), 3 * fit.stddev[2]);
   EXPECT_LT(std::abs(fit.intrinsics.cy - t.cy), 3 * fit.stddev[3]);
   std::printf(
@@ -157,6 +161,27 @@ TEST(CameraCalibrationErrors, CornersOffTheSensorAndNaNsNameTheView) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find(s.views[2].name), std::string::npos) << e.what();
   }
+}
+
+TEST(CameraCalibrationErrors, ACornerOffTheGridIsLeftOut) {
+  const CameraModel& cam = default_lane_config(0).cameras[0].model;
+  const sim::TargetBoard board;
+  const auto poses = sim::random_target_poses(cam, board, 1, 3);
+  std::vector<Vec2> c;
+  for (const Vec3& b : board.corners()) {
+    const Vec3 p = poses[0].R * b + poses[0].t;
+    c.push_back(cam.normalized_to_pixel(cam.distort({p.x / p.z, p.y / p.z})));
+  }
+  for (size_t k : {size_t(0), size_t(20), size_t(board.cols * board.rows - 1)}) {
+    std::vector<Vec2> moved = c;
+    moved[k].x += 3.0;  // found on the wrong feature
+    drop_off_grid_corners(moved, board.cols, board.rows);
+    for (size_t i = 0; i < moved.size(); ++i)
+      EXPECT_EQ(std::isnan(moved[i].x), i == k) << "corner " << i << " with " << k << " moved";
+  }
+  std::vector<Vec2> clean = c;
+  drop_off_grid_corners(clean, board.cols, board.rows);
+  for (const Vec2& p : clean) EXPECT_TRUE(std::isfinite(p.x));
 }
 
 TEST(CameraCalibrationErrors, OneSidedPosesWarnOfUnconstrainedSensor) {
