@@ -75,6 +75,21 @@ TEST(Staircase, RecoversBothCamerasOfAMovedRig) {
         if (std::isfinite(ht)) worst = std::max(worst, std::abs(ht - hf));
       }
     EXPECT_LT(worst, 0.15) << "height map differs from the true rig's";
+    // Across the belt: where the solved camera puts stripe points against the true rig
+    // (the laser's side of the laser-to-X-ray registration).
+    double xsum = 0, xworst = 0;
+    int xn = 0;
+    for (double u = 40; u <= 600; u += 80)
+      for (double v = 40; v <= 160; v += 40) {
+        double xt = 0, xf = 0;
+        if (!std::isfinite(plane_height(rig.cameras[cam].model, u, v, &xt)) ||
+            !std::isfinite(plane_height(f.camera, u, v, &xf)))
+          continue;
+        xsum += std::abs(xf - xt), xworst = std::max(xworst, std::abs(xf - xt)), ++xn;
+      }
+    std::printf("cam%d: across the belt, solved vs true %.3f mm mean, %.3f mm worst\n", cam,
+                xsum / xn, xworst);
+    EXPECT_LT(xsum / xn, 0.3);
     EXPECT_TRUE(f.report("cam").passed);
   }
 }
