@@ -213,10 +213,7 @@ CameraFit calibrate_camera(const std::vector<TargetView>& views, int width, int 
   } else {
     fit.warnings.push_back("the covariance could not be computed (rank-deficient fit)");
   }
-  for (int i = 0; i < 10; ++i) {
-    fit.stddev[i] = std::sqrt(std::max(0.0, C(i, i)));
-    for (int j = 0; j < 10; ++j) fit.covariance[i * 10 + j] = C(i, j);
-  }
+  for (int i = 0; i < 10; ++i) fit.stddev[i] = std::sqrt(std::max(0.0, C(i, i)));
 
   // Uncertainty map: a point on the ray through each node at the working distance,
   // projected with parameters moved along the covariance (first order).

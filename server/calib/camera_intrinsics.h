@@ -48,7 +48,6 @@ struct CameraFit {
   static constexpr std::array<const char*, 10> kNames = {"fx", "fy", "cx", "cy", "skew",
                                                          "k1", "k2", "p1", "p2", "k3"};
   std::array<double, 10> value{}, stddev{};
-  std::array<double, 100> covariance{};  // of the 10 parameters above, row-major
   struct View {
     std::string name;
     Mat3 R;

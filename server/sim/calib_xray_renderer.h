@@ -4,6 +4,7 @@
 // eq. 41). Paths through boxes and pins are exact (3D ray against slabs and cylinders).
 #pragma once
 #include <cstdint>
+#include <limits>
 
 #include "core/lane_config.h"
 #include "sim/calib_objects.h"
@@ -17,7 +18,7 @@ struct XrayOptics {
   double detector_sigma_px = 0.0;    // Gaussian line-spread function of the detector
   // The X-ray plane y = plane_y_mm + x tan(alpha) + z tan(beta) in lane coordinates; NaN
   // plane_y_mm: laser offset + delay_lines * encoder step (the nominal parallel plane).
-  double plane_y_mm = 0.0 / 0.0;
+  double plane_y_mm = std::numeric_limits<double>::quiet_NaN();
   double alpha_rad = 0, beta_rad = 0;
 };
 
