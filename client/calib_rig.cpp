@@ -99,6 +99,7 @@ SimulatedRig perturbed_rig(const LaneConfig& nominal, unsigned long seed) {
   s.xray_plane_y_mm = nominal.laser.offset_mm + x.delay_lines * nominal.encoder_step_mm;
   s.alpha_rad = r.uniform(-0.3, 0.3) * d2r;
   s.beta_rad = r.uniform(-0.5, 0.5) * d2r;
+  s.staircase_offset_mm = r.uniform(-1, 1);
   return s;
 }
 

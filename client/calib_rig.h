@@ -26,6 +26,9 @@ struct SimulatedRig {
   LaneConfig lane;
   double xray_plane_y_mm, alpha_rad, beta_rad;
   double detector_sigma_px = 0.6, focal_spot_sigma_mm = 0.8;
+  // Where the staircase really stands across the belt against its drawing (it leans on a
+  // fence placed by hand; the pin phantom defines the lane's frame).
+  double staircase_offset_mm = 0;
 };
 SimulatedRig perturbed_rig(const LaneConfig& nominal, unsigned long seed);
 

@@ -85,7 +85,9 @@ int cmd_calib_simulate(int argc, char** argv) {
   p.optics.focal_spot_sigma_mm = rig.focal_spot_sigma_mm;
   if (kind == "staircase") {
     const Staircase s;
-    scene = sim::staircase_scene(s);
+    Staircase placed = s;
+    placed.x0_mm += rig.staircase_offset_mm;
+    scene = sim::staircase_scene(placed);
     drawing = to_yaml(s), name = "staircase.yaml";
   } else if (kind == "pins") {
     const PinPhantom ph = PinPhantom::figure27();
@@ -103,6 +105,9 @@ int cmd_calib_simulate(int argc, char** argv) {
   sim::simulate_calib_scan(rig.lane, scene, p, out,
                            [&](int64_t d, int64_t t) { bar.update(d, t); });
   write_text(fs::path(out) / name, drawing);
+  if (kind == "staircase")
+    write_text(fs::path(out) / ("lane" + std::to_string(rig.lane.id)) / "truth" / "placement.yaml",
+               join("staircase_offset_mm: ", rig.staircase_offset_mm, "\n"));
   std::printf("%s scan of lane %d in %s (drawing: %s)\n", kind.c_str(), rig.lane.id, out.c_str(),
               name.c_str());
   return 0;

@@ -19,6 +19,8 @@ near() { awk -v a="$1" -v b="$2" -v t="$3" 'BEGIN { d = a - b; if (d < 0) d = -d
 key() { grep -m1 "$2" "$1" | sed 's/.*: //'; }  # key FILE PATTERN: the value after ': '
 
 for s in staircase pins blocks; do run "$ctl" calib simulate "$s" "$s" --rig-seed 3; done
+# The blocks once more, elsewhere on the belt, to validate the registration with.
+run "$ctl" calib simulate blocks blocks2 --rig-seed 3 --seed 2
 run "$ctl" calib simulate targets t0 --cam 0 --rig-seed 3 --views 30
 run "$ctl" calib simulate targets t1 --cam 1 --rig-seed 3 --views 30
 run "$ctl" calib camera t0 --skip-unfound --out lane0.yaml
@@ -50,6 +52,17 @@ check "validate exits 0" test $rc -eq 0
 out=$("$ctl" calib validate staircase 2>&1); rc=$?
 echo "$out" | grep "worst step" | sed 's/^/  plant.yaml: /'
 check "validate fails with plant.yaml's calibration on the moved rig" test $rc -eq 2
+# Laser-to-X-ray: the cameras were moved into the X-ray's frame by the staircase's
+# placement, and block corners placed elsewhere agree in both images.
+offset=$(grep '"lateral_offset_mm"' lane0.yaml.reports/registration-lane_0.json | sed 's/.*"value": \([^,]*\),.*/\1/')
+placed=$(key staircase/lane0/truth/placement.yaml staircase_offset_mm)
+echo "  registration: cameras moved ${offset} mm across the belt; the staircase stood ${placed} mm off its drawing"
+check "registration finds the staircase's placement within 0.1 mm" near "$offset" "$placed" 0.1
+out=$("$ctl" calib validate blocks2 --calibration lane0.yaml 2>&1); rc=$?
+echo "$out" | grep "corners"
+check "validate: block corners laser vs X-ray within 0.1 mm mean" \
+  test "$(echo "$out" | awk '/corners, laser vs X-ray/ { print ($10 <= 0.1) }')" = 1
+check "validate blocks exits 0" test $rc -eq 0
 
 # End to end: the same plant (seed) rendered through the nominal rig and through the moved
 # rig; the moved one replayed with plant.yaml and with the solved calibration.

@@ -5,47 +5,19 @@
 #include <cmath>
 
 #include "calib/staircase_fit.h"
+#include "calib_scans.h"
 #include "core/error.h"
-#include "core/lane_config.h"
-#include "pipeline/stripe_extract.h"
-#include "sim/calib_scenes.h"
 
 namespace rangex {
 namespace {
 
-// The camera moved on its mount: turned (degrees) and shifted.
-CameraModel moved(const CameraModel& c, double ax, double ay, double az, Vec3 shift) {
-  const Mat3 R = rotation_xyz(ax * M_PI / 180, ay * M_PI / 180, az * M_PI / 180) * c.rotation();
-  const Vec3 centre = c.center() + shift;
-  return CameraModel(c.intrinsics(), c.distortion(), R, (R * centre) * -1.0, c.width(), c.height());
-}
-
-// Stripe rows (plain centroid: machined metal does not scatter) of one camera's scan.
-std::vector<float> scan_rows(const LaneConfig& rig, const sim::CalibScene& scene, int cam,
-                             int64_t* lines) {
-  const sim::CameraRenderer r(rig, cam);
-  const int W = rig.frame_width, H = rig.frame_height;
-  *lines = int64_t((scene.end_b() + 30) / rig.encoder_step_mm);
-  std::vector<uint8_t> frame(size_t(W) * H);
-  std::vector<float> truth(W), rows;
-  StripeSlot slot{rig.stripe, {}};
-  slot.params.method = StripeMethod::kCentroid;
-  const int zero = 0;
-  StripeOutput so;
-  for (int64_t n = 0; n < *lines; ++n) {
-    sim::Rng rng(3, cam, n);
-    r.render(scene, double(n) * rig.encoder_step_mm, rng, frame.data(), truth.data());
-    extract_stripes(frame.data(), 1, W, H, &zero, &slot, so);
-    for (int u = 0; u < W; ++u) rows.push_back(so.valid[u] ? so.row[u] : NAN);
-  }
-  return rows;
-}
+using calib_test::across_belt_error;
+using calib_test::moved_rig;
+using calib_test::scan_rows;
 
 TEST(Staircase, RecoversBothCamerasOfAMovedRig) {
   const LaneConfig nominal = default_lane_config(0);
-  LaneConfig rig = nominal;
-  rig.cameras[0].model = moved(nominal.cameras[0].model, 0.4, -0.3, 0.25, {2.0, -3.0, 4.0});
-  rig.cameras[1].model = moved(nominal.cameras[1].model, -0.35, 0.2, -0.3, {-1.5, 2.5, -3.0});
+  const LaneConfig rig = moved_rig();
   const Staircase stairs;
   const sim::CalibScene scene = sim::staircase_scene(stairs);
   for (int cam = 0; cam < 2; ++cam) {
@@ -77,19 +49,11 @@ TEST(Staircase, RecoversBothCamerasOfAMovedRig) {
     EXPECT_LT(worst, 0.15) << "height map differs from the true rig's";
     // Across the belt: where the solved camera puts stripe points against the true rig
     // (the laser's side of the laser-to-X-ray registration).
-    double xsum = 0, xworst = 0;
-    int xn = 0;
-    for (double u = 40; u <= 600; u += 80)
-      for (double v = 40; v <= 160; v += 40) {
-        double xt = 0, xf = 0;
-        if (!std::isfinite(plane_height(rig.cameras[cam].model, u, v, &xt)) ||
-            !std::isfinite(plane_height(f.camera, u, v, &xf)))
-          continue;
-        xsum += std::abs(xf - xt), xworst = std::max(xworst, std::abs(xf - xt)), ++xn;
-      }
-    std::printf("cam%d: across the belt, solved vs true %.3f mm mean, %.3f mm worst\n", cam,
-                xsum / xn, xworst);
-    EXPECT_LT(xsum / xn, 0.3);
+    double xworst = 0;
+    const double xmean = across_belt_error(f.camera, rig.cameras[cam].model, &xworst);
+    std::printf("cam%d: across the belt, solved vs true %.3f mm mean, %.3f mm worst\n", cam, xmean,
+                xworst);
+    EXPECT_LT(xmean, 0.3);
     EXPECT_TRUE(f.report("cam").passed);
   }
 }

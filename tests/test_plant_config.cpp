@@ -91,3 +91,23 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
       error_of("lanes:\n  - id: 0\n    frame: {width: 640, height: 3}\n").find("out of range"),
       std::string::npos);
 }
+
+TEST(PlantConfig, RegistrationRoundTripsAndIsChecked) {
+  LaneConfig lane = parse_plant_config("lanes: [{id: 0}]\n", "t").lane(0);
+  lane.xray.delay_lines = 50;
+  lane.xray.measured_delay_lines = 50.32;
+  lane.xray.plane_alpha_deg = 0.31;
+  lane.xray.plane_beta_deg = -0.42;
+  const LaneConfig back = apply_lane_calibration(lane, lane_calibration_yaml(lane), "t");
+  EXPECT_DOUBLE_EQ(back.xray.measured_delay_lines, 50.32);
+  EXPECT_DOUBLE_EQ(back.xray.plane_alpha_deg, 0.31);
+  EXPECT_DOUBLE_EQ(back.xray.plane_beta_deg, -0.42);
+  EXPECT_NE(error_of("lanes: [{id: 0, xray: {delay_lines: 50, measured_delay_lines: 53}}]\n")
+                .find("xray.measured_delay_lines: must be within one line of delay_lines"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, xray: {plane_beta_deg: .nan}}]\n").find("plane_beta_deg"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, xray: {plane_alpha_deg: 12}}]\n")
+                .find("xray.plane_alpha_deg: must be within +-5 degrees"),
+            std::string::npos);
+}

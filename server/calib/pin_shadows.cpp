@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "calib/block_covariance.h"
+#include "calib/open_beam.h"
 #include "core/error.h"
 
 namespace rangex {
@@ -58,14 +59,7 @@ std::vector<PinShadow> measure_pin_shadows(const uint16_t* xray, int64_t lines, 
              " mm) is out of view: its shadow would fall at detector pixel ", u, " of ", pixels,
              "; move the phantom or drop the pin from its drawing");
     }
-  // Open beam per pixel: the median over the scan (most lines are bare belt).
-  std::vector<double> open(pixels);
-  std::vector<uint16_t> col(lines);
-  for (int i = 0; i < pixels; ++i) {
-    for (int64_t n = 0; n < lines; ++n) col[n] = xray[n * pixels + i];
-    std::nth_element(col.begin(), col.begin() + lines / 2, col.end());
-    open[i] = std::max<double>(1.0, col[lines / 2]);
-  }
+  const std::vector<double> open = open_beam(xray, lines, pixels);
   // Lines that carry pins: some pixel transmits less than 85 %.
   std::vector<uint8_t> dark(lines, 0);
   for (int64_t n = 0; n < lines; ++n) {

@@ -1,13 +1,13 @@
 #include "calib/staircase_fit.h"
 
 #include <ceres/ceres.h>
-#include <ceres/rotation.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include "calib/block_covariance.h"
+#include "calib/camera_pose.h"
 #include "core/error.h"
 
 namespace rangex {
@@ -23,33 +23,45 @@ struct Plateau {
   int step = -2;  // -1: belt, else index into the staircase
 };
 
-CameraModel posed(const CameraModel& start, const double* p) {
-  // p: angle-axis of a rotation applied after the start's, and the camera centre.
-  double dR[9];
-  ceres::AngleAxisToRotationMatrix(p, ceres::RowMajorAdapter3x3(dR));
-  Mat3 d;
-  for (int i = 0; i < 9; ++i) d.m[i] = dR[i];
-  const Mat3 R = d * start.rotation();
-  const Vec3 c{p[3], p[4], p[5]};
-  return CameraModel(start.intrinsics(), start.distortion(), R, (R * c) * -1.0, start.width(),
-                     start.height());
-}
-
 struct HeightCost {
   const CameraModel* start;
   double u, v, z, sigma;
   bool operator()(const double* p, double* r) const {
-    const double h = plane_height(posed(*start, p), u, v);
+    const double h = plane_height(posed_camera(*start, p), u, v);
     r[0] = std::isfinite(h) ? (h - z) / sigma : 1e3;
     return true;
   }
 };
 
+// One side of a flat run at a wall: the run's last column sits half a column inside the
+// boundary, and the boundary is where the wall meets the run's top (the wall's foot on its
+// low side) unless the higher step hides that foot from the camera; then the run ends where
+// the camera's ray grazes the higher top. The stripe extractor also loses the columns whose
+// window sees both tops through the optics' blur: `erosion` (px, a parameter of the fit)
+// moves every boundary into its run.
+struct WallSide {
+  double x, z, z_other;  // the wall, this run's height, the height across it
+  double u;              // observed boundary (last column +- 0.5)
+  int inward;            // +1: the run lies at larger u than this boundary
+};
+
+double predicted_boundary(const CameraModel& cam, const WallSide& w, double erosion) {
+  const double own = cam.project({w.x, 0, w.z}).x;
+  double u = own;
+  if (w.z_other > w.z) {
+    // Low side: the foot is hidden when it projects beyond the higher top's edge.
+    const double top = cam.project({w.x, 0, w.z_other}).x;
+    if ((own - top) * w.inward < 0) u = top;
+  }
+  return u + erosion * w.inward;
+}
+
 struct EdgeCost {
   const CameraModel* start;
-  double x, z, u, sigma;
+  WallSide w;
+  double sigma;
   bool operator()(const double* p, double* r) const {
-    r[0] = (posed(*start, p).project({x, 0, z}).x - u) / sigma;
+    r[0] = (predicted_boundary(posed_camera(*start, p), w, p[6]) - w.u) / sigma;
     return true;
   }
 };
@@ -184,29 +196,51 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
            " mm (after the common offset): the scan does not match the staircase's drawing");
   }
 
-  // The solve.
-  double p[6] = {0, 0, 0, start.center().x, start.center().y, start.center().z};
+  // Every run's sides at a known wall (not at the image's border).
+  std::vector<WallSide> walls;
+  auto height_of = [&](int i) {
+    return i < 0 || i >= int(pl.size()) || pl[i].step < 0 ? 0.0 : st.heights_mm[pl[i].step];
+  };
+  for (int i = 0; i < int(pl.size()); ++i) {
+    const Plateau& q = pl[i];
+    // Sides in x order: the run's low-x side, then its high-x side.
+    const double ulo = u_with_x ? q.u0 - 0.5 : q.u1 + 0.5, uhi = u_with_x ? q.u1 + 0.5 : q.u0 - 0.5;
+    const bool lo_border = u_with_x ? q.u0 == 0 : q.u1 == width - 1;
+    const bool hi_border = u_with_x ? q.u1 == width - 1 : q.u0 == 0;
+    const int in = u_with_x ? 1 : -1;
+    if (q.step >= 0) {
+      const double xl = st.x0_mm + st.step_width_mm * q.step, xr = xl + st.step_width_mm;
+      if (!lo_border)
+        walls.push_back({xl, height_of(i), q.step == 0 ? 0.0 : height_of(i - 1), ulo, in});
+      if (!hi_border)
+        walls.push_back({xr, height_of(i), q.step + 1 == N ? 0.0 : height_of(i + 1), uhi, -in});
+    } else if (i + 1 < int(pl.size()) && pl[i + 1].step == 0 && !hi_border) {
+      walls.push_back({st.x0_mm, 0.0, st.heights_mm[0], uhi, -in});  // belt before the first step
+    } else if (i > 0 && pl[i - 1].step == N - 1 && !lo_border) {
+      walls.push_back({st.x0_mm + st.step_width_mm * N, 0.0, st.heights_mm[N - 1], ulo, in});
+    }
+  }
+
+  // The solve: the pose and the boundary erosion (px).
+  double p[7];
+  pose_parameters(start, p);
+  p[6] = 0.5;
   ceres::Problem problem;
-  int nh = 0, ne = 0;
+  int nh = 0;
   for (const Plateau& q : pl) {
     const double z = q.step < 0 ? 0.0 : st.heights_mm[q.step];
     for (size_t i = 2; i + 2 < q.cols.size(); ++i, ++nh)
       problem.AddResidualBlock(
-          new ceres::NumericDiffCostFunction<HeightCost, ceres::CENTRAL, 1, 6>(
+          new ceres::NumericDiffCostFunction<HeightCost, ceres::CENTRAL, 1, 7>(
               new HeightCost{&start, double(q.cols[i].first), q.cols[i].second, z, 0.05}),
           new ceres::HuberLoss(3.0), p);
-    if (q.step < 0) continue;
-    // The step's walls: its first and last columns end half a column beyond the wall.
-    const double xl = st.x0_mm + st.step_width_mm * q.step, xr = xl + st.step_width_mm;
-    const double ua = (u_with_x ? q.u0 - 0.5 : q.u1 + 0.5),
-                 ub = (u_with_x ? q.u1 + 0.5 : q.u0 - 0.5);
-    for (const auto& [x, u] : {std::pair{xl, ua}, std::pair{xr, ub}}) {
-      problem.AddResidualBlock(new ceres::NumericDiffCostFunction<EdgeCost, ceres::CENTRAL, 1, 6>(
-                                   new EdgeCost{&start, x, z, u, 0.5}),
-                               new ceres::HuberLoss(3.0), p);
-      ++ne;
-    }
   }
+  // Whole columns: a boundary is known to about 0.3 px.
+  for (const WallSide& w : walls)
+    problem.AddResidualBlock(new ceres::NumericDiffCostFunction<EdgeCost, ceres::CENTRAL, 1, 7>(
+                                 new EdgeCost{&start, w, 0.5}),
+                             new ceres::HuberLoss(3.0), p);
+  const int ne = int(walls.size());
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = 100;
@@ -220,7 +254,7 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
 
   StaircaseFit f;
   f.converged = sum.termination_type == ceres::CONVERGENCE;
-  f.camera = posed(start, p);
+  f.camera = posed_camera(start, p);
   f.plateaus = int(pl.size());
   // Residuals of the column means, in mm and along the image rows.
   double ss = 0, ss_px = 0, se = 0;
@@ -235,21 +269,21 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
       ss_px += std::pow((h - z) / dh, 2);
       f.height_worst_mm = std::max(f.height_worst_mm, std::abs(h - z));
     }
-    if (q.step >= 0) {
-      const double xl = st.x0_mm + st.step_width_mm * q.step, xr = xl + st.step_width_mm;
-      const double ua = (u_with_x ? q.u0 - 0.5 : q.u1 + 0.5),
-                   ub = (u_with_x ? q.u1 + 0.5 : q.u0 - 0.5);
-      se += std::pow(f.camera.project({xl, 0, z}).x - ua, 2) +
-            std::pow(f.camera.project({xr, 0, z}).x - ub, 2);
-    }
   }
+  for (const WallSide& w : walls) se += std::pow(predicted_boundary(f.camera, w, p[6]) - w.u, 2);
+  if (getenv("RX_DBG"))
+    for (const WallSide& w : walls)
+      fprintf(stderr, "%s wall x %.0f z %.0f other %.0f in %d: obs %.2f pred %.2f (e %.2f)\n",
+              camera.c_str(), w.x, w.z, w.z_other, w.inward, w.u,
+              predicted_boundary(f.camera, w, p[6]), p[6]);
+  f.edge_erosion_px = p[6];
   f.height_rms_mm = std::sqrt(ss / std::max(1, n));
   f.height_rms_px = std::sqrt(ss_px / std::max(1, n));
   f.edge_rms_px = std::sqrt(se / std::max(1, ne));
   // Standard deviations from the covariance (residuals already scaled by their sigma;
   // rescaled by the fit's own residual variance).
   const std::vector<double> sds =
-      block_stddev(problem, p, 6, 2 * sum.final_cost / std::max(1, nh + ne - 6));
+      block_stddev(problem, p, 7, 2 * sum.final_cost / std::max(1, nh + ne - 7));
   const char* names[6] = {"rotation_x_deg", "rotation_y_deg", "rotation_z_deg",
                           "centre_x_mm",    "centre_y_mm",    "centre_z_mm"};
   for (int i = 0; i < 6; ++i) {
@@ -257,6 +291,7 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
     f.estimates.push_back(
         {names[i], p[i] * k, sds.empty() ? 0 : sds[i] * k, i < 3 ? "deg (change)" : "mm"});
   }
+  f.estimates.push_back({"edge_erosion_px", p[6], sds.empty() ? 0 : sds[6], "px"});
   // Table 5: every line's columns on each step, through the solved pose.
   for (int k = 0; k < N; ++k) {
     StepStat s;

@@ -27,6 +27,7 @@ struct StaircaseFit {
   double height_rms_mm = 0, height_worst_mm = 0;  // column means about the drawing
   double height_rms_px = 0;                       // the same along the image rows
   double edge_rms_px = 0;
+  double edge_erosion_px = 0;  // columns the stripe loses at a wall, per side
   double worst_step_error_mm = 0;
   int plateaus = 0;
   bool converged = false;

@@ -20,6 +20,12 @@ struct FanBeam {
   // for a pseudo-X-ray that matches the real one at edges.
   double detector_sigma_px = 0;
   double focal_spot_sigma_mm = 0;
+  // The registration's measurement (calib registration, eqs. 41-44): the delay at x = 0,
+  // z = 0 to a fraction of a line, and the X-ray plane's angles against the laser's about
+  // the vertical (alpha) and the lateral axis (beta). The line path registers whole lines
+  // (delay_lines). 0: not measured.
+  double measured_delay_lines = 0;
+  double plane_alpha_deg = 0, plane_beta_deg = 0;
 
   // Pixel i's centre at (first_pixel_x_mm + pitch_x() * i, detector_z_mm + pitch_z() * i).
   double pitch_x() const { return pitch_mm * std::cos(tilt_deg * M_PI / 180); }

@@ -192,7 +192,8 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
   }
   if (auto n = section("xray")) {
     n->only_keys({"pixels", "pitch_mm", "first_pixel_x_mm", "detector_z_mm", "source_mm",
-                  "tilt_deg", "delay_lines", "bits", "detector_sigma_px", "focal_spot_sigma_mm"});
+                  "tilt_deg", "delay_lines", "bits", "detector_sigma_px", "focal_spot_sigma_mm",
+                  "measured_delay_lines", "plane_alpha_deg", "plane_beta_deg"});
     n->positive("pixels", c.xray.pixels);
     n->positive("pitch_mm", c.xray.pitch_mm);
     n->get("first_pixel_x_mm", c.xray.first_pixel_x_mm);
@@ -217,6 +218,16 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
       n->at("tilt_deg").bad("must be within +-10 degrees (a detector line, not a second plane)");
     n->get("delay_lines", c.xray.delay_lines);
     if (c.xray.delay_lines < 0) n->at("delay_lines").bad("must be >= 0");
+    n->get("measured_delay_lines", c.xray.measured_delay_lines);
+    if (c.xray.measured_delay_lines != 0 &&
+        !(std::abs(c.xray.measured_delay_lines - c.xray.delay_lines) <= 1))
+      n->at("measured_delay_lines").bad("must be within one line of delay_lines");
+    n->get("plane_alpha_deg", c.xray.plane_alpha_deg);
+    n->get("plane_beta_deg", c.xray.plane_beta_deg);
+    for (const auto& [key, deg] : {std::pair{"plane_alpha_deg", c.xray.plane_alpha_deg},
+                                   std::pair{"plane_beta_deg", c.xray.plane_beta_deg}})
+      if (!(std::abs(deg) <= 5))
+        n->at(key).bad("must be within +-5 degrees (the planes are near parallel)");
     n->get("bits", c.xray.bits);
     if (c.xray.bits < 8 || c.xray.bits > 16) n->at("bits").bad("must be 8..16");
   }
@@ -417,7 +428,10 @@ std::string lane_calibration_yaml(const LaneConfig& l) {
     << "\n  source_mm: [" << x.source_x_mm << ", " << x.source_z_mm
     << "]\n  tilt_deg: " << x.tilt_deg << "\n  delay_lines: " << x.delay_lines
     << "\n  bits: " << x.bits << "\n  detector_sigma_px: " << x.detector_sigma_px
-    << "\n  focal_spot_sigma_mm: " << x.focal_spot_sigma_mm << "\n";
+    << "\n  focal_spot_sigma_mm: " << x.focal_spot_sigma_mm
+    << "\n  measured_delay_lines: " << x.measured_delay_lines
+    << "\n  plane_alpha_deg: " << x.plane_alpha_deg << "\n  plane_beta_deg: " << x.plane_beta_deg
+    << "\n";
   return o.str();
 }
 
