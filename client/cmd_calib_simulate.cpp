@@ -12,6 +12,7 @@
 #include "core/png_io.h"
 #include "progress_bar.h"
 #include "sim/calib_scenes.h"
+#include "sim/plant_physics.h"
 #include "sim/target_scene.h"
 
 namespace fs = std::filesystem;
@@ -29,7 +30,8 @@ void write_text(const fs::path& p, const std::string& text) {
 }  // namespace
 
 int cmd_calib_simulate(int argc, char** argv) {
-  const Args a(argc, argv, 3, {}, {"config", "lane", "rig-seed", "cam", "views", "seed"});
+  const Args a(argc, argv, 3, {},
+               {"config", "lane", "rig-seed", "cam", "views", "seed", "physics"});
   a.expect_positionals(2, "calib simulate targets|staircase|pins|blocks OUT [--rig-seed S]");
   const std::string kind = a.positional(0, "scene"), out = a.positional(1, "output folder");
   const PlantConfig plant = load_config(a.get("config", ""));
@@ -42,6 +44,18 @@ int cmd_calib_simulate(int argc, char** argv) {
     rig.xray_plane_y_mm =
         nominal.laser.offset_mm + nominal.xray.delay_lines * nominal.encoder_step_mm;
     rig.alpha_rad = rig.beta_rad = 0;
+  }
+  // A plant with other X-ray physics (config/variants/*.yaml): its detector blur, focal spot
+  // and plane geometry against the laser's.
+  if (a.has("physics")) {
+    const sim::XrayPhysics x = sim::load_plant_physics(a.require("physics")).xray;
+    const LaneConfig& l = rig.lane;
+    rig.xray_plane_y_mm =
+        l.laser.offset_mm + (l.xray.delay_lines + x.plane_offset_lines) * l.encoder_step_mm;
+    rig.alpha_rad = x.alpha_deg * M_PI / 180;
+    rig.beta_rad = x.beta_deg * M_PI / 180;
+    rig.detector_sigma_px = x.detector_sigma_px;
+    rig.focal_spot_sigma_mm = x.focal_spot_sigma_mm;
   }
   const uint64_t seed = uint64_t(a.integer("seed", 1));
   if (kind == "targets") {

@@ -61,8 +61,10 @@ std::vector<float> read_f32(const fs::path& p, size_t expect) {
 }  // namespace
 
 int cmd_simulate(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"lanes", "fillets", "seed", "out", "config", "rig-seed"});
-  a.expect_positionals(0, "simulate --out DIR [--lanes N] [--fillets M] [--seed S] [--rig-seed R]");
+  const Args a(argc, argv, 2, {},
+               {"lanes", "fillets", "seed", "out", "config", "rig-seed", "physics"});
+  a.expect_positionals(
+      0, "simulate --out DIR [--lanes N] [--fillets M] [--seed S] [--rig-seed R] [--physics F]");
   PlantConfig plant = load_config(a.get("config", ""));
   // A plant whose rigs differ from plant.yaml (as `calib simulate --rig-seed` draws them).
   if (a.has("rig-seed"))
@@ -71,13 +73,15 @@ int cmd_simulate(int argc, char** argv) {
   p.lanes = int(a.integer("lanes", long(plant.lanes.size())));
   p.scene.fillets = int(a.integer("fillets", 5));
   p.seed = uint64_t(a.integer("seed", 1));
+  // A plant rendered with other physics (config/variants/*.yaml).
+  if (a.has("physics")) p.physics = sim::load_plant_physics(a.require("physics"));
   const std::string out = a.require("out");
   ProgressBar bar("simulate");
   sim::simulate_recording(plant, p, out, [&](int64_t d, int64_t t) { bar.update(d, t); });
   const RecordingReader rec(out);
-  std::printf("wrote %s: %zu lanes x %lld lines, %d fillets per lane, seed %llu\n", out.c_str(),
-              rec.info().lanes.size(), (long long)rec.info().lines, p.scene.fillets,
-              (unsigned long long)p.seed);
+  std::printf("wrote %s: %zu lanes x %lld lines, %d fillets per lane, seed %llu, physics %s\n",
+              out.c_str(), rec.info().lanes.size(), (long long)rec.info().lines, p.scene.fillets,
+              (unsigned long long)p.seed, p.physics.name.c_str());
   return 0;
 }
 

@@ -9,8 +9,9 @@
 namespace rangex {
 
 namespace {
+// Rows of `fields` cells (or `fields_alt`, an older layout).
 std::vector<std::vector<std::string>> csv_rows(const std::string& text, size_t fields,
-                                               const char* what) {
+                                               const char* what, size_t fields_alt = 0) {
   std::vector<std::vector<std::string>> rows;
   std::stringstream in(text);
   std::string line;
@@ -21,7 +22,8 @@ std::vector<std::vector<std::string>> csv_rows(const std::string& text, size_t f
     std::stringstream ls(line);
     std::string cell;
     while (std::getline(ls, cell, ',')) c.push_back(cell);
-    if (c.size() != fields) fail("truth ", what, ": expected ", fields, " fields in '", line, "'");
+    if (c.size() != fields && c.size() != fields_alt)
+      fail("truth ", what, ": expected ", fields, " fields in '", line, "'");
     rows.push_back(std::move(c));
   }
   return rows;
@@ -34,9 +36,10 @@ int size_bin(double s) {
 
 std::vector<TruthFragment> parse_truth_fragments(const std::string& text, int lane) {
   std::vector<TruthFragment> out;
-  for (const auto& c : csv_rows(text, 8, "fragments.csv"))
+  // fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification[,shape]
+  for (const auto& c : csv_rows(text, 9, "fragments.csv", 8))
     out.push_back({lane, std::stoi(c[0]), c[1], std::stod(c[2]), std::stod(c[3]), std::stod(c[6]),
-                   std::stod(c[7])});
+                   std::stod(c[7]), c.size() > 8 ? c[8] : "compact"});
   return out;
 }
 

@@ -12,8 +12,9 @@ namespace rangex {
 
 struct TruthFragment {
   int lane = 0, fillet = 0;
-  std::string kind;  // bone | air
+  std::string kind;  // bone | air | cartilage
   double x_mm = 0, b_mm = 0, size_mm = 0, calcification = 0;
+  std::string shape = "compact";  // compact | needle | chip | rib | cluster
 };
 
 struct TruthFillet {

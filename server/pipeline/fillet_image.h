@@ -21,6 +21,15 @@ struct FilletImage {
   double y0_mm = 0;       // belt position (object coordinate) of row 0
   // Fan-beam geometry, to place what the detector sees back onto the belt.
   double source_x_mm = 0, source_z_mm = 700, detector_z_mm = -15;
+  // What the detector does that the thickness does not show (the lane's calibration):
+  // the registration beyond whole lines (delay(x, z) - delay_lines = shift_lines +
+  // (x tan_alpha + z tan_beta) / step_mm) and the blur across the detector.
+  double shift_lines = 0, tan_alpha = 0, tan_beta = 0;
+  double detector_sigma_px = 0, focal_spot_sigma_mm = 0;
+  bool matches_detector() const {
+    return shift_lines != 0 || tan_alpha != 0 || tan_beta != 0 || detector_sigma_px > 0 ||
+           focal_spot_sigma_mm > 0;
+  }
   std::vector<uint16_t> xray;    // rows * cols, DN
   std::vector<float> thickness;  // rows * cols, mm of X-ray path; NaN where not measured
   std::vector<uint8_t> mask;     // rows * cols, 1 on the fillet

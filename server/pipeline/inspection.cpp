@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "pipeline/connected_components.h"
+#include "pipeline/detector_match.h"
 #include "pipeline/masked_smooth.h"
 
 namespace rangex {
@@ -133,9 +134,29 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
   res.resid_mean_dn = sum / count;
   res.resid_std_dn = std::sqrt(std::max(0.0, sum2 / count - res.resid_mean_dn * res.resid_mean_dn));
   res.noise = estimate_noise_model(pred.data(), resid.data(), n);
+  // Squared gradient of ln P (per pixel) by central differences inside the usable pixels.
+  std::vector<float> grad2(n, kNaN);
+  const int R = img.rows, C = img.cols;
+  // Central where both neighbours are usable, one-sided at the mask's border.
+  auto slope = [&](size_t i, size_t lo, size_t hi, bool has_lo, bool has_hi) {
+    const bool a = has_lo && use[lo], b = has_hi && use[hi];
+    if (a && b) return 0.5 * (double(predicted_ln[hi]) - predicted_ln[lo]);
+    if (b) return double(predicted_ln[hi]) - predicted_ln[i];
+    if (a) return double(predicted_ln[i]) - predicted_ln[lo];
+    return 0.0;
+  };
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c < C; ++c) {
+      const size_t i = size_t(r) * C + c;
+      if (!use[i]) continue;
+      const double gx = slope(i, i - 1, i + 1, c > 0, c + 1 < C);
+      const double gy = slope(i, i - C, i + C, r > 0, r + 1 < R);
+      grad2[i] = float(gx * gx + gy * gy);
+    }
+  res.noise.c = estimate_gradient_term(res.noise, pred.data(), resid.data(), grad2.data(), n);
   std::vector<float> z(n, kNaN), zs;
   for (size_t i = 0; i < n; ++i)
-    if (use[i]) z[i] = float(resid[i] / res.noise.sigma_ln(pred[i]));
+    if (use[i]) z[i] = float(resid[i] / res.noise.sigma_ln(pred[i], grad2[i]));
   masked_gaussian(z.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, zs);
   // Back to unit spread: measured (MAD) on the smoothed image itself, because what is left
   // after compensation is not white (meat texture, thickness error), and smoothing shrinks
@@ -167,35 +188,51 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
 
 }  // namespace
 
-FilletResult inspect_fillet(const FilletImage& img, const InspectionParams& p, bool keep) {
-  FilletResult res = header(img);
-  if (const std::string why = not_inspectable(img, p); !why.empty()) {
+FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, bool keep) {
+  FilletResult res = header(raw);
+  if (const std::string why = not_inspectable(raw, p); !why.empty()) {
     res.reason = why;
     return res;
   }
-  const std::vector<uint8_t> use = usable(img);
-  std::vector<double> t, y;
-  for (size_t i = 0; i < use.size(); ++i)
-    if (use[i]) {
-      t.push_back(img.thickness[i]);
-      y.push_back(std::log(double(img.xray[i])));
+  // The fit of ln I against the thickness, over the usable pixels of `img`.
+  auto fit = [&](const FilletImage& img, std::vector<uint8_t>& use) {
+    use = usable(img);
+    std::vector<double> t, y;
+    for (size_t i = 0; i < use.size(); ++i)
+      if (use[i]) {
+        t.push_back(img.thickness[i]);
+        y.push_back(std::log(double(img.xray[i])));
+      }
+    try {
+      res.fit = fit_tukey_line(t.data(), y.data(), t.size(), {p.tukey_c, p.max_iter, p.tol});
+    } catch (const Error& e) {
+      res.reason = std::string("robust fit failed: ") + e.what();
+      return false;
     }
-  try {
-    res.fit = fit_tukey_line(t.data(), y.data(), t.size(), {p.tukey_c, p.max_iter, p.tol});
-  } catch (const Error& e) {
-    res.reason = std::string("robust fit failed: ") + e.what();
-    return res;
+    res.fitted = true;
+    if (!res.fit.converged) {
+      res.reason =
+          "robust fit did not converge in " + std::to_string(res.fit.iterations) + " iterations";
+      return false;
+    }
+    return true;
+  };
+  std::vector<uint8_t> use;
+  if (!fit(raw, use)) return res;
+  // With the lane's detector known, the thickness is made what the detector would see
+  // (the meat's attenuation from this first fit), and fitted again.
+  FilletImage matched;
+  const FilletImage* img = &raw;
+  if (raw.matches_detector()) {
+    matched = raw;
+    match_detector(matched, std::clamp(-res.fit.beta1, 0.005, 0.3));
+    img = &matched;
+    if (!fit(matched, use)) return res;
   }
-  res.fitted = true;
-  if (!res.fit.converged) {
-    res.reason =
-        "robust fit did not converge in " + std::to_string(res.fit.iterations) + " iterations";
-    return res;
-  }
-  std::vector<float> predicted(img.size(), kNaN);
+  std::vector<float> predicted(img->size(), kNaN);
   for (size_t i = 0; i < use.size(); ++i)
-    if (use[i]) predicted[i] = float(res.fit.beta0 + res.fit.beta1 * img.thickness[i]);
-  detect_and_decide(img, use, predicted, p, keep, res);
+    if (use[i]) predicted[i] = float(res.fit.beta0 + res.fit.beta1 * img->thickness[i]);
+  detect_and_decide(*img, use, predicted, p, keep, res);
   return res;
 }
 

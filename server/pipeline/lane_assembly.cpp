@@ -221,6 +221,12 @@ void LaneAssembler::close_segment() {
     f.source_x_mm = lane_.xray.source_x_mm;
     f.source_z_mm = lane_.xray.source_z_mm;
     f.detector_z_mm = lane_.xray.detector_z_mm;
+    const FanBeam& fb = lane_.xray;
+    if (fb.measured_delay_lines != 0) f.shift_lines = fb.measured_delay_lines - fb.delay_lines;
+    f.tan_alpha = std::tan(fb.plane_alpha_deg * M_PI / 180);
+    f.tan_beta = std::tan(fb.plane_beta_deg * M_PI / 180);
+    f.detector_sigma_px = fb.detector_sigma_px;
+    f.focal_spot_sigma_mm = fb.focal_spot_sigma_mm;
     f.touches_lane_edge = c.col0 == 0 || c.col1 == D - 1;
     f.missing_lines = missing;
     if (interrupted) f.interrupted = interrupted_;

@@ -14,6 +14,51 @@ double NoiseModel::sigma_ln(double I) const {
   return std::sqrt(std::max(v, 1e-12));
 }
 
+double NoiseModel::sigma_ln(double I, double grad2) const {
+  const double v = a / I + b / (I * I) + c * grad2;
+  return std::sqrt(std::max(v, 1e-12));
+}
+
+double estimate_gradient_term(const NoiseModel& m, const float* pred, const float* resid,
+                              const float* grad2, size_t n) {
+  // Steep ground: where a shift of a third of a pixel would move ln P by more than the
+  // photon noise does.
+  std::vector<std::pair<float, size_t>> steep;
+  for (size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(pred[i]) || !std::isfinite(resid[i]) || !std::isfinite(grad2[i]) ||
+        pred[i] <= 0)
+      continue;
+    const double v = m.a / pred[i] + m.b / (double(pred[i]) * pred[i]);
+    if (grad2[i] / 9.0 > v) steep.emplace_back(grad2[i], i);
+  }
+  if (steep.size() < 200) return 1.0 / 12;
+  std::sort(steep.begin(), steep.end());
+  const int bins = int(std::clamp<size_t>(steep.size() / 100, 2, 8));
+  double sgg = 0, sge = 0;
+  std::vector<double> tmp;
+  for (int k = 0; k < bins; ++k) {
+    const size_t lo = steep.size() * k / bins, hi = steep.size() * (k + 1) / bins;
+    tmp.clear();
+    double g2 = 0, v = 0;
+    for (size_t j = lo; j < hi; ++j) {
+      const size_t i = steep[j].second;
+      tmp.push_back(resid[i]);
+      g2 += grad2[i];
+      v += m.a / pred[i] + m.b / (double(pred[i]) * pred[i]);
+    }
+    const double cnt = double(hi - lo);
+    g2 /= cnt, v /= cnt;
+    const double med = median_inplace(tmp.data(), tmp.size());
+    for (double& t : tmp) t = std::abs(t - med);
+    const double s = median_inplace(tmp.data(), tmp.size()) / 0.6744897501960817;
+    sgg += cnt * g2 * g2;
+    sge += cnt * g2 * (s * s - v);
+  }
+  // Never below what the sampling leaves: the thickness is known at pixel centres, so an
+  // edge's place within its pixel is uniform over a pixel (variance 1/12 px^2).
+  return std::max(1.0 / 12, sgg > 0 ? sge / sgg : 0.0);
+}
+
 NoiseModel estimate_noise_model(const float* pred, const float* resid, size_t n) {
   std::vector<std::pair<float, float>> pts;
   pts.reserve(n);

@@ -43,6 +43,7 @@ class CalibScene {
   void slice(double b, float* out, int n) const;  // as LaneScene::slice, box-filtered
   float max_height(double b_lo, double b_hi) const;
   bool is_meat(const Vec3&) const { return false; }  // machined metal barely scatters
+  double scatter_scale(const Vec3&, double) const { return 1; }
   double end_b() const;
 };
 

@@ -36,7 +36,7 @@ CameraRenderer::CameraRenderer(const LaneConfig& lane, int camera, CameraRenderP
   const Vec3 c = cam_.center();
   const Vec3 p0{0, laser_y_, 0};
   const Vec3 away{0, c.y > laser_y_ ? -1.0 : 1.0, 0};
-  tail_sign_ = cam_.project(p0 + away).y > cam_.project(p0).y ? 1 : -1;
+  tail_sign_ = (cam_.project(p0 + away).y > cam_.project(p0).y ? 1 : -1) * p_.tail_direction;
   Rng rng(0x0153, camera);
   noise_.resize(1 << 16);
   for (auto& n : noise_)
@@ -137,7 +137,7 @@ void CameraRenderer::render(const Scene& scene, double s, Rng& rng, uint8_t* fra
     double amp, tail, lambda;
     if (hit.meat) {
       amp = p_.meat_amplitude * (0.75 + 0.25 * facing);
-      tail = p_.meat_tail_base + p_.meat_tail_gain * (1 - facing);
+      tail = (p_.meat_tail_base + p_.meat_tail_gain * (1 - facing)) * scene.scatter_scale(hit.p, s);
       lambda = p_.meat_tail_px;
     } else {
       amp = p_.belt_amplitude;
@@ -145,8 +145,11 @@ void CameraRenderer::render(const Scene& scene, double s, Rng& rng, uint8_t* fra
       lambda = p_.belt_tail_px;
     }
     amp *= std::exp(p_.column_speckle * rng.normal());
+    const double sigma = p_.core_sigma_px + p_.defocus_px_per_mm * std::max(0.0, hit.p.z);
+    const double rho =
+        p_.speckle_correlation_px > 0 ? std::exp(-1 / p_.speckle_correlation_px) : 0.0;
     add_stripe(frame + c, height_, width_,
-               {hit.v, amp, p_.core_sigma_px, tail, lambda, tail_sign_, p_.speckle}, rng,
+               {hit.v, amp, sigma, tail, lambda, tail_sign_, p_.speckle, rho}, rng,
                hit.meat ? &meat_kernel_ : &belt_kernel_);
   }
 }

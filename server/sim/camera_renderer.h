@@ -26,6 +26,10 @@ struct CameraRenderParams {
   double column_speckle = 0.10;  // multiplicative, per column (lognormal sigma)
   double background = 6;         // DN
   double read_noise = 1.5;       // DN
+  // A plant's own physics (sim/plant_physics.h); the defaults are the nominal simulator.
+  int tail_direction = 1;             // -1: the scattered light leaves toward the camera
+  double speckle_correlation_px = 0;  // along a column (AR(1)); 0: independent pixels
+  double defocus_px_per_mm = 0;       // core sigma grows with height above the belt
 };
 
 class CameraRenderer {

@@ -21,6 +21,18 @@ struct Shape {
   double L, W, H, p, taper, thick_end;
   double harm_a[4], harm_p[4];
   double irr_a[3], irr_ks[3], irr_kt[3], irr_p[3];
+  // A thin flap grown from one side (flap_h > 0): centred at s = flap_s, reaching flap_len
+  // beyond the outline on the side flap_side; a folded end (fold_h > 0): a second layer
+  // over s > fold_s, whose edge is a step.
+  double flap_h = 0, flap_s = 0, flap_half = 0, flap_len = 0, flap_side = 1;
+  double fold_h = 0, fold_s = 0;
+
+  double flap(double s, double t, double half_w) const {
+    if (flap_h <= 0) return 0;
+    const double ds = std::abs(s - flap_s) / flap_half, dt = flap_side * t - 0.85 * half_w;
+    if (ds >= 1 || dt < 0 || dt > flap_len) return 0;
+    return flap_h * std::sqrt(1 - ds * ds) * (1 - 0.6 * dt / flap_len);
+  }
 
   double height(double s, double t) const {
     const double sn = s / (0.5 * L);
@@ -31,12 +43,13 @@ struct Shape {
     double R = 1;
     for (int k = 0; k < 4; ++k) R += harm_a[k] * std::cos((k + 2) * phi + harm_p[k]);
     const double rho = r / R;
-    if (rho >= 1) return 0;
+    if (rho >= 1) return flap(s, t, half_w);
     double irr = 1;
     for (int k = 0; k < 3; ++k)
       irr += irr_a[k] * std::sin(irr_ks[k] * s + irr_kt[k] * t + irr_p[k]);
-    return std::max(0.0,
-                    H * std::pow(1 - rho * rho, p) * (1 + thick_end * sn) * irr / (1 + thick_end));
+    const double h = std::max(
+        0.0, H * std::pow(1 - rho * rho, p) * (1 + thick_end * sn) * irr / (1 + thick_end));
+    return std::max(h + (fold_h > 0 && s > fold_s && h > 0.5 ? fold_h : 0.0), flap(s, t, half_w));
   }
 };
 }  // namespace
@@ -67,7 +80,8 @@ double Fillet::mu_at(double x, double b) const {
                        std::cos(texture_kb * b - texture_phase));
 }
 
-Fillet make_fillet(Rng& rng, int id, double b_start, double x_center, const FilletParams& prm) {
+Fillet make_fillet(Rng& rng, Rng& phys, int id, double b_start, double x_center,
+                   const FilletParams& prm) {
   Shape sh;
   sh.L = rng.uniform(120, 200);
   sh.W = rng.uniform(60, 100);
@@ -84,6 +98,19 @@ Fillet make_fillet(Rng& rng, int id, double b_start, double x_center, const Fill
     sh.irr_ks[k] = 2 * kPi / rng.uniform(20, 60) * (rng.chance(0.5) ? 1 : -1);
     sh.irr_kt[k] = 2 * kPi / rng.uniform(20, 60) * (rng.chance(0.5) ? 1 : -1);
     sh.irr_p[k] = rng.uniform(0, 2 * kPi);
+  }
+  // Steep walls: the profile rises most of its height within a pixel of the outline.
+  if (prm.steep_fraction > 0 && phys.chance(prm.steep_fraction)) sh.p = phys.uniform(0.1, 0.22);
+  if (prm.flap_probability > 0 && phys.chance(prm.flap_probability)) {
+    sh.flap_h = phys.uniform(2, 4);
+    sh.flap_s = phys.uniform(-0.25, 0.25) * sh.L;
+    sh.flap_half = phys.uniform(0.12, 0.22) * sh.L;
+    sh.flap_len = phys.uniform(6, 10);
+    sh.flap_side = phys.chance(0.5) ? 1 : -1;
+  }
+  if (prm.fold_probability > 0 && phys.chance(prm.fold_probability)) {
+    sh.fold_h = phys.uniform(3, 8);
+    sh.fold_s = phys.uniform(0.1, 0.3) * sh.L;
   }
   const double yaw = rng.uniform(-25, 25) * kPi / 180;  // long axis against the belt axis
   const double cy = std::cos(yaw), sy = std::sin(yaw);
@@ -139,37 +166,105 @@ Fillet make_fillet(Rng& rng, int id, double b_start, double x_center, const Fill
   f.texture_kb = 2 * kPi / rng.uniform(15, 40);
   f.texture_phase = rng.uniform(0, 2 * kPi);
 
-  // Inclusions sit where the meat is thick enough to hold them.
+  // Inclusions sit where the meat is thick enough to hold them. `tilt_max`: how far the
+  // inclusion's long axis may rise out of the belt's plane (rad).
   auto place = [&](Inclusion::Kind kind, double size, double semi_y_frac, double semi_z_frac,
-                   double dmu, double calc) {
+                   double dmu, double calc, double tilt_max = 0.3) -> Inclusion* {
     for (int attempt = 0; attempt < 200; ++attempt) {
       const double x = rng.uniform(f.x_min, f.x_max), b = rng.uniform(f.b_min, f.b_max);
       const double h = f.height_at(x, b);
       Inclusion in;
       in.kind = kind;
       in.semi = {0.5 * size, 0.5 * size * semi_y_frac, 0.5 * size * semi_z_frac};
-      const double zext = std::max(in.semi.y, in.semi.z) + 0.5;
+      const bool steep = tilt_max > 0.3;
+      const double tilt = steep ? phys.uniform(-tilt_max, tilt_max) : 0.0;
+      const double zext =
+          std::max({in.semi.y, in.semi.z, in.semi.x * std::abs(std::sin(tilt))}) + 0.5;
       if (h < 2 * zext + 1.0) continue;
       in.center = {x, b, rng.uniform(zext, h - zext)};
-      // Lying roughly flat: the meat holds fragments along its muscle layers.
-      in.to_local = rotation_zx(rng.uniform(0, 2 * kPi), rng.uniform(-0.3, 0.3)).transposed();
+      // Lying roughly flat: the meat holds fragments along its muscle layers (needles lie
+      // any way).
+      in.to_local = steep
+                        ? rotation_zx(rng.uniform(0, 2 * kPi), tilt).transposed()
+                        : rotation_zx(rng.uniform(0, 2 * kPi), rng.uniform(-0.3, 0.3)).transposed();
       in.dmu = dmu;
       in.calcification = calc;
       in.size_mm = size;
       f.inclusions.push_back(in);
-      return;
+      return &f.inclusions.back();
     }
+    return nullptr;
   };
   constexpr double kBoneMuFull = 0.12;  // fully calcified bone, 1/mm
+  const bool shapes = prm.needle + prm.chip + prm.rib + prm.cluster > 0;
   if (rng.chance(prm.bone_probability)) {
     const int n = rng.chance(0.3) ? 2 : 1;
     static constexpr double kBins[5] = {1, 2, 3, 5, 10};
     for (int k = 0; k < n; ++k) {
       const int bin = rng.integer(0, 3);
       const double size = rng.uniform(kBins[bin], kBins[bin + 1]);
-      const double calc = rng.uniform(0.3, 1.0);
-      place(Inclusion::kBone, size, rng.uniform(0.35, 0.7), rng.uniform(0.3, 0.6),
-            calc * (kBoneMuFull - f.mu), calc);
+      const double calc = rng.uniform(prm.calcification_min, prm.calcification_max);
+      const double dmu = calc * (kBoneMuFull - f.mu);
+      // The fragment's shape: needle, chip, rib, cluster by their shares, else compact.
+      Inclusion::Shape shape = Inclusion::kCompact;
+      if (shapes) {
+        double pick = phys.uniform(0, 1);
+        for (auto [share, kind] :
+             {std::pair{prm.needle, Inclusion::kNeedle}, std::pair{prm.chip, Inclusion::kChip},
+              std::pair{prm.rib, Inclusion::kRib}, std::pair{prm.cluster, Inclusion::kCluster}})
+          if ((pick -= share) < 0) {
+            shape = kind;
+            break;
+          }
+      }
+      if (shape == Inclusion::kNeedle) {
+        // Needles and slivers: long, under a millimetre thick, at any orientation.
+        const double len = std::max(size, 3.0), thick = phys.uniform(0.3, 0.8);
+        if (Inclusion* in = place(Inclusion::kBone, len, thick / len, thick / len, dmu, calc, 1.2))
+          in->shape = Inclusion::kNeedle;
+      } else if (shape == Inclusion::kChip) {
+        const double thick = phys.uniform(0.4, 0.9);
+        if (Inclusion* in =
+                place(Inclusion::kBone, size, phys.uniform(0.6, 0.9), thick / size, dmu, calc))
+          in->shape = Inclusion::kChip;
+      } else if (shape == Inclusion::kRib || shape == Inclusion::kCluster) {
+        // A curved rib piece (two bent halves) or a cluster of small pieces: one fragment
+        // in the truth, several ellipsoids in the meat.
+        const bool rib = shape == Inclusion::kRib;
+        const double len = rib ? std::max(size, 4.0) : std::max(size, 3.0);
+        const double part = rib ? 0.55 * len : 0.45 * len;
+        if (!place(Inclusion::kBone, part, rib ? 0.25 : 0.6, rib ? 0.25 : 0.5, dmu, calc)) continue;
+        const size_t primary = f.inclusions.size() - 1;
+        f.inclusions[primary].shape = shape;
+        f.inclusions[primary].size_mm = len;
+        const double a = phys.uniform(0, 2 * kPi);
+        if (rib) f.inclusions[primary].to_local = rotation_zx(a, 0).transposed();
+        const Inclusion first = f.inclusions[primary];
+        const int parts = rib ? 1 : phys.integer(2, 4);
+        for (int q = 0; q < parts; ++q) {
+          Inclusion o = first;
+          o.secondary = true;
+          o.size_mm = part;
+          // The rib's second half continues the first, bent by 17-34 degrees; a cluster's
+          // pieces lie around the first within 40 % of its extent.
+          const double ang = rib ? a : phys.uniform(0, 2 * kPi);
+          const double r = rib ? 0.5 * part : phys.uniform(1, std::max(1.5, 0.4 * len));
+          o.center = {first.center.x + r * std::cos(ang), first.center.y + r * std::sin(ang),
+                      first.center.z};
+          if (rib) {
+            const double bend = phys.uniform(0.3, 0.6);
+            o.center = o.center + Vec3{0.5 * part * std::cos(ang + bend),
+                                       0.5 * part * std::sin(ang + bend), 0};
+            o.to_local = rotation_zx(ang + bend, 0).transposed();
+          } else {
+            o.semi = first.semi * phys.uniform(0.6, 1.0);
+          }
+          if (f.height_at(o.center.x, o.center.y) > o.center.z + o.semi.z + 0.3)
+            f.inclusions.push_back(o);
+        }
+      } else {
+        place(Inclusion::kBone, size, rng.uniform(0.35, 0.7), rng.uniform(0.3, 0.6), dmu, calc);
+      }
     }
   }
   if (rng.chance(prm.air_probability)) {
@@ -184,6 +279,38 @@ Fillet make_fillet(Rng& rng, int id, double b_start, double x_center, const Fill
       place(Inclusion::kFat, rng.uniform(10, 30), rng.uniform(0.4, 0.7), rng.uniform(0.1, 0.25),
             -0.15 * f.mu, 0);
   }
+  // Cartilage and tendon: a little denser than meat, elongated; not bone.
+  if (prm.cartilage_probability > 0 && phys.chance(prm.cartilage_probability)) {
+    const double len = phys.uniform(6, 20);
+    if (Inclusion* in = place(Inclusion::kCartilage, len, phys.uniform(0.1, 0.3),
+                              phys.uniform(0.08, 0.2), phys.uniform(0.15, 0.35) * f.mu, 0))
+      in->shape = Inclusion::kCompact;
+  }
+  return f;
+}
+
+Fillet make_debris(Rng& rng, int id, double b_start, double x_center) {
+  Fillet f;
+  f.id = id;
+  f.debris = true;
+  const double r = rng.uniform(1.5, 4), h = rng.uniform(1, 4);
+  f.x_center = x_center;
+  f.ix0 = int(std::floor((x_center - r - 1 - kLaneX0Mm) / kRasterPitchMm));
+  f.ib0 = int(std::floor(b_start / kRasterPitchMm));
+  f.nx = f.nb = int(std::ceil((2 * r + 2) / kRasterPitchMm)) + 1;
+  f.x_min = kLaneX0Mm + f.ix0 * kRasterPitchMm;
+  f.x_max = f.x_min + (f.nx - 1) * kRasterPitchMm;
+  f.b_min = f.b_start = f.ib0 * kRasterPitchMm;
+  f.b_max = f.b_min + (f.nb - 1) * kRasterPitchMm;
+  f.b_center = 0.5 * (f.b_min + f.b_max);
+  f.height.assign(size_t(f.nx) * f.nb, 0.f);
+  for (int j = 1; j + 1 < f.nb; ++j)
+    for (int i = 1; i + 1 < f.nx; ++i) {
+      const double dx = f.x_min + i * kRasterPitchMm - x_center,
+                   db = f.b_min + j * kRasterPitchMm - f.b_center;
+      const double q = 1 - (dx * dx + db * db) / (r * r);
+      if (q > 0) f.height[size_t(j) * f.nx + i] = float(h * std::sqrt(q));
+    }
   return f;
 }
 

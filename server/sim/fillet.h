@@ -15,7 +15,9 @@ constexpr double kRasterPitchMm = 0.2;
 constexpr double kLaneX0Mm = -110.0;  // raster nodes sit at kLaneX0Mm + k * pitch
 
 struct Inclusion {
-  enum Kind { kBone, kAir, kFat } kind;
+  enum Kind { kBone, kAir, kFat, kCartilage } kind;
+  enum Shape { kCompact, kNeedle, kChip, kRib, kCluster } shape = kCompact;
+  bool secondary = false;    // another part of the fragment before it (rib, cluster)
   Vec3 center;               // (x, b, z)
   Vec3 semi;                 // semi-axes in the inclusion's own frame, mm
   Mat3 to_local;             // object -> inclusion frame rotation
@@ -36,7 +38,9 @@ struct Fillet {
   int ix0 = 0, ib0 = 0;       // raster origin in global node indices
   std::vector<float> height;  // nb * nx, mm
   std::vector<Inclusion> inclusions;
-  double mu = 0.03;  // meat attenuation, 1/mm
+  double mu = 0.03;          // meat attenuation, 1/mm
+  double scatter_scale = 1;  // this fillet's scattering against the plant's usual
+  bool debris = false;
   double texture_amp = 0, texture_kx = 0, texture_kb = 0, texture_phase = 0;
 
   // Height at an object point (bilinear on the raster), 0 outside.
@@ -48,10 +52,21 @@ struct FilletParams {
   double bone_probability = 0.5;
   double air_probability = 0.2;
   double fat_probability = 0.4;
+  // A plant's own physics (sim/plant_physics.h), drawn from a stream of its own so that
+  // the defaults give the nominal fillets draw for draw.
+  double calcification_min = 0.3, calcification_max = 1.0;
+  double needle = 0, chip = 0, rib = 0, cluster = 0;  // shares of the fragment shapes
+  double cartilage_probability = 0;
+  double steep_fraction = 0, flap_probability = 0, fold_probability = 0;
 };
 
 // Builds a fillet whose leading edge (smallest b) is at b_start; x_center is its centre
-// across the belt. Returns with b_max set, so the next fillet can follow.
-Fillet make_fillet(Rng& rng, int id, double b_start, double x_center, const FilletParams& p);
+// across the belt. Returns with b_max set, so the next fillet can follow. `physics` draws
+// what only a plant's own physics asks for.
+Fillet make_fillet(Rng& rng, Rng& physics, int id, double b_start, double x_center,
+                   const FilletParams& p);
+
+// A small bit of meat (debris) lying on the belt.
+Fillet make_debris(Rng& rng, int id, double b_start, double x_center);
 
 }  // namespace rangex::sim

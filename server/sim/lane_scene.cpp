@@ -1,6 +1,7 @@
 #include "sim/lane_scene.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace rangex::sim {
 
@@ -9,7 +10,8 @@ LaneScene::LaneScene(uint64_t seed, int lane, const SceneParams& p) {
   double b = p.lead_in_mm;
   for (int i = 0; i < p.fillets; ++i) {
     const double x = rng.uniform(-25, 25);
-    fillets_.push_back(make_fillet(rng, i, b, x, p.fillet));
+    Rng physics(seed, 0xf11e7, uint64_t(lane), uint64_t(i));
+    fillets_.push_back(make_fillet(rng, physics, i, b, x, p.fillet));
     const Fillet& f = fillets_.back();
     end_b_ = f.b_max;
     float peak = 0;
@@ -21,6 +23,42 @@ LaneScene::LaneScene(uint64_t seed, int lane, const SceneParams& p) {
         rng.chance(p.close_gap_probability) ? rng.uniform(2, 10) : rng.uniform(20, 80);
     b = f.b_max + gap;
   }
+  // A plant's own physics draws from streams of its own, so the nominal scene is unchanged.
+  for (Fillet& f : fillets_)
+    if (p.scatter_spread > 0) {
+      Rng r(seed, 0x5ca7, uint64_t(lane), uint64_t(f.id));
+      f.scatter_scale = std::exp(p.scatter_spread * r.normal());
+    }
+  if (p.debris_probability > 0) {
+    Rng r(seed, 0xdeb, uint64_t(lane));
+    const size_t n = fillets_.size();
+    for (size_t i = 0; i + 1 < n; ++i) {
+      const double lo = fillets_[i].b_max + 4, hi = fillets_[i + 1].b_start - 4;
+      if (hi - lo < 6 || !r.chance(p.debris_probability)) continue;
+      fillets_.push_back(make_debris(r, int(n + i), r.uniform(lo, hi - 5), r.uniform(-60, 60)));
+    }
+    // Keep the order by b and the search structures.
+    std::sort(fillets_.begin(), fillets_.end(),
+              [](const Fillet& a, const Fillet& b) { return a.b_min < b.b_min; });
+    peak_.clear();
+    box_end_.clear();
+    for (const Fillet& f : fillets_) {
+      float peak = 0;
+      for (float h : f.height) peak = std::max(peak, h);
+      peak_.push_back(peak);
+      const double end = (f.ib0 + f.nb - 1) * kRasterPitchMm;
+      box_end_.push_back(box_end_.empty() ? end : std::max(box_end_.back(), end));
+    }
+  }
+}
+
+double LaneScene::scatter_scale(const Vec3& p, double s) const {
+  const double b = s - p.y;
+  double k = 1;
+  for_fillets(b, b, [&](const Fillet& f) {
+    if (f.height_at(p.x, b) > 0) k = f.scatter_scale;
+  });
+  return k;
 }
 
 template <typename F>

@@ -12,6 +12,8 @@ struct SceneParams {
   int fillets = 5;
   double lead_in_mm = 40;              // empty belt before the first fillet
   double close_gap_probability = 0.2;  // fillets almost touching
+  double scatter_spread = 0;           // per fillet, the tail scales by exp(spread N(0,1))
+  double debris_probability = 0;       // a small bit of meat in a gap between fillets
   FilletParams fillet;
 };
 
@@ -27,6 +29,9 @@ class LaneScene {
   // Highest fillet surface among the fillets that overlap [b_lo, b_hi] (0 if none).
   float max_height(double b_lo, double b_hi) const;
   bool is_meat(const Vec3& p) const { return p.z > 0.05; }  // above the belt: a fillet
+  // How strongly the meat at world point p (belt offset s) scatters, against the plant's
+  // usual (fat, skin side up or down): the fillet's own factor.
+  double scatter_scale(const Vec3& p, double s) const;
 
  private:
   std::vector<Fillet> fillets_;  // ordered by b

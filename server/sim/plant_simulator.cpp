@@ -11,16 +11,57 @@
 
 namespace rangex::sim {
 
+SceneParams scene_params(const SimulationParams& p) {
+  SceneParams s = p.scene;
+  const PlantPhysics& ph = p.physics;
+  s.close_gap_probability = ph.shapes.touching_probability;
+  s.scatter_spread = ph.scatter.spread;
+  s.debris_probability = ph.belt.debris_probability;
+  FilletParams& f = s.fillet;
+  f.bone_probability = ph.bones.probability;
+  f.calcification_min = ph.bones.calcification_min;
+  f.calcification_max = ph.bones.calcification_max;
+  f.needle = ph.bones.needle, f.chip = ph.bones.chip, f.rib = ph.bones.rib;
+  f.cluster = ph.bones.cluster;
+  f.cartilage_probability = ph.bones.cartilage_probability;
+  f.steep_fraction = ph.shapes.steep_fraction;
+  f.flap_probability = ph.shapes.flap_probability;
+  f.fold_probability = ph.shapes.fold_probability;
+  return s;
+}
+
+CameraRenderParams camera_params(const SimulationParams& p) {
+  CameraRenderParams c = p.camera;
+  const PlantPhysics& ph = p.physics;
+  c.core_sigma_px = ph.laser.core_sigma_px;
+  c.defocus_px_per_mm = ph.laser.defocus_px_per_mm;
+  c.meat_tail_base = ph.scatter.tail_base;
+  c.meat_tail_gain = ph.scatter.tail_gain;
+  c.meat_tail_px = ph.scatter.tail_px;
+  c.tail_direction = ph.scatter.direction;
+  c.speckle = ph.speckle.pixel;
+  c.column_speckle = ph.speckle.column;
+  c.speckle_correlation_px = ph.speckle.correlation_px;
+  return c;
+}
+
 LaneSimulator::LaneSimulator(const LaneConfig& lane, const SimulationParams& p)
     : lane_(lane),
       seed_(p.seed),
-      scene_(p.seed, lane.id, p.scene),
-      cam0_(lane, 0, p.camera),
-      cam1_(lane, 1, p.camera),
-      xray_(lane, p.xray),
-      encoder_start_(p.encoder_start) {
-  const double xray_y = lane.laser.offset_mm + lane.xray.delay_lines * lane.encoder_step_mm;
+      scene_(p.seed, lane.id, scene_params(p)),
+      cam0_(lane, 0, camera_params(p)),
+      cam1_(lane, 1, camera_params(p)),
+      xray_(lane, p.xray, p.physics.xray),
+      encoder_start_(p.encoder_start),
+      dropped_rate_(p.physics.belt.dropped_line_rate) {
+  const double xray_y = std::max(xray_.plane_y(-110, 0), xray_.plane_y(110, 60));
   lines_ = int64_t(std::ceil((scene_.end_b() + std::max(0.0, xray_y) + 20) / lane.encoder_step_mm));
+}
+
+bool LaneSimulator::dropped(int64_t n) const {
+  if (dropped_rate_ <= 0) return false;
+  Rng r(seed_, uint64_t(lane_.id), uint64_t(n), 0xd409);
+  return r.chance(dropped_rate_);
 }
 
 void LaneSimulator::render(int64_t n, uint8_t* cam0, uint8_t* cam1, uint16_t* xray,
@@ -32,21 +73,29 @@ void LaneSimulator::render(int64_t n, uint8_t* cam0, uint8_t* cam1, uint16_t* xr
   Rng rx(seed_, uint64_t(lane_.id) * 3 + 2, uint64_t(n), 0x7a);
   cam0_.render(scene_, s, r0, cam0, truth_row0 ? truth_row0 : scratch_rows.data());
   cam1_.render(scene_, s, r1, cam1, truth_row1 ? truth_row1 : scratch_rows.data());
+  if (dropped(n)) {
+    // Both cameras' frames of this line lost on the way (black); the X-ray line arrives.
+    const size_t frame = size_t(lane_.frame_width) * lane_.frame_height;
+    std::fill(cam0, cam0 + frame, uint8_t(0));
+    std::fill(cam1, cam1 + frame, uint8_t(0));
+  }
   xray_.render(scene_, s, rx, xray, truth_thickness ? truth_thickness : scratch_t.data());
 }
 
 std::string LaneSimulator::fragments_csv() const {
   std::ostringstream os;
-  os << "fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification\n";
-  const double xray_y = lane_.laser.offset_mm + lane_.xray.delay_lines * lane_.encoder_step_mm;
+  os << "fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification,shape\n";
+  static const char* kKind[] = {"bone", "air", "fat", "cartilage"};
+  static const char* kShape[] = {"compact", "needle", "chip", "rib", "cluster"};
   for (const Fillet& f : scene_.fillets())
     for (const Inclusion& in : f.inclusions) {
-      if (in.kind == Inclusion::kFat) continue;
-      // The X-ray sees b = line * step - xray_y.
-      const double line = (in.center.y + xray_y) / lane_.encoder_step_mm;
-      os << f.id << "," << (in.kind == Inclusion::kBone ? "bone" : "air") << "," << in.center.x
-         << "," << in.center.y << "," << in.center.z << "," << line << "," << in.size_mm << ","
-         << in.calcification << "\n";
+      if (in.kind == Inclusion::kFat || in.secondary) continue;
+      // The X-ray sees b = line * step - plane_y(x, z).
+      const double line =
+          (in.center.y + xray_.plane_y(in.center.x, in.center.z)) / lane_.encoder_step_mm;
+      os << f.id << "," << kKind[in.kind] << "," << in.center.x << "," << in.center.y << ","
+         << in.center.z << "," << line << "," << in.size_mm << "," << in.calcification << ","
+         << kShape[in.shape] << "\n";
     }
   return os.str();
 }
@@ -55,6 +104,7 @@ std::string LaneSimulator::fillets_csv() const {
   std::ostringstream os;
   os << "fillet,x_center_mm,b_start_mm,b_end_mm,max_height_mm,bones\n";
   for (const Fillet& f : scene_.fillets()) {
+    if (f.debris) continue;
     float hmax = 0;
     for (float h : f.height) hmax = std::max(hmax, h);
     int bones = 0;
@@ -126,6 +176,7 @@ void simulate_recording(const PlantConfig& plant, const SimulationParams& p, con
     }
     writer.write_truth_text(info.lanes[li], "fragments.csv", sim.fragments_csv());
     writer.write_truth_text(info.lanes[li], "fillets.csv", sim.fillets_csv());
+    writer.write_truth_text(info.lanes[li], "physics.yaml", to_yaml(p.physics));
   }
   writer.close();
 }

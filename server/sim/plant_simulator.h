@@ -9,6 +9,7 @@
 #include "core/plant_config.h"
 #include "sim/camera_renderer.h"
 #include "sim/lane_scene.h"
+#include "sim/plant_physics.h"
 #include "sim/xray_renderer.h"
 
 namespace rangex::sim {
@@ -20,13 +21,22 @@ struct SimulationParams {
   CameraRenderParams camera;
   XrayRenderParams xray;
   int64_t encoder_start = 1000;
+  // The plant's physics; it sets the scene's and the camera's fields it names (the
+  // defaults are theirs).
+  PlantPhysics physics;
 };
+
+// The scene and camera parameters with the physics' parts applied.
+SceneParams scene_params(const SimulationParams& p);
+CameraRenderParams camera_params(const SimulationParams& p);
 
 class LaneSimulator {
  public:
   LaneSimulator(const LaneConfig& lane, const SimulationParams& p);
 
   int64_t lines() const { return lines_; }  // enough to carry every fillet past both planes
+  // Lines lost on the way (the plant's dropped_line_rate): never delivered.
+  bool dropped(int64_t n) const;
   // Line n of the lane; truth pointers may be null.
   void render(int64_t n, uint8_t* cam0, uint8_t* cam1, uint16_t* xray, float* truth_row0,
               float* truth_row1, float* truth_thickness) const;
@@ -44,6 +54,7 @@ class LaneSimulator {
   XrayRenderer xray_;
   int64_t lines_ = 0;
   int64_t encoder_start_;
+  double dropped_rate_ = 0;
 };
 
 using Progress = std::function<void(int64_t done, int64_t total)>;

@@ -55,13 +55,19 @@ void add_stripe(uint8_t* column, int height, int stride, const StripeShape& s, R
   const double reach_hi = 6 * s.sigma + (s.tail_sign > 0 ? 8 * s.tail_px : 0);
   const int y0 = std::max(0, int(std::floor(s.center - reach_lo)));
   const int y1 = std::min(height - 1, int(std::ceil(s.center + reach_hi)));
+  // Correlated speckle: an AR(1) sequence down the column with unit variance.
+  const double keep = s.speckle_rho, fresh = std::sqrt(1 - keep * keep);
+  double e = keep > 0 ? rng.fast_normal() : 0.0;
   for (int y = y0; y <= y1; ++y) {
     const double dy = y - s.center;
     const double core = kernel ? kernel->core(dy) : exact_core(dy, s.sigma);
     const double tail = s.tail > 0 ? s.tail * (kernel ? kernel->tail(s.tail_sign * dy)
                                                       : emg(s.tail_sign * dy, s.sigma, s.tail_px))
                                    : 0.0;
-    double v = energy * (core + tail) * (s.speckle > 0 ? 1 + s.speckle * rng.fast_normal() : 1.0);
+    double n = 0;
+    if (s.speckle > 0)
+      n = keep > 0 ? (e = keep * e + fresh * rng.fast_normal()) : rng.fast_normal();
+    double v = energy * (core + tail) * (s.speckle > 0 ? 1 + s.speckle * n : 1.0);
     uint8_t& px = column[size_t(y) * stride];
     v += px;
     px = uint8_t(std::clamp(v + 0.5, 0.0, 255.0));

@@ -10,13 +10,14 @@
 namespace rangex::sim {
 
 struct StripeShape {
-  double center;     // true row of the stripe centre
-  double amplitude;  // DN at the core's peak
-  double sigma;      // core standard deviation, px
-  double tail;       // tail energy / core energy
-  double tail_px;    // tail decay length, px
-  int tail_sign;     // +1: tail toward larger rows
-  double speckle;    // per-pixel multiplicative noise (std)
+  double center;           // true row of the stripe centre
+  double amplitude;        // DN at the core's peak
+  double sigma;            // core standard deviation, px
+  double tail;             // tail energy / core energy
+  double tail_px;          // tail decay length, px
+  int tail_sign;           // +1: tail toward larger rows
+  double speckle;          // per-pixel multiplicative noise (std)
+  double speckle_rho = 0;  // correlation of neighbouring pixels' speckle along the column
 };
 
 // The core and tail profiles of one (sigma, tail_px) tabulated finely, for rendering many

@@ -2,56 +2,150 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <vector>
 
 #include "core/ray_path.h"
 
 namespace rangex::sim {
 
-XrayRenderer::XrayRenderer(const LaneConfig& lane, XrayRenderParams p)
+namespace {
+constexpr int kSlice = 1101;  // slice samples over the lane, kLaneX0Mm .. +220 mm
+
+struct Slice {
+  std::vector<float> h = std::vector<float>(kSlice);
+  float top = 0;
+  std::vector<const Fillet*> here;  // fillets cut by it, for mu and inclusions
+};
+
+void cut(const LaneScene& scene, double b, Slice& s) {
+  scene.slice(b, s.h.data(), kSlice);
+  s.top = 0;
+  for (float v : s.h) s.top = std::max(s.top, v);
+  s.here.clear();
+  for (const Fillet& f : scene.fillets())
+    if (b >= f.b_min - 10 && b <= (f.ib0 + f.nb) * kRasterPitchMm + 10) s.here.push_back(&f);
+}
+
+// ln(I0 / I) of one ray through a slice, and the meat's path length.
+double slice_attenuation(const Slice& s, double b, double xd, double zd, double xs, double zs,
+                         double* path) {
+  const ProfileGrid grid{s.h.data(), nullptr, kSlice, kLaneX0Mm, kRasterPitchMm, s.top};
+  const PathResult r = ray_path_length(grid, xd, zd, xs, zs);
+  *path = r.length_mm;
+  if (r.length_mm <= 0) return 0;
+  // The ray crosses the meat close to its foot; the fillet under it gives mu.
+  const double dz = zs - zd;
+  const Vec3 o{xd, b, zd};
+  const Vec3 d = Vec3{xs - xd, 0, dz}.normalized();
+  const double xm = xd + (xs - xd) * (0.5 * s.top - zd) / dz;
+  double mu = 0.03;
+  for (const Fillet* f : s.here)
+    if (f->height_at(xm, b) > 0 || f->height_at(xd, b) > 0) mu = f->mu_at(xm, b);
+  double att = mu * r.length_mm;
+  for (const Fillet* f : s.here)
+    for (const Inclusion& in : f->inclusions)
+      if (std::abs(in.center.y - b) <= in.size_mm) att += in.dmu * in.chord(o, d);
+  return att;
+}
+}  // namespace
+
+XrayRenderer::XrayRenderer(const LaneConfig& lane, XrayRenderParams p, XrayPhysics physics)
     : fb_(lane.xray),
       xray_y_(lane.laser.offset_mm + lane.xray.delay_lines * lane.encoder_step_mm),
-      p_(p) {}
+      step_(lane.encoder_step_mm),
+      p_(p),
+      ph_(physics) {}
+
+double XrayRenderer::plane_y(double x, double z) const {
+  return xray_y_ + ph_.plane_offset_lines * step_ + x * std::tan(ph_.alpha_deg * M_PI / 180) +
+         z * std::tan(ph_.beta_deg * M_PI / 180);
+}
 
 void XrayRenderer::render(const LaneScene& scene, double s, Rng& rng, uint16_t* line,
                           float* thickness) const {
-  const double b = s - xray_y_;
-  constexpr int kN = 1101;
-  std::vector<float> h(kN);
-  scene.slice(b, h.data(), kN);
-  float top = 0;
-  for (float v : h) top = std::max(top, v);
-  const ProfileGrid grid{h.data(), nullptr, kN, kLaneX0Mm, kRasterPitchMm, top};
-  // Fillets cut by this slice, for the attenuation coefficient and inclusions.
-  std::vector<const Fillet*> here;
-  for (const Fillet& f : scene.fillets())
-    if (b >= f.b_min - 10 && b <= (f.ib0 + f.nb) * kRasterPitchMm + 10) here.push_back(&f);
   const double maxv = double((1 << fb_.bits) - 1);
-  for (int i = 0; i < fb_.pixels; ++i) {
-    const double xd = fb_.pixel_x(i), zd = fb_.pixel_z(i);
-    const PathResult r = ray_path_length(grid, xd, zd, fb_.source_x_mm, fb_.source_z_mm);
-    thickness[i] = float(r.length_mm);
-    double att = 0;
-    if (r.length_mm > 0) {
-      // The ray crosses the meat close to its foot; the fillet under it gives mu.
-      const double dz = fb_.source_z_mm - zd;
-      const Vec3 o{xd, b, zd};
-      const Vec3 d = Vec3{fb_.source_x_mm - xd, 0, dz}.normalized();
-      const double xm = xd + (fb_.source_x_mm - xd) * (0.5 * top - zd) / dz;
-      double mu = 0.03;
-      for (const Fillet* f : here)
-        if (f->height_at(xm, b) > 0 || f->height_at(xd, b) > 0) mu = f->mu_at(xm, b);
-      att = mu * r.length_mm;
-      for (const Fillet* f : here)
-        for (const Inclusion& in : f->inclusions)
-          if (std::abs(in.center.y - b) <= in.size_mm) att += in.dmu * in.chord(o, d);
-    }
-    const double mean = p_.open_beam_dn * std::exp(-att);
+  auto emit = [&](int i, double mean) {
     const double photons = mean * p_.photons_per_dn;
     // Photon counts are large (> 1000), where the normal approximation of Poisson holds.
     const double counts = photons + std::sqrt(photons) * rng.normal();
     const double dn = counts / p_.photons_per_dn + p_.electronic_noise * rng.normal();
     line[i] = uint16_t(std::clamp(std::lround(dn), 0L, long(maxv)));
+  };
+  auto harden = [&](double att) { return att / (1 + ph_.hardening * att); };
+  const bool plain = ph_.detector_sigma_px == 0 && ph_.focal_spot_sigma_mm == 0 &&
+                     ph_.plane_offset_lines == 0 && ph_.alpha_deg == 0 && ph_.beta_deg == 0;
+  if (plain) {
+    Slice sl;
+    const double b = s - xray_y_;
+    cut(scene, b, sl);
+    for (int i = 0; i < fb_.pixels; ++i) {
+      double path = 0;
+      const double att = slice_attenuation(sl, b, fb_.pixel_x(i), fb_.pixel_z(i), fb_.source_x_mm,
+                                           fb_.source_z_mm, &path);
+      thickness[i] = float(path);
+      emit(i, p_.open_beam_dn * std::exp(-harden(att)));
+    }
+    return;
+  }
+  // Each pixel integrates its aperture (four sub-samples across) and the belt's travel over
+  // the line (four along); the belt position the X-ray plane cuts depends on where the ray
+  // crosses the meat (10 mm up is taken for every ray), so slices are cut on a 0.05 mm grid
+  // of belt positions and shared.
+  constexpr int kSub = 4;
+  constexpr double kMidZ = 10, kGrid = 0.05;
+  const int n = fb_.pixels, nf = n * kSub;
+  std::map<long, Slice> slices;
+  std::vector<double> I(nf), path_f(nf);
+  for (int f = 0; f < nf; ++f) {
+    const double u = (f + 0.5) / kSub - 0.5;
+    const double xd = fb_.first_pixel_x_mm + fb_.pitch_x() * u,
+                 zd = fb_.detector_z_mm + fb_.pitch_z() * u;
+    const double xm = xd + (fb_.source_x_mm - xd) * (kMidZ - zd) / (fb_.source_z_mm - zd);
+    I[f] = path_f[f] = 0;
+    for (int j = 0; j < kSub; ++j) {
+      const double travel = step_ * ((j + 0.5) / kSub - 0.5);
+      const long key = std::lround((s + travel - plane_y(xm, kMidZ)) / kGrid);
+      auto it = slices.find(key);
+      if (it == slices.end()) {
+        it = slices.emplace(key, Slice{}).first;
+        cut(scene, key * kGrid, it->second);
+      }
+      double path = 0;
+      const double att = slice_attenuation(it->second, key * kGrid, xd, zd, fb_.source_x_mm,
+                                           fb_.source_z_mm, &path);
+      I[f] += p_.open_beam_dn * std::exp(-harden(att)) / kSub;
+      // The truth: the path at the line's own position (its middle).
+      if (j == kSub / 2) path_f[f] = path;
+    }
+  }
+  // Blur across the detector, on the fine grid: the line-spread function and the focal
+  // spot's image, which grows with the height of what casts the shadow (taken at half the
+  // path's length above the belt).
+  const double mag_den = fb_.source_z_mm;
+  for (int i = 0; i < n; ++i) {
+    double path = 0;
+    for (int k = 0; k < kSub; ++k) path += path_f[i * kSub + k] / kSub;
+    thickness[i] = float(path);
+    const double z = 0.5 * path;
+    const double focal_px =
+        ph_.focal_spot_sigma_mm * (z - fb_.detector_z_mm) / (mag_den - z) / fb_.pitch_mm;
+    const double sigma = std::hypot(ph_.detector_sigma_px, focal_px) * kSub;
+    double mean = 0;
+    if (sigma < 0.05) {
+      for (int k = 0; k < kSub; ++k) mean += I[i * kSub + k] / kSub;
+    } else {
+      const int R = int(std::ceil(4 * sigma));
+      double wsum = 0;
+      for (int k = 0; k < kSub; ++k)
+        for (int j = -R; j <= R; ++j) {
+          const int f = std::clamp(i * kSub + k + j, 0, nf - 1);
+          const double w = std::exp(-0.5 * j * j / (sigma * sigma));
+          mean += w * I[f], wsum += w;
+        }
+      mean /= wsum;
+    }
+    emit(i, mean);
   }
 }
 

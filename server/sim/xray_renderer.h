@@ -2,11 +2,17 @@
 // source, Beer-Lambert attenuation through meat with texture, fat, air pockets and bone
 // fragments (eq. 52-57), Poisson photon noise plus electronic noise, 12-bit output. Returns
 // the true X-ray path length through the meat per pixel.
+//
+// A plant's X-ray physics (sim/plant_physics.h) adds what real detectors do: the pixel's
+// aperture and line-spread function, the focal spot's blur (growing with the object's
+// height), an X-ray plane a fraction of a line off and turned against the laser's, and beam
+// hardening. With none of them the nominal renderer runs unchanged.
 #pragma once
 #include <cstdint>
 
 #include "core/lane_config.h"
 #include "sim/lane_scene.h"
+#include "sim/plant_physics.h"
 #include "sim/rng.h"
 
 namespace rangex::sim {
@@ -19,15 +25,22 @@ struct XrayRenderParams {
 
 class XrayRenderer {
  public:
-  XrayRenderer(const LaneConfig& lane, XrayRenderParams p = {});
+  XrayRenderer(const LaneConfig& lane, XrayRenderParams p = {}, XrayPhysics physics = {});
   // belt_offset_mm = line * encoder step; thickness: per pixel path length in mm.
   void render(const LaneScene& scene, double belt_offset_mm, Rng& rng, uint16_t* line,
               float* thickness) const;
+  // The laser-to-X-ray offset along the belt where the X-ray sees (x, z), mm.
+  double plane_y(double x, double z) const;
 
  private:
+  // Attenuation (ln I0/I) along the ray from detector position (xd, zd) to the source
+  // point xs, through the slice at belt position b; path: the meat's path length.
+  double attenuation(const LaneScene& scene, double b, double xd, double zd, double xs,
+                     double* path) const;
   FanBeam fb_;
-  double xray_y_;
+  double xray_y_, step_;
   XrayRenderParams p_;
+  XrayPhysics ph_;
 };
 
 }  // namespace rangex::sim
