@@ -3,6 +3,7 @@
 // reference profiles of the dissertation.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 #include "args.h"
 #include "calib/scatter_samples.h"
@@ -11,6 +12,8 @@
 #include "core/error.h"
 #include "core/recording.h"
 #include "truth_heights.h"
+
+namespace fs = std::filesystem;
 
 namespace rangex::cli {
 
@@ -66,6 +69,8 @@ int cmd_calib(int argc, char** argv) {
                 f.samples, f.centroid_mae_px, f.shifted_mae_px, f.modified_mae_px);
     if (!save) continue;
     saved.cameras[cam].scatter = f.constants;
+    saved.cameras[cam].scatter_fitted_on = "calib scatter on " + fs::absolute(rec.dir()).string() +
+                                           " (" + std::to_string(f.samples) + " columns)";
     SolveReport r;
     r.solver = "scatter";
     r.subject = "lane " + std::to_string(out_lane) + " cam" + std::to_string(cam);

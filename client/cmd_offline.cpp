@@ -274,6 +274,9 @@ int cmd_process(int argc, char** argv) {
   }
   a.expect_positionals(1, "process DIR --out OUT");
   const RecordingReader rec(a.positional(0, "recording folder"));
+  for (int lane : rec.info().lanes)
+    if (const std::string w = unfitted_constants(plant.lane(lane)); !w.empty())
+      std::fprintf(stderr, "warning: %s\n", w.c_str());
   ReplayOptions opt;
   if (a.has("method")) opt.method = parse_stripe_method(a.get("method", ""));
   opt.batch_lines = int(a.integer("batch", 64));

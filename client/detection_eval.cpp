@@ -1,5 +1,6 @@
 #include "detection_eval.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -39,7 +40,7 @@ std::vector<TruthFragment> parse_truth_fragments(const std::string& text, int la
   // fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification[,shape]
   for (const auto& c : csv_rows(text, 9, "fragments.csv", 8))
     out.push_back({lane, std::stoi(c[0]), c[1], std::stod(c[2]), std::stod(c[3]), std::stod(c[6]),
-                   std::stod(c[7]), c.size() > 8 ? c[8] : "compact"});
+                   std::stod(c[7]), c.size() > 8 ? c[8] : "compact", std::stod(c[5])});
   return out;
 }
 
@@ -50,8 +51,43 @@ std::vector<TruthFillet> parse_truth_fillets(const std::string& text, int lane) 
   return out;
 }
 
+namespace {
+// The detector pixel whose ray passes x at mid-depth (about 10 mm up).
+double pixel_of(const EdgeMap& m, double x_mm) {
+  constexpr double kZ = 10;
+  const double x_det = m.source_x_mm + (x_mm - m.source_x_mm) * (m.source_z_mm - m.detector_z_mm) /
+                                           (m.source_z_mm - kZ);
+  return (x_det - m.first_pixel_x_mm) / m.pitch_mm;
+}
+}  // namespace
+
+double EdgeMap::thickness_mm(double x_mm, double xray_line) const {
+  const int i = int(std::lround(pixel_of(*this, x_mm)));
+  const int64_t n = std::lround(xray_line);
+  if (!thickness || i < 0 || i >= pixels || n < 0 || n >= lines) return 0;
+  return thickness[n * pixels + i];
+}
+
+double EdgeMap::distance_mm(double x_mm, double xray_line) const {
+  constexpr double kReach = 5;
+  if (!thickness) return kReach;
+  const int i0 = int(std::lround(pixel_of(*this, x_mm))), n0 = int(std::lround(xray_line));
+  const int ri = int(std::ceil(kReach / pitch_mm)), rn = int(std::ceil(kReach / step_mm));
+  double best = kReach;
+  for (int dn = -rn; dn <= rn; ++dn)
+    for (int di = -ri; di <= ri; ++di) {
+      const int64_t n = n0 + dn;
+      const int i = i0 + di;
+      if (n < 0 || n >= lines || i < 0 || i >= pixels) continue;
+      if (thickness[n * pixels + i] >= 0.5) continue;  // meat
+      best = std::min(best, std::hypot(di * pitch_mm, dn * step_mm));
+    }
+  return best;
+}
+
 void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
-              const std::vector<TruthFillet>& truth_fillets, const RecordSet& res) {
+              const std::vector<TruthFillet>& truth_fillets, const RecordSet& res,
+              const EdgeMap* edges) {
   // Which detected fillet (by belt range) holds each true fillet; rejects count for all.
   auto overlapping = [&](double b0, double b1) {
     std::vector<const FilletRecord*> v;
@@ -106,6 +142,18 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
       used[best_i] = 1;
       e.position.add(best);
     }
+    if (sb >= 1 && cb == 1) {
+      auto it = std::find_if(e.by_shape.begin(), e.by_shape.end(),
+                             [&](const auto& s) { return s.first == t.shape; });
+      if (it == e.by_shape.end()) it = e.by_shape.insert(e.by_shape.end(), {t.shape, {0, 0}});
+      it->second.first += best <= tol, ++it->second.second;
+      if (edges) {
+        const bool edge = edges->distance_mm(t.x_mm, t.xray_line) < 3 ||
+                          edges->thickness_mm(t.x_mm, t.xray_line) < 6;
+        (edge ? e.found_edge : e.found_inner) += best <= tol;
+        ++(edge ? e.total_edge : e.total_inner);
+      }
+    }
     for (const TruthFillet& tf : truth_fillets)
       if (tf.fillet == t.fillet) {
         bool rejected = false;
@@ -124,6 +172,12 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
                 std::max(2.0, 0.5 * t.size_mm + 1.0))
           near_true = true;
       e.false_fragments += !near_true;
+      if (!near_true && edges) {
+        const FragmentRecord& d = res.fragments[i];
+        const double dist =
+            edges->distance_mm(d.x_mm, d.y_mm / edges->step_mm + edges->delay_lines);
+        ++e.false_by_edge[dist < 1 ? 0 : dist < 3 ? 1 : 2];
+      }
     }
 }
 

@@ -15,6 +15,21 @@ struct TruthFragment {
   std::string kind;  // bone | air | cartilage
   double x_mm = 0, b_mm = 0, size_mm = 0, calcification = 0;
   std::string shape = "compact";  // compact | needle | chip | rib | cluster
+  double xray_line = 0;
+};
+
+// The lane's true X-ray path thickness (truth/thickness.f32) with the geometry to find a
+// belt position in it: how far a point lies from the meat's edge (mm, up to 5 mm).
+struct EdgeMap {
+  const float* thickness = nullptr;  // lines x pixels
+  int64_t lines = 0;
+  int pixels = 0;
+  double first_pixel_x_mm = 0, pitch_mm = 0.4, step_mm = 0.4;
+  double source_x_mm = 0, source_z_mm = 700, detector_z_mm = -15;
+  int delay_lines = 0;
+  // x: across the belt at mid-depth (about 10 mm up); line: the X-ray line.
+  double distance_mm(double x_mm, double xray_line) const;
+  double thickness_mm(double x_mm, double xray_line) const;  // the path there (0 outside)
 };
 
 struct TruthFillet {
@@ -42,6 +57,13 @@ struct DetectionEval {
   ErrorAccumulator position{1e-3, 100.0};      // mm
   double resid_mean_dn = 0, resid_std_dn = 0;  // pooled over inspected fillets
   long resid_pixels = 0;
+  // With an EdgeMap: detections matching no bone by distance to the meat's edge (< 1 mm,
+  // 1-3 mm, farther), and calcified fragments >= 2 mm within 3 mm of the edge (or on meat
+  // under 6 mm: flaps) against the rest.
+  int false_by_edge[3] = {0, 0, 0};
+  int found_edge = 0, total_edge = 0, found_inner = 0, total_inner = 0;
+  // Calcified fragments >= 2 mm by shape: found / present.
+  std::vector<std::pair<std::string, std::pair<int, int>>> by_shape;
 
   double recall_calcified_2mm() const;  // calcified fragments >= 2 mm
   double false_reject_rate() const;     // clean fillets rejected for any reason
@@ -49,7 +71,8 @@ struct DetectionEval {
 
 // Adds one lane's truth and results into `e` (call per lane, then finish()).
 void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
-              const std::vector<TruthFillet>& fillets, const RecordSet& results);
+              const std::vector<TruthFillet>& fillets, const RecordSet& results,
+              const EdgeMap* edges = nullptr);
 void finish(DetectionEval& e);
 
 std::string detection_table(const DetectionEval& ours, const DetectionEval& baseline, int bits);

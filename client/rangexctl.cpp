@@ -10,8 +10,9 @@ namespace {
 constexpr const char* kUsage = R"(usage: rangexctl <command> [options]
 
 commands:
-  simulate --out DIR [--lanes N] [--fillets M] [--seed S] [--config PLANT.yaml]
-      simulate a plant and write a recording with ground truth
+  simulate --out DIR [--lanes N] [--fillets M] [--seed S] [--physics VARIANT.yaml]
+      simulate a plant and write a recording with ground truth (--physics: another plant's
+      physics, config/variants/*.yaml)
   extract DIR --lane L --camera C [--method NAME] --out peaks.csv [--config ...]
       stripe rows of one camera as CSV (frame,column,row; row empty where invalid)
   process DIR --out OUT [--method NAME] [--images all|rejects|none] [--config ...]
@@ -21,6 +22,9 @@ commands:
       (both: [--backend auto|cpu|opencl|vulkan] [--device D] for the line stages)
   eval DIR OUT [--json]   |   eval OUT [--json]
       compare processed output with the truth of its recording (or of its simulation)
+  eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] [--seed S]
+      each plant variant (config/variants) calibrated from its own scenes, simulated,
+      inspected and evaluated beside the X-ray-only baseline (a benchmark: minutes each)
   fit FILE.csv [--c C] [--json]
       robust fit ln I = b0 + b1 T (Tukey biweight) of a two-column CSV with a header
   calib scatter DIR [--lines N] [--config ...]
@@ -77,6 +81,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "extract")) return cmd_extract(argc, argv);
     if (!std::strcmp(cmd, "process")) return cmd_process(argc, argv);
     if (!std::strcmp(cmd, "eval")) return cmd_eval(argc, argv);
+    if (!std::strcmp(cmd, "eval-matrix")) return cmd_eval_matrix(argc, argv);
     if (!std::strcmp(cmd, "calib")) return cmd_calib(argc, argv);
     if (!std::strcmp(cmd, "fit")) return cmd_fit(argc, argv);
     if (!std::strcmp(cmd, "feed")) return cmd_feed(argc, argv);

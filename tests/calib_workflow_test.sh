@@ -6,14 +6,7 @@
 set -u
 ctl="$1"
 table9=$(realpath "$2")  # the dissertation's pin measurements (appendix F)
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-cd "$work" || exit 1
-fails=0
-check() {  # check NAME CONDITION-COMMAND...
-  local name=$1; shift
-  if "$@"; then echo "ok   $name"; else echo "FAIL $name"; fails=$((fails + 1)); fi
-}
+source "$(dirname "$0")/script_checks.sh"
 run() { "$@" >>log.txt 2>&1 || { echo "FAIL: $*"; tail -20 log.txt; exit 1; }; }
 near() { awk -v a="$1" -v b="$2" -v t="$3" 'BEGIN { d = a - b; if (d < 0) d = -d; exit !(d <= t) }'; }
 key() { grep -m1 "$2" "$1" | sed 's/.*: //'; }  # key FILE PATTERN: the value after ': '

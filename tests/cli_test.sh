@@ -4,13 +4,7 @@
 # that names the problem.
 set -u
 ctl="$1"
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fails=0
-check() {  # check NAME CONDITION-COMMAND...
-  local name=$1; shift
-  if "$@"; then echo "ok   $name"; else echo "FAIL $name"; fails=$((fails + 1)); fi
-}
+source "$(dirname "$0")/script_checks.sh"
 expect_error() {  # expect_error NAME PATTERN COMMAND...
   local name=$1 pattern=$2; shift 2
   local out rc

@@ -14,7 +14,8 @@ LaneCamera appendix_d_camera() {
   return {"cam0",
           CameraModel({1780.10076, 894.26278, 319.5, 99.5, 0.0}, {-0.21403, -2.60592, 0, 0, 0}, R,
                       (R * center) * -1.0, 640, 200),
-          {}};
+          {},
+          ""};
 }
 
 // Appendix E (right camera) mirrored to the other side of the laser plane; the mirror flips
@@ -28,7 +29,8 @@ LaneCamera appendix_e_camera_mirrored() {
   return {"cam1",
           CameraModel({1803.65762, 902.53550, 319.5, 99.5, 0.0}, {-0.43360, 5.38559, 0, 0, 0}, R,
                       (R * center) * -1.0, 640, 200),
-          {}};
+          {},
+          ""};
 }
 }  // namespace
 
@@ -39,6 +41,24 @@ LaneConfig default_lane_config(int id) {
   c.xray.pixels = 480;
   c.xray.first_pixel_x_mm = -95.8;
   return c;
+}
+
+std::string unfitted_constants(const LaneConfig& l) {
+  std::string what;
+  auto add = [&](const std::string& s) { what += (what.empty() ? "" : "; ") + s; };
+  for (int c = 0; c < 2; ++c) {
+    const std::string& f = l.cameras[c].scatter_fitted_on;
+    if (f.empty() || f.rfind("shipped", 0) == 0)
+      add("cam" + std::to_string(c) + " K1/K2 (" + (f.empty() ? "never fitted" : "shipped") +
+          "; rangexctl calib scatter)");
+  }
+  if (l.xray.detector_sigma_px == 0 && l.xray.focal_spot_sigma_mm == 0)
+    add("the detector's blur (calib xray; the pseudo-X-ray is not matched at edges)");
+  if (l.xray.measured_delay_lines == 0)
+    add("the laser-to-X-ray registration (calib registration; whole lines only)");
+  return what.empty() ? ""
+                      : "lane " + std::to_string(l.id) +
+                            " runs on constants never fitted on its own rig: " + what;
 }
 
 }  // namespace rangex

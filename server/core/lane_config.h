@@ -15,6 +15,9 @@ struct LaneCamera {
   std::string name;
   CameraModel model;
   ScatterConstants scatter;
+  // Where K1/K2 were fitted (calib scatter writes the recording); empty or "shipped ...":
+  // never fitted on this rig (they depend on the meat and the rig).
+  std::string scatter_fitted_on;
 };
 
 struct FusionParams {
@@ -60,6 +63,11 @@ struct LaneConfig {
   FusionParams fusion;
   InspectionParams inspection;
 };
+
+// What a lane runs on that was never fitted or measured on its own rig (shipped K1/K2, an
+// unmeasured detector blur, an unmeasured registration), as one warning line; empty when
+// everything was.
+std::string unfitted_constants(const LaneConfig& lane);
 
 // The rig of the dissertation: cameras of appendices D and E, the second mirrored to the
 // other side of the laser plane, both centred over the lane.

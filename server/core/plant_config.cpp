@@ -143,7 +143,8 @@ void read_camera(const Node& n, LaneCamera& cam, int w, int h) {
   }
   if (n.has("scatter")) {
     const Node s = n.at("scatter");
-    s.only_keys({"k1", "k2", "k2_offset"});
+    s.only_keys({"k1", "k2", "k2_offset", "fitted_on"});
+    if (s.has("fitted_on")) cam.scatter_fitted_on = s.at("fitted_on").str();
     s.get("k1", cam.scatter.k1);
     s.get("k2", cam.scatter.k2);
     s.get("k2_offset", cam.scatter.k2_offset);
@@ -416,7 +417,9 @@ std::string lane_calibration_yaml(const LaneConfig& l) {
     o << "\n    center_mm: ";
     list(centre, 3);
     o << "\n    scatter: {k1: " << c.scatter.k1 << ", k2: " << c.scatter.k2
-      << ", k2_offset: " << c.scatter.k2_offset << "}\n";
+      << ", k2_offset: " << c.scatter.k2_offset;
+    if (!c.scatter_fitted_on.empty()) o << ", fitted_on: \"" << c.scatter_fitted_on << "\"";
+    o << "}\n";
   }
   const double n[3] = {l.laser.normal.x, l.laser.normal.y, l.laser.normal.z};
   o << "laser_plane: {normal: ";

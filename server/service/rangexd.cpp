@@ -120,6 +120,9 @@ int main(int argc, char** argv) {
     std::printf("rangexd: plant '%s', %zu lanes, listening on %s, store %s\n", plant.name.c_str(),
                 plant.lanes.size(), server.address().c_str(),
                 (data.empty() ? plant.storage : data).c_str());
+    for (const rangex::LaneConfig& l : plant.lanes)
+      if (const std::string w = rangex::unfitted_constants(l); !w.empty())
+        std::fprintf(stderr, "rangexd: warning: %s\n", w.c_str());
     std::printf("rangexd: backend %s (%s): %s, %s; %s\n", b.name.c_str(),
                 server.engine().backend_note().c_str(), b.device.c_str(), b.driver.c_str(),
                 b.limits.c_str());
