@@ -96,7 +96,7 @@ struct Row {
 };
 
 Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& plant, int fillets,
-                long seed) {
+                long seed, bool keep) {
   Row r;
   const sim::PlantPhysics ph = sim::load_plant_physics(file.string());
   r.name = ph.name, r.held_out = ph.held_out;
@@ -139,6 +139,10 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
   add_lane(r.base, frags, truth, read_records(ld.string(), "baseline_"), &edges);
   finish(r.ours);
   finish(r.base);
+  // The scans are large (256 kB of camera frames per line); the results, the calibration
+  // and its reports stay.
+  if (!keep)
+    for (const char* d : {"rec", "pins", "blocks"}) fs::remove_all(dir / d);
   return r;
 }
 
@@ -207,9 +211,11 @@ std::string json(const std::vector<Row>& rows) {
 }  // namespace
 
 int cmd_eval_matrix(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"variants", "only", "fillets", "seed", "out", "config"});
-  a.expect_positionals(
-      0, "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] [--seed S]");
+  const Args a(argc, argv, 2, {"keep-scans"},
+               {"variants", "only", "fillets", "seed", "out", "config"});
+  a.expect_positionals(0,
+                       "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] "
+                       "[--seed S] [--keep-scans]");
   const PlantConfig plant = load_config(a.get("config", ""));
   const fs::path vdir = a.get(
       "variants", (fs::path(config_path(a.get("config", ""))).parent_path() / "variants").string());
@@ -236,29 +242,33 @@ int cmd_eval_matrix(int argc, char** argv) {
   const fs::path out = a.require("out");
   fs::create_directories(out);
   std::vector<Row> rows;
+  std::string text;
   for (size_t k = 0; k < files.size(); ++k) {
     std::printf("[%zu/%zu] %s: calibrating from its own scenes, simulating %d fillets ...\n", k + 1,
                 files.size(), files[k].stem().c_str(), fillets);
     std::fflush(stdout);
     const auto t0 = std::chrono::steady_clock::now();
-    rows.push_back(run_variant(files[k], out / files[k].stem(), plant, fillets, seed));
+    rows.push_back(
+        run_variant(files[k], out / files[k].stem(), plant, fillets, seed, a.flag("keep-scans")));
     rows.back().minutes =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / 60;
+    // Written after every variant, so that a long run's results are there as they come.
+    std::ostringstream os;
+    os << "plant variants, each calibrated from its own scenes (" << fillets
+       << " fillets each, seed " << seed << "):\n"
+       << "thick/bias: thickness mean |error| and bias, mm; recall: calcified fragments >= 2 mm;"
+          " needle, edge: the same for needles and within 3 mm of the edge or on meat under 6 "
+          "mm (found/present); posit.: position error, mm; f.rej: clean fillets rejected; n.i.: "
+          "fillets not inspected; f.frag/f: detections matching no bone per fillet, <1mm / "
+          "1-3mm of them from the meat's edge; xr: the X-ray-only baseline\n\n"
+       << table(rows, false);
+    if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
+      os << "\nheld out (never tuned on):\n" << table(rows, true);
+    text = os.str();
+    std::ofstream(out / "matrix.txt") << text;
+    std::ofstream(out / "matrix.json") << json(rows);
   }
-  std::ostringstream os;
-  os << "plant variants, each calibrated from its own scenes (" << fillets << " fillets each, seed "
-     << seed << "):\n"
-     << "thick/bias: thickness mean |error| and bias, mm; recall: calcified fragments >= 2 mm;"
-        " needle, edge: the same for needles and within 3 mm of the edge or on meat under 6 mm"
-        " (found/present); posit.: position error, mm; f.rej: clean fillets rejected; n.i.: "
-        "fillets not inspected; f.frag/f: detections matching no bone per fillet, <1mm / 1-3mm"
-        " of them from the meat's edge; xr: the X-ray-only baseline\n\n"
-     << table(rows, false);
-  if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
-    os << "\nheld out (never tuned on):\n" << table(rows, true);
-  std::printf("\n%s", os.str().c_str());
-  std::ofstream(out / "matrix.txt") << os.str();
-  std::ofstream(out / "matrix.json") << json(rows);
+  std::printf("\n%s", text.c_str());
   std::printf("written to %s/matrix.txt and matrix.json\n", out.c_str());
   return 0;
 }

@@ -5,7 +5,7 @@
 set -u
 ctl="$1"
 source "$(dirname "$0")/script_checks.sh"
-"$ctl" eval-matrix --out m --only strong_blur,steep_edges --fillets 10 --seed 3 >run.txt 2>&1 \
+"$ctl" eval-matrix --out m --only strong_blur,steep_edges --fillets 10 --seed 3 --keep-scans >run.txt 2>&1 \
   || { echo "FAIL eval-matrix"; cat run.txt; exit 1; }
 cat m/matrix.txt
 py() { python3 -c "import json,sys; m=json.load(open('m/matrix.json')); v={x['name']: x for x in m['variants']}; sys.exit(0 if ($1) else 1)"; }

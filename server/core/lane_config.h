@@ -36,6 +36,7 @@ struct InspectionParams {
   int gap_lines = 3;                   // empty lines that close a run of fillets
   int max_segment_lines = 2500;        // longer runs are closed (and inspected) anyway
   double max_invalid_fraction = 0.02;  // of a fillet's pixels without thickness: fail-safe
+  int max_wall_gap_px = 4;  // a steep wall's hidden rim up to this wide is closed, not failed
   double tukey_c = 5.0;
   int max_iter = 50;
   double tol = 1e-8;

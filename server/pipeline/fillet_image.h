@@ -37,6 +37,7 @@ struct FilletImage {
   // Fail-safe inputs, filled by the assembly.
   int missing_lines = 0;         // lines of the fillet that never arrived or were dropped
   int invalid_thickness_px = 0;  // meat pixels (by X-ray) without a thickness
+  int wall_gap_px = 0;           // pixels closed as a steep wall's hidden rim
   bool touches_lane_edge = false;
   bool calibration_mismatch = false;
   std::string interrupted;  // why the lane restarted while this fillet was coming in

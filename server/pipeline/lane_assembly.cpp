@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "pipeline/connected_components.h"
+#include "pipeline/wall_gaps.h"
 
 namespace rangex {
 
@@ -233,6 +234,7 @@ void LaneAssembler::close_segment() {
     f.xray.assign(f.size(), 0);
     f.thickness.assign(f.size(), std::numeric_limits<float>::quiet_NaN());
     f.mask.assign(f.size(), 0);
+    std::vector<uint8_t> present(f.size(), 0);
     for (int r = r0; r <= r1; ++r) {
       const Row& row = segment_[r];
       if (row.missing) continue;
@@ -241,10 +243,14 @@ void LaneAssembler::close_segment() {
         f.xray[o] = row.xray[i];
         f.thickness[o] = row.thickness[i];
         f.mask[o] = labels[size_t(r) * D + i] == c.label;
-        // Meat by the X-ray with no thickness: the laser lost it.
-        if (!std::isfinite(row.thickness[i]) && row.xray[i] < meat_level) ++f.invalid_thickness_px;
+        present[o] = 1;
       }
     }
+    f.wall_gap_px = close_wall_gaps(f, ip.max_wall_gap_px, ip.floor_mm);
+    // Meat by the X-ray with no thickness: the laser lost it.
+    for (size_t o = 0; o < f.size(); ++o)
+      f.invalid_thickness_px +=
+          present[o] && !std::isfinite(f.thickness[o]) && f.xray[o] < meat_level;
     ++stats_.fillets;
     sink_(std::move(f));
   }
