@@ -3,6 +3,7 @@
 // is asked for.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
@@ -106,6 +107,18 @@ TEST(PlantPhysics, EachEffectIsRendered) {
   int dropped = 0;
   for (int64_t n = 0; n < 2000; ++n) dropped += drop.dropped(n);
   EXPECT_NEAR(dropped, 100, 35);
+  // Glints off wet meat saturate the sensor far more often.
+  auto saturated = [&](const std::string& yaml) {
+    const Lines l = render(params(yaml), 300, 8);
+    return std::count(l.cam0.begin(), l.cam0.end(), uint8_t(255));
+  };
+  const auto dry = saturated("name: nominal"), wet = saturated("speckle: {glint_probability: 0.1}");
+  std::printf("saturated camera pixels over 8 lines: %ld dry, %ld with glints\n", long(dry),
+              long(wet));
+  EXPECT_GT(wet, 3 * dry + 20);
+  // Encoder jitter moves where the line is taken: the frames differ from the nominal ones.
+  EXPECT_NE(render(params("belt: {encoder_jitter_mm: 0.2}"), 300, 2).cam0,
+            render(params("name: nominal"), 300, 2).cam0);
   // The detector's blur softens a steep wall in the X-ray: the largest step between
   // neighbouring pixels of a line falls.
   auto sharpest = [&](const std::string& yaml) {

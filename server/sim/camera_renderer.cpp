@@ -141,11 +141,21 @@ void CameraRenderer::render(const Scene& scene, double s, Rng& rng, uint8_t* fra
       lambda = p_.meat_tail_px;
     } else {
       amp = p_.belt_amplitude;
+      if (p_.belt_texture > 0) {
+        // A woven belt, wet in patches: reflectance varying on 2-7 mm scales.
+        const double b = s - hit.p.y;
+        amp *= 1 + p_.belt_texture * std::sin(2.7 * hit.p.x + 0.9 * b) *
+                       std::cos(0.9 * hit.p.x - 1.7 * b);
+      }
       tail = p_.belt_tail;
       lambda = p_.belt_tail_px;
     }
     amp *= std::exp(p_.column_speckle * rng.normal());
-    const double sigma = p_.core_sigma_px + p_.defocus_px_per_mm * std::max(0.0, hit.p.z);
+    double sigma = p_.core_sigma_px + p_.defocus_px_per_mm * std::max(0.0, hit.p.z);
+    if (hit.meat && p_.glint_probability > 0 && rng.chance(p_.glint_probability)) {
+      amp *= rng.uniform(4, 10);  // a specular glint off a wet spot saturates the sensor
+      sigma *= 0.6;
+    }
     const double rho =
         p_.speckle_correlation_px > 0 ? std::exp(-1 / p_.speckle_correlation_px) : 0.0;
     add_stripe(frame + c, height_, width_,

@@ -30,6 +30,8 @@ struct CameraRenderParams {
   int tail_direction = 1;             // -1: the scattered light leaves toward the camera
   double speckle_correlation_px = 0;  // along a column (AR(1)); 0: independent pixels
   double defocus_px_per_mm = 0;       // core sigma grows with height above the belt
+  double glint_probability = 0;       // a meat column glints: 4-10x brighter, narrower
+  double belt_texture = 0;            // the belt's reflectance varies by this much
 };
 
 class CameraRenderer {

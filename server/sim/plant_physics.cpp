@@ -100,6 +100,7 @@ PlantPhysics parse_plant_physics(const std::string& yaml, const std::string& ori
       .num("pixel", p.speckle.pixel, 0, 1)
       .num("column", p.speckle.column, 0, 1)
       .num("correlation_px", p.speckle.correlation_px, 0, 20)
+      .num("glint_probability", p.speckle.glint_probability, 0, 0.2)
       .done();
   Section(root, "shapes", origin)
       .num("steep_fraction", p.shapes.steep_fraction, 0, 1)
@@ -124,6 +125,8 @@ PlantPhysics parse_plant_physics(const std::string& yaml, const std::string& ori
   Section(root, "belt", origin)
       .num("dropped_line_rate", p.belt.dropped_line_rate, 0, 0.1)
       .num("debris_probability", p.belt.debris_probability, 0, 1)
+      .num("texture", p.belt.texture, 0, 0.9)
+      .num("encoder_jitter_mm", p.belt.encoder_jitter_mm, 0, 1)
       .done();
   return p;
 }
@@ -151,7 +154,8 @@ std::string to_yaml(const PlantPhysics& p) {
     << ", tail_px: " << p.scatter.tail_px << ", direction: " << p.scatter.direction
     << ", spread: " << p.scatter.spread << "}\n"
     << "speckle: {pixel: " << p.speckle.pixel << ", column: " << p.speckle.column
-    << ", correlation_px: " << p.speckle.correlation_px << "}\n"
+    << ", correlation_px: " << p.speckle.correlation_px
+    << ", glint_probability: " << p.speckle.glint_probability << "}\n"
     << "shapes: {steep_fraction: " << p.shapes.steep_fraction
     << ", flap_probability: " << p.shapes.flap_probability
     << ", fold_probability: " << p.shapes.fold_probability
@@ -162,7 +166,8 @@ std::string to_yaml(const PlantPhysics& p) {
     << ", calcification_max: " << p.bones.calcification_max
     << ", cartilage_probability: " << p.bones.cartilage_probability << "}\n"
     << "belt: {dropped_line_rate: " << p.belt.dropped_line_rate
-    << ", debris_probability: " << p.belt.debris_probability << "}\n";
+    << ", debris_probability: " << p.belt.debris_probability << ", texture: " << p.belt.texture
+    << ", encoder_jitter_mm: " << p.belt.encoder_jitter_mm << "}\n";
   return o.str();
 }
 

@@ -33,6 +33,7 @@ struct ScatterPhysics {
 struct SpeckleNoise {
   double pixel = 0.15, column = 0.10;  // multiplicative std, as CameraRenderParams
   double correlation_px = 0;           // along a column: 0 independent, else AR(1) of that length
+  double glint_probability = 0;        // a meat column glints (a wet spot): far brighter, narrower
 };
 
 struct FilletShapes {
@@ -55,6 +56,8 @@ struct BoneShapes {
 struct BeltPhysics {
   double dropped_line_rate = 0;   // camera lines lost on the way (a whole line, both cameras)
   double debris_probability = 0;  // small bits of meat between fillets
+  double texture = 0;             // the belt's reflectance varies by this much (weave, water)
+  double encoder_jitter_mm = 0;   // where a line is really taken against its encoder count
 };
 
 struct PlantPhysics {

@@ -42,6 +42,8 @@ CameraRenderParams camera_params(const SimulationParams& p) {
   c.speckle = ph.speckle.pixel;
   c.column_speckle = ph.speckle.column;
   c.speckle_correlation_px = ph.speckle.correlation_px;
+  c.glint_probability = ph.speckle.glint_probability;
+  c.belt_texture = ph.belt.texture;
   return c;
 }
 
@@ -53,7 +55,8 @@ LaneSimulator::LaneSimulator(const LaneConfig& lane, const SimulationParams& p)
       cam1_(lane, 1, camera_params(p)),
       xray_(lane, p.xray, p.physics.xray),
       encoder_start_(p.encoder_start),
-      dropped_rate_(p.physics.belt.dropped_line_rate) {
+      dropped_rate_(p.physics.belt.dropped_line_rate),
+      jitter_mm_(p.physics.belt.encoder_jitter_mm) {
   const double xray_y = std::max(xray_.plane_y(-110, 0), xray_.plane_y(110, 60));
   lines_ = int64_t(std::ceil((scene_.end_b() + std::max(0.0, xray_y) + 20) / lane.encoder_step_mm));
 }
@@ -71,15 +74,23 @@ void LaneSimulator::render(int64_t n, uint8_t* cam0, uint8_t* cam1, uint16_t* xr
   Rng r0(seed_, uint64_t(lane_.id) * 3 + 0, uint64_t(n), 0xc0);
   Rng r1(seed_, uint64_t(lane_.id) * 3 + 1, uint64_t(n), 0xc1);
   Rng rx(seed_, uint64_t(lane_.id) * 3 + 2, uint64_t(n), 0x7a);
-  cam0_.render(scene_, s, r0, cam0, truth_row0 ? truth_row0 : scratch_rows.data());
-  cam1_.render(scene_, s, r1, cam1, truth_row1 ? truth_row1 : scratch_rows.data());
+  // Encoder jitter: the cameras (triggered together) and the X-ray each take their line a
+  // little off the count's position.
+  double s_cam = s, s_xray = s;
+  if (jitter_mm_ > 0) {
+    Rng rj(seed_, uint64_t(lane_.id), uint64_t(n), 0x717);
+    s_cam += jitter_mm_ * rj.normal();
+    s_xray += jitter_mm_ * rj.normal();
+  }
+  cam0_.render(scene_, s_cam, r0, cam0, truth_row0 ? truth_row0 : scratch_rows.data());
+  cam1_.render(scene_, s_cam, r1, cam1, truth_row1 ? truth_row1 : scratch_rows.data());
   if (dropped(n)) {
     // Both cameras' frames of this line lost on the way (black); the X-ray line arrives.
     const size_t frame = size_t(lane_.frame_width) * lane_.frame_height;
     std::fill(cam0, cam0 + frame, uint8_t(0));
     std::fill(cam1, cam1 + frame, uint8_t(0));
   }
-  xray_.render(scene_, s, rx, xray, truth_thickness ? truth_thickness : scratch_t.data());
+  xray_.render(scene_, s_xray, rx, xray, truth_thickness ? truth_thickness : scratch_t.data());
 }
 
 std::string LaneSimulator::fragments_csv() const {

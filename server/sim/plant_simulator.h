@@ -54,7 +54,7 @@ class LaneSimulator {
   XrayRenderer xray_;
   int64_t lines_ = 0;
   int64_t encoder_start_;
-  double dropped_rate_ = 0;
+  double dropped_rate_ = 0, jitter_mm_ = 0;
 };
 
 using Progress = std::function<void(int64_t done, int64_t total)>;
