@@ -271,11 +271,6 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
     }
   }
   for (const WallSide& w : walls) se += std::pow(predicted_boundary(f.camera, w, p[6]) - w.u, 2);
-  if (getenv("RX_DBG"))
-    for (const WallSide& w : walls)
-      fprintf(stderr, "%s wall x %.0f z %.0f other %.0f in %d: obs %.2f pred %.2f (e %.2f)\n",
-              camera.c_str(), w.x, w.z, w.z_other, w.inward, w.u,
-              predicted_boundary(f.camera, w, p[6]), p[6]);
   f.edge_erosion_px = p[6];
   f.height_rms_mm = std::sqrt(ss / std::max(1, n));
   f.height_rms_px = std::sqrt(ss_px / std::max(1, n));

@@ -170,20 +170,28 @@ void LaneAssembler::close_segment() {
   const int rows = int(segment_.size()), D = pixels_;
   const InspectionParams& ip = lane_.inspection;
   std::vector<uint8_t> on(size_t(rows) * D, 0);
-  auto measured = [&](int r) { return !segment_[r].thickness.empty(); };
+  // A line is seen when it has a thickness line with some thickness in it: a missing line
+  // has none, and a line whose camera frames were lost (black) has no valid sample.
+  std::vector<uint8_t> seen(rows, 0);
+  for (int r = 0; r < rows; ++r)
+    for (float t : segment_[r].thickness)
+      if (std::isfinite(t)) {
+        seen[r] = 1;
+        break;
+      }
   for (int r = 0; r < rows; ++r) {
-    if (!measured(r)) continue;
+    if (!seen[r]) continue;
     const Row& row = segment_[r];
     for (int i = 0; i < D; ++i) on[size_t(r) * D + i] = row.thickness[i] > ip.floor_mm;
   }
   // A line with no thickness must not cut a fillet in two: it takes the union of its
-  // neighbours, so the fillet stays one region and carries the missing line into its
-  // fail-safe check.
+  // neighbours, so the fillet stays one region; a missing line goes into its fail-safe
+  // check, a blind one has its thickness closed from its neighbours (close_wall_gaps).
   for (int r = 0; r < rows; ++r) {
-    if (measured(r)) continue;
+    if (seen[r]) continue;
     int up = r - 1, dn = r + 1;
-    while (up >= 0 && !measured(up)) --up;
-    while (dn < rows && !measured(dn)) ++dn;
+    while (up >= 0 && !seen[up]) --up;
+    while (dn < rows && !seen[dn]) ++dn;
     for (int i = 0; i < D; ++i)
       on[size_t(r) * D + i] =
           (up >= 0 && on[size_t(up) * D + i]) || (dn < rows && on[size_t(dn) * D + i]);

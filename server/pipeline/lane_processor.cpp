@@ -35,19 +35,28 @@ LaneProcessor::LaneProcessor(const LaneConfig& lane, LaneProcessorOptions opt, F
       line_(size_t(lane.xray.pixels)) {}
 
 void LaneProcessor::push(const float* thickness, const uint8_t* valid, const uint16_t* xray,
-                         int64_t encoder) {
+                         int64_t encoder, bool blind) {
   const int D = lane_.xray.pixels;
   for (int i = 0; i < D; ++i)
-    line_[i] = valid[i] ? thickness[i] : std::numeric_limits<float>::quiet_NaN();
+    line_[i] = valid[i] && !blind ? thickness[i] : std::numeric_limits<float>::quiet_NaN();
   assembler_.push(encoder, line_.data(), xray);
+}
+
+bool LaneProcessor::blind(const uint8_t* profile_valid, size_t n) {
+  for (size_t i = 0; i < n; ++i)
+    if (profile_valid[i]) return false;
+  return true;
 }
 
 void LaneProcessor::push(const LineResults& r, int first, int count, const uint16_t* xray,
                          const int64_t* encoders) {
   const size_t D = size_t(lane_.xray.pixels);
+  const size_t lines = r.thickness.size() / D;
+  const size_t G = lines ? r.profile_valid.size() / lines : 0;
   for (int k = 0; k < count; ++k) {
     const size_t o = size_t(first + k) * D;
-    push(&r.thickness[o], &r.thickness_valid[o], xray + size_t(k) * D, encoders[k]);
+    const bool b = G > 0 && blind(&r.profile_valid[size_t(first + k) * G], G);
+    push(&r.thickness[o], &r.thickness_valid[o], xray + size_t(k) * D, encoders[k], b);
   }
 }
 

@@ -34,13 +34,17 @@ class LaneProcessor {
   LaneProcessor(const LaneConfig& lane, LaneProcessorOptions opt, FilletSink sink);
 
   // One line: its thickness line (detector pixels, with valid flags) from the line stages,
-  // its X-ray line and its encoder count.
-  void push(const float* thickness, const uint8_t* valid, const uint16_t* xray, int64_t encoder);
+  // its X-ray line and its encoder count. blind: neither camera saw the stripe anywhere on
+  // the line (lost or black frames): its thickness is unknown, not a bare belt.
+  void push(const float* thickness, const uint8_t* valid, const uint16_t* xray, int64_t encoder,
+            bool blind = false);
   // Lines first .. first + count - 1 of `results`, all of this lane, with their X-ray lines
   // ([line][pixel]) and encoder counts.
   void push(const LineResults& results, int first, int count, const uint16_t* xray,
             const int64_t* encoders);
   void push_missing(int64_t encoder);
+  // Whether a line's fused profile (grid samples) holds no valid sample at all.
+  static bool blind(const uint8_t* profile_valid, size_t grid_samples);
   // Ends the open fillets as not inspected (an encoder reset, a lane no longer fed, a
   // processing error); the next line may have any count.
   void restart(const std::string& reason);

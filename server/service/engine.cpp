@@ -338,7 +338,10 @@ void Engine::route(std::vector<Queued>& lines, const LineResults& r) {
       const size_t D = size_t(l.pixels);
       std::memcpy(l.xray.data(), q.line.xray.data(), D * 2);
       l.arrivals.emplace_back(q.line.encoder, q.arrived_ns);
-      l.proc->push(&r.thickness[k * D], &r.thickness_valid[k * D], l.xray.data(), q.line.encoder);
+      const size_t G = r.profile_valid.size() / std::max<size_t>(1, lines.size());
+      const bool blind = G > 0 && LaneProcessor::blind(&r.profile_valid[k * G], G);
+      l.proc->push(&r.thickness[k * D], &r.thickness_valid[k * D], l.xray.data(), q.line.encoder,
+                   blind);
       ++done;
     } catch (const std::exception& e) {
       // The lane's state is suspect: its open fillets end not inspected; the line is counted.
