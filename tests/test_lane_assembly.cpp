@@ -2,6 +2,7 @@
 // and the marks that make the inspection fail safe.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/lane_config.h"
@@ -17,7 +18,9 @@ struct Feed {
   std::vector<FilletImage> out;
   LaneAssembler a{lane, [this](FilletImage&& f) { out.push_back(std::move(f)); }};
   // Thickness of a rectangular fillet occupying camera lines [l0, l1) and pixels [c0, c1).
-  void run(int lines, int l0, int l1, int c0, int c1, std::vector<int> missing = {}) {
+  // blind: camera lines whose thickness is unknown everywhere (lost frames).
+  void run(int lines, int l0, int l1, int c0, int c1, std::vector<int> missing = {},
+           std::vector<int> blind = {}) {
     std::vector<float> t(D);
     std::vector<uint16_t> x(D);
     for (int n = 0; n < lines; ++n) {
@@ -26,7 +29,9 @@ struct Feed {
         a.push_missing(e);
         continue;
       }
-      for (int i = 0; i < D; ++i) t[i] = (n >= l0 && n < l1 && i >= c0 && i < c1) ? 20.f : 0.f;
+      const bool lost = std::find(blind.begin(), blind.end(), n) != blind.end();
+      for (int i = 0; i < D; ++i)
+        t[i] = lost ? NAN : (n >= l0 && n < l1 && i >= c0 && i < c1) ? 20.f : 0.f;
       // The X-ray line n sees what the camera saw at n - delay: encode that in the counts.
       const int s = n - lane.xray.delay_lines;
       for (int i = 0; i < D; ++i) x[i] = (s >= l0 && s < l1 && i >= c0 && i < c1) ? 1000 : 3600;
@@ -51,6 +56,24 @@ TEST(LaneAssembly, RegistersThicknessToXrayByDelayAndCutsFillets) {
   for (size_t i = 0; i < img.size(); ++i)
     if (img.mask[i]) EXPECT_EQ(img.xray[i], 1000) << i;
   EXPECT_DOUBLE_EQ(img.y0_mm, (img.first_line - delay) * f.lane.encoder_step_mm);
+}
+
+// A line the cameras lost inside a fillet neither cuts it in two nor fails it: its thickness
+// is closed from the lines on either side, and it is not a missing line.
+TEST(LaneAssembly, ABlindLineIsClosedFromItsNeighbours) {
+  Feed f;
+  f.run(900, 100, 400, 100, 300, {}, {250});
+  ASSERT_EQ(f.out.size(), 1u);
+  const FilletImage& img = f.out[0];
+  EXPECT_EQ(img.missing_lines, 0);
+  EXPECT_EQ(img.invalid_thickness_px, 0);
+  EXPECT_GE(img.wall_gap_px, 200);
+  const int row = 250 + f.lane.xray.delay_lines - int(img.first_line);
+  for (int c = 0; c < img.cols; ++c) {
+    const size_t i = size_t(row) * img.cols + c;
+    EXPECT_FALSE(std::isnan(img.thickness[i])) << c;
+    if (img.xray[i] == 1000) EXPECT_EQ(img.thickness[i], 20.f) << c;
+  }
 }
 
 TEST(LaneAssembly, SeparateFilletsAndDebris) {
