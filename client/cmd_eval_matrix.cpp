@@ -34,7 +34,7 @@ namespace rangex::cli {
 namespace {
 
 // Runs `rangexctl ARGS...` in this process with its output going to `log`.
-void step(const std::string& log, std::vector<std::string> args) {
+void run_step(const std::string& log, std::vector<std::string> args) {
   std::string line = "rangexctl";
   for (const auto& s : args) line += " " + s;
   std::vector<char*> argv;
@@ -95,8 +95,8 @@ struct Row {
   double minutes = 0;
 };
 
-Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& plant, int fillets,
-                long seed, bool keep) {
+Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& plant,
+                const std::string& config, int fillets, long seed, bool keep) {
   Row r;
   const sim::PlantPhysics ph = sim::load_plant_physics(file.string());
   r.name = ph.name, r.held_out = ph.held_out;
@@ -105,16 +105,21 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
   const std::string log = (dir / "log.txt").string(), V = file.string();
   const std::string cal = (dir / "lane0.yaml").string();
   auto at = [&](const char* name) { return (dir / name).string(); };
+  // Every step reads the same plant configuration as this command.
+  auto step = [&](std::vector<std::string> args) {
+    if (!config.empty()) args.insert(args.end(), {"--config", config});
+    run_step(log, std::move(args));
+  };
   // The plant's own calibration: fan beam and blur from its pins, registration from its
   // blocks, K1/K2 from its own recording.
-  step(log, {"calib", "simulate", "pins", at("pins"), "--physics", V});
-  step(log, {"calib", "simulate", "blocks", at("blocks"), "--physics", V});
-  step(log, {"calib", "xray", at("pins"), "--out", cal});
-  step(log, {"calib", "registration", at("blocks"), "--calibration", cal});
-  step(log, {"simulate", "--out", at("rec"), "--lanes", "1", "--fillets", std::to_string(fillets),
-             "--seed", std::to_string(seed), "--physics", V});
-  step(log, {"calib", "scatter", at("rec"), "--calibration", cal});
-  step(log, {"process", at("rec"), "--out", at("out"), "--images", "none", "--calibration", cal});
+  step({"calib", "simulate", "pins", at("pins"), "--physics", V});
+  step({"calib", "simulate", "blocks", at("blocks"), "--physics", V});
+  step({"calib", "xray", at("pins"), "--out", cal});
+  step({"calib", "registration", at("blocks"), "--calibration", cal});
+  step({"simulate", "--out", at("rec"), "--lanes", "1", "--fillets", std::to_string(fillets),
+        "--seed", std::to_string(seed), "--physics", V});
+  step({"calib", "scatter", at("rec"), "--calibration", cal});
+  step({"process", at("rec"), "--out", at("out"), "--images", "none", "--calibration", cal});
   // Evaluation against the recording's truth.
   const RecordingReader rec(at("rec"));
   const RecordingInfo& info = rec.info();
@@ -248,8 +253,9 @@ int cmd_eval_matrix(int argc, char** argv) {
                 files.size(), files[k].stem().c_str(), fillets);
     std::fflush(stdout);
     const auto t0 = std::chrono::steady_clock::now();
-    rows.push_back(
-        run_variant(files[k], out / files[k].stem(), plant, fillets, seed, a.flag("keep-scans")));
+    rows.push_back(run_variant(files[k], out / files[k].stem(), plant,
+                               config_path(a.get("config", "")), fillets, seed,
+                               a.flag("keep-scans")));
     rows.back().minutes =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / 60;
     // Written after every variant, so that a long run's results are there as they come.

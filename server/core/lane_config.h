@@ -41,6 +41,8 @@ struct InspectionParams {
   int max_iter = 50;
   double tol = 1e-8;
   double smooth_sigma_px = 1.0;
+  // Elongated kernels for needles (0: off): along and across, pixels.
+  double line_sigma_along_px = 3.0, line_sigma_across_px = 0.7;
   double z_threshold = 5.0;  // smoothed z below -threshold is bone
   double min_fragment_area_mm2 = 0.3;
   double air_z_threshold = 5.0;  // smoothed z above +threshold is an air pocket

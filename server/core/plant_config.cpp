@@ -269,7 +269,8 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->only_keys({"floor_mm", "min_fillet_area_mm2", "gap_lines", "max_segment_lines",
                   "max_invalid_fraction", "tukey_c", "max_iter", "tol", "smooth_sigma_px",
                   "z_threshold", "min_fragment_area_mm2", "air_z_threshold", "min_air_area_mm2",
-                  "baseline_sigma_mm", "encoder_horizon_lines", "max_wall_gap_px"});
+                  "baseline_sigma_mm", "encoder_horizon_lines", "max_wall_gap_px",
+                  "line_sigma_along_px", "line_sigma_across_px"});
     n->positive("floor_mm", q.floor_mm);
     n->positive("min_fillet_area_mm2", q.min_fillet_area_mm2);
     n->positive("gap_lines", q.gap_lines);
@@ -287,6 +288,10 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->positive("min_air_area_mm2", q.min_air_area_mm2);
     n->positive("baseline_sigma_mm", q.baseline_sigma_mm);
     n->positive("encoder_horizon_lines", q.encoder_horizon_lines);
+    n->get("line_sigma_along_px", q.line_sigma_along_px);
+    if (!(q.line_sigma_along_px >= 0 && q.line_sigma_along_px <= 20))
+      n->at("line_sigma_along_px").bad("must be within 0..20 (0: no needle kernels)");
+    n->positive("line_sigma_across_px", q.line_sigma_across_px);
     n->get("max_wall_gap_px", q.max_wall_gap_px);
     if (q.max_wall_gap_px < 0 || q.max_wall_gap_px > 20)
       n->at("max_wall_gap_px").bad("must be within 0..20 (0: never close a wall's rim)");

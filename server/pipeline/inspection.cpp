@@ -161,16 +161,32 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
   // Back to unit spread: measured (MAD) on the smoothed image itself, because what is left
   // after compensation is not white (meat texture, thickness error), and smoothing shrinks
   // white noise far more than that.
-  std::vector<double> spread;
-  for (size_t i = 0; i < n; ++i)
-    if (use[i] && std::isfinite(zs[i])) spread.push_back(zs[i]);
-  const double med = median_inplace(spread.data(), spread.size());
-  for (double& v : spread) v = std::abs(v - med);
-  const double sd = median_inplace(spread.data(), spread.size()) / 0.6744897501960817;
-  const double floor_sd = gaussian_noise_gain(p.smooth_sigma_px);  // never below white noise
-  res.z_spread = std::max(sd, floor_sd);
-  for (float& v : zs) v = float((v - med) / res.z_spread);
-  res.fragments = blobs(zs, resid, use, img, -1, p.z_threshold, p.min_fragment_area_mm2);
+  auto unit_spread = [&](std::vector<float>& img_z, double white_gain) {
+    std::vector<double> spread;
+    for (size_t i = 0; i < n; ++i)
+      if (use[i] && std::isfinite(img_z[i])) spread.push_back(img_z[i]);
+    const double med = median_inplace(spread.data(), spread.size());
+    for (double& v : spread) v = std::abs(v - med);
+    const double sd = median_inplace(spread.data(), spread.size()) / 0.6744897501960817;
+    const double scale = std::max(sd, white_gain);  // never below white noise
+    for (float& v : img_z) v = float((v - med) / scale);
+    return scale;
+  };
+  res.z_spread = unit_spread(zs, gaussian_noise_gain(p.smooth_sigma_px));
+  // Needles and slivers: a pixel or less wide, they fade under the round kernel; elongated
+  // kernels along four directions, each brought to unit spread the same way, find them. A
+  // pixel is as bone-like as its most bone-like statistic.
+  std::vector<float> zb = zs, zl;
+  if (p.line_sigma_along_px > 0)
+    for (int dir = 0; dir < 4; ++dir) {
+      const double gain =
+          masked_line_gaussian(z.data(), use.data(), img.rows, img.cols, p.line_sigma_along_px,
+                               p.line_sigma_across_px, dir, zl);
+      unit_spread(zl, gain);
+      for (size_t i = 0; i < n; ++i)
+        if (std::isfinite(zl[i]) && zl[i] < zb[i]) zb[i] = zl[i];
+    }
+  res.fragments = blobs(zb, resid, use, img, -1, p.z_threshold, p.min_fragment_area_mm2);
   res.air_pockets = blobs(zs, resid, use, img, +1, p.air_z_threshold, p.min_air_area_mm2);
   if (res.fragments.empty()) {
     res.decision = Decision::kPass;

@@ -14,4 +14,12 @@ void masked_gaussian(const float* v, const uint8_t* mask, int rows, int cols, do
 // standard deviation of white noise (away from the mask's edge).
 double gaussian_noise_gain(double sigma);
 
+// An elongated Gaussian, for thin features (needles): sigma_along pixels along one of four
+// directions (0: the rows, 1: the columns, 2: the diagonal x = y, 3: x = -y), then
+// sigma_across pixels across it (for the diagonals, along the rows), masked as above.
+// Returns the kernel's white-noise gain (as gaussian_noise_gain).
+double masked_line_gaussian(const float* v, const uint8_t* mask, int rows, int cols,
+                            double sigma_along, double sigma_across, int direction,
+                            std::vector<float>& out);
+
 }  // namespace rangex
