@@ -99,14 +99,22 @@ std::string LaneSimulator::fragments_csv() const {
   static const char* kKind[] = {"bone", "air", "fat", "cartilage"};
   static const char* kShape[] = {"compact", "needle", "chip", "rib", "cluster"};
   for (const Fillet& f : scene_.fillets())
-    for (const Inclusion& in : f.inclusions) {
+    for (size_t k = 0; k < f.inclusions.size(); ++k) {
+      const Inclusion& in = f.inclusions[k];
       if (in.kind == Inclusion::kFat || in.secondary) continue;
+      // A fragment of several parts (rib, cluster) is where its parts' volume is centred.
+      Vec3 c = in.center * (in.semi.x * in.semi.y * in.semi.z);
+      double v = in.semi.x * in.semi.y * in.semi.z;
+      for (size_t j = k + 1; j < f.inclusions.size() && f.inclusions[j].secondary; ++j) {
+        const Inclusion& p = f.inclusions[j];
+        c = c + p.center * (p.semi.x * p.semi.y * p.semi.z);
+        v += p.semi.x * p.semi.y * p.semi.z;
+      }
+      c = c * (1 / v);
       // The X-ray sees b = line * step - plane_y(x, z).
-      const double line =
-          (in.center.y + xray_.plane_y(in.center.x, in.center.z)) / lane_.encoder_step_mm;
-      os << f.id << "," << kKind[in.kind] << "," << in.center.x << "," << in.center.y << ","
-         << in.center.z << "," << line << "," << in.size_mm << "," << in.calcification << ","
-         << kShape[in.shape] << "\n";
+      const double line = (c.y + xray_.plane_y(c.x, c.z)) / lane_.encoder_step_mm;
+      os << f.id << "," << kKind[in.kind] << "," << c.x << "," << c.y << "," << c.z << "," << line
+         << "," << in.size_mm << "," << in.calcification << "," << kShape[in.shape] << "\n";
     }
   return os.str();
 }
