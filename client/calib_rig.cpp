@@ -8,27 +8,16 @@
 
 #include "core/error.h"
 #include "sim/rng.h"
+#include "text_file.h"
 
 namespace fs = std::filesystem;
 
 namespace rangex::cli {
 
-namespace {
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) fail(path, ": cannot open");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-}  // namespace
-
 LaneConfig load_lane_calibration(const PlantConfig& plant, int lane, const std::string& file) {
   const LaneConfig& base = plant.lane(lane);
   if (file.empty() || !fs::exists(file)) return base;
-  return apply_lane_calibration(base, read_file(file), file);
+  return apply_lane_calibration(base, read_text_file(file), file);
 }
 
 void save_lane_calibration(const LaneConfig& lane, const std::string& file,
@@ -60,7 +49,7 @@ std::string lane_reports_json(const std::string& file) {
   std::string body;
   for (const auto& p : files) {
     // Each file is {"reports": [\n<one report>\n]}: take the report between the brackets.
-    const std::string t = read_file(p.string());
+    const std::string t = read_text_file(p.string());
     const size_t a = t.find('['), b = t.rfind(']');
     if (a == std::string::npos || b == std::string::npos || b <= a) continue;
     body += (body.empty() ? "" : ",\n") + t.substr(a + 1, b - a - 1);

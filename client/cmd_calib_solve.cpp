@@ -27,6 +27,7 @@
 #include "core/recording.h"
 #include "pipeline/stripe_extract.h"
 #include "report_plots.h"
+#include "text_file.h"
 
 namespace fs = std::filesystem;
 
@@ -34,12 +35,9 @@ namespace rangex::cli {
 
 namespace {
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  if (!in) fail(p.string(), ": cannot open (the object's drawing belongs beside the scan)");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+// An object's drawing beside its scan.
+std::string read_drawing(const fs::path& p) {
+  return read_text_file(p.string(), "the object's drawing belongs beside the scan");
 }
 
 void print_report(const SolveReport& r) {
@@ -83,7 +81,7 @@ std::vector<uint16_t> xray_lines(const RecordingReader& rec, int lane) {
 RegistrationFit measure_registration(const RecordingReader& rec, int lane, const LaneConfig& lc,
                                      const RegistrationOptions& opt) {
   const BlockSet set =
-      parse_block_set(read_text(fs::path(rec.dir()) / "blocks.yaml"), "blocks.yaml");
+      parse_block_set(read_drawing(fs::path(rec.dir()) / "blocks.yaml"), "blocks.yaml");
   const auto r0 = stripe_rows(rec, lane, 0, lc.stripe), r1 = stripe_rows(rec, lane, 1, lc.stripe);
   const auto x = xray_lines(rec, lane);
   RegistrationScan scan;
@@ -114,7 +112,7 @@ int solve_camera(int argc, char** argv) {
                {"config", "lane", "cam", "calibration", "out", "fix"});
   a.expect_positionals(1, "calib camera DIR [--cam N] [--calibration FILE] [--out FILE]");
   const fs::path dir = a.positional(0, "image folder");
-  const YAML::Node b = YAML::Load(read_text(dir / "board.yaml"));
+  const YAML::Node b = YAML::Load(read_drawing(dir / "board.yaml"));
   const int cols = b["board"]["cols"].as<int>(), rows = b["board"]["rows"].as<int>();
   const double square = b["board"]["square_mm"].as<double>();
   const int cam = int(a.integer("cam", b["camera"] ? b["camera"].as<int>() : 0));
@@ -214,7 +212,7 @@ int solve_staircase(int argc, char** argv, bool validate) {
   const fs::path dir = rec.dir();
   int status = 0;
   if (fs::exists(dir / "staircase.yaml")) {
-    const Staircase st = parse_staircase(read_text(dir / "staircase.yaml"), "staircase.yaml");
+    const Staircase st = parse_staircase(read_drawing(dir / "staircase.yaml"), "staircase.yaml");
     std::printf("# staircase, lane %d: %s\n", lane,
                 validate ? "measured with the calibration" : "solving both cameras");
     std::printf("# %-8s %10s %10s %10s   %10s %10s %10s\n", "depth", "cam0 mean", "std", "error",
@@ -308,8 +306,8 @@ int solve_xray(int argc, char** argv) {
   } else {
     a.expect_positionals(1, "calib xray SCAN | --pins CSV [--hold-pitch] [--row-offsets]");
     const RecordingReader rec(a.positional(0, "scan folder"));
-    const PinPhantom ph =
-        parse_pin_phantom(read_text(fs::path(rec.dir()) / "pin_phantom.yaml"), "pin_phantom.yaml");
+    const PinPhantom ph = parse_pin_phantom(read_drawing(fs::path(rec.dir()) / "pin_phantom.yaml"),
+                                            "pin_phantom.yaml");
     const auto x = xray_lines(rec, rec.info().lanes.at(0));
     shadows =
         measure_pin_shadows(x.data(), rec.info().lines, rec.info().xray_pixels, ph, s.lane.xray);

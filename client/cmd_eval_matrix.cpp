@@ -26,6 +26,7 @@
 #include "evaluation.h"
 #include "fillet_records.h"
 #include "sim/plant_physics.h"
+#include "text_file.h"
 
 namespace fs = std::filesystem;
 
@@ -69,14 +70,6 @@ void run_step(const std::string& log, std::vector<std::string> args) {
   // A solver's failed report (2) is part of the result; anything else stops the variant.
   if (rc != 0 && rc != 2)
     fail(line, " failed", what.empty() ? "" : ": " + what, " (log: ", log, ")");
-}
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  if (!in) fail(p.string(), " is missing");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 std::vector<float> read_f32(const fs::path& p, size_t n) {
@@ -131,8 +124,8 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
   const auto t = read_f32(ld / "thickness.f32", size_t(info.lines) * info.xray_pixels);
   r.thickness = evaluate_lane(rec, lc, rows, t).thickness;
   const fs::path td = fs::path(rec.lane_dir(lane)) / "truth";
-  const auto frags = parse_truth_fragments(read_text(td / "fragments.csv"), lane);
-  const auto truth = parse_truth_fillets(read_text(td / "fillets.csv"), lane);
+  const auto frags = parse_truth_fragments(read_text_file((td / "fragments.csv").string()), lane);
+  const auto truth = parse_truth_fillets(read_text_file((td / "fillets.csv").string()), lane);
   const std::vector<float> tt = rec.truth_f32(lane, "thickness.f32", size_t(info.xray_pixels));
   EdgeMap edges;
   edges.thickness = tt.data(), edges.lines = info.lines, edges.pixels = info.xray_pixels;
