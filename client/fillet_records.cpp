@@ -37,7 +37,7 @@ void RecordSet::add(const FilletResult& r) {
   for (const auto* list : {&r.fragments, &r.air_pockets})
     for (const Blob& b : *list)
       fragments.push_back({r.lane, r.id, list == &r.fragments ? "bone" : "air", b.x_mm, b.y_mm,
-                           b.area_mm2, b.peak_z, b.attenuation_mm2});
+                           b.area_mm2, b.peak_z, b.attenuation_mm2, b.meat_mm});
 }
 
 void write_records(const std::string& dir, const std::string& prefix, const RecordSet& s) {
@@ -62,11 +62,11 @@ void write_records(const std::string& dir, const std::string& prefix, const Reco
   if (!f) fail(fp.string(), ": write failed");
   const fs::path gp = fs::path(dir) / (prefix + "fragments.csv");
   std::ofstream g(gp);
-  g << "lane,fillet,kind,x_mm,y_mm,area_mm2,peak_z,attenuation_mm2\n";
+  g << "lane,fillet,kind,x_mm,y_mm,area_mm2,peak_z,attenuation_mm2,meat_mm\n";
   for (const FragmentRecord& b : s.fragments) {
-    std::snprintf(buf, sizeof buf, "%d,%lld,%s,%.3f,%.3f,%.3f,%.3f,%.5f\n", b.lane,
+    std::snprintf(buf, sizeof buf, "%d,%lld,%s,%.3f,%.3f,%.3f,%.3f,%.5f,%.3f\n", b.lane,
                   (long long)b.fillet, b.kind.c_str(), b.x_mm, b.y_mm, b.area_mm2, b.peak_z,
-                  b.attenuation_mm2);
+                  b.attenuation_mm2, b.meat_mm);
     g << buf;
   }
   if (!g) fail(gp.string(), ": write failed");
@@ -134,9 +134,10 @@ RecordSet read_records(const std::string& dir, const std::string& prefix) {
     r.reason = c[19];
     s.fillets.push_back(r);
   });
-  read_table(fs::path(dir) / (prefix + "fragments.csv"), 8, [&](const std::vector<std::string>& c) {
+  read_table(fs::path(dir) / (prefix + "fragments.csv"), 9, [&](const std::vector<std::string>& c) {
     s.fragments.push_back({std::stoi(c[0]), std::stoll(c[1]), c[2], std::stod(c[3]),
-                           std::stod(c[4]), std::stod(c[5]), std::stod(c[6]), std::stod(c[7])});
+                           std::stod(c[4]), std::stod(c[5]), std::stod(c[6]), std::stod(c[7]),
+                           std::stod(c[8])});
   });
   return s;
 }
@@ -163,7 +164,7 @@ std::string fillets_json(const RecordSet& s) {
       if (b.lane != r.lane || b.fillet != r.fillet || b.kind != "bone") continue;
       os << (first ? "" : ", ") << "{\"x_mm\": " << b.x_mm << ", \"y_mm\": " << b.y_mm
          << ", \"area_mm2\": " << b.area_mm2 << ", \"peak_z\": " << b.peak_z
-         << ", \"attenuation_mm2\": " << b.attenuation_mm2 << "}";
+         << ", \"attenuation_mm2\": " << b.attenuation_mm2 << ", \"meat_mm\": " << b.meat_mm << "}";
       first = false;
     }
     os << "], \"air_pockets\": " << r.air_pockets << "}";

@@ -3,7 +3,8 @@
 
 Writes tests/data/rlm/<name>.csv (columns T,lnI) and tests/data/rlm/reference.csv with the
 parameters statsmodels' RLM(lnI ~ 1 + T, M=TukeyBiweight(c)).fit() returns for each data
-set and tuning constant. Run from the repository root:  python3 scripts/make_rlm_reference.py
+set and tuning constant, and tests/data/rlm/reference_quadratic.csv with those of
+RLM(lnI ~ 1 + T + T^2) for the data sets a parabola is for. Run from the repository root:  python3 scripts/make_rlm_reference.py
 """
 import csv
 import os
@@ -46,6 +47,44 @@ def small(rng):
     return t, y
 
 
+def hardened(rng):
+    # A polychromatic beam: the effective attenuation falls with the path (beam hardening),
+    # with bone fragments below the curve and air pockets above it.
+    t = rng.uniform(1, 40, 1200)
+    att = 0.03 * t
+    y = 8.2 - att / (1 + 0.3 * att) + rng.normal(0, 0.01, t.size)
+    bad = rng.choice(t.size, 150, replace=False)
+    y[bad[:110]] -= rng.uniform(0.05, 0.3, 110)
+    y[bad[110:]] += rng.uniform(0.05, 0.15, 40)
+    return t, y
+
+
+def write_points(name, t, y):
+    with open(os.path.join(OUT, name + ".csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["T", "lnI"])
+        for a, b in zip(t, y):
+            w.writerow([repr(float(a)), repr(float(b))])
+
+
+def quadratic_rows():
+    rows = []
+    for seed, make in [(1004, hardened), (1001, outliers20), (1002, funnel)]:
+        rng = np.random.RandomState(seed)
+        t, y = make(rng)
+        if make is hardened:
+            write_points(make.__name__, t, y)
+        design = np.column_stack([np.ones_like(t), t, t * t])
+        for c in (5.0, 4.685):
+            res = sm.RLM(y, design, M=sm.robust.norms.TukeyBiweight(c=c)).fit()
+            rows.append([make.__name__, repr(c)] + [repr(float(v)) for v in res.params] +
+                        [repr(float(res.scale)), res.fit_history["iteration"]])
+    with open(os.path.join(OUT, "reference_quadratic.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["dataset", "c", "beta0", "beta1", "beta2", "scale", "iterations"])
+        w.writerows(rows)
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     rows = []
@@ -66,6 +105,7 @@ def main():
         w = csv.writer(f)
         w.writerow(["dataset", "c", "beta0", "beta1", "scale", "iterations"])
         w.writerows(rows)
+    quadratic_rows()
     print("statsmodels", statsmodels.__version__, "->", OUT)
 
 

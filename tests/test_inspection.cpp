@@ -28,16 +28,44 @@ TEST(Inspection, PseudoXrayRecoversKnownBeta) {
   EXPECT_TRUE(r.fit.converged);
   EXPECT_NEAR(r.fit.beta0, b0, 2e-3);
   EXPECT_NEAR(r.fit.beta1, b1, 1e-4);
-  // P = exp(b0 + b1 T) pixel by pixel.
+  // A straight beam: the parabola's bend is nothing (1e-5 per mm^2 bends 40 mm by 0.016).
+  EXPECT_LT(std::abs(r.fit.beta2), 1e-5);
+  // P = exp(b0 + b1 T + b2 T^2) pixel by pixel.
   for (size_t i = 0; i < f.size(); i += 97)
-    if (f.mask[i])
-      EXPECT_NEAR(r.pseudo[i], std::exp(r.fit.beta0 + r.fit.beta1 * f.thickness[i]),
+    if (f.mask[i]) {
+      const double t = f.thickness[i];
+      EXPECT_NEAR(r.pseudo[i], std::exp(r.fit.beta0 + t * (r.fit.beta1 + r.fit.beta2 * t)),
                   1e-2 * r.pseudo[i]);
+    }
   // Noise model: photon noise a = 1 / (photons per DN), electronic b = 2^2.
   EXPECT_NEAR(r.noise.a, 0.1, 0.03);
   EXPECT_EQ(r.decision, Decision::kPass) << r.reason;
   EXPECT_TRUE(r.fragments.empty());
   EXPECT_NEAR(r.resid_mean_dn, 0, 2);
+}
+
+// A polychromatic beam bends ln I (seed's line does not hold): the parabola follows the bend
+// and finds the bones, where the line leaves a thickness-shaped residual that hides them.
+TEST(Inspection, HardenedBeamIsFollowedByTheParabola) {
+  const std::vector<Bone> bones = {{-20, 130, 1.5, 0.06}, {5, 160, 2.0, 0.05}, {0, 190, 1.5, 0.06}};
+  const FilletImage f = synthetic_fillet(std::log(3600.0), -0.03, bones, 4, 300, 200, 0.3);
+  InspectionParams line = params(), parabola = params();
+  line.attenuation_degree = 1;
+  parabola.attenuation_degree = 2;
+  const FilletResult a = inspect_fillet(f, line, false), b = inspect_fillet(f, parabola, false);
+  ASSERT_TRUE(a.fitted && b.fitted) << a.reason << b.reason;
+  EXPECT_GT(b.fit.beta2, 0);  // the bend is upward: thick meat attenuates less per mm
+  EXPECT_LT(b.fit.scale, 0.8 * a.fit.scale);
+  ASSERT_EQ(b.decision, Decision::kReject) << b.reason;
+  ASSERT_EQ(b.fragments.size(), bones.size());
+  for (const Bone& bone : bones) {
+    double best = 1e9;
+    for (const Blob& d : b.fragments)
+      best = std::min(best, std::hypot(d.x_mm - bone.x_mm, d.y_mm - bone.y_mm));
+    EXPECT_LE(best, 1.0) << "bone at " << bone.x_mm << ", " << bone.y_mm;
+  }
+  std::printf("hardened beam: line scale %.4f, %zu fragments; parabola scale %.4f, %zu fragments\n",
+              a.fit.scale, a.fragments.size(), b.fit.scale, b.fragments.size());
 }
 
 TEST(Inspection, PlantedFragmentsFoundWithinOneMillimetre) {

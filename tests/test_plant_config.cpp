@@ -87,6 +87,9 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
   EXPECT_NE(error_of("lanes: [{id: 0, inspection: {encoder_horizon_lines: -1}}]\n")
                 .find("inspection.encoder_horizon_lines: must be > 0"),
             std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, inspection: {attenuation_degree: 3}}]\n")
+                .find("inspection.attenuation_degree: must be 1 (a line) or 2"),
+            std::string::npos);
   EXPECT_NE(
       error_of("lanes:\n  - id: 0\n    frame: {width: 640, height: 3}\n").find("out of range"),
       std::string::npos);

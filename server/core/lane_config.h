@@ -37,6 +37,9 @@ struct InspectionParams {
   int max_segment_lines = 2500;        // longer runs are closed (and inspected) anyway
   double max_invalid_fraction = 0.02;  // of a fillet's pixels without thickness: fail-safe
   int max_wall_gap_px = 4;  // a steep wall's hidden rim up to this wide is closed, not failed
+  // ln I against the thickness: 1, the dissertation's line; 2, a parabola, for a
+  // polychromatic beam whose hardening bends ln I in thick meat (fitted per fillet).
+  int attenuation_degree = 2;
   double tukey_c = 5.0;
   int max_iter = 50;
   double tol = 1e-8;

@@ -270,7 +270,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
                   "max_invalid_fraction", "tukey_c", "max_iter", "tol", "smooth_sigma_px",
                   "z_threshold", "min_fragment_area_mm2", "air_z_threshold", "min_air_area_mm2",
                   "baseline_sigma_mm", "encoder_horizon_lines", "max_wall_gap_px",
-                  "line_sigma_along_px", "line_sigma_across_px"});
+                  "line_sigma_along_px", "line_sigma_across_px", "attenuation_degree"});
     n->positive("floor_mm", q.floor_mm);
     n->positive("min_fillet_area_mm2", q.min_fillet_area_mm2);
     n->positive("gap_lines", q.gap_lines);
@@ -278,6 +278,9 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->get("max_invalid_fraction", q.max_invalid_fraction);
     if (q.max_invalid_fraction < 0 || q.max_invalid_fraction > 1)
       n->at("max_invalid_fraction").bad("must be in [0, 1]");
+    n->get("attenuation_degree", q.attenuation_degree);
+    if (q.attenuation_degree != 1 && q.attenuation_degree != 2)
+      n->at("attenuation_degree").bad("must be 1 (a line) or 2 (a parabola, for beam hardening)");
     n->positive("tukey_c", q.tukey_c);
     n->positive("max_iter", q.max_iter);
     n->positive("tol", q.tol);

@@ -67,9 +67,29 @@ std::vector<uint8_t> usable(const FilletImage& img) {
   return m;
 }
 
+// The meat's own attenuation per mm at thickness t (the slope of the fit), or 0 without one.
+double meat_mu(const RobustFit* fit, double t) {
+  return fit ? -(fit->beta1 + 2 * fit->beta2 * t) : 0.0;
+}
+
+// -ln(I / P) averaged over the usable 3x3 neighbourhood of pixel (r, c).
+double local_excess(const std::vector<float>& resid, const std::vector<uint8_t>& use,
+                    const FilletImage& img, int r, int c) {
+  double sum = 0;
+  int n = 0;
+  for (int dr = -1; dr <= 1; ++dr)
+    for (int dc = -1; dc <= 1; ++dc) {
+      const int rr = r + dr, cc = c + dc;
+      if (rr < 0 || rr >= img.rows || cc < 0 || cc >= img.cols) continue;
+      const size_t j = size_t(rr) * img.cols + cc;
+      if (use[j]) sum -= resid[j], ++n;
+    }
+  return n ? sum / n : 0.0;
+}
+
 std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& resid,
                         const std::vector<uint8_t>& use, const FilletImage& img, double sign,
-                        double threshold, double min_area_mm2) {
+                        double threshold, double min_area_mm2, const RobustFit* fit) {
   const double px_area = img.pitch_mm * img.step_mm;
   std::vector<uint8_t> on(img.size());
   for (size_t i = 0; i < on.size(); ++i) on[i] = use[i] && sign * zs[i] > threshold;
@@ -97,6 +117,9 @@ std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& 
         wy += w * r;
         if (w > peak) peak = w, peak_i = i;
         b.attenuation_mm2 += -double(resid[i]) * px_area;  // > 0 for bone, < 0 for air
+        const double mu = meat_mu(fit, img.thickness[i]);
+        if (mu > 0)
+          b.meat_mm = std::max(b.meat_mm, -sign * local_excess(resid, use, img, r, k) / mu);
       }
     // The detector sees the fragment magnified by the fan beam; put it back at mid-depth of
     // the meat above it (the path thickness there is close to the vertical thickness).
@@ -115,8 +138,8 @@ std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& 
 
 // Everything after the model of ln I: noise model, z, detection, decision, statistics.
 void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
-                       const std::vector<float>& predicted_ln, const InspectionParams& p, bool keep,
-                       FilletResult& res) {
+                       const std::vector<float>& predicted_ln, const RobustFit* fit,
+                       const InspectionParams& p, bool keep, FilletResult& res) {
   const size_t n = img.size();
   std::vector<float> pred(n, kNaN), resid(n, kNaN);
   double sum = 0, sum2 = 0;
@@ -186,8 +209,8 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
       for (size_t i = 0; i < n; ++i)
         if (std::isfinite(zl[i]) && zl[i] < zb[i]) zb[i] = zl[i];
     }
-  res.fragments = blobs(zb, resid, use, img, -1, p.z_threshold, p.min_fragment_area_mm2);
-  res.air_pockets = blobs(zs, resid, use, img, +1, p.air_z_threshold, p.min_air_area_mm2);
+  res.fragments = blobs(zb, resid, use, img, -1, p.z_threshold, p.min_fragment_area_mm2, fit);
+  res.air_pockets = blobs(zs, resid, use, img, +1, p.air_z_threshold, p.min_air_area_mm2, fit);
   if (res.fragments.empty()) {
     res.decision = Decision::kPass;
   } else {
@@ -219,8 +242,9 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
         t.push_back(img.thickness[i]);
         y.push_back(std::log(double(img.xray[i])));
       }
+    const RobustFitOptions o{p.tukey_c, p.max_iter, p.tol};
     try {
-      res.fit = fit_tukey_line(t.data(), y.data(), t.size(), {p.tukey_c, p.max_iter, p.tol});
+      res.fit = fit_tukey_line(t.data(), y.data(), t.size(), o);
     } catch (const Error& e) {
       res.reason = std::string("robust fit failed: ") + e.what();
       return false;
@@ -230,6 +254,17 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
       res.reason =
           "robust fit did not converge in " + std::to_string(res.fit.iterations) + " iterations";
       return false;
+    }
+    // The bend of a hardened beam, where the fillet's thicknesses show one: a fillet of
+    // nearly one thickness (a plateau and its wall) leaves the parabola undetermined or
+    // unsettled, and then the line stands.
+    if (p.attenuation_degree == 2) {
+      try {
+        const RobustFit bent = fit_tukey_poly(t.data(), y.data(), t.size(), 2, o);
+        if (bent.converged) res.fit = bent;
+      } catch (const Error&) {
+        // The line stands.
+      }
     }
     return true;
   };
@@ -247,8 +282,11 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
   }
   std::vector<float> predicted(img->size(), kNaN);
   for (size_t i = 0; i < use.size(); ++i)
-    if (use[i]) predicted[i] = float(res.fit.beta0 + res.fit.beta1 * img->thickness[i]);
-  detect_and_decide(*img, use, predicted, p, keep, res);
+    if (use[i]) {
+      const double t = img->thickness[i];
+      predicted[i] = float(res.fit.beta0 + t * (res.fit.beta1 + res.fit.beta2 * t));
+    }
+  detect_and_decide(*img, use, predicted, &res.fit, p, keep, res);
   return res;
 }
 
@@ -265,7 +303,7 @@ FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionPa
     if (use[i]) ln[i] = float(std::log(double(img.xray[i])));
   masked_gaussian(ln.data(), use.data(), img.rows, img.cols, p.baseline_sigma_mm / img.pitch_mm,
                   background);
-  detect_and_decide(img, use, background, p, keep, res);
+  detect_and_decide(img, use, background, nullptr, p, keep, res);
   return res;
 }
 

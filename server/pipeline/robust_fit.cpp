@@ -22,12 +22,15 @@ namespace {
 
 constexpr double kMadNormal = 0.6744897501960817;  // Gaussian 3/4 quantile
 
-struct Line {
-  double b0, b1;
+// ln I = b[0] + b[1] T (+ b[2] T^2).
+struct Poly {
+  int degree = 1;
+  double b[3] = {0, 0, 0};
+  double at(double x) const { return degree == 1 ? b[0] + b[1] * x : b[0] + x * (b[1] + b[2] * x); }
 };
 
 // Weighted least squares on the 2x2 normal equations (centred for conditioning).
-bool weighted_line(const double* x, const double* y, const double* w, size_t n, Line& out) {
+bool weighted_line(const double* x, const double* y, const double* w, size_t n, Poly& out) {
   double sw = 0, sx = 0, sy = 0;
   for (size_t i = 0; i < n; ++i) {
     const double wi = w ? w[i] : 1.0;
@@ -45,37 +48,100 @@ bool weighted_line(const double* x, const double* y, const double* w, size_t n, 
   }
   // No spread in x (relative to its size, so that rounding of the mean does not count).
   if (!(sxx > 1e-12 * sw * std::max(1.0, mx * mx))) return false;
-  out.b1 = sxy / sxx;
-  out.b0 = my - out.b1 * mx;
+  out.b[1] = sxy / sxx;
+  out.b[0] = my - out.b[1] * mx;
   return true;
+}
+
+// Weighted least squares of a parabola: the 3x3 normal equations in u = (x - mean) / spread
+// (conditioning), solved by elimination with partial pivoting, then carried back to x.
+bool weighted_parabola(const double* x, const double* y, const double* w, size_t n, Poly& out) {
+  double sw = 0, sx = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const double wi = w ? w[i] : 1.0;
+    sw += wi;
+    sx += wi * x[i];
+  }
+  if (!(sw > 0)) return false;
+  const double m = sx / sw;
+  double sxx = 0;
+  for (size_t i = 0; i < n; ++i) sxx += (w ? w[i] : 1.0) * (x[i] - m) * (x[i] - m);
+  const double s = std::sqrt(sxx / sw);
+  if (!(s > 1e-6 * std::max(1.0, std::abs(m)))) return false;
+  double a[3][4] = {};
+  for (size_t i = 0; i < n; ++i) {
+    const double wi = w ? w[i] : 1.0;
+    if (wi == 0) continue;
+    const double u = (x[i] - m) / s, f[3] = {1, u, u * u};
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) a[r][c] += wi * f[r] * f[c];
+      a[r][3] += wi * f[r] * y[i];
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    int piv = k;
+    for (int r = k + 1; r < 3; ++r)
+      if (std::abs(a[r][k]) > std::abs(a[piv][k])) piv = r;
+    // Fewer than three distinct x with weight: the parabola is not determined.
+    if (!(std::abs(a[piv][k]) > 1e-10 * sw)) return false;
+    std::swap(a[k], a[piv]);
+    for (int r = k + 1; r < 3; ++r) {
+      const double f = a[r][k] / a[k][k];
+      for (int c = k; c < 4; ++c) a[r][c] -= f * a[k][c];
+    }
+  }
+  double c[3];
+  for (int k = 2; k >= 0; --k) {
+    double v = a[k][3];
+    for (int j = k + 1; j < 3; ++j) v -= a[k][j] * c[j];
+    c[k] = v / a[k][k];
+  }
+  out.b[2] = c[2] / (s * s);
+  out.b[1] = c[1] / s - 2 * c[2] * m / (s * s);
+  out.b[0] = c[0] - c[1] * m / s + c[2] * m * m / (s * s);
+  return true;
+}
+
+bool weighted_poly(const double* x, const double* y, const double* w, size_t n, Poly& out) {
+  return out.degree == 1 ? weighted_line(x, y, w, n, out) : weighted_parabola(x, y, w, n, out);
 }
 
 }  // namespace
 
 RobustFit fit_tukey_line(const double* x, const double* y, size_t n, const RobustFitOptions& o) {
-  if (n < 3) fail("robust fit needs at least 3 points, got ", n);
+  return fit_tukey_poly(x, y, n, 1, o);
+}
+
+RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
+                         const RobustFitOptions& o) {
+  if (degree != 1 && degree != 2) fail("robust fit: degree must be 1 or 2 (got ", degree, ")");
+  const size_t params = size_t(degree) + 1;
+  if (n < params + 1) fail("robust fit needs at least ", params + 1, " points, got ", n);
   if (!(o.c > 0)) fail("robust fit: tuning constant c must be > 0 (got ", o.c, ")");
   if (o.max_iter < 1) fail("robust fit: max_iter must be >= 1 (got ", o.max_iter, ")");
   for (size_t i = 0; i < n; ++i)
     if (!std::isfinite(x[i]) || !std::isfinite(y[i]))
       fail("robust fit: point ", i, " is not finite (", x[i], ", ", y[i], ")");
-  Line line;
-  if (!weighted_line(x, y, nullptr, n, line)) fail("robust fit: all points share one thickness");
+  Poly line;
+  line.degree = degree;
+  if (!weighted_poly(x, y, nullptr, n, line))
+    fail(degree == 1 ? "robust fit: all points share one thickness"
+                     : "robust fit: fewer than three distinct thicknesses for a parabola");
 
   std::vector<double> r(n), w(n), tmp(n);
   auto residuals = [&] {
-    for (size_t i = 0; i < n; ++i) r[i] = y[i] - (line.b0 + line.b1 * x[i]);
+    for (size_t i = 0; i < n; ++i) r[i] = y[i] - line.at(x[i]);
   };
   auto mad_scale = [&] {
     for (size_t i = 0; i < n; ++i) tmp[i] = std::abs(r[i]);
     return median_inplace(tmp.data(), n) / kMadNormal;
   };
   // Deviance as statsmodels computes it: sum rho(r / s_w) with s_w the weighted fit's
-  // residual variance sum(w r^2) / (n - 2).
+  // residual variance sum(w r^2) / (n - parameters).
   auto deviance = [&](const double* wt) {
     double ss = 0;
     for (size_t i = 0; i < n; ++i) ss += (wt ? wt[i] : 1.0) * r[i] * r[i];
-    const double sw = ss / double(n - 2);
+    const double sw = ss / double(n - params);
     double d = 0, carry = 0;  // Kahan summation: the change between iterations is tiny
     for (size_t i = 0; i < n; ++i) {
       const double z = r[i] / sw / o.c;
@@ -104,8 +170,9 @@ RobustFit fit_tukey_line(const double* x, const double* y, size_t n, const Robus
       const double z = r[i] / f.scale / o.c;
       w[i] = std::abs(z) <= 1 ? (1 - z * z) * (1 - z * z) : 0.0;
     }
-    if (!weighted_line(x, y, w.data(), n, line))
-      fail("robust fit: every point but those at one thickness was rejected as an outlier (", n,
+    if (!weighted_poly(x, y, w.data(), n, line))
+      fail("robust fit: every point but those at ",
+           degree == 1 ? "one thickness" : "two thicknesses", " was rejected as an outlier (", n,
            " points)");
     residuals();
     f.scale = mad_scale();
@@ -120,8 +187,9 @@ RobustFit fit_tukey_line(const double* x, const double* y, size_t n, const Robus
     }
     if (f.iterations >= o.max_iter) break;
   }
-  f.beta0 = line.b0;
-  f.beta1 = line.b1;
+  f.beta0 = line.b[0];
+  f.beta1 = line.b[1];
+  f.beta2 = degree == 2 ? line.b[2] : 0.0;
   for (size_t i = 0; i < n; ++i) f.inliers += f.scale > 0 ? std::abs(r[i] / f.scale) <= o.c : 1;
   return f;
 }

@@ -24,6 +24,7 @@ struct RobustFitOptions {
 
 struct RobustFit {
   double beta0 = 0, beta1 = 0;
+  double beta2 = 0;    // the parabola's T^2 term (fit_tukey_poly with degree 2), else 0
   double scale = 0;    // final MAD scale of the residuals
   int iterations = 0;  // statsmodels' count: the OLS start is iteration 1
   bool converged = false;
@@ -34,6 +35,12 @@ struct RobustFit {
 // Throws Error for fewer than 3 points, non-finite values, x without spread, or a reweighting
 // that leaves no two distinct x with weight.
 RobustFit fit_tukey_line(const double* x, const double* y, size_t n,
+                         const RobustFitOptions& o = {});
+
+// The same with ln I = b0 + b1 T + b2 T^2 (degree 2): a polychromatic beam hardens in thick
+// meat, so ln I bends away from the line (statsmodels' RLM on the design [1, T, T^2]).
+// Throws as above, and for fewer than three distinct x (degree 2) or a degree not 1 or 2.
+RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
                          const RobustFitOptions& o = {});
 
 // Median as numpy computes it (mean of the two middle values for even n); reorders `v`.

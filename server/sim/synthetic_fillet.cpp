@@ -8,7 +8,7 @@
 namespace rangex::sim {
 
 FilletImage synthetic_fillet(double b0, double b1, const std::vector<PlantedBone>& bones,
-                             uint64_t seed, int rows, int cols) {
+                             uint64_t seed, int rows, int cols, double hardening) {
   FilletImage f;
   f.rows = rows;
   f.cols = cols;
@@ -27,7 +27,8 @@ FilletImage synthetic_fillet(double b0, double b1, const std::vector<PlantedBone
       const double t = rho2 < 1 ? 40 * (1 - rho2) : 0.0;
       f.thickness[i] = float(t);
       f.mask[i] = t > 1.5;
-      double ln = b0 + b1 * t;
+      const double a = -b1 * t;
+      double ln = hardening > 0 ? b0 - a / (1 + hardening * a) : b0 + b1 * t;
       const double x = f.x0_mm + 0.4 * c, y = f.y0_mm + 0.4 * r;
       for (const PlantedBone& b : bones) {
         const double d2 = ((x - b.x_mm) * (x - b.x_mm) + (y - b.y_mm) * (y - b.y_mm)) /

@@ -15,8 +15,9 @@ struct PlantedBone {
 };
 
 // rows x cols pixels of 0.4 mm, parallel beam (detector x is belt x), x0 = -40 mm,
-// y0 = 100 mm; 10 photons per DN and 2 DN electronic noise.
+// y0 = 100 mm; 10 photons per DN and 2 DN electronic noise. hardening h > 0 bends the meat's
+// attenuation a = -b1 T to a / (1 + h a), a polychromatic beam's (0: the straight line).
 FilletImage synthetic_fillet(double b0, double b1, const std::vector<PlantedBone>& bones,
-                             uint64_t seed, int rows = 300, int cols = 200);
+                             uint64_t seed, int rows = 300, int cols = 200, double hardening = 0);
 
 }  // namespace rangex::sim
