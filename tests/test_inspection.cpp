@@ -68,6 +68,28 @@ TEST(Inspection, HardenedBeamIsFollowedByTheParabola) {
               a.fit.scale, a.fragments.size(), b.fit.scale, b.fragments.size());
 }
 
+// Cartilage: wide and a little denser than meat; bone: small and dense. meat_mm tells them
+// apart (in mm of the fillet's meat: 0.02 / 0.03 is 0.7 mm, 0.12 / 0.03 is 4 mm at the peak).
+TEST(Inspection, ContrastInMillimetresOfMeatDropsCartilageOnlyWhenAsked) {
+  const std::vector<Bone> planted = {{-15, 140, 6.0, 0.02}, {10, 180, 1.5, 0.12}};
+  const FilletImage f = synthetic_fillet(std::log(3600.0), -0.03, planted, 5);
+  InspectionParams p = params();
+  const FilletResult all = inspect_fillet(f, p, false);
+  ASSERT_EQ(all.fragments.size(), 2u) << all.reason;
+  for (const Blob& b : all.fragments) {
+    const bool cartilage = std::hypot(b.x_mm + 15, b.y_mm - 140) < 3;
+    std::printf("%s: %.2f mm of meat\n", cartilage ? "cartilage" : "bone", b.meat_mm);
+    // The peak of a 3x3 mean: a little below the centre on the bone's dome, a little above
+    // on the flat cartilage (the largest of its noisy means).
+    EXPECT_NEAR(b.meat_mm, cartilage ? 0.75 : 3.8, cartilage ? 0.2 : 0.3) << b.x_mm;
+  }
+  p.min_fragment_meat_mm = 1.5;
+  const FilletResult strong = inspect_fillet(f, p, false);
+  ASSERT_EQ(strong.fragments.size(), 1u);
+  EXPECT_NEAR(strong.fragments[0].x_mm, 10, 1.0);
+  EXPECT_EQ(strong.decision, Decision::kReject);
+}
+
 TEST(Inspection, PlantedFragmentsFoundWithinOneMillimetre) {
   const std::vector<Bone> bones = {
       {-20, 130, 1.2, 0.15}, {5, 160, 2.0, 0.10}, {15, 200, 3.5, 0.08}};

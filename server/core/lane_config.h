@@ -48,6 +48,10 @@ struct InspectionParams {
   double line_sigma_along_px = 3.0, line_sigma_across_px = 0.7;
   double z_threshold = 5.0;  // smoothed z below -threshold is bone
   double min_fragment_area_mm2 = 0.3;
+  // A fragment must attenuate at its peak like this many mm of the fillet's own meat (0: off).
+  // Cartilage and tendon stay under about 1.5 mm; so do needles and thin rib plates, which is
+  // why it is off unless a plant's product has cartilage and no thin bone (docs/inspection.md).
+  double min_fragment_meat_mm = 0;
   double air_z_threshold = 5.0;  // smoothed z above +threshold is an air pocket
   double min_air_area_mm2 = 1.0;
   double baseline_sigma_mm = 4.0;  // X-ray-only baseline: smooth background scale

@@ -266,11 +266,26 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
   }
   if (auto n = section("inspection")) {
     InspectionParams& q = c.inspection;
-    n->only_keys({"floor_mm", "min_fillet_area_mm2", "gap_lines", "max_segment_lines",
-                  "max_invalid_fraction", "tukey_c", "max_iter", "tol", "smooth_sigma_px",
-                  "z_threshold", "min_fragment_area_mm2", "air_z_threshold", "min_air_area_mm2",
-                  "baseline_sigma_mm", "encoder_horizon_lines", "max_wall_gap_px",
-                  "line_sigma_along_px", "line_sigma_across_px", "attenuation_degree"});
+    n->only_keys({"floor_mm",
+                  "min_fillet_area_mm2",
+                  "gap_lines",
+                  "max_segment_lines",
+                  "max_invalid_fraction",
+                  "tukey_c",
+                  "max_iter",
+                  "tol",
+                  "smooth_sigma_px",
+                  "z_threshold",
+                  "min_fragment_area_mm2",
+                  "air_z_threshold",
+                  "min_air_area_mm2",
+                  "baseline_sigma_mm",
+                  "encoder_horizon_lines",
+                  "max_wall_gap_px",
+                  "line_sigma_along_px",
+                  "line_sigma_across_px",
+                  "attenuation_degree",
+                  "min_fragment_meat_mm"});
     n->positive("floor_mm", q.floor_mm);
     n->positive("min_fillet_area_mm2", q.min_fillet_area_mm2);
     n->positive("gap_lines", q.gap_lines);
@@ -287,6 +302,9 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->positive("smooth_sigma_px", q.smooth_sigma_px);
     n->positive("z_threshold", q.z_threshold);
     n->positive("min_fragment_area_mm2", q.min_fragment_area_mm2);
+    n->get("min_fragment_meat_mm", q.min_fragment_meat_mm);
+    if (!(q.min_fragment_meat_mm >= 0 && q.min_fragment_meat_mm <= 20))
+      n->at("min_fragment_meat_mm").bad("must be within 0..20 mm (0: off)");
     n->positive("air_z_threshold", q.air_z_threshold);
     n->positive("min_air_area_mm2", q.min_air_area_mm2);
     n->positive("baseline_sigma_mm", q.baseline_sigma_mm);

@@ -210,6 +210,8 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
         if (std::isfinite(zl[i]) && zl[i] < zb[i]) zb[i] = zl[i];
     }
   res.fragments = blobs(zb, resid, use, img, -1, p.z_threshold, p.min_fragment_area_mm2, fit);
+  if (fit && p.min_fragment_meat_mm > 0)
+    std::erase_if(res.fragments, [&](const Blob& b) { return b.meat_mm < p.min_fragment_meat_mm; });
   res.air_pockets = blobs(zs, resid, use, img, +1, p.air_z_threshold, p.min_air_area_mm2, fit);
   if (res.fragments.empty()) {
     res.decision = Decision::kPass;

@@ -417,6 +417,7 @@ void Engine::on_fillet(Lane& l, InspectedFillet&& f) {
   s.reason = r.reason;
   s.beta0 = r.fit.beta0;
   s.beta1 = r.fit.beta1;
+  s.beta2 = r.fit.beta2;
   s.resid_mean_dn = r.resid_mean_dn;
   s.resid_std_dn = r.resid_std_dn;
   s.belt_y0_mm = r.y0_mm;
@@ -425,7 +426,7 @@ void Engine::on_fillet(Lane& l, InspectedFillet&& f) {
   for (const auto* list : {&r.fragments, &r.air_pockets})
     for (const Blob& b : *list)
       s.fragments.push_back({list == &r.fragments ? "bone" : "air", b.x_mm, b.y_mm, b.area_mm2,
-                             b.peak_z, b.attenuation_mm2});
+                             b.peak_z, b.attenuation_mm2, b.meat_mm});
   // Decision latency runs from the arrival of the fillet's last line.
   u.last_arrival_ns = 0;
   const int64_t last = r.first_encoder + r.rows - 1;

@@ -36,6 +36,7 @@ void fill(pb::FilletResult* o, const StoredFillet& f) {
   o->set_reason(f.reason);
   o->set_beta0(f.beta0);
   o->set_beta1(f.beta1);
+  o->set_beta2(f.beta2);
   o->set_residual_mean_dn(f.resid_mean_dn);
   o->set_residual_std_dn(f.resid_std_dn);
   o->set_calibration_id(f.calibration_id);
@@ -49,6 +50,7 @@ void fill(pb::FilletResult* o, const StoredFillet& f) {
     p->set_area_mm2(g.area_mm2);
     p->set_peak_z(g.peak_z);
     p->set_attenuation_mm2(g.attenuation_mm2);
+    p->set_meat_mm(g.meat_mm);
   }
 }
 

@@ -72,11 +72,17 @@ StoredFillet fillet_row(const Stmt& q) {
   f.calibration_id = q.str(11);
   f.decided_ns = q.i64(12);
   f.belt_y0_mm = q.dbl(13);
+  f.beta2 = q.dbl(14);
   return f;
 }
 constexpr const char* kFilletColumns =
     "uid, lane, lane_fillet, first_encoder, rows, decision, reason, beta0, beta1, "
-    "resid_mean_dn, resid_std_dn, calibration_id, decided_ns, belt_y0_mm";
+    "resid_mean_dn, resid_std_dn, calibration_id, decided_ns, belt_y0_mm, beta2";
+constexpr const char* kFragmentColumns =
+    "kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2, meat_mm";
+StoredFragment fragment_row(const Stmt& g) {
+  return {g.str(0), g.dbl(1), g.dbl(2), g.dbl(3), g.dbl(4), g.dbl(5), g.dbl(6)};
+}
 }  // namespace
 
 Store::Store(const std::string& dir) : dir_(dir) {
@@ -96,11 +102,11 @@ Store::Store(const std::string& dir) : dir_(dir) {
       "CREATE TABLE IF NOT EXISTS fillets (uid INTEGER PRIMARY KEY AUTOINCREMENT, lane INTEGER, "
       "lane_fillet INTEGER, first_encoder INTEGER, rows INTEGER, decision TEXT, reason TEXT, "
       "beta0 REAL, beta1 REAL, resid_mean_dn REAL, resid_std_dn REAL, calibration_id TEXT, "
-      "decided_ns INTEGER, belt_y0_mm REAL)");
+      "decided_ns INTEGER, belt_y0_mm REAL, beta2 REAL DEFAULT 0)");
   exec("CREATE INDEX IF NOT EXISTS fillets_time ON fillets(decided_ns)");
   exec(
       "CREATE TABLE IF NOT EXISTS fragments (fillet_uid INTEGER, kind TEXT, x_mm REAL, "
-      "y_mm REAL, area_mm2 REAL, peak_z REAL, attenuation_mm2 REAL)");
+      "y_mm REAL, area_mm2 REAL, peak_z REAL, attenuation_mm2 REAL, meat_mm REAL DEFAULT 0)");
   exec("CREATE INDEX IF NOT EXISTS fragments_fillet ON fragments(fillet_uid)");
   exec(
       "CREATE TABLE IF NOT EXISTS images (fillet_uid INTEGER, kind TEXT, path TEXT, "
@@ -108,18 +114,23 @@ Store::Store(const std::string& dir) : dir_(dir) {
   exec(
       "CREATE TABLE IF NOT EXISTS calibrations (lane INTEGER, id TEXT, yaml TEXT, "
       "uploaded_ns INTEGER, active INTEGER, PRIMARY KEY(lane, id))");
-  {
-    // Stores made before calibration reports: add the column (their sets have none).
-    bool has_report = false;
-    Stmt q(db_, "PRAGMA table_info(calibrations)");
-    while (q.step()) has_report = has_report || q.str(1) == "report";
-    if (!has_report) exec("ALTER TABLE calibrations ADD COLUMN report TEXT DEFAULT ''");
-  }
+  // Stores made by earlier versions: add the columns they lack (their rows take the default).
+  add_column("calibrations", "report", "TEXT DEFAULT ''");
+  add_column("fillets", "beta2", "REAL DEFAULT 0");
+  add_column("fragments", "meat_mm", "REAL DEFAULT 0");
   exec("CREATE TABLE IF NOT EXISTS audit (ts_ns INTEGER, who TEXT, what TEXT, detail TEXT)");
 }
 
 Store::~Store() {
   sqlite3_close(db_);
+}
+
+void Store::add_column(const std::string& table, const std::string& column,
+                       const std::string& decl) {
+  bool has = false;
+  Stmt q(db_, ("PRAGMA table_info(" + table + ")").c_str());
+  while (q.step()) has = has || q.str(1) == column;
+  if (!has) exec("ALTER TABLE " + table + " ADD COLUMN " + column + " " + decl);
 }
 
 void Store::exec(const std::string& sql) {
@@ -137,21 +148,23 @@ int64_t Store::add_fillet(const StoredFillet& f) {
   try {
     Stmt q(db_,
            "INSERT INTO fillets (lane, lane_fillet, first_encoder, rows, decision, reason, beta0, "
-           "beta1, resid_mean_dn, resid_std_dn, calibration_id, decided_ns, belt_y0_mm) "
-           "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)");
+           "beta1, resid_mean_dn, resid_std_dn, calibration_id, decided_ns, belt_y0_mm, beta2) "
+           "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
     q.bind(1, int64_t(f.lane))
         .bind(2, f.lane_fillet)
         .bind(3, f.first_encoder)
         .bind(4, int64_t(f.rows));
     q.bind(5, f.decision).bind(6, f.reason).bind(7, f.beta0).bind(8, f.beta1);
     q.bind(9, f.resid_mean_dn).bind(10, f.resid_std_dn).bind(11, f.calibration_id);
-    q.bind(12, f.decided_ns).bind(13, f.belt_y0_mm);
+    q.bind(12, f.decided_ns).bind(13, f.belt_y0_mm).bind(14, f.beta2);
     q.step();
     const int64_t uid = sqlite3_last_insert_rowid(db_);
     for (const StoredFragment& g : f.fragments) {
-      Stmt r(db_, "INSERT INTO fragments VALUES (?,?,?,?,?,?,?)");
+      Stmt r(db_, (std::string("INSERT INTO fragments (fillet_uid, ") + kFragmentColumns +
+                   ") VALUES (?,?,?,?,?,?,?,?)")
+                      .c_str());
       r.bind(1, uid).bind(2, g.kind).bind(3, g.x_mm).bind(4, g.y_mm).bind(5, g.area_mm2);
-      r.bind(6, g.peak_z).bind(7, g.attenuation_mm2);
+      r.bind(6, g.peak_z).bind(7, g.attenuation_mm2).bind(8, g.meat_mm);
       r.step();
     }
     exec("COMMIT");
@@ -187,12 +200,11 @@ std::optional<StoredFillet> Store::fillet(int64_t uid) {
   q.bind(1, uid);
   if (!q.step()) return std::nullopt;
   StoredFillet f = fillet_row(q);
-  Stmt g(db_,
-         "SELECT kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2 FROM fragments WHERE "
-         "fillet_uid = ?");
+  Stmt g(
+      db_,
+      (std::string("SELECT ") + kFragmentColumns + " FROM fragments WHERE fillet_uid = ?").c_str());
   g.bind(1, uid);
-  while (g.step())
-    f.fragments.push_back({g.str(0), g.dbl(1), g.dbl(2), g.dbl(3), g.dbl(4), g.dbl(5)});
+  while (g.step()) f.fragments.push_back(fragment_row(g));
   return f;
 }
 
@@ -211,12 +223,10 @@ std::vector<StoredFillet> Store::list_fillets(int64_t from_ns, int64_t to_ns, in
   }
   for (StoredFillet& f : out) {
     std::lock_guard<std::mutex> lock(mu_);
-    Stmt g(db_,
-           "SELECT kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2 FROM fragments WHERE "
-           "fillet_uid = ?");
+    Stmt g(db_, (std::string("SELECT ") + kFragmentColumns + " FROM fragments WHERE fillet_uid = ?")
+                    .c_str());
     g.bind(1, f.uid);
-    while (g.step())
-      f.fragments.push_back({g.str(0), g.dbl(1), g.dbl(2), g.dbl(3), g.dbl(4), g.dbl(5)});
+    while (g.step()) f.fragments.push_back(fragment_row(g));
   }
   return out;
 }

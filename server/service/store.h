@@ -17,6 +17,7 @@ namespace rangex {
 struct StoredFragment {
   std::string kind;
   double x_mm, y_mm, area_mm2, peak_z, attenuation_mm2;
+  double meat_mm = 0;  // peak excess attenuation in mm of the fillet's meat
 };
 
 struct StoredFillet {
@@ -25,7 +26,7 @@ struct StoredFillet {
   int64_t lane_fillet = 0, first_encoder = 0;
   int rows = 0;
   std::string decision, reason, calibration_id;
-  double beta0 = 0, beta1 = 0, resid_mean_dn = 0, resid_std_dn = 0, belt_y0_mm = 0;
+  double beta0 = 0, beta1 = 0, beta2 = 0, resid_mean_dn = 0, resid_std_dn = 0, belt_y0_mm = 0;
   int64_t decided_ns = 0;
   std::vector<StoredFragment> fragments;
 };
@@ -66,6 +67,7 @@ class Store {
 
  private:
   void exec(const std::string& sql);
+  void add_column(const std::string& table, const std::string& column, const std::string& decl);
   std::string dir_;
   sqlite3* db_ = nullptr;
   std::mutex mu_;
