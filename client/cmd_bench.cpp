@@ -16,6 +16,7 @@
 #include "args.h"
 #include "backend_args.h"
 #include "bench_backends.h"
+#include "bench_path.h"
 #include "commands.h"
 #include "core/error.h"
 #include "naive_inspection.h"
@@ -96,13 +97,23 @@ Rounds measure_rounds(int frames, int rounds, double seconds,
 }  // namespace
 
 int cmd_bench(int argc, char** argv) {
-  const Args a(argc, argv, 2, {},
+  const Args a(argc, argv, 2, {"path"},
                {"frames", "seconds", "rounds", "config", "backend", "device", "threads", "lanes",
-                "batches"});
+                "batches", "lines", "batch"});
   a.expect_positionals(0,
                        "bench [--frames N] [--seconds S] [--rounds R] | bench --backend "
                        "cpu|opencl|vulkan|all [--device D] [--seconds S] [--lanes 1,4,16] "
-                       "[--batches 1,16,64,256]");
+                       "[--batches 1,16,64,256] | bench --path [--lanes 1,4,16] [--lines N] "
+                       "[--batch B] [--threads T]");
+  if (a.flag("path")) {
+    PathBenchOptions o;
+    if (a.has("lanes")) o.lanes = int_list(a.get("lanes", ""), "--lanes");
+    o.lines = int(a.integer("lines", o.lines));
+    o.batch = int(a.integer("batch", o.batch));
+    o.threads = int(a.integer("threads", o.threads));
+    if (o.threads < 1 || o.threads > 64) fail("--threads must be within 1..64");
+    return bench_path(load_config(a.get("config", "")), o);
+  }
   if (a.has("backend")) {
     BackendBenchOptions o;
     o.backends = backend_names(a.get("backend", "all"));

@@ -44,6 +44,9 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
       measure a known object (staircase, blocks) with a candidate calibration
   bench [--frames N]
       stripe extraction and inspection throughput beside their baselines
+  bench --path [--lanes 1,4,16] [--lines N] [--batch B] [--threads T]
+      the whole CPU line path stage by stage, per line and per fillet, each stage's share
+      and its fraction of its own memory bound; the scaling over T threads
   bench --backend cpu|opencl|vulkan|all [--device D] [--lanes 1,4,16] [--batches 1,16,64,256]
       each line stage on each backend (upload / compute / download), the line path with two
       batches in flight, beside the CPU backend; a device's stripe stage against its

@@ -5,17 +5,30 @@
 
 namespace rangex {
 
-namespace {
-constexpr double kMinSegmentMm = 1e-6;
-
-// Positive part length of a linear function f over [a, b] given its end values.
 double positive_span(double a, double b, double fa, double fb) {
   if (fa <= 0 && fb <= 0) return 0;
   if (fa >= 0 && fb >= 0) return b - a;
   const double root = a + (b - a) * fa / (fa - fb);
   return fa > 0 ? root - a : b - root;
 }
-}  // namespace
+
+RayStep ray_step(double z, double xd, double zd, double slope, double x0_mm, double pitch_mm,
+                 double ztop) {
+  const double x = xd + slope * (z - zd);
+  const double fc = (x - x0_mm) / pitch_mm;
+  int cell = static_cast<int>(std::floor(fc));
+  // On a boundary moving left, the cell is the one to the left.
+  if (slope < 0 && fc == std::floor(fc)) cell -= 1;
+  double zexit = ztop;
+  if (slope > 0) {
+    const double xb = x0_mm + (cell + 1) * pitch_mm;
+    zexit = std::min(ztop, zd + (xb - xd) / slope);
+  } else if (slope < 0) {
+    const double xb = x0_mm + cell * pitch_mm;
+    zexit = std::min(ztop, zd + (xb - xd) / slope);
+  }
+  return {cell, zexit};
+}
 
 PathResult ray_path_length(const ProfileGrid& g, double xd, double zd, double xs, double zs) {
   PathResult out;
@@ -38,26 +51,15 @@ PathResult ray_path_length(const ProfileGrid& g, double xd, double zd, double xs
   double len = 0;
   // Walk the cells the ray crosses between the belt and the highest sample.
   for (int guard = 0; guard < g.n + 4 && z < ztop; ++guard) {
-    const double x = x_at(z);
-    const double fc = (x - g.x0_mm) / g.pitch_mm;
-    int cell = static_cast<int>(std::floor(fc));
-    // On a boundary moving left, the cell is the one to the left.
-    if (slope < 0 && fc == std::floor(fc)) cell -= 1;
-    double zexit = ztop;
-    if (slope > 0) {
-      const double xb = g.x0_mm + (cell + 1) * g.pitch_mm;
-      zexit = std::min(ztop, zd + (xb - xd) / slope);
-    } else if (slope < 0) {
-      const double xb = g.x0_mm + cell * g.pitch_mm;
-      zexit = std::min(ztop, zd + (xb - xd) / slope);
-    }
+    const auto [cell, step_exit] = ray_step(z, xd, zd, slope, g.x0_mm, g.pitch_mm, ztop);
+    double zexit = step_exit;
     if (cell < -1 || cell >= g.n) {
       // Outside the grid there is no meat; keep walking only if the ray can come back.
       if ((cell < -1 && slope <= 0) || (cell >= g.n && slope >= 0)) break;
     }
-    // A segment of no length only crosses a cell boundary: there is no meat in it to sample
-    // (whether the walk takes such a step at all depends on the last bit of a double).
-    if (zexit - z > kMinSegmentMm) {
+    // A step of no length (whether the walk takes one depends on the last bit of a double)
+    // only crosses a cell boundary: there is no meat in it to sample.
+    if (zexit - z > kMinRaySegmentMm) {
       const double h0 = sample(cell), h1 = sample(cell + 1);
       auto h_at = [&](double zz) {
         const double t = (x_at(zz) - (g.x0_mm + cell * g.pitch_mm)) / g.pitch_mm;

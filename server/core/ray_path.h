@@ -24,4 +24,19 @@ struct PathResult {
 
 PathResult ray_path_length(const ProfileGrid& g, double xd, double zd, double xs, double zs);
 
+// One step of the walk: the cell of the grid (x0, pitch) the ray from (xd, zd) with dx/dz
+// `slope` is in at height z, and the height where it leaves it (at most ztop).
+struct RayStep {
+  int cell;
+  double zexit;
+};
+RayStep ray_step(double z, double xd, double zd, double slope, double x0_mm, double pitch_mm,
+                 double ztop);
+
+// Length of [a, b] where the linear function with end values fa, fb is positive.
+double positive_span(double a, double b, double fa, double fb);
+
+// A segment of no length only crosses a cell boundary: there is no meat in it to sample.
+constexpr double kMinRaySegmentMm = 1e-6;
+
 }  // namespace rangex

@@ -1,6 +1,7 @@
 #include "pipeline/inspection.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -20,6 +21,12 @@ std::string_view decision_name(Decision d) {
     default:
       return "not_inspected";
   }
+}
+
+const char* inspect_stage_name(int stage) {
+  static const char* kNames[kStages] = {"fit", "detector match", "noise model", "smooth",
+                                        "components"};
+  return stage >= 0 && stage < kStages ? kNames[stage] : "?";
 }
 
 namespace {
@@ -136,10 +143,26 @@ std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& 
   return out;
 }
 
+// Adds the time since the previous lap to a stage.
+class StageLap {
+ public:
+  explicit StageLap(FilletResult& r) : r_(r), t_(std::chrono::steady_clock::now()) {}
+  void operator()(int stage) {
+    const auto now = std::chrono::steady_clock::now();
+    r_.stage_seconds[stage] += std::chrono::duration<double>(now - t_).count();
+    t_ = now;
+  }
+
+ private:
+  FilletResult& r_;
+  std::chrono::steady_clock::time_point t_;
+};
+
 // Everything after the model of ln I: noise model, z, detection, decision, statistics.
 void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
                        const std::vector<float>& predicted_ln, const RobustFit* fit,
                        const InspectionParams& p, bool keep, FilletResult& res) {
+  StageLap lap(res);
   const size_t n = img.size();
   std::vector<float> pred(n, kNaN), resid(n, kNaN);
   double sum = 0, sum2 = 0;
@@ -180,6 +203,7 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
   std::vector<float> z(n, kNaN), zs;
   for (size_t i = 0; i < n; ++i)
     if (use[i]) z[i] = float(resid[i] / res.noise.sigma_ln(pred[i], grad2[i]));
+  lap(kStageNoise);
   masked_gaussian(z.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, zs);
   // Back to unit spread: measured (MAD) on the smoothed image itself, because what is left
   // after compensation is not white (meat texture, thickness error), and smoothing shrinks
@@ -209,10 +233,12 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
       for (size_t i = 0; i < n; ++i)
         if (std::isfinite(zl[i]) && zl[i] < zb[i]) zb[i] = zl[i];
     }
+  lap(kStageSmooth);
   res.fragments = blobs(zb, resid, use, img, -1, p.z_threshold, p.min_fragment_area_mm2, fit);
   if (fit && p.min_fragment_meat_mm > 0)
     std::erase_if(res.fragments, [&](const Blob& b) { return b.meat_mm < p.min_fragment_meat_mm; });
   res.air_pockets = blobs(zs, resid, use, img, +1, p.air_z_threshold, p.min_air_area_mm2, fit);
+  lap(kStageComponents);
   if (res.fragments.empty()) {
     res.decision = Decision::kPass;
   } else {
@@ -235,8 +261,11 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
     res.reason = why;
     return res;
   }
-  // The fit of ln I against the thickness, over the usable pixels of `img`.
-  auto fit = [&](const FilletImage& img, std::vector<uint8_t>& use) {
+  // The fit of ln I against the thickness, over the usable pixels of `img`: the parabola
+  // of a hardened beam (degree 2) where the fillet's thicknesses determine one, else the
+  // line. A fillet of nearly one thickness (a plateau and its wall) leaves the parabola
+  // undetermined or unsettled, and then the line stands.
+  auto fit = [&](const FilletImage& img, std::vector<uint8_t>& use, int degree) {
     use = usable(img);
     std::vector<double> t, y;
     for (size_t i = 0; i < use.size(); ++i)
@@ -245,6 +274,18 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
         y.push_back(std::log(double(img.xray[i])));
       }
     const RobustFitOptions o{p.tukey_c, p.max_iter, p.tol};
+    if (degree == 2) {
+      try {
+        const RobustFit bent = fit_tukey_poly(t.data(), y.data(), t.size(), 2, o);
+        if (bent.converged) {
+          res.fit = bent;
+          res.fitted = true;
+          return true;
+        }
+      } catch (const Error&) {
+        // The line below.
+      }
+    }
     try {
       res.fit = fit_tukey_line(t.data(), y.data(), t.size(), o);
     } catch (const Error& e) {
@@ -257,21 +298,13 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
           "robust fit did not converge in " + std::to_string(res.fit.iterations) + " iterations";
       return false;
     }
-    // The bend of a hardened beam, where the fillet's thicknesses show one: a fillet of
-    // nearly one thickness (a plateau and its wall) leaves the parabola undetermined or
-    // unsettled, and then the line stands.
-    if (p.attenuation_degree == 2) {
-      try {
-        const RobustFit bent = fit_tukey_poly(t.data(), y.data(), t.size(), 2, o);
-        if (bent.converged) res.fit = bent;
-      } catch (const Error&) {
-        // The line stands.
-      }
-    }
     return true;
   };
+  StageLap lap(res);
   std::vector<uint8_t> use;
-  if (!fit(raw, use)) return res;
+  // Before a detector match the fit only gives the meat's attenuation: the line will do.
+  if (!fit(raw, use, raw.matches_detector() ? 1 : p.attenuation_degree)) return res;
+  lap(kStageFit);
   // With the lane's detector known, the thickness is made what the detector would see
   // (the meat's attenuation from this first fit), and fitted again.
   FilletImage matched;
@@ -280,7 +313,9 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
     matched = raw;
     match_detector(matched, std::clamp(-res.fit.beta1, 0.005, 0.3));
     img = &matched;
-    if (!fit(matched, use)) return res;
+    lap(kStageMatch);
+    if (!fit(matched, use, p.attenuation_degree)) return res;
+    lap(kStageFit);
   }
   std::vector<float> predicted(img->size(), kNaN);
   for (size_t i = 0; i < use.size(); ++i)

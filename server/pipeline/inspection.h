@@ -34,6 +34,10 @@ struct Blob {
   int row0 = 0, row1 = 0, col0 = 0, col1 = 0;  // bounding box in the fillet image
 };
 
+// The inspection's stages, timed per fillet (benchmarks, latency statistics).
+enum InspectStage { kStageFit, kStageMatch, kStageNoise, kStageSmooth, kStageComponents, kStages };
+const char* inspect_stage_name(int stage);
+
 struct FilletResult {
   int lane = 0;
   int64_t id = 0;
@@ -51,6 +55,7 @@ struct FilletResult {
   double resid_mean_dn = 0;  // mean of I - P
   double resid_std_dn = 0;   // standard deviation of I - P
   double z_spread = 0;       // robust spread of the smoothed z before normalisation
+  double stage_seconds[kStages] = {};
   // Images over the fillet's box (kept on request): pseudo-X-ray (DN), residual ln I - ln P,
   // smoothed z; NaN off the fillet.
   std::vector<float> pseudo, residual, zs;

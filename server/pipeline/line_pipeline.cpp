@@ -23,6 +23,7 @@ LinePipeline::LinePipeline(std::vector<LaneConfig> lanes, int threads, bool vect
     }
     fusion_.push_back(l.fusion);
     beams_.push_back(l.xray);
+    rays_.push_back(build_ray_table(l.xray, l.fusion));
   }
 }
 
@@ -43,6 +44,7 @@ void LinePipeline::update_lane(int slot, const LaneConfig& l) {
   }
   fusion_[slot] = l.fusion;
   beams_[slot] = l.xray;
+  rays_[slot] = build_ray_table(l.xray, l.fusion);
 }
 
 int LinePipeline::slot_of(int lane_id) const {
@@ -108,8 +110,10 @@ void LinePipeline::fuse(const float* x, const float* z, const uint8_t* valid, in
 
 void LinePipeline::project(const float* profile, const uint8_t* profile_valid, int lines,
                            const int* lane_slot, float* thickness, uint8_t* thickness_valid) const {
-  project_fan_beam(profile, profile_valid, lines, grid_n_, lane_slot, fusion_.data(), beams_.data(),
-                   pixels_, thickness, thickness_valid);
+  for (int l = 0; l < lines; ++l)
+    project_line(rays_[lane_slot[l]], profile + size_t(l) * grid_n_,
+                 profile_valid + size_t(l) * grid_n_, thickness + size_t(l) * pixels_,
+                 thickness_valid + size_t(l) * pixels_);
 }
 
 }  // namespace rangex

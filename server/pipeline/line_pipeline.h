@@ -7,6 +7,7 @@
 
 #include "core/lane_config.h"
 #include "pipeline/profile_fusion.h"
+#include "pipeline/ray_table.h"
 #include "pipeline/rectify_table.h"
 #include "pipeline/stripe_extract.h"
 
@@ -65,6 +66,7 @@ class LinePipeline {
   std::vector<RectifyTable> tables_;      // [lane][camera]
   std::vector<FusionParams> fusion_;
   std::vector<FanBeam> beams_;
+  std::vector<RayTable> rays_;  // [lane]: each detector pixel's cells, built per calibration
   int width_ = 0, height_ = 0, grid_n_ = 0, pixels_ = 0;
   int threads_ = 1;
   bool vector_blocks_ = true;

@@ -1,5 +1,6 @@
 #include "pipeline/masked_smooth.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -23,70 +24,61 @@ double gaussian_noise_gain(double sigma) {
   return s;  // separable: (sum k_i^2)(sum k_j^2) under the root
 }
 
-void masked_gaussian(const float* v, const uint8_t* mask, int rows, int cols, double sigma,
-                     std::vector<float>& out) {
-  const auto k = kernel(sigma);
-  const int r = int(k.size() / 2);
-  const size_t n = size_t(rows) * cols;
-  std::vector<float> num(n), den(n), tnum(n), tden(n);
-  for (size_t i = 0; i < n; ++i) {
-    num[i] = mask[i] ? v[i] : 0.f;
-    den[i] = mask[i] ? 1.f : 0.f;
-  }
-  // Along rows, then along columns.
-  for (int y = 0; y < rows; ++y)
-    for (int x = 0; x < cols; ++x) {
-      float a = 0, b = 0;
-      for (int d = -r; d <= r; ++d) {
-        const int xx = x + d;
-        if (xx < 0 || xx >= cols) continue;
-        const size_t j = size_t(y) * cols + xx;
-        a += k[d + r] * num[j];
-        b += k[d + r] * den[j];
-      }
-      tnum[size_t(y) * cols + x] = a;
-      tden[size_t(y) * cols + x] = b;
-    }
-  out.assign(n, std::numeric_limits<float>::quiet_NaN());
-  for (int y = 0; y < rows; ++y)
-    for (int x = 0; x < cols; ++x) {
-      const size_t i = size_t(y) * cols + x;
-      if (!mask[i]) continue;
-      float a = 0, b = 0;
-      for (int d = -r; d <= r; ++d) {
-        const int yy = y + d;
-        if (yy < 0 || yy >= rows) continue;
-        const size_t j = size_t(yy) * cols + x;
-        a += k[d + r] * tnum[j];
-        b += k[d + r] * tden[j];
-      }
-      out[i] = b > 0 ? a / b : std::numeric_limits<float>::quiet_NaN();
-    }
-}
-
 namespace {
-// One masked pass of kernel k along the step (dx, dy), on numerator and weight images.
+// One pass of kernel k along the step (dx, dy) on numerator and weight images, zero outside.
+// Row by row and tap by tap, so that the inner loop runs over contiguous columns (and
+// vectorises); each output still sums its taps from -r to r, as a per-pixel loop would.
 void pass(const std::vector<float>& k, int dx, int dy, int rows, int cols,
           const std::vector<float>& num, const std::vector<float>& den, std::vector<float>& onum,
           std::vector<float>& oden) {
   const int r = int(k.size() / 2);
   onum.assign(num.size(), 0.f);
   oden.assign(num.size(), 0.f);
-  for (int y = 0; y < rows; ++y)
-    for (int x = 0; x < cols; ++x) {
-      float a = 0, b = 0;
-      for (int d = -r; d <= r; ++d) {
-        const int xx = x + d * dx, yy = y + d * dy;
-        if (xx < 0 || xx >= cols || yy < 0 || yy >= rows) continue;
-        const size_t j = size_t(yy) * cols + xx;
-        a += k[d + r] * num[j];
-        b += k[d + r] * den[j];
+  for (int y = 0; y < rows; ++y) {
+    float* a = &onum[size_t(y) * cols];
+    float* b = &oden[size_t(y) * cols];
+    for (int d = -r; d <= r; ++d) {
+      const int yy = y + d * dy;
+      if (yy < 0 || yy >= rows) continue;
+      const int shift = d * dx;
+      const int x0 = std::max(0, -shift), x1 = std::min(cols, cols - shift);
+      const float kd = k[d + r];
+      const float* pn = &num[size_t(yy) * cols + shift];
+      const float* pd = &den[size_t(yy) * cols + shift];
+      for (int x = x0; x < x1; ++x) {
+        a[x] += kd * pn[x];
+        b[x] += kd * pd[x];
       }
-      onum[size_t(y) * cols + x] = a;
-      oden[size_t(y) * cols + x] = b;
     }
+  }
 }
 }  // namespace
+
+namespace {
+// Two passes (kernel k1 along (x1, y1), then k2 along (x2, y2)) of the normalised
+// convolution: numerator v m and weight m, divided inside the mask.
+void masked_two_pass(const float* v, const uint8_t* mask, int rows, int cols,
+                     const std::vector<float>& k1, int x1, int y1, const std::vector<float>& k2,
+                     int x2, int y2, std::vector<float>& out) {
+  const size_t n = size_t(rows) * cols;
+  std::vector<float> num(n), den(n), tnum, tden, unum, uden;
+  for (size_t i = 0; i < n; ++i) {
+    num[i] = mask[i] ? v[i] : 0.f;
+    den[i] = mask[i] ? 1.f : 0.f;
+  }
+  pass(k1, x1, y1, rows, cols, num, den, tnum, tden);
+  pass(k2, x2, y2, rows, cols, tnum, tden, unum, uden);
+  out.assign(n, std::numeric_limits<float>::quiet_NaN());
+  for (size_t i = 0; i < n; ++i)
+    if (mask[i] && uden[i] > 0) out[i] = unum[i] / uden[i];
+}
+}  // namespace
+
+void masked_gaussian(const float* v, const uint8_t* mask, int rows, int cols, double sigma,
+                     std::vector<float>& out) {
+  const auto k = kernel(sigma);
+  masked_two_pass(v, mask, rows, cols, k, 1, 0, k, 0, 1, out);  // along rows, then columns
+}
 
 double masked_line_gaussian(const float* v, const uint8_t* mask, int rows, int cols,
                             double sigma_along, double sigma_across, int direction,
@@ -97,18 +89,8 @@ double masked_line_gaussian(const float* v, const uint8_t* mask, int rows, int c
   // A diagonal step is sqrt(2) pixels long.
   const auto ka = kernel(diagonal ? sigma_along / std::sqrt(2.0) : sigma_along);
   const auto kc = kernel(sigma_across);
-  const size_t n = size_t(rows) * cols;
-  std::vector<float> num(n), den(n), tnum, tden, unum, uden;
-  for (size_t i = 0; i < n; ++i) {
-    num[i] = mask[i] ? v[i] : 0.f;
-    den[i] = mask[i] ? 1.f : 0.f;
-  }
-  pass(ka, dx, dy, rows, cols, num, den, tnum, tden);
   const int cx = diagonal ? 1 : dy, cy = diagonal ? 0 : dx;  // across (rows for diagonals)
-  pass(kc, cx, cy, rows, cols, tnum, tden, unum, uden);
-  out.assign(n, std::numeric_limits<float>::quiet_NaN());
-  for (size_t i = 0; i < n; ++i)
-    if (mask[i] && uden[i] > 0) out[i] = unum[i] / uden[i];
+  masked_two_pass(v, mask, rows, cols, ka, dx, dy, kc, cx, cy, out);
   double sa = 0, sc = 0;
   for (float a : ka) sa += double(a) * a;
   for (float c : kc) sc += double(c) * c;

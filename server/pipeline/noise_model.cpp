@@ -9,6 +9,21 @@
 
 namespace rangex {
 
+namespace {
+// Reorders v[lo, hi) so that each of bins equal-count bins (bin k holds the elements a full
+// sort would put at n k / bins .. n (k + 1) / bins) is together, by selection (O(n log bins))
+// rather than by sorting: the bins' contents are all that the estimates use.
+template <typename T>
+void partition_bins(std::vector<T>& v, size_t n, int k0, int k1, int bins) {
+  if (k1 - k0 < 2) return;
+  const int km = (k0 + k1) / 2;
+  const size_t lo = n * k0 / bins, mid = n * km / bins, hi = n * k1 / bins;
+  std::nth_element(v.begin() + lo, v.begin() + mid, v.begin() + hi);
+  partition_bins(v, n, k0, km, bins);
+  partition_bins(v, n, km, k1, bins);
+}
+}  // namespace
+
 double NoiseModel::sigma_ln(double I) const {
   const double v = a / I + b / (I * I);
   return std::sqrt(std::max(v, 1e-12));
@@ -32,8 +47,8 @@ double estimate_gradient_term(const NoiseModel& m, const float* pred, const floa
     if (grad2[i] / 9.0 > v) steep.emplace_back(grad2[i], i);
   }
   if (steep.size() < 200) return 1.0 / 12;
-  std::sort(steep.begin(), steep.end());
   const int bins = int(std::clamp<size_t>(steep.size() / 100, 2, 8));
+  partition_bins(steep, steep.size(), 0, bins, bins);
   double sgg = 0, sge = 0;
   std::vector<double> tmp;
   for (int k = 0; k < bins; ++k) {
@@ -66,9 +81,9 @@ NoiseModel estimate_noise_model(const float* pred, const float* resid, size_t n)
     if (std::isfinite(pred[i]) && std::isfinite(resid[i]) && pred[i] > 0)
       pts.emplace_back(pred[i], resid[i]);
   if (pts.size() < 100) fail("noise model needs at least 100 pixels, got ", pts.size());
-  std::sort(pts.begin(), pts.end());
   // Equal-count bins by predicted intensity; MAD variance per bin resists the bones.
   const int bins = int(std::clamp<size_t>(pts.size() / 200, 2, 12));
+  partition_bins(pts, pts.size(), 0, bins, bins);
   std::vector<double> xs, vs, ws, tmp;
   for (int k = 0; k < bins; ++k) {
     const size_t lo = pts.size() * k / bins, hi = pts.size() * (k + 1) / bins;

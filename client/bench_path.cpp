@@ -1,0 +1,297 @@
+#include "bench_path.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include "core/error.h"
+#include "pipeline/lane_processor.h"
+#include "pipeline/line_pipeline.h"
+#include "sim/plant_simulator.h"
+
+namespace rangex::cli {
+
+namespace {
+
+using clk = std::chrono::steady_clock;
+
+// The rows of the report: the line stages, the assembly, the inspection's own stages.
+enum Row { kIngest, kStripe, kRectify, kFuse, kProject, kAssemble, kInspect0 };
+constexpr int kRows = kInspect0 + kStages + 1;  // + the inspection's remainder
+const char* row_name(int r) {
+  static const char* kLine[] = {"ingest copy", "stripe", "rectify", "fuse", "project", "assemble"};
+  if (r < kInspect0) return kLine[r];
+  if (r < kInspect0 + kStages) return inspect_stage_name(r - kInspect0);
+  return "inspection, other";
+}
+
+// One lane's simulated lines, rendered once and fed to every lane of a run.
+struct Recorded {
+  int width = 0, height = 0, pixels = 0, lines = 0;
+  std::vector<uint8_t> frames;  // [line][camera][row][column]
+  std::vector<uint16_t> xray;   // [line][pixel]
+  std::vector<int64_t> encoders;
+  size_t frame() const { return size_t(width) * height; }
+};
+
+Recorded render(const LaneConfig& lc, int lines) {
+  sim::SimulationParams sp;
+  sp.scene.fillets = std::max(2, lines / 400);
+  sp.scene.lead_in_mm = 5;
+  const sim::LaneSimulator sim(lc, sp);
+  Recorded r;
+  r.width = lc.frame_width, r.height = lc.frame_height, r.pixels = lc.xray.pixels;
+  r.lines = int(std::min<int64_t>(lines, sim.lines()));
+  r.frames.resize(r.frame() * 2 * r.lines);
+  r.xray.resize(size_t(r.pixels) * r.lines);
+  r.encoders.resize(r.lines);
+  const int threads = int(std::max(1u, std::thread::hardware_concurrency()));
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t)
+    pool.emplace_back([&, t] {
+      for (int n = t; n < r.lines; n += threads)
+        sim.render(n, &r.frames[r.frame() * 2 * n], &r.frames[r.frame() * (2 * n + 1)],
+                   &r.xray[size_t(r.pixels) * n], nullptr, nullptr, nullptr);
+    });
+  for (auto& t : pool) t.join();
+  for (int n = 0; n < r.lines; ++n) r.encoders[n] = sim.encoder(n);
+  return r;
+}
+
+// One core's sequential read bandwidth over the frames (the bound of the line path).
+double read_bandwidth(const Recorded& r) {
+  volatile uint64_t sink = 0;
+  std::vector<double> gbs;
+  for (int pass = 0; pass < 5; ++pass) {
+    const auto t0 = clk::now();
+    const uint64_t* p = reinterpret_cast<const uint64_t*>(r.frames.data());
+    const size_t n = r.frames.size() / 8;
+    uint64_t s0 = 0, s1 = 0, s2 = 0, s3 = 0;
+    for (size_t i = 0; i + 3 < n; i += 4)
+      s0 += p[i], s1 += p[i + 1], s2 += p[i + 2], s3 += p[i + 3];
+    sink = sink + s0 + s1 + s2 + s3;
+    gbs.push_back(double(r.frames.size()) / std::chrono::duration<double>(clk::now() - t0).count() /
+                  1e9);
+  }
+  std::sort(gbs.begin(), gbs.end());
+  return gbs[gbs.size() / 2];
+}
+
+struct PathTimes {
+  double seconds[kRows] = {};
+  double wall = 0;
+  int64_t lines = 0;
+  int fillets = 0;
+  int64_t fillet_pixels = 0;
+  double bytes_copied = 0;
+  void add(const PathTimes& o) {
+    for (int r = 0; r < kRows; ++r) seconds[r] += o.seconds[r];
+    lines += o.lines, fillets += o.fillets, fillet_pixels += o.fillet_pixels;
+    bytes_copied += o.bytes_copied;
+  }
+  double total() const {
+    double s = 0;
+    for (double v : seconds) s += v;
+    return s;
+  }
+};
+
+// Lanes first_lane .. first_lane + lanes - 1 through the whole path on the calling thread,
+// in batches that mix the lanes line by line, as the server's batches do.
+PathTimes run_lanes(const LaneConfig& lc, const Recorded& rec, int first_lane, int lanes,
+                    int batch) {
+  std::vector<LaneConfig> cfgs;
+  for (int q = 0; q < lanes; ++q) {
+    LaneConfig c = lc;
+    c.id = first_lane + q;
+    cfgs.push_back(c);
+  }
+  const LinePipeline pipe(cfgs, 1);
+  PathTimes t;
+  double inspected = 0;  // inspection seconds reported by the sink
+  std::vector<std::unique_ptr<LaneProcessor>> procs;
+  for (int q = 0; q < lanes; ++q)
+    procs.push_back(std::make_unique<LaneProcessor>(
+        cfgs[q], LaneProcessorOptions{false, false}, [&](InspectedFillet&& f) {
+          double staged = 0;
+          for (int s = 0; s < kStages; ++s) {
+            t.seconds[kInspect0 + s] += f.result.stage_seconds[s];
+            staged += f.result.stage_seconds[s];
+          }
+          t.seconds[kInspect0 + kStages] += std::max(0.0, f.inspect_ms / 1e3 - staged);
+          inspected += f.inspect_ms / 1e3;
+          ++t.fillets;
+          t.fillet_pixels += f.result.pixels;
+        }));
+  const int per = std::max(1, batch / lanes);  // line indices per batch
+  const size_t frame = rec.frame();
+  const int W = rec.width, G = pipe.grid_samples(), P = rec.pixels;
+  std::vector<uint8_t> staging(size_t(per) * lanes * 2 * frame);
+  std::vector<int> lane_slot(size_t(per) * lanes), frame_slot(2 * lane_slot.size());
+  StripeOutput so;
+  std::vector<float> x, z, prof, thick;
+  std::vector<uint8_t> xzv, pv, tv;
+  FusionStats fs;
+  const auto start = clk::now();
+  auto t0 = start;
+  auto lap = [&](int row) {
+    const auto now = clk::now();
+    t.seconds[row] += std::chrono::duration<double>(now - t0).count();
+    t0 = now;
+  };
+  // The assembly's time is that of push() less the inspection it triggered.
+  auto assembled = [&](double before) {
+    const auto now = clk::now();
+    const double spent = std::chrono::duration<double>(now - t0).count();
+    t.seconds[kAssemble] += std::max(0.0, spent - (inspected - before));
+    t0 = now;
+  };
+  for (int n0 = 0; n0 < rec.lines; n0 += per) {
+    const int cnt = std::min(per, rec.lines - n0), L = cnt * lanes;
+    t0 = clk::now();
+    for (int k = 0; k < cnt; ++k)
+      for (int q = 0; q < lanes; ++q) {
+        const int j = k * lanes + q;
+        std::memcpy(&staging[size_t(j) * 2 * frame], &rec.frames[size_t(n0 + k) * 2 * frame],
+                    2 * frame);
+        lane_slot[j] = q;
+        frame_slot[2 * j] = 2 * q, frame_slot[2 * j + 1] = 2 * q + 1;
+      }
+    t.bytes_copied += double(L) * 2 * frame;
+    lap(kIngest);
+    pipe.stripes(staging.data(), 2 * L, frame_slot.data(), so);
+    lap(kStripe);
+    x.resize(size_t(2 * L) * W), z.resize(x.size()), xzv.resize(x.size());
+    pipe.rectify_rows(so.row.data(), so.valid.data(), 2 * L, frame_slot.data(), x.data(), z.data(),
+                      xzv.data());
+    lap(kRectify);
+    prof.resize(size_t(L) * G), pv.resize(prof.size());
+    pipe.fuse(x.data(), z.data(), xzv.data(), L, lane_slot.data(), prof.data(), pv.data(), &fs);
+    lap(kFuse);
+    thick.resize(size_t(L) * P), tv.resize(thick.size());
+    pipe.project(prof.data(), pv.data(), L, lane_slot.data(), thick.data(), tv.data());
+    lap(kProject);
+    const double before = inspected;
+    for (int k = 0; k < cnt; ++k)
+      for (int q = 0; q < lanes; ++q) {
+        const size_t j = size_t(k) * lanes + q;
+        procs[q]->push(&thick[j * P], &tv[j * P], &rec.xray[size_t(n0 + k) * P],
+                       rec.encoders[n0 + k], LaneProcessor::blind(&pv[j * G], G));
+      }
+    assembled(before);
+  }
+  t0 = clk::now();
+  const double before = inspected;
+  for (auto& p : procs) p->finish();
+  assembled(before);
+  t.wall = std::chrono::duration<double>(clk::now() - start).count();
+  t.lines = int64_t(rec.lines) * lanes;
+  return t;
+}
+
+// Bytes a stage must touch per line (read + written), its memory bound at the read bandwidth.
+double bytes_per_line(int row, const Recorded& r, int grid, const PathTimes& t) {
+  const double W = r.width, F = double(r.frame()), G = grid, P = r.pixels;
+  const double px = t.lines ? double(t.fillet_pixels) / double(t.lines) : 0;
+  switch (row) {
+    case kIngest:
+      return 2 * 2 * F;  // both frames read and written once
+    case kStripe:
+      return 2 * F + 2 * W * 5;  // frames in; row (float) and valid flag per column out
+    case kRectify:
+      return 2 * W * 5 + 2 * W * 9;  // rows in; x, z, valid out
+    case kFuse:
+      return 2 * W * 9 + G * 5;
+    case kProject:
+      return G * 5 + P * 5;
+    case kAssemble:
+      return P * 7 + P * 7;  // thickness, flag, X-ray in; the fillet image's pixels out
+    default:
+      return px * 11;  // one pass over the fillet image: thickness, X-ray, mask in; a float out
+  }
+}
+
+void report(const char* title, const PathTimes& t, const Recorded& rec, int grid, double gbs) {
+  const double total = t.total(), per_line_us = 1e6 * total / double(t.lines);
+  std::printf("\n%s: %lld lines, %d fillets; %.0f lines/s on one core (%.3f of the read bound)\n",
+              title, (long long)t.lines, t.fillets, double(t.lines) / total,
+              (double(t.lines) / total) / (gbs * 1e9 / (2.0 * double(rec.frame()))));
+  std::printf("  %-20s %10s %8s %12s %10s %14s\n", "stage", "us/line", "share", "bytes/line",
+              "bound us", "of its bound");
+  for (int r = 0; r < kRows; ++r) {
+    const double us = 1e6 * t.seconds[r] / double(t.lines);
+    const double bytes = bytes_per_line(r, rec, grid, t);
+    const double bound_us = 1e6 * bytes / (gbs * 1e9);
+    std::printf("  %-20s %10.2f %7.1f%% %12.0f %10.2f %14.3f\n", row_name(r), us,
+                100 * t.seconds[r] / total, bytes, bound_us, us > 0 ? bound_us / us : 0.0);
+  }
+  std::printf("  %-20s %10.2f %7.1f%%\n", "total", per_line_us, 100.0);
+  if (t.fillets) {
+    double insp = 0;
+    for (int r = kInspect0; r < kRows; ++r) insp += t.seconds[r];
+    std::printf("  inspection: %.2f ms per fillet (%.0f fillet pixels each);",
+                1e3 * insp / t.fillets, double(t.fillet_pixels) / t.fillets);
+    for (int r = kInspect0; r < kRows; ++r)
+      std::printf(" %s %.2f", row_name(r), 1e3 * t.seconds[r] / t.fillets);
+    std::printf(" ms\n");
+  }
+  std::printf("  bytes copied per line: %.0f (%.2f frames' worth)\n",
+              t.bytes_copied / double(t.lines),
+              t.bytes_copied / double(t.lines) / (2.0 * double(rec.frame())));
+}
+
+}  // namespace
+
+int bench_path(const PlantConfig& plant, const PathBenchOptions& opt) {
+  if (opt.lines < 64) fail("--lines must be >= 64 (got ", opt.lines, ")");
+  if (opt.batch < 1) fail("--batch must be >= 1");
+  const LaneConfig& lc = plant.lanes.front();
+  std::printf("rendering %d lines of a simulated lane ...\n", opt.lines);
+  std::fflush(stdout);
+  const Recorded rec = render(lc, opt.lines);
+  const int grid = lc.fusion.grid_samples;
+  const double gbs = read_bandwidth(rec);
+  const double bound = gbs * 1e9 / (2.0 * double(rec.frame()));
+  std::printf(
+      "the whole line path on the CPU, %d lines per lane (%.0f MB of frames), batches of %d "
+      "lines;\nread bound: one core reads %.2f GB/s, %.0f lines/s of 2 x %dx%d frames\n",
+      rec.lines, double(rec.frames.size()) / 1e6, opt.batch, gbs, bound, rec.width, rec.height);
+  std::vector<double> one_core;
+  for (int lanes : opt.lanes) {
+    const PathTimes t = run_lanes(lc, rec, 0, lanes, opt.batch);
+    char title[64];
+    std::snprintf(title, sizeof title, "%d lane%s", lanes, lanes > 1 ? "s" : "");
+    report(title, t, rec, grid, gbs);
+    one_core.push_back(double(t.lines) / t.wall);
+  }
+  if (opt.threads > 1) {
+    std::printf("\nscaling: the lanes split over %d threads, wall-clock lines/s against one\n",
+                opt.threads);
+    for (size_t i = 0; i < opt.lanes.size(); ++i) {
+      const int lanes = opt.lanes[i];
+      if (lanes < opt.threads) continue;
+      std::vector<PathTimes> parts(opt.threads);
+      std::vector<std::thread> pool;
+      const auto t0 = clk::now();
+      for (int k = 0; k < opt.threads; ++k) {
+        const int first = lanes * k / opt.threads, last = lanes * (k + 1) / opt.threads;
+        pool.emplace_back(
+            [&, k, first, last] { parts[k] = run_lanes(lc, rec, first, last - first, opt.batch); });
+      }
+      for (auto& th : pool) th.join();
+      const double wall = std::chrono::duration<double>(clk::now() - t0).count();
+      PathTimes sum;
+      for (const PathTimes& p : parts) sum.add(p);
+      const double lps = double(sum.lines) / wall;
+      std::printf("  %2d lanes: %.0f lines/s on %d threads, %.0f on one: %.2fx\n", lanes, lps,
+                  opt.threads, one_core[i], lps / one_core[i]);
+    }
+  }
+  return 0;
+}
+
+}  // namespace rangex::cli
