@@ -107,3 +107,22 @@ TEST(MaskedSmooth, LineGaussianEqualsItsDefinitionInEveryDirection) {
       }
   }
 }
+
+TEST(MaskedSmooth, OnePixelEqualsTheWholeImage) {
+  const Image im;
+  std::vector<float> round, line;
+  masked_gaussian(im.v.data(), im.m.data(), im.rows, im.cols, 1.0, round);
+  for (int dir = -1; dir < 4; ++dir) {
+    if (dir >= 0)
+      masked_line_gaussian(im.v.data(), im.m.data(), im.rows, im.cols, 3, 0.7, dir, line);
+    const std::vector<float>& want = dir < 0 ? round : line;
+    for (int y = 0; y < im.rows; y += 3)
+      for (int x = 0; x < im.cols; x += 2) {
+        const size_t i = size_t(y) * im.cols + x;
+        if (!im.m[i]) continue;
+        const double got = masked_smooth_at(im.v.data(), im.m.data(), im.rows, im.cols,
+                                            dir < 0 ? 1.0 : 3.0, 0.7, dir, y, x);
+        ASSERT_NEAR(got, want[i], 2e-5) << "direction " << dir << " at " << y << "," << x;
+      }
+  }
+}

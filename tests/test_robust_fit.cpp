@@ -1,8 +1,10 @@
 // IRLS with Tukey's biweight against statsmodels' RLM (scripts/make_rlm_reference.py).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <random>
 #include <sstream>
 #include <vector>
 
@@ -124,6 +126,32 @@ TEST(RobustFit, ParabolaNeedsThreeThicknesses) {
   }
   EXPECT_THROW(fit_tukey_poly(x, y, 6, 3), Error);
   EXPECT_THROW(fit_tukey_poly(x, y, 3, 2), Error);
+}
+
+// The bucketed selection of large inputs against a full sort: odd and even sizes, ties,
+// heavy tails, a spread of one rounding step, all values equal.
+TEST(Median, EqualsTheSortedMiddle) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g(0, 1);
+  std::uniform_int_distribution<int> small(0, 5);
+  auto value = [&](int kind, size_t i) -> double {
+    if (kind == 0) return g(rng);
+    if (kind == 1) return small(rng);                  // many ties, buckets of one value
+    if (kind == 2) return std::pow(10.0, 6 * g(rng));  // most values in the first bucket
+    if (kind == 3) return 1.0 + small(rng) * 1e-16;    // a spread of a rounding step
+    if (kind == 4) return i % 2 ? -1.0 : 7.0;          // middle ranks in different buckets
+    return 3.0;
+  };
+  for (size_t n : {4095ul, 4096ul, 50001ul, 75000ul}) {
+    for (int kind = 0; kind < 6; ++kind) {
+      std::vector<double> v(n);
+      for (size_t i = 0; i < n; ++i) v[i] = value(kind, i);
+      std::vector<double> sorted = v;
+      std::sort(sorted.begin(), sorted.end());
+      const double want = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+      EXPECT_EQ(median_inplace(v.data(), n), want) << "n " << n << " kind " << kind;
+    }
+  }
 }
 
 TEST(RobustFit, OutliersBarelyMoveTheFitUnlikeOLS) {

@@ -79,25 +79,31 @@ double meat_mu(const RobustFit* fit, double t) {
   return fit ? -(fit->beta1 + 2 * fit->beta2 * t) : 0.0;
 }
 
-// -ln(I / P) averaged over the usable 3x3 neighbourhood of pixel (r, c).
-double local_excess(const std::vector<float>& resid, const std::vector<uint8_t>& use,
-                    const FilletImage& img, int r, int c) {
-  double sum = 0;
-  int n = 0;
-  for (int dr = -1; dr <= 1; ++dr)
-    for (int dc = -1; dc <= 1; ++dc) {
-      const int rr = r + dr, cc = c + dc;
-      if (rr < 0 || rr >= img.rows || cc < 0 || cc >= img.cols) continue;
-      const size_t j = size_t(rr) * img.cols + cc;
-      if (use[j]) sum -= resid[j], ++n;
-    }
-  return n ? sum / n : 0.0;
+// The strongest excess attenuation sgn * -ln(I / P) at pixel (r, c) under the detection's
+// own kernels (round, and elongated along four directions, so that a needle keeps its
+// contrast), evaluated at that pixel only.
+double local_excess(const std::vector<float>& excess, const std::vector<uint8_t>& use,
+                    const FilletImage& img, int r, int c, double sgn, const InspectionParams& p) {
+  double best = sgn * masked_smooth_at(excess.data(), use.data(), img.rows, img.cols,
+                                       p.smooth_sigma_px, 0, -1, r, c);
+  if (p.line_sigma_along_px > 0)
+    for (int dir = 0; dir < 4; ++dir)
+      best = std::max(
+          best, sgn * masked_smooth_at(excess.data(), use.data(), img.rows, img.cols,
+                                       p.line_sigma_along_px, p.line_sigma_across_px, dir, r, c));
+  return std::isfinite(best) ? best : 0.0;
 }
 
 std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& resid,
                         const std::vector<uint8_t>& use, const FilletImage& img, double sign,
-                        double threshold, double min_area_mm2, const RobustFit* fit) {
+                        double threshold, double min_area_mm2, const RobustFit* fit,
+                        const InspectionParams& p) {
   const double px_area = img.pitch_mm * img.step_mm;
+  std::vector<float> excess;
+  if (fit) {
+    excess.resize(resid.size());
+    for (size_t i = 0; i < resid.size(); ++i) excess[i] = -resid[i];
+  }
   std::vector<uint8_t> on(img.size());
   for (size_t i = 0; i < on.size(); ++i) on[i] = use[i] && sign * zs[i] > threshold;
   std::vector<int> labels;
@@ -126,7 +132,7 @@ std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& 
         b.attenuation_mm2 += -double(resid[i]) * px_area;  // > 0 for bone, < 0 for air
         const double mu = meat_mu(fit, img.thickness[i]);
         if (mu > 0)
-          b.meat_mm = std::max(b.meat_mm, -sign * local_excess(resid, use, img, r, k) / mu);
+          b.meat_mm = std::max(b.meat_mm, local_excess(excess, use, img, r, k, -sign, p) / mu);
       }
     // The detector sees the fragment magnified by the fan beam; put it back at mid-depth of
     // the meat above it (the path thickness there is close to the vertical thickness).
@@ -234,10 +240,10 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
         if (std::isfinite(zl[i]) && zl[i] < zb[i]) zb[i] = zl[i];
     }
   lap(kStageSmooth);
-  res.fragments = blobs(zb, resid, use, img, -1, p.z_threshold, p.min_fragment_area_mm2, fit);
+  res.fragments = blobs(zb, resid, use, img, -1, p.z_threshold, p.min_fragment_area_mm2, fit, p);
   if (fit && p.min_fragment_meat_mm > 0)
     std::erase_if(res.fragments, [&](const Blob& b) { return b.meat_mm < p.min_fragment_meat_mm; });
-  res.air_pockets = blobs(zs, resid, use, img, +1, p.air_z_threshold, p.min_air_area_mm2, fit);
+  res.air_pockets = blobs(zs, resid, use, img, +1, p.air_z_threshold, p.min_air_area_mm2, fit, p);
   lap(kStageComponents);
   if (res.fragments.empty()) {
     res.decision = Decision::kPass;

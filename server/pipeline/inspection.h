@@ -27,7 +27,8 @@ struct Blob {
   double area_mm2 = 0;
   double peak_z = 0;           // most extreme smoothed z (negative for bone)
   double attenuation_mm2 = 0;  // sum of -ln(I / P) * pixel area: excess attenuation x area
-  // The excess attenuation at its strongest point (3x3 mean), in mm of the fillet's own meat
+  // The excess attenuation at its strongest point (a 3x3 mean, or three pixels in a line for
+  // a needle), in mm of the fillet's own meat
   // (its fitted attenuation per mm there); magnitude, for bone and air alike; 0 without a fit.
   double meat_mm = 0;
   int pixels = 0;

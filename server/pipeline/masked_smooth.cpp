@@ -80,17 +80,48 @@ void masked_gaussian(const float* v, const uint8_t* mask, int rows, int cols, do
   masked_two_pass(v, mask, rows, cols, k, 1, 0, k, 0, 1, out);  // along rows, then columns
 }
 
-double masked_line_gaussian(const float* v, const uint8_t* mask, int rows, int cols,
-                            double sigma_along, double sigma_across, int direction,
-                            std::vector<float>& out) {
+namespace {
+// Kernel steps of a line direction: along (dx, dy), across (cx, cy), as masked_line_gaussian.
+struct LineSteps {
+  int dx, dy, cx, cy;
+  bool diagonal;
+};
+LineSteps line_steps(int direction) {
   static constexpr int kStep[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
   const int dx = kStep[direction & 3][0], dy = kStep[direction & 3][1];
   const bool diagonal = dx != 0 && dy != 0;
-  // A diagonal step is sqrt(2) pixels long.
-  const auto ka = kernel(diagonal ? sigma_along / std::sqrt(2.0) : sigma_along);
+  return {dx, dy, diagonal ? 1 : dy, diagonal ? 0 : dx, diagonal};
+}
+}  // namespace
+
+double masked_smooth_at(const float* v, const uint8_t* mask, int rows, int cols, double sigma_along,
+                        double sigma_across, int direction, int r, int c) {
+  const bool round = direction < 0;
+  const LineSteps st = round ? LineSteps{1, 0, 0, 1, false} : line_steps(direction);
+  const auto ka = kernel(st.diagonal ? sigma_along / std::sqrt(2.0) : sigma_along);
+  const auto kc = round ? ka : kernel(sigma_across);
+  const int ra = int(ka.size() / 2), rc = int(kc.size() / 2);
+  double num = 0, den = 0;
+  for (int a = -ra; a <= ra; ++a)
+    for (int b = -rc; b <= rc; ++b) {
+      const int x = c + a * st.dx + b * st.cx, y = r + a * st.dy + b * st.cy;
+      if (x < 0 || x >= cols || y < 0 || y >= rows) continue;
+      const size_t j = size_t(y) * cols + x;
+      if (!mask[j]) continue;
+      const double w = double(ka[a + ra]) * kc[b + rc];
+      num += w * v[j], den += w;
+    }
+  return den > 0 ? num / den : std::numeric_limits<double>::quiet_NaN();
+}
+
+double masked_line_gaussian(const float* v, const uint8_t* mask, int rows, int cols,
+                            double sigma_along, double sigma_across, int direction,
+                            std::vector<float>& out) {
+  const LineSteps st = line_steps(direction);
+  // A diagonal step is sqrt(2) pixels long; across a diagonal is along the rows.
+  const auto ka = kernel(st.diagonal ? sigma_along / std::sqrt(2.0) : sigma_along);
   const auto kc = kernel(sigma_across);
-  const int cx = diagonal ? 1 : dy, cy = diagonal ? 0 : dx;  // across (rows for diagonals)
-  masked_two_pass(v, mask, rows, cols, ka, dx, dy, kc, cx, cy, out);
+  masked_two_pass(v, mask, rows, cols, ka, st.dx, st.dy, kc, st.cx, st.cy, out);
   double sa = 0, sc = 0;
   for (float a : ka) sa += double(a) * a;
   for (float c : kc) sc += double(c) * c;

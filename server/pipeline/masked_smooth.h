@@ -22,4 +22,9 @@ double masked_line_gaussian(const float* v, const uint8_t* mask, int rows, int c
                             double sigma_along, double sigma_across, int direction,
                             std::vector<float>& out);
 
+// The same smoothings evaluated at one pixel (r, c) only (direction -1: the round
+// masked_gaussian of sigma_along), for a few pixels where whole images would cost more.
+double masked_smooth_at(const float* v, const uint8_t* mask, int rows, int cols, double sigma_along,
+                        double sigma_across, int direction, int r, int c);
+
 }  // namespace rangex

@@ -2,16 +2,60 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "core/error.h"
 
 namespace rangex {
 
+namespace {
+// The values at ranks r0 <= r1 of v (as a full sort would place them), by counting into
+// value buckets and selecting only within the buckets that hold those ranks: three plain
+// passes over v instead of a selection's several partitioning ones.
+std::pair<double, double> select_two_ranks(const double* v, size_t n, size_t r0, size_t r1) {
+  constexpr size_t kBuckets = 4096;
+  double lo = v[0], hi = v[0];
+  for (size_t i = 1; i < n; ++i) lo = std::min(lo, v[i]), hi = std::max(hi, v[i]);
+  if (!(hi > lo)) return {lo, lo};
+  const double scale = double(kBuckets) / (hi - lo);
+  if (!std::isfinite(scale)) {  // a spread too small to divide: select over everything
+    std::vector<double> all(v, v + n);
+    std::nth_element(all.begin(), all.begin() + r1, all.end());
+    const double v1 = all[r1];
+    return {r0 == r1 ? v1 : *std::max_element(all.begin(), all.begin() + r1), v1};
+  }
+  auto bucket = [&](double x) { return std::min(kBuckets - 1, size_t((x - lo) * scale)); };
+  std::vector<uint32_t> count(kBuckets, 0);
+  for (size_t i = 0; i < n; ++i) ++count[bucket(v[i])];
+  size_t below = 0, b0 = 0;
+  while (below + count[b0] <= r0) below += count[b0++];
+  size_t b1 = b0, upto = below + count[b0];  // ranks below the end of bucket b1
+  while (upto <= r1) upto += count[++b1];
+  std::vector<double> in;
+  in.reserve(upto - below);
+  for (size_t i = 0; i < n; ++i) {
+    const size_t b = bucket(v[i]);
+    if (b >= b0 && b <= b1) in.push_back(v[i]);
+  }
+  std::nth_element(in.begin(), in.begin() + (r1 - below), in.end());
+  const double v1 = in[r1 - below];
+  if (r0 == r1) return {v1, v1};
+  return {*std::max_element(in.begin(), in.begin() + (r1 - below)), v1};
+}
+}  // namespace
+
 double median_inplace(double* v, size_t n) {
   if (n == 0) return std::numeric_limits<double>::quiet_NaN();
   const size_t h = n / 2;
+  bool finite = n >= 4096;
+  for (size_t i = 0; finite && i < n; ++i) finite = std::isfinite(v[i]);
+  if (finite) {
+    const auto [a, b] = select_two_ranks(v, n, n % 2 ? h : h - 1, h);
+    return n % 2 ? b : 0.5 * (a + b);
+  }
   std::nth_element(v, v + h, v + n);
   const double hi = v[h];
   if (n % 2) return hi;
