@@ -13,7 +13,7 @@ using namespace rangex;
 namespace {
 
 // A line of fillet-like heights: domes, a steep wall, invalid samples, noise below the belt.
-void make_profile(std::mt19937& rng, int n, double peak, std::vector<float>& h,
+void make_profile(std::mt19937& rng, int n, double peak, bool below, std::vector<float>& h,
                   std::vector<uint8_t>& v) {
   std::uniform_real_distribution<double> u(0, 1);
   h.assign(n, 0.f);
@@ -21,7 +21,9 @@ void make_profile(std::mt19937& rng, int n, double peak, std::vector<float>& h,
   const int c0 = int(n * (0.2 + 0.3 * u(rng))), w = int(n * (0.1 + 0.2 * u(rng)));
   for (int g = 0; g < n; ++g) {
     const double d = double(g - c0) / w;
-    h[g] = float(std::abs(d) < 1 ? peak * (1 - d * d) : 0.05 * (u(rng) - 0.5));
+    // Off the fillet: belt noise either way, or (every other line) only below the belt.
+    const double noise = below ? -0.05 * u(rng) : 0.05 * (u(rng) - 0.5);
+    h[g] = float(std::abs(d) < 1 ? peak * (1 - d * d) : noise);
   }
   const int wall = c0 + w / 2;  // a wall: full height to nothing in one sample
   for (int g = wall; g < std::min(n, wall + 3); ++g) h[g] = 0;
@@ -43,7 +45,7 @@ TEST(RayTable, EqualsTheWalkBitForBit) {
     int invalid = 0, fallback = 0;
     for (int line = 0; line < 40; ++line) {
       const double peak = line % 10 == 9 ? 75.0 : 5.0 + line;  // every tenth above the table
-      make_profile(rng, n, peak, h, v);
+      make_profile(rng, n, peak, line % 2 == 0, h, v);
       const int slot = 0;
       project_fan_beam(h.data(), v.data(), 1, n, &slot, &lane.fusion, &lane.xray, P, want.data(),
                        want_v.data());

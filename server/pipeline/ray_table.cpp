@@ -66,7 +66,23 @@ void project_line(const RayTable& t, const float* h, const uint8_t* hv, float* t
     }
     return;
   }
+  // Most rays cross no meat: where every sample a ray's cells could read (a cell's margin
+  // either way) is valid and at or below the belt, its path is 0 without the walk (the walk
+  // adds nothing there: h - z <= 0 in every cell).
+  thread_local std::vector<int32_t> meat_or_invalid;
+  meat_or_invalid.resize(size_t(n) + 1);
+  meat_or_invalid[0] = 0;
+  for (int g = 0; g < n; ++g) meat_or_invalid[g + 1] = meat_or_invalid[g] + (!hv[g] || h[g] > 0);
   for (int i = 0; i < t.pixels; ++i) {
+    const double c0 = (t.xd[i] + t.slope[i] * (0 - t.zd[i]) - t.x0_mm) / t.pitch_mm,
+                 c1 = (t.xd[i] + t.slope[i] * (ztop - t.zd[i]) - t.x0_mm) / t.pitch_mm;
+    const int lo = std::clamp(int(std::floor(std::min(c0, c1))) - 1, 0, n),
+              hi = std::clamp(int(std::floor(std::max(c0, c1))) + 3, 0, n);
+    if (meat_or_invalid[hi] == meat_or_invalid[lo]) {
+      thickness[i] = 0.f;
+      thickness_valid[i] = 1;
+      continue;
+    }
     bool valid = true;
     auto sample = [&](int k) -> double {
       if (k < 0 || k >= n) return 0.0;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -15,17 +16,24 @@ namespace {
 // The values at ranks r0 <= r1 of v (as a full sort would place them), by counting into
 // value buckets and selecting only within the buckets that hold those ranks: three plain
 // passes over v instead of a selection's several partitioning ones.
-std::pair<double, double> select_two_ranks(const double* v, size_t n, size_t r0, size_t r1) {
+// Empty when v holds a value that is not finite.
+std::optional<std::pair<double, double>> select_two_ranks(const double* v, size_t n, size_t r0,
+                                                          size_t r1) {
   constexpr size_t kBuckets = 4096;
   double lo = v[0], hi = v[0];
-  for (size_t i = 1; i < n; ++i) lo = std::min(lo, v[i]), hi = std::max(hi, v[i]);
-  if (!(hi > lo)) return {lo, lo};
+  bool finite = true;
+  for (size_t i = 0; i < n; ++i) {
+    lo = std::min(lo, v[i]), hi = std::max(hi, v[i]);
+    finite &= std::isfinite(v[i]);
+  }
+  if (!finite) return std::nullopt;
+  if (!(hi > lo)) return std::pair{lo, lo};
   const double scale = double(kBuckets) / (hi - lo);
   if (!std::isfinite(scale)) {  // a spread too small to divide: select over everything
     std::vector<double> all(v, v + n);
     std::nth_element(all.begin(), all.begin() + r1, all.end());
     const double v1 = all[r1];
-    return {r0 == r1 ? v1 : *std::max_element(all.begin(), all.begin() + r1), v1};
+    return std::pair{r0 == r1 ? v1 : *std::max_element(all.begin(), all.begin() + r1), v1};
   }
   auto bucket = [&](double x) { return std::min(kBuckets - 1, size_t((x - lo) * scale)); };
   std::vector<uint32_t> count(kBuckets, 0);
@@ -42,20 +50,17 @@ std::pair<double, double> select_two_ranks(const double* v, size_t n, size_t r0,
   }
   std::nth_element(in.begin(), in.begin() + (r1 - below), in.end());
   const double v1 = in[r1 - below];
-  if (r0 == r1) return {v1, v1};
-  return {*std::max_element(in.begin(), in.begin() + (r1 - below)), v1};
+  if (r0 == r1) return std::pair{v1, v1};
+  return std::pair{*std::max_element(in.begin(), in.begin() + (r1 - below)), v1};
 }
 }  // namespace
 
 double median_inplace(double* v, size_t n) {
   if (n == 0) return std::numeric_limits<double>::quiet_NaN();
   const size_t h = n / 2;
-  bool finite = n >= 4096;
-  for (size_t i = 0; finite && i < n; ++i) finite = std::isfinite(v[i]);
-  if (finite) {
-    const auto [a, b] = select_two_ranks(v, n, n % 2 ? h : h - 1, h);
-    return n % 2 ? b : 0.5 * (a + b);
-  }
+  if (n >= 4096)
+    if (const auto ab = select_two_ranks(v, n, n % 2 ? h : h - 1, h))
+      return n % 2 ? ab->second : 0.5 * (ab->first + ab->second);
   std::nth_element(v, v + h, v + n);
   const double hi = v[h];
   if (n % 2) return hi;
