@@ -25,8 +25,9 @@ commands:
   eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] [--seed S]
       each plant variant (config/variants) calibrated from its own scenes, simulated,
       inspected and evaluated beside the X-ray-only baseline (a benchmark: minutes each)
-  fit FILE.csv [--c C] [--json]
+  fit FILE.csv [--c C] [--degree 1|2] [--json]
       robust fit ln I = b0 + b1 T (Tukey biweight) of a two-column CSV with a header
+      (--degree 2: + b2 T^2, the parabola of a hardened beam)
   calib scatter DIR [--lines N] [--config ...]
       fit the scattering constants K1, K2 per camera from a recording with truth
 
