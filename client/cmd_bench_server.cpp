@@ -135,11 +135,28 @@ void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans,
 }  // namespace
 
 int cmd_bench_server(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"capacity"}, {"lines", "threads", "backend", "device"});
+  const Args a(argc, argv, 2, {"capacity"},
+               {"lines", "threads", "backend", "device", "rate", "lanes"});
   a.expect_positionals(0,
                        "bench-server [--lines N] [--backend cpu|opencl|vulkan|auto|all] "
-                       "[--device D] [--capacity]");
+                       "[--device D] [--lanes 1,4,16] [--rate LINES/S] [--capacity]");
   const int n = int(a.integer("lines", 1200));
+  // A fixed rate per lane (a belt's speed) measures latency at a plant's load; without it
+  // the feeders send as fast as the server takes lines (throughput).
+  const double rate = std::stod(a.get("rate", "0"));
+  if (!(rate >= 0)) fail("--rate must be >= 0 lines/s per lane");
+  std::vector<int> lane_counts = {1, 4, 16};
+  if (a.has("lanes")) {
+    lane_counts.clear();
+    const std::string v = a.get("lanes", "");
+    for (size_t i = 0; i <= v.size();) {
+      const size_t j = std::min(v.find(',', i), v.size());
+      const int k = std::atoi(v.substr(i, j - i).c_str());
+      if (k < 1 || k > 16) fail("--lanes takes lane counts from 1 to 16 (got '", v, "')");
+      lane_counts.push_back(k);
+      i = j + 1;
+    }
+  }
   const int threads =
       int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
   std::vector<BackendRequest> backends;
@@ -170,11 +187,13 @@ int cmd_bench_server(int argc, char** argv) {
     scans[k].set_xray(std::move(x));
   }
   std::printf(
-      "end to end through gRPC on loopback, %d lines per lane (%d fillets each), %d threads\n",
-      lines, sp.scene.fillets, threads);
+      "end to end through gRPC on loopback, %d lines per lane (%d fillets each), %d threads, %s\n",
+      lines, sp.scene.fillets, threads,
+      rate > 0 ? ("fed at " + std::to_string(int(rate)) + " lines/s per lane").c_str()
+               : "fed as fast as the server takes lines");
   std::printf("%-6s %-8s %16s %16s %8s %24s\n", "lanes", "backend", "in-process l/s", "gRPC l/s",
               "ratio", "last line -> decision");
-  for (int nl : {1, 4, 16}) {
+  for (int nl : lane_counts) {
     // In-process: the same lines through the CPU backend and each lane's LaneProcessor,
     // batches of 64: what the server adds is measured against this.
     std::vector<uint16_t> xray(size_t(lc.xray.pixels) * 64);
@@ -235,6 +254,7 @@ int cmd_bench_server(int argc, char** argv) {
             MemorySource src(scans, lane);
             FeedOptions fo;
             fo.window = 128;
+            fo.rate = rate;
             const FeedReport r = Feeder(ch, fo).run(src);
             refused += int64_t(r.refused_total());
             for (const auto& [code, n] : r.refused)
@@ -246,6 +266,13 @@ int cmd_bench_server(int argc, char** argv) {
                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
         const EngineStats st = server.engine().stats();
         lat = st.decision;
+        if (rate > 0)
+          for (const auto& [name, l] : std::vector<std::pair<std::string, LatencyStats::Summary>>{
+                   {"queue wait", st.queue_wait},
+                   {"line batch", st.pipeline},
+                   {"inspection wait", st.inspection_wait},
+                   {"inspection", st.inspection}})
+            std::printf("   %-16s p50 %7.1f ms  p99 %7.1f ms\n", name.c_str(), l.p50, l.p99);
         running = st.backend.name;
         if (refused.load()) std::printf("(%lld lines refused)\n", (long long)refused.load());
       }

@@ -53,8 +53,9 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
       batches in flight, beside the CPU backend; a device's stripe stage against its
       host-to-device bandwidth
 
-  bench-server [--lines N] [--backend NAME|all] [--capacity]
-      lines/s through gRPC on loopback for 1, 4, 16 lanes beside the in-process pipeline
+  bench-server [--lines N] [--backend NAME|all] [--lanes 1,4,16] [--rate R] [--capacity]
+      lines/s through gRPC on loopback for 1, 4, 16 lanes beside the in-process pipeline, and
+      the latency from a fillet's last line to its decision (--rate: lines/s per lane)
 
 server commands (--server HOST:PORT, default: plant.yaml's listen address):
   feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]

@@ -11,25 +11,33 @@ double since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace
 
-LaneProcessor::LaneProcessor(const LaneConfig& lane, LaneProcessorOptions opt, FilletSink sink)
+InspectedFillet inspect_image(FilletImage&& img, const InspectionParams& p,
+                              const LaneProcessorOptions& opt) {
+  const auto t0 = std::chrono::steady_clock::now();
+  InspectedFillet f;
+  f.result = inspect_fillet(img, p, opt.keep_images);
+  if (opt.baseline) f.baseline = inspect_fillet_xray_only(img, p, false);
+  if (!opt.keep_images) {
+    img.xray.clear();
+    img.thickness.clear();
+    img.mask.clear();
+  }
+  f.image = std::move(img);
+  f.inspect_ms = 1e3 * since(t0);
+  return f;
+}
+
+LaneProcessor::LaneProcessor(const LaneConfig& lane, LaneProcessorOptions opt, FilletSink sink,
+                             ImageSink images)
     : lane_(lane),
       opt_(opt),
       sink_(std::move(sink)),
+      images_(std::move(images)),
       assembler_(lane,
                  [this](FilletImage&& img) {
-                   const auto t0 = std::chrono::steady_clock::now();
-                   InspectedFillet f;
-                   f.result = inspect_fillet(img, lane_.inspection, opt_.keep_images);
-                   if (opt_.baseline)
-                     f.baseline = inspect_fillet_xray_only(img, lane_.inspection, false);
-                   if (!opt_.keep_images) {
-                     img.xray.clear();
-                     img.thickness.clear();
-                     img.mask.clear();
-                   }
-                   f.image = std::move(img);
-                   f.inspect_ms = 1e3 * since(t0);
-                   inspect_s_ += since(t0);
+                   if (images_) return images_(std::move(img));
+                   InspectedFillet f = inspect_image(std::move(img), lane_.inspection, opt_);
+                   inspect_s_ += f.inspect_ms / 1e3;
                    sink_(std::move(f));
                  }),
       line_(size_t(lane.xray.pixels)) {}

@@ -27,11 +27,21 @@ struct InspectedFillet {
   double inspect_ms = 0;  // compensation + detection time of this fillet
 };
 
+// A fillet's inspection as the lane processor runs it (and the baseline, on request); the
+// image keeps its pixels only when images are kept.
+InspectedFillet inspect_image(FilletImage&& img, const InspectionParams& p,
+                              const LaneProcessorOptions& opt);
+
 class LaneProcessor {
  public:
   using FilletSink = std::function<void(InspectedFillet&&)>;
+  using ImageSink = std::function<void(FilletImage&&)>;
 
-  LaneProcessor(const LaneConfig& lane, LaneProcessorOptions opt, FilletSink sink);
+  // Each fillet the assembly cuts is inspected here and handed to `sink`; or, with `images`,
+  // handed uninspected to `images` (a server inspects on another thread, so that a fillet's
+  // decision does not wait behind other lanes' lines).
+  LaneProcessor(const LaneConfig& lane, LaneProcessorOptions opt, FilletSink sink,
+                ImageSink images = {});
 
   // One line: its thickness line (detector pixels, with valid flags) from the line stages,
   // its X-ray line and its encoder count. blind: neither camera saw the stripe anywhere on
@@ -63,6 +73,7 @@ class LaneProcessor {
   LaneConfig lane_;
   LaneProcessorOptions opt_;
   FilletSink sink_;
+  ImageSink images_;
   LaneAssembler assembler_;
   std::vector<float> line_;
   double inspect_s_ = 0;

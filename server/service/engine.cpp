@@ -51,8 +51,8 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
     l->xray.resize(size_t(l->pixels));
     Lane* raw = l.get();
     l->proc = std::make_unique<LaneProcessor>(
-        l->config, LaneProcessorOptions{false, opt_.images},
-        [this, raw](InspectedFillet&& f) { on_fillet(*raw, std::move(f)); });
+        l->config, LaneProcessorOptions{false, opt_.images}, LaneProcessor::FilletSink{},
+        [this, raw](FilletImage&& img) { on_image(*raw, std::move(img)); });
     by_id_[l->id] = l.get();
     lanes_.push_back(std::move(l));
   }
@@ -65,6 +65,7 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
         route(lines, r);
       },
       [this](std::vector<Queued>& lines, const std::string& why) { lose(lines, why); });
+  inspector_ = std::thread([this] { inspector(); });
   worker_ = std::thread([this] { worker(); });
 }
 
@@ -212,7 +213,6 @@ void Engine::worker() {
       runner_->finish_all();
     }
     batch_started_ns_ = 0;
-    retry_unsaved();
     if (!runner_->busy()) close_idle_lanes();
   }
   runner_->finish_all();
@@ -225,14 +225,13 @@ void Engine::worker() {
     }
     l->in_progress = false;
   }
-  // Give the store a last chance with what it could not take.
-  for (int tries = 0; tries < 20 && !unsaved_.empty(); ++tries) {
-    retry_unsaved();
-    if (!unsaved_.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  // The inspector finishes what was cut, then stops.
+  {
+    std::lock_guard<std::mutex> lock(inspect_mu_);
+    inspect_stop_ = true;
   }
-  if (!unsaved_.empty())
-    std::fprintf(stderr, "rangexd: %zu decisions could not be stored before the stop\n",
-                 unsaved_.size());
+  inspect_cv_.notify_all();
+  if (inspector_.joinable()) inspector_.join();
   std::lock_guard<std::mutex> lock(done_mu_);
   done_ = true;
   done_cv_.notify_all();
@@ -382,8 +381,8 @@ void Engine::recover(Lane& l, const std::string& why) {
                  e2.what());
     Lane* raw = &l;
     l.proc = std::make_unique<LaneProcessor>(
-        l.config, LaneProcessorOptions{false, opt_.images},
-        [this, raw](InspectedFillet&& f) { on_fillet(*raw, std::move(f)); });
+        l.config, LaneProcessorOptions{false, opt_.images}, LaneProcessor::FilletSink{},
+        [this, raw](FilletImage&& img) { on_image(*raw, std::move(img)); });
     l.assembly_restarts = 0;
   }
 }
@@ -404,9 +403,71 @@ void Engine::close_idle_lanes() {
   }
 }
 
-void Engine::on_fillet(Lane& l, InspectedFillet&& f) {
+void Engine::on_image(Lane& l, FilletImage&& img) {
+  InspectJob job{&l, std::move(img), l.config.inspection, l.running_calibration, 0, steady_ns()};
+  // Decision latency runs from the arrival of the fillet's last line.
+  const int64_t last = job.image.first_encoder + job.image.rows - 1;
+  for (auto it = l.arrivals.rbegin(); it != l.arrivals.rend(); ++it)
+    if (it->first <= last) {
+      job.last_arrival_ns = it->second;
+      break;
+    }
+  std::unique_lock<std::mutex> lock(inspect_mu_);
+  inspect_room_.wait(lock, [&] { return inspect_queue_.size() < kMaxInspectQueue; });
+  inspect_queue_.push_back(std::move(job));
+  inspect_cv_.notify_one();
+}
+
+void Engine::inspector() {
+  while (true) {
+    std::optional<InspectJob> job;
+    {
+      std::unique_lock<std::mutex> lock(inspect_mu_);
+      // Idle, it wakes every 100 ms: unsaved decisions need looking after.
+      inspect_cv_.wait_for(lock, std::chrono::milliseconds(100),
+                           [&] { return !inspect_queue_.empty() || inspect_stop_; });
+      if (!inspect_queue_.empty()) {
+        job.emplace(std::move(inspect_queue_.front()));
+        inspect_queue_.pop_front();
+        inspect_room_.notify_all();
+      } else if (inspect_stop_) {
+        break;
+      }
+    }
+    if (job) {
+      inspection_wait_.add((steady_ns() - job->queued_ns) / 1e6);
+      const FilletImage& im = job->image;
+      InspectedFillet f;
+      f.result.lane = im.lane, f.result.id = im.id, f.result.first_line = im.first_line;
+      f.result.first_encoder = im.first_encoder, f.result.rows = im.rows;
+      f.result.y0_mm = im.y0_mm;
+      try {
+        f = inspect_image(std::move(job->image), job->params,
+                          LaneProcessorOptions{false, opt_.images});
+      } catch (const std::exception& e) {
+        // Uninspected product is never passed: the fillet fails safe.
+        f.result.decision = Decision::kNotInspected;
+        f.result.reason = std::string("inspection failed: ") + e.what();
+        std::fprintf(stderr, "rangexd: lane %d: %s\n", job->lane->id, f.result.reason.c_str());
+      }
+      on_fillet(*job, std::move(f));
+    }
+    retry_unsaved();
+  }
+  // Give the store a last chance with what it could not take.
+  for (int tries = 0; tries < 20 && !unsaved_.empty(); ++tries) {
+    retry_unsaved();
+    if (!unsaved_.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  if (!unsaved_.empty())
+    std::fprintf(stderr, "rangexd: %zu decisions could not be stored before the stop\n",
+                 unsaved_.size());
+}
+
+void Engine::on_fillet(const InspectJob& job, InspectedFillet&& f) {
   const FilletResult& r = f.result;
   inspection_.add(f.inspect_ms);
+  for (int k = 0; k < kStages; ++k) inspection_stage_[k].add(1e3 * r.stage_seconds[k]);
   Unsaved u;
   StoredFillet& s = u.record;
   s.lane = r.lane;
@@ -422,19 +483,12 @@ void Engine::on_fillet(Lane& l, InspectedFillet&& f) {
   s.resid_std_dn = r.resid_std_dn;
   s.belt_y0_mm = r.y0_mm;
   s.decided_ns = now_ns();
-  s.calibration_id = l.running_calibration;
+  s.calibration_id = job.calibration;
   for (const auto* list : {&r.fragments, &r.air_pockets})
     for (const Blob& b : *list)
       s.fragments.push_back({list == &r.fragments ? "bone" : "air", b.x_mm, b.y_mm, b.area_mm2,
                              b.peak_z, b.attenuation_mm2, b.meat_mm});
-  // Decision latency runs from the arrival of the fillet's last line.
-  u.last_arrival_ns = 0;
-  const int64_t last = r.first_encoder + r.rows - 1;
-  for (auto it = l.arrivals.rbegin(); it != l.arrivals.rend(); ++it)
-    if (it->first <= last) {
-      u.last_arrival_ns = it->second;
-      break;
-    }
+  u.last_arrival_ns = job.last_arrival_ns;
   ++fillets_;
   rejects_ += r.decision == Decision::kReject;
   not_inspected_ += r.decision == Decision::kNotInspected;
@@ -715,6 +769,9 @@ EngineStats Engine::stats() {
   s.queue_wait = queue_wait_.summary();
   s.pipeline = pipeline_.summary();
   s.inspection = inspection_.summary();
+  s.inspection_wait = inspection_wait_.summary();
+  for (int k = 0; k < kStages; ++k)
+    s.inspection_stages.emplace_back(inspect_stage_name(k), inspection_stage_[k].summary());
   s.decision = decision_.summary();
   s.health = health();
   s.backend = runner_->running();

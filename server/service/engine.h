@@ -6,11 +6,14 @@
 // another.
 //
 // Threads and locks (docs/concurrency.md): ingest handlers call submit() from gRPC threads;
-// one worker thread owns every LaneProcessor; control RPCs and the watchdog read state.
+// one worker thread owns every LaneProcessor (the assembly); one inspector thread inspects,
+// stores and publishes the fillets they cut, in order; control RPCs and the watchdog read
+// state.
 // Engine locks never nest and are never held while calling out of the engine (store, hub,
 // processors):
 //   mu_      admission: the queue, every lane's LaneAdmission, stopping/paused flags
 //   ctl_mu_  control: lanes' configurations, pending changes, calibration ids
+//   inspect_mu_  the fillets waiting for the inspector
 //   leaf locks inside LatencyStats, rate_mu_, health_mu_
 // Counters are atomics, so statistics never wait for ingest and ingest never waits for them.
 #pragma once
@@ -63,6 +66,8 @@ struct EngineStats {
   double lines_per_second = 0;
   int queue_depth = 0, queue_capacity = 0;
   LatencyStats::Summary queue_wait, pipeline, inspection, decision;
+  LatencyStats::Summary inspection_wait;  // a cut fillet waiting for the inspector
+  std::vector<std::pair<std::string, LatencyStats::Summary>> inspection_stages;
   Health health;
   std::vector<std::string> warnings;  // e.g. lanes that stopped being fed
   BackendInfo backend;                // what runs the line stages now
@@ -154,6 +159,14 @@ class Engine {
     std::atomic<uint64_t> restarts{0};
   };
   using Queued = QueuedLine;
+  struct InspectJob {  // a fillet the worker cut, for the inspector
+    Lane* lane;
+    FilletImage image;
+    InspectionParams params;
+    std::string calibration;  // the one the lane ran when it saw the fillet
+    int64_t last_arrival_ns;  // arrival of the fillet's last line (0: unknown)
+    int64_t queued_ns;
+  };
   struct Unsaved {  // a decision waiting for the store
     StoredFillet record;
     InspectedFillet fillet;
@@ -171,7 +184,9 @@ class Engine {
   void restart_lane(Lane& l, const std::string& reason);
   void note_assembly_restarts(Lane& l);
   void close_idle_lanes();
-  void on_fillet(Lane& l, InspectedFillet&& f);
+  void on_image(Lane& l, FilletImage&& img);                   // worker
+  void inspector();                                            // the inspector thread
+  void on_fillet(const InspectJob& job, InspectedFillet&& f);  // inspector
   bool save(Unsaved& u);
   void retry_unsaved();
   Lane& lane(int id);
@@ -194,11 +209,20 @@ class Engine {
   std::mutex ctl_mu_;
 
   std::thread worker_;
+  // Fillets cut by the worker, inspected in order on the inspector thread, so that a
+  // decision does not wait behind the lines of other lanes (bounded: a full queue holds
+  // the worker).
+  std::thread inspector_;
+  std::mutex inspect_mu_;
+  std::condition_variable inspect_cv_, inspect_room_;
+  std::deque<InspectJob> inspect_queue_;
+  bool inspect_stop_ = false;
+  static constexpr size_t kMaxInspectQueue = 32;
   std::mutex done_mu_;
   std::condition_variable done_cv_;
   bool done_ = false;
   std::atomic<int64_t> batch_started_ns_{0};
-  std::deque<Unsaved> unsaved_;  // worker only
+  std::deque<Unsaved> unsaved_;  // inspector only
 
   std::atomic<uint64_t> received_{0}, accepted_{0}, processed_{0};
   std::atomic<uint64_t> fillets_{0}, rejects_{0}, not_inspected_{0}, store_errors_{0};
@@ -211,7 +235,8 @@ class Engine {
 
   std::mutex rate_mu_;
   std::deque<std::pair<int64_t, uint64_t>> rate_;  // (steady ns, processed) samples
-  LatencyStats queue_wait_, pipeline_, inspection_, decision_;
+  LatencyStats queue_wait_, pipeline_, inspection_, decision_, inspection_wait_;
+  LatencyStats inspection_stage_[kStages];
 };
 
 }  // namespace rangex

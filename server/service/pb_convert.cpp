@@ -110,6 +110,13 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
   lat("line_pipeline_batch", s.pipeline);
   lat("inspection_fillet", s.inspection);
   lat("last_line_to_decision", s.decision);
+  lat("inspection_wait", s.inspection_wait);
+  for (const auto& [name, l] : s.inspection_stages) {
+    std::string stage = "inspection_" + name;
+    for (char& c : stage)
+      if (c == ' ') c = '_';
+    lat(stage.c_str(), l);
+  }
   o->set_queue_depth(s.queue_depth);
   o->set_queue_capacity(s.queue_capacity);
   o->set_fillets(s.fillets);
