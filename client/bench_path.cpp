@@ -21,11 +21,12 @@ using clk = std::chrono::steady_clock;
 
 // The rows of the report: the line stages, the assembly, the inspection's own stages.
 enum Row { kIngest, kStripe, kRectify, kFuse, kProject, kAssemble, kInspect0 };
-constexpr int kRows = kInspect0 + kStages + 1;  // + the inspection's remainder
+constexpr int kInspectStages = kStages;
+constexpr int kRows = kInspect0 + kInspectStages + 1;  // + the inspection's remainder
 const char* row_name(int r) {
   static const char* kLine[] = {"ingest copy", "stripe", "rectify", "fuse", "project", "assemble"};
   if (r < kInspect0) return kLine[r];
-  if (r < kInspect0 + kStages) return inspect_stage_name(r - kInspect0);
+  if (r < kInspect0 + kInspectStages) return inspect_stage_name(r - kInspect0);
   return "inspection, other";
 }
 
@@ -122,7 +123,7 @@ PathTimes run_lanes(const LaneConfig& lc, const Recorded& rec, int first_lane, i
             t.seconds[kInspect0 + s] += f.result.stage_seconds[s];
             staged += f.result.stage_seconds[s];
           }
-          t.seconds[kInspect0 + kStages] += std::max(0.0, f.inspect_ms / 1e3 - staged);
+          t.seconds[kInspect0 + kInspectStages] += std::max(0.0, f.inspect_ms / 1e3 - staged);
           inspected += f.inspect_ms / 1e3;
           ++t.fillets;
           t.fillet_pixels += f.result.pixels;

@@ -128,8 +128,9 @@ TEST(RobustFit, ParabolaNeedsThreeThicknesses) {
   EXPECT_THROW(fit_tukey_poly(x, y, 3, 2), Error);
 }
 
-// The bucketed selection of large inputs against a full sort: odd and even sizes, ties,
-// heavy tails, a spread of one rounding step, all values equal.
+// The bracketed selection of large inputs against a full sort: odd and even sizes, ties,
+// heavy tails, a spread of one rounding step, all values equal, infinities, and data whose
+// strided sample is unlike the whole (the bracket misses and everything is selected in).
 TEST(Median, EqualsTheSortedMiddle) {
   std::mt19937 rng(11);
   std::normal_distribution<double> g(0, 1);
@@ -143,7 +144,7 @@ TEST(Median, EqualsTheSortedMiddle) {
     return 3.0;
   };
   for (size_t n : {4095ul, 4096ul, 50001ul, 75000ul}) {
-    for (int kind = 0; kind < 6; ++kind) {
+    for (int kind = 0; kind < 7; ++kind) {
       std::vector<double> v(n);
       for (size_t i = 0; i < n; ++i) v[i] = value(kind, i);
       std::vector<double> sorted = v;

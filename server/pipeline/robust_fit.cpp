@@ -13,45 +13,43 @@
 namespace rangex {
 
 namespace {
-// The values at ranks r0 <= r1 of v (as a full sort would place them), by counting into
-// value buckets and selecting only within the buckets that hold those ranks: three plain
-// passes over v instead of a selection's several partitioning ones.
-// Empty when v holds a value that is not finite.
+// The values at ranks r0 <= r1 of v (as a full sort would place them). A strided sample of
+// v brackets those ranks (Floyd and Rivest's idea); one pass counts what lies below the
+// bracket and gathers what lies in it, and only that small set is selected in. When the
+// bracket misses (a sample that is not like the whole), every value is selected in. Exact
+// either way. Empty when v holds a NaN.
 std::optional<std::pair<double, double>> select_two_ranks(const double* v, size_t n, size_t r0,
                                                           size_t r1) {
-  constexpr size_t kBuckets = 4096;
-  double lo = v[0], hi = v[0];
-  bool finite = true;
-  for (size_t i = 0; i < n; ++i) {
-    lo = std::min(lo, v[i]), hi = std::max(hi, v[i]);
-    finite &= std::isfinite(v[i]);
-  }
-  if (!finite) return std::nullopt;
-  if (!(hi > lo)) return std::pair{lo, lo};
-  const double scale = double(kBuckets) / (hi - lo);
-  if (!std::isfinite(scale)) {  // a spread too small to divide: select over everything
-    std::vector<double> all(v, v + n);
-    std::nth_element(all.begin(), all.begin() + r1, all.end());
-    const double v1 = all[r1];
-    return std::pair{r0 == r1 ? v1 : *std::max_element(all.begin(), all.begin() + r1), v1};
-  }
-  auto bucket = [&](double x) { return std::min(kBuckets - 1, size_t((x - lo) * scale)); };
-  std::vector<uint32_t> count(kBuckets, 0);
-  for (size_t i = 0; i < n; ++i) ++count[bucket(v[i])];
-  size_t below = 0, b0 = 0;
-  while (below + count[b0] <= r0) below += count[b0++];
-  size_t b1 = b0, upto = below + count[b0];  // ranks below the end of bucket b1
-  while (upto <= r1) upto += count[++b1];
+  auto finish = [&](std::vector<double>& in, size_t below) {
+    std::nth_element(in.begin(), in.begin() + long(r1 - below), in.end());
+    const double v1 = in[r1 - below];
+    if (r0 == r1) return std::pair{v1, v1};
+    return std::pair{*std::max_element(in.begin(), in.begin() + long(r1 - below)), v1};
+  };
+  constexpr size_t kSample = 1024;
+  std::vector<double> sample(kSample);
+  for (size_t k = 0; k < kSample; ++k) sample[k] = v[(2 * k + 1) * n / (2 * kSample)];
+  std::sort(sample.begin(), sample.end());
+  // Ranks within the sample, widened by about four standard deviations of a sampled rank.
+  const double margin = 4 * std::sqrt(double(kSample)) / 2;
+  const long k0 = long(std::floor(double(r0) / double(n) * kSample - margin)),
+             k1 = long(std::ceil(double(r1) / double(n) * kSample + margin));
+  const double lo = k0 < 0 ? -std::numeric_limits<double>::infinity() : sample[size_t(k0)];
+  const double hi =
+      k1 >= long(kSample) ? std::numeric_limits<double>::infinity() : sample[size_t(k1)];
   std::vector<double> in;
-  in.reserve(upto - below);
+  in.reserve(n / 16);
+  size_t below = 0, above = 0;
   for (size_t i = 0; i < n; ++i) {
-    const size_t b = bucket(v[i]);
-    if (b >= b0 && b <= b1) in.push_back(v[i]);
+    const double x = v[i];
+    below += x < lo;
+    above += x > hi;
+    if (x >= lo && x <= hi) in.push_back(x);
   }
-  std::nth_element(in.begin(), in.begin() + (r1 - below), in.end());
-  const double v1 = in[r1 - below];
-  if (r0 == r1) return std::pair{v1, v1};
-  return std::pair{*std::max_element(in.begin(), in.begin() + (r1 - below)), v1};
+  if (below + above + in.size() != n) return std::nullopt;  // a NaN compares as nothing
+  if (below <= r0 && below + in.size() > r1) return finish(in, below);
+  in.assign(v, v + n);
+  return finish(in, 0);
 }
 }  // namespace
 
@@ -102,31 +100,29 @@ bool weighted_line(const double* x, const double* y, const double* w, size_t n, 
   return true;
 }
 
-// Weighted least squares of a parabola: the 3x3 normal equations in u = (x - mean) / spread
-// (conditioning), solved by elimination with partial pivoting, then carried back to x.
-bool weighted_parabola(const double* x, const double* y, const double* w, size_t n, Poly& out) {
-  double sw = 0, sx = 0;
+// Weighted least squares of a parabola: the 3x3 normal equations in u = (x - m) / sd
+// (conditioning: m and sd are the unweighted mean and spread of x, found once per fit so
+// that each iteration is one pass), solved by elimination with partial pivoting, then
+// carried back to x.
+struct Centre {
+  double m = 0, sd = 1;
+};
+
+bool weighted_parabola(const double* x, const double* y, const double* w, size_t n,
+                       const Centre& ctr, Poly& out) {
+  const double m = ctr.m, s = ctr.sd;
+  // The moments sum(w u^k), k = 0..4, and sum(w u^k y), k = 0..2, in one pass.
+  double s0 = 0, s1 = 0, s2 = 0, s3 = 0, s4 = 0, t0 = 0, t1 = 0, t2 = 0;
+  const double inv = 1 / s;
   for (size_t i = 0; i < n; ++i) {
     const double wi = w ? w[i] : 1.0;
-    sw += wi;
-    sx += wi * x[i];
+    const double u = (x[i] - m) * inv, wu = wi * u, wu2 = wu * u;
+    s0 += wi, s1 += wu, s2 += wu2, s3 += wu2 * u, s4 += wu2 * u * u;
+    t0 += wi * y[i], t1 += wu * y[i], t2 += wu2 * y[i];
   }
+  const double sw = s0;
   if (!(sw > 0)) return false;
-  const double m = sx / sw;
-  double sxx = 0;
-  for (size_t i = 0; i < n; ++i) sxx += (w ? w[i] : 1.0) * (x[i] - m) * (x[i] - m);
-  const double s = std::sqrt(sxx / sw);
-  if (!(s > 1e-6 * std::max(1.0, std::abs(m)))) return false;
-  double a[3][4] = {};
-  for (size_t i = 0; i < n; ++i) {
-    const double wi = w ? w[i] : 1.0;
-    if (wi == 0) continue;
-    const double u = (x[i] - m) / s, f[3] = {1, u, u * u};
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) a[r][c] += wi * f[r] * f[c];
-      a[r][3] += wi * f[r] * y[i];
-    }
-  }
+  double a[3][4] = {{s0, s1, s2, t0}, {s1, s2, s3, t1}, {s2, s3, s4, t2}};
   for (int k = 0; k < 3; ++k) {
     int piv = k;
     for (int r = k + 1; r < 3; ++r)
@@ -151,8 +147,9 @@ bool weighted_parabola(const double* x, const double* y, const double* w, size_t
   return true;
 }
 
-bool weighted_poly(const double* x, const double* y, const double* w, size_t n, Poly& out) {
-  return out.degree == 1 ? weighted_line(x, y, w, n, out) : weighted_parabola(x, y, w, n, out);
+bool weighted_poly(const double* x, const double* y, const double* w, size_t n, const Centre& ctr,
+                   Poly& out) {
+  return out.degree == 1 ? weighted_line(x, y, w, n, out) : weighted_parabola(x, y, w, n, ctr, out);
 }
 
 }  // namespace
@@ -173,23 +170,34 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
       fail("robust fit: point ", i, " is not finite (", x[i], ", ", y[i], ")");
   Poly line;
   line.degree = degree;
-  if (!weighted_poly(x, y, nullptr, n, line))
+  Centre ctr;
+  if (degree == 2) {
+    double sx = 0, sxx = 0;
+    for (size_t i = 0; i < n; ++i) sx += x[i];
+    ctr.m = sx / double(n);
+    for (size_t i = 0; i < n; ++i) sxx += (x[i] - ctr.m) * (x[i] - ctr.m);
+    ctr.sd = std::sqrt(sxx / double(n));
+  }
+  if ((degree == 2 && !(ctr.sd > 1e-6 * std::max(1.0, std::abs(ctr.m)))) ||
+      !weighted_poly(x, y, nullptr, n, ctr, line))
     fail(degree == 1 ? "robust fit: all points share one thickness"
                      : "robust fit: fewer than three distinct thicknesses for a parabola");
 
   std::vector<double> r(n), w(n), tmp(n);
-  auto residuals = [&] {
-    for (size_t i = 0; i < n; ++i) r[i] = y[i] - line.at(x[i]);
+  // One pass: the residuals, their magnitudes (for the MAD) and sum(wt r^2) (the deviance's).
+  double ss = 0;
+  auto residuals = [&](const double* wt) {
+    ss = 0;
+    for (size_t i = 0; i < n; ++i) {
+      r[i] = y[i] - line.at(x[i]);
+      tmp[i] = std::abs(r[i]);
+      ss += (wt ? wt[i] : 1.0) * r[i] * r[i];
+    }
   };
-  auto mad_scale = [&] {
-    for (size_t i = 0; i < n; ++i) tmp[i] = std::abs(r[i]);
-    return median_inplace(tmp.data(), n) / kMadNormal;
-  };
+  auto mad_scale = [&] { return median_inplace(tmp.data(), n) / kMadNormal; };
   // Deviance as statsmodels computes it: sum rho(r / s_w) with s_w the weighted fit's
   // residual variance sum(w r^2) / (n - parameters).
-  auto deviance = [&](const double* wt) {
-    double ss = 0;
-    for (size_t i = 0; i < n; ++i) ss += (wt ? wt[i] : 1.0) * r[i] * r[i];
+  auto deviance = [&] {
     const double sw = ss / double(n - params);
     double d = 0, carry = 0;  // Kahan summation: the change between iterations is tiny
     for (size_t i = 0; i < n; ++i) {
@@ -204,11 +212,11 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
     return d;
   };
 
-  residuals();
+  residuals(nullptr);
   RobustFit f;
   f.n = n;
   f.scale = mad_scale();
-  double dev_prev = deviance(nullptr);
+  double dev_prev = deviance();
   f.iterations = 1;
   while (true) {
     if (f.scale == 0.0) {  // a perfect fit of more than half of the points
@@ -219,13 +227,13 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
       const double z = r[i] / f.scale / o.c;
       w[i] = std::abs(z) <= 1 ? (1 - z * z) * (1 - z * z) : 0.0;
     }
-    if (!weighted_poly(x, y, w.data(), n, line))
+    if (!weighted_poly(x, y, w.data(), n, ctr, line))
       fail("robust fit: every point but those at ",
            degree == 1 ? "one thickness" : "two thicknesses", " was rejected as an outlier (", n,
            " points)");
-    residuals();
+    residuals(w.data());
     f.scale = mad_scale();
-    const double dev = deviance(w.data());
+    const double dev = deviance();
     ++f.iterations;
     const double allowed = o.relative_tol ? o.tol * std::max(1.0, std::abs(dev)) : o.tol;
     const bool settled = std::abs(dev - dev_prev) <= allowed;

@@ -44,7 +44,7 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
                          const RobustFitOptions& o = {});
 
 // Median as numpy computes it (mean of the two middle values for even n); may reorder `v`.
-// Large inputs are counted into value buckets and selected within the middle ones.
+// Large inputs are bracketed by a sample and selected within the bracket.
 double median_inplace(double* v, size_t n);
 
 }  // namespace rangex
