@@ -17,6 +17,7 @@
 #include "core/error.h"
 #include "feeder.h"
 #include "rangex/v1/rangex.grpc.pb.h"
+#include "resident_memory.h"
 #include "service/server.h"
 #include "sim/plant_simulator.h"
 
@@ -243,9 +244,12 @@ int cmd_bench_server(int argc, char** argv) {
       double grpc_lps = 0;
       LatencyStats::Summary lat;
       std::string running;
+      std::vector<std::pair<double, int64_t>> resident;
+      const int64_t resident_before = resident_bytes();
       {
         RangexServer server(pl, so);
         auto ch = rangex_channel(server.address());
+        ResidentSampler sampler;
         const auto t1 = std::chrono::steady_clock::now();
         std::vector<std::thread> feeders;
         std::atomic<int64_t> refused{0};
@@ -261,6 +265,7 @@ int cmd_bench_server(int argc, char** argv) {
               std::fprintf(stderr, "lane %d: %llu %s\n", lane, (unsigned long long)n, code.c_str());
           });
         for (auto& f : feeders) f.join();
+        resident = sampler.stop();
         server.shutdown();  // waits until every accepted line is decided
         grpc_lps = double(nl) * lines /
                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
@@ -279,6 +284,24 @@ int cmd_bench_server(int argc, char** argv) {
       std::filesystem::remove_all(dir);
       std::printf("%-6d %-8s %16.0f %16.0f %8.2f   p50 %7.1f ms  p99 %7.1f ms\n", nl,
                   running.c_str(), inproc, grpc_lps, grpc_lps / inproc, lat.p50, lat.p99);
+      // Resident memory while the lanes were fed: the server's share (over the process as it
+      // was before the server started) at its peak, and its trend from the first fifth of
+      // the feed to the last.
+      if (resident.size() >= 10 && resident_before > 0) {
+        int64_t peak = 0;
+        double first = 0, last = 0;
+        const size_t fifth = resident.size() / 5;
+        for (size_t k = 0; k < resident.size(); ++k) {
+          peak = std::max(peak, resident[k].second);
+          if (k < fifth) first += double(resident[k].second) / double(fifth);
+          if (k >= resident.size() - fifth) last += double(resident[k].second) / double(fifth);
+        }
+        std::printf(
+            "       resident: +%.0f MB at the peak (%.1f MB a lane), %+.1f MB from the "
+            "feed's first fifth to its last (%.1f s)\n",
+            double(peak - resident_before) / 1e6, double(peak - resident_before) / 1e6 / nl,
+            (last - first) / 1e6, resident.back().first);
+      }
       std::fflush(stdout);
     }
   }
