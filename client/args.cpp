@@ -1,5 +1,8 @@
 #include "args.h"
 
+#include <algorithm>
+#include <cstdlib>
+
 #include "core/error.h"
 
 namespace rangex::cli {
@@ -54,6 +57,23 @@ long Args::integer(const std::string& name, long def) const {
   } catch (const std::exception&) {
     fail("option --", name, " expects an integer (got '", it->second, "')");
   }
+}
+
+std::vector<int> Args::int_list(const std::string& name, std::vector<int> def, int max) const {
+  if (!has(name)) return def;
+  const std::string v = get(name, "");
+  std::vector<int> out;
+  for (size_t i = 0; i <= v.size();) {
+    const size_t j = std::min(v.find(',', i), v.size());
+    const std::string item = v.substr(i, j - i);
+    char* end = nullptr;
+    const long n = std::strtol(item.c_str(), &end, 10);
+    if (item.empty() || *end || n < 1 || n > max)
+      fail("--", name, " takes numbers from 1 to ", max, " separated by commas (got '", v, "')");
+    out.push_back(int(n));
+    i = j + 1;
+  }
+  return out;
 }
 
 void Args::expect_positionals(size_t n, const char* usage) const {

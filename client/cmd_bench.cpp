@@ -68,22 +68,6 @@ struct Rounds {
   }
 };
 
-std::vector<int> int_list(const std::string& v, const char* what) {
-  std::vector<int> out;
-  size_t i = 0;
-  while (i <= v.size()) {
-    const size_t j = std::min(v.find(',', i), v.size());
-    const std::string item = v.substr(i, j - i);
-    char* end = nullptr;
-    const long n = std::strtol(item.c_str(), &end, 10);
-    if (item.empty() || *end || n < 1 || n > 4096)
-      fail(what, " takes numbers from 1 to 4096 separated by commas (got '", v, "')");
-    out.push_back(int(n));
-    i = j + 1;
-  }
-  return out;
-}
-
 Rounds measure_rounds(int frames, int rounds, double seconds,
                       const std::vector<std::function<void()>>& passes) {
   Rounds r;
@@ -107,7 +91,7 @@ int cmd_bench(int argc, char** argv) {
                        "[--batch B] [--threads T]");
   if (a.flag("path")) {
     PathBenchOptions o;
-    if (a.has("lanes")) o.lanes = int_list(a.get("lanes", ""), "--lanes");
+    o.lanes = a.int_list("lanes", o.lanes, 4096);
     o.lines = int(a.integer("lines", o.lines));
     o.batch = int(a.integer("batch", o.batch));
     o.threads = int(a.integer("threads", o.threads));
@@ -125,8 +109,8 @@ int cmd_bench(int argc, char** argv) {
     if (o.threads < 1) fail("--threads must be >= 1");
     o.seconds = std::stod(a.get("seconds", "0.25"));
     if (!(o.seconds > 0)) fail("--seconds must be > 0");
-    if (a.has("lanes")) o.lanes = int_list(a.get("lanes", ""), "--lanes");
-    if (a.has("batches")) o.batches = int_list(a.get("batches", ""), "--batches");
+    o.lanes = a.int_list("lanes", o.lanes, 4096);
+    o.batches = a.int_list("batches", o.batches, 4096);
     return bench_backends(load_config(a.get("config", "")), o);
   }
   const int nframes = int(a.integer("frames", 256));

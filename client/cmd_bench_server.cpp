@@ -146,18 +146,7 @@ int cmd_bench_server(int argc, char** argv) {
   // the feeders send as fast as the server takes lines (throughput).
   const double rate = std::stod(a.get("rate", "0"));
   if (!(rate >= 0)) fail("--rate must be >= 0 lines/s per lane");
-  std::vector<int> lane_counts = {1, 4, 16};
-  if (a.has("lanes")) {
-    lane_counts.clear();
-    const std::string v = a.get("lanes", "");
-    for (size_t i = 0; i <= v.size();) {
-      const size_t j = std::min(v.find(',', i), v.size());
-      const int k = std::atoi(v.substr(i, j - i).c_str());
-      if (k < 1 || k > 16) fail("--lanes takes lane counts from 1 to 16 (got '", v, "')");
-      lane_counts.push_back(k);
-      i = j + 1;
-    }
-  }
+  const std::vector<int> lane_counts = a.int_list("lanes", {1, 4, 16}, 16);
   const int threads =
       int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
   std::vector<BackendRequest> backends;
