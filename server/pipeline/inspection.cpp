@@ -82,15 +82,16 @@ double meat_mu(const RobustFit* fit, double t) {
 // The strongest excess attenuation sgn * -ln(I / P) at pixel (r, c) under the detection's
 // own kernels (round, and elongated along four directions, so that a needle keeps its
 // contrast), evaluated at that pixel only.
-double local_excess(const std::vector<float>& excess, const std::vector<uint8_t>& use,
+double local_excess(const std::vector<float>& resid, const std::vector<uint8_t>& use,
                     const FilletImage& img, int r, int c, double sgn, const InspectionParams& p) {
-  double best = sgn * masked_smooth_at(excess.data(), use.data(), img.rows, img.cols,
-                                       p.smooth_sigma_px, 0, -1, r, c);
+  // The smoothing is linear: the excess -ln(I / P) smoothed is the residual smoothed, negated.
+  double best = -sgn * masked_smooth_at(resid.data(), use.data(), img.rows, img.cols,
+                                        p.smooth_sigma_px, 0, -1, r, c);
   if (p.line_sigma_along_px > 0)
     for (int dir = 0; dir < 4; ++dir)
       best = std::max(
-          best, sgn * masked_smooth_at(excess.data(), use.data(), img.rows, img.cols,
-                                       p.line_sigma_along_px, p.line_sigma_across_px, dir, r, c));
+          best, -sgn * masked_smooth_at(resid.data(), use.data(), img.rows, img.cols,
+                                        p.line_sigma_along_px, p.line_sigma_across_px, dir, r, c));
   return std::isfinite(best) ? best : 0.0;
 }
 
@@ -99,11 +100,6 @@ std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& 
                         double threshold, double min_area_mm2, const RobustFit* fit,
                         const InspectionParams& p) {
   const double px_area = img.pitch_mm * img.step_mm;
-  std::vector<float> excess;
-  if (fit) {
-    excess.resize(resid.size());
-    for (size_t i = 0; i < resid.size(); ++i) excess[i] = -resid[i];
-  }
   std::vector<uint8_t> on(img.size());
   for (size_t i = 0; i < on.size(); ++i) on[i] = use[i] && sign * zs[i] > threshold;
   std::vector<int> labels;
@@ -146,7 +142,7 @@ std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& 
       const auto [w, r, k] = strongest[q];
       const double mu = meat_mu(fit, img.thickness[size_t(r) * img.cols + k]);
       if (mu > 0)
-        b.meat_mm = std::max(b.meat_mm, local_excess(excess, use, img, r, k, -sign, p) / mu);
+        b.meat_mm = std::max(b.meat_mm, local_excess(resid, use, img, r, k, -sign, p) / mu);
     }
     strongest.clear();
     // The detector sees the fragment magnified by the fan beam; put it back at mid-depth of
