@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <thread>
 
@@ -26,21 +28,53 @@ namespace rangex::cli {
 namespace pb = rangex::v1;
 
 namespace {
-// One lane's lines, already rendered, sent as lane `lane`.
+// One lane's lines, already rendered, sent as lane `lane`, `repeats` times over (the belt
+// runs on: counts go on rising).
 class MemorySource : public LineSource {
  public:
-  MemorySource(const std::vector<pb::LineScan>& scans, int lane) : scans_(scans), lane_(lane) {}
+  MemorySource(const std::vector<pb::LineScan>& scans, int lane, int64_t repeats = 1)
+      : scans_(scans), lane_(lane), repeats_(repeats) {}
   std::vector<int> lanes() const override { return {lane_}; }
-  int64_t lines() const override { return int64_t(scans_.size()); }
+  int64_t lines() const override { return int64_t(scans_.size()) * repeats_; }
   void line(int, int64_t n, pb::LineScan& out) override {
-    out = scans_[size_t(n)];
+    const int64_t L = int64_t(scans_.size());
+    out = scans_[size_t(n % L)];
+    out.set_encoder(out.encoder() + (n / L) * L);
     out.set_lane(lane_);
   }
 
  private:
   const std::vector<pb::LineScan>& scans_;
   int lane_;
+  int64_t repeats_;
 };
+
+// The server's side of the path, from its statistics: where a line's and a fillet's time
+// went, and the bytes copied on the way in.
+void print_server_path(const EngineStats& st, int batch_lines) {
+  std::printf("   server path, per stage (p50 / p99 of the last 4096, mean of all):\n");
+  auto row = [](const std::string& name, const LatencyStats::Summary& l, const char* per) {
+    std::printf("     %-26s p50 %8.2f ms  p99 %8.2f ms  mean %8.2f ms  (%llu %s)\n", name.c_str(),
+                l.p50, l.p99, l.samples ? l.sum_ms / double(l.samples) : 0.0,
+                (unsigned long long)l.samples, per);
+  };
+  row("queue wait", st.queue_wait, "lines");
+  row("line stages (a batch)", st.pipeline, "batches");
+  row("inspection wait", st.inspection_wait, "fillets");
+  row("inspection", st.inspection, "fillets");
+  for (const auto& [name, l] : st.inspection_stages) row("  " + name, l, "fillets");
+  row("last line -> decision", st.decision, "fillets");
+  if (st.pipeline.samples && st.processed)
+    std::printf("     line stages per line: %.1f us (batches of up to %d lines)\n",
+                1e3 * st.pipeline.sum_ms / double(st.processed), batch_lines);
+  if (st.processed)
+    std::printf(
+        "     bytes copied per line: %.0f kB parsed out of the wire into the request, %.0f kB "
+        "into the backend's staging, %.1f kB of X-ray into the assembly\n",
+        double(st.bytes_parsed) / double(st.received) / 1e3,
+        double(st.batches.bytes_staged) / double(st.processed) / 1e3,
+        double(st.bytes_xray_copied) / double(st.processed) / 1e3);
+}
 
 // How many streams and subscribers one server holds: every lane fed by two streams at once
 // with the same lines (a camera that reconnected while its old stream is still open: one of
@@ -136,16 +170,21 @@ void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans,
 }  // namespace
 
 int cmd_bench_server(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"capacity"},
-               {"lines", "threads", "backend", "device", "rate", "lanes"});
+  const Args a(argc, argv, 2, {"capacity", "path"},
+               {"lines", "threads", "backend", "device", "rate", "lanes", "seconds"});
   a.expect_positionals(0,
                        "bench-server [--lines N] [--backend cpu|opencl|vulkan|auto|all] "
-                       "[--device D] [--lanes 1,4,16] [--rate LINES/S] [--capacity]");
+                       "[--device D] [--lanes 1,4,16] [--rate LINES/S [--seconds S]] [--path] "
+                       "[--capacity]");
   const int n = int(a.integer("lines", 1200));
   // A fixed rate per lane (a belt's speed) measures latency at a plant's load; without it
   // the feeders send as fast as the server takes lines (throughput).
   const double rate = std::stod(a.get("rate", "0"));
   if (!(rate >= 0)) fail("--rate must be >= 0 lines/s per lane");
+  // A long run at a fixed rate (resident memory over time): the scene repeats.
+  const double seconds = std::stod(a.get("seconds", "0"));
+  if (!(seconds >= 0)) fail("--seconds must be >= 0");
+  if (seconds > 0 && rate <= 0) fail("--seconds needs --rate (the run's length is rate x time)");
   const std::vector<int> lane_counts = a.int_list("lanes", {1, 4, 16}, 16);
   const int threads =
       int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
@@ -164,7 +203,10 @@ int cmd_bench_server(int argc, char** argv) {
   sp.scene.fillets = 3;
   sp.scene.lead_in_mm = 10;
   const sim::LaneSimulator sim(lc, sp);
-  const int lines = int(std::min<int64_t>(n, sim.lines()));
+  // A repeated scene is whole, so that no fillet is cut where it starts again.
+  const int lines = int(seconds > 0 ? sim.lines() : std::min<int64_t>(n, sim.lines()));
+  const int64_t repeats =
+      seconds > 0 ? std::max<int64_t>(1, int64_t(std::ceil(seconds * rate / lines))) : 1;
   const size_t frame = size_t(lc.frame_width) * lc.frame_height;
   std::vector<pb::LineScan> scans(lines);
   for (int k = 0; k < lines; ++k) {
@@ -178,7 +220,7 @@ int cmd_bench_server(int argc, char** argv) {
   }
   std::printf(
       "end to end through gRPC on loopback, %d lines per lane (%d fillets each), %d threads, %s\n",
-      lines, sp.scene.fillets, threads,
+      int(lines * repeats), int(sp.scene.fillets * repeats), threads,
       rate > 0 ? ("fed at " + std::to_string(int(rate)) + " lines/s per lane").c_str()
                : "fed as fast as the server takes lines");
   std::printf("%-6s %-8s %16s %16s %8s %24s\n", "lanes", "backend", "in-process l/s", "gRPC l/s",
@@ -244,7 +286,12 @@ int cmd_bench_server(int argc, char** argv) {
         std::atomic<int64_t> refused{0};
         for (int lane = 0; lane < nl; ++lane)
           feeders.emplace_back([&, lane] {
-            MemorySource src(scans, lane);
+            // At a belt's rate, lanes start a fraction of the scene apart, as a plant's lanes
+            // do: fillets of different lanes do not all close at the same moment.
+            if (rate > 0)
+              std::this_thread::sleep_for(
+                  std::chrono::duration<double>(double(lane) / nl * lines / rate));
+            MemorySource src(scans, lane, repeats);
             FeedOptions fo;
             fo.window = 128;
             fo.rate = rate;
@@ -256,11 +303,13 @@ int cmd_bench_server(int argc, char** argv) {
         for (auto& f : feeders) f.join();
         resident = sampler.stop();
         server.shutdown();  // waits until every accepted line is decided
-        grpc_lps = double(nl) * lines /
+        grpc_lps = double(nl) * double(lines * repeats) /
                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
         const EngineStats st = server.engine().stats();
         lat = st.decision;
-        if (rate > 0)
+        if (a.flag("path"))
+          print_server_path(st, so.engine.batch_lines);
+        else if (rate > 0)
           for (const auto& [name, l] : std::vector<std::pair<std::string, LatencyStats::Summary>>{
                    {"queue wait", st.queue_wait},
                    {"line batch", st.pipeline},
@@ -290,6 +339,22 @@ int cmd_bench_server(int argc, char** argv) {
             "feed's first fifth to its last (%.1f s)\n",
             double(peak - resident_before) / 1e6, double(peak - resident_before) / 1e6 / nl,
             (last - first) / 1e6, resident.back().first);
+        // A long run: resident memory minute by minute (its slope says whether it is flat).
+        if (resident.back().first >= 120) {
+          std::printf("       resident by minute (MB over the start):");
+          // The slope leaves out the first minute (buffers and the store filling).
+          double t_next = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, m = 0;
+          for (const auto& [t, bytes] : resident) {
+            const double y = double(bytes - resident_before) / 1e6;
+            if (t >= 60) sx += t, sy += y, sxx += t * t, sxy += t * y, ++m;
+            if (t >= t_next) {
+              std::printf(" %.0f", y);
+              t_next += 60;
+            }
+          }
+          const double slope = (m * sxy - sx * sy) / (m * sxx - sx * sx);
+          std::printf("\n       slope after the first minute: %+.2f MB per minute\n", 60 * slope);
+        }
       }
       std::fflush(stdout);
     }

@@ -4,6 +4,8 @@
 // the simulated four-lane plant of `rangexctl process --simulate --backend X`.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "backend_cases.h"
 #include "plant_run.h"
 #include "replay.h"
@@ -56,8 +58,17 @@ Served serve(const PlantConfig& p, const std::vector<pb::LineScan>& lines, Backe
   return s;
 }
 
-void expect_same_decisions(const std::vector<StoredFillet>& got,
-                           const std::vector<StoredFillet>& want) {
+// Lane by lane: each lane's decisions are stored in order, lanes' among each other in the
+// order their inspections finish.
+std::vector<StoredFillet> by_lane(std::vector<StoredFillet> v) {
+  std::stable_sort(v.begin(), v.end(),
+                   [](const StoredFillet& a, const StoredFillet& b) { return a.lane < b.lane; });
+  return v;
+}
+
+void expect_same_decisions(const std::vector<StoredFillet>& got_stored,
+                           const std::vector<StoredFillet>& want_stored) {
+  const std::vector<StoredFillet> got = by_lane(got_stored), want = by_lane(want_stored);
   ASSERT_EQ(got.size(), want.size());
   for (size_t i = 0; i < got.size(); ++i) {
     SCOPED_TRACE("fillet " + std::to_string(i));

@@ -14,6 +14,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <climits>
 #include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
@@ -297,6 +298,10 @@ class Subscriber {
         std::lock_guard<std::mutex> lock(mu_);
         uids_.insert(r.fillet().uid());
         lagged_ += r.lagged();
+        // Each lane's decisions arrive in the order of its fillets.
+        int64_t& last = last_encoder_.try_emplace(r.fillet().lane(), INT64_MIN).first->second;
+        out_of_order_ += r.fillet().first_encoder() <= last;
+        last = r.fillet().first_encoder();
       }
       status_ = reader_->Finish();
     });
@@ -321,6 +326,10 @@ class Subscriber {
     std::lock_guard<std::mutex> lock(mu_);
     return lagged_;
   }
+  int out_of_order() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return out_of_order_;
+  }
   const grpc::Status& status() const { return status_; }
 
  private:
@@ -330,6 +339,8 @@ class Subscriber {
   std::mutex mu_;
   std::set<int64_t> uids_;
   uint64_t lagged_ = 0;
+  std::map<int, int64_t> last_encoder_;
+  int out_of_order_ = 0;
   bool stopped_ = false;
   grpc::Status status_;
 };
@@ -549,6 +560,7 @@ TEST(IngestConcurrency, ManyStreamsOverlappingOnLanesHostileLinesSubscribersAndC
   for (auto& sub : steady) {
     EXPECT_EQ(sub->lagged(), 0u);
     EXPECT_EQ(sub->uids(), uids);
+    EXPECT_EQ(sub->out_of_order(), 0);
   }
 }
 

@@ -9,6 +9,9 @@ struct EngineSettings {
   size_t queue_lines = 2048;  // lines waiting for the worker, all lanes together
   int batch_lines = 64;
   int batch_wait_ms = 10;  // a partial batch goes after this long
+  // Threads inspecting cut fillets, each lane's in order: fillets of lanes that close
+  // together are inspected side by side instead of one after another.
+  int inspectors = 2;
   // Counts behind a lane's latest within which a resent line is recognised as already
   // accepted (DUPLICATE_LINE); must cover what a feeder can have unacknowledged.
   int dedup_window = 4096;

@@ -321,14 +321,17 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
 }
 
 void read_engine(const Node& n, EngineSettings& e) {
-  n.only_keys({"queue_lines", "batch_lines", "batch_wait_ms", "dedup_window", "auto_reset",
-               "idle_close_s", "stall_s", "exit_after_s", "drain_timeout_s", "verify_fraction"});
+  n.only_keys({"queue_lines", "batch_lines", "batch_wait_ms", "inspectors", "dedup_window",
+               "auto_reset", "idle_close_s", "stall_s", "exit_after_s", "drain_timeout_s",
+               "verify_fraction"});
   int queue = int(e.queue_lines);
   n.positive("queue_lines", queue);
   if (queue > 1 << 20) n.at("queue_lines").bad("must be <= 1048576");
   e.queue_lines = size_t(queue);
   n.positive("batch_lines", e.batch_lines);
   n.positive("batch_wait_ms", e.batch_wait_ms);
+  n.positive("inspectors", e.inspectors);
+  if (e.inspectors > 64) n.at("inspectors").bad("must be <= 64");
   n.positive("dedup_window", e.dedup_window);
   if (e.dedup_window > 1 << 24) n.at("dedup_window").bad("must be <= 16777216");
   n.get("auto_reset", e.auto_reset);

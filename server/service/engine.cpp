@@ -28,8 +28,9 @@ int64_t seconds_ns(double s) {
 constexpr size_t kMaxUnsaved = 4096;
 }  // namespace
 
-Engine::Lane::Lane(const LaneConfig& c, const EngineOptions& o)
+Engine::Lane::Lane(const LaneConfig& c, const EngineOptions& o, size_t slot)
     : id(c.id),
+      slot(slot),
       width(c.frame_width),
       height(c.frame_height),
       pixels(c.xray.pixels),
@@ -37,9 +38,9 @@ Engine::Lane::Lane(const LaneConfig& c, const EngineOptions& o)
       config(c) {}
 
 Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOptions opt)
-    : plant_(plant), store_(store), hub_(hub), opt_(std::move(opt)) {
+    : plant_(plant), store_(store), hub_(hub), opt_(std::move(opt)), queue_(plant_.lanes.size()) {
   for (const LaneConfig& lc : plant_.lanes) {
-    auto l = std::make_unique<Lane>(lc, opt_);
+    auto l = std::make_unique<Lane>(lc, opt_, lanes_.size());
     l->calibration_id = plant_.calibration_id;
     // A calibration activated before a restart is active again.
     for (const StoredCalibration& c : store_.calibrations(lc.id))
@@ -65,7 +66,7 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
         route(lines, r);
       },
       [this](std::vector<Queued>& lines, const std::string& why) { lose(lines, why); });
-  inspector_ = std::thread([this] { inspector(); });
+  for (int k = 0; k < opt_.inspectors; ++k) inspectors_.emplace_back([this] { inspector(); });
   worker_ = std::thread([this] { worker(); });
 }
 
@@ -101,6 +102,7 @@ int Engine::free_places() const {
 
 Engine::Verdict Engine::submit(IncomingLine&& line) {
   ++received_;
+  bytes_parsed_ += line.cam0.size() + line.cam1.size() + line.xray.size();
   const auto found = by_id_.find(line.lane);
   Lane* l = found == by_id_.end() ? nullptr : found->second;
   if (!l)
@@ -157,7 +159,7 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
     if (line.queued_by) ++*line.queued_by;
     ++l->accepted;
     l->last_line_ns = now;
-    queue_.push_back({std::move(line), now, std::move(a.restart)});
+    queue_.push(l->slot, {std::move(line), now, std::move(a.restart)});
     queued_ = queue_.size();
     ++accepted_;
     v.accepted = true;
@@ -195,12 +197,9 @@ void Engine::worker() {
         });
       if (queue_.empty() && stopping_ && !busy) break;
       if (!queue_.empty() && (!paused_ || stopping_)) {
-        const size_t n = std::min(queue_.size(), size_t(opt_.batch_lines));
-        for (size_t i = 0; i < n; ++i) {
-          batch.push_back(std::move(queue_.front()));
-          queue_.pop_front();
-          if (batch.back().line.queued_by) --*batch.back().line.queued_by;
-        }
+        queue_.take(size_t(opt_.batch_lines), batch);
+        for (const Queued& q : batch)
+          if (q.line.queued_by) --*q.line.queued_by;
         queued_ = queue_.size();
       }
     }
@@ -231,7 +230,9 @@ void Engine::worker() {
     inspect_stop_ = true;
   }
   inspect_cv_.notify_all();
-  if (inspector_.joinable()) inspector_.join();
+  for (std::thread& t : inspectors_)
+    if (t.joinable()) t.join();
+  flush_unsaved();
   std::lock_guard<std::mutex> lock(done_mu_);
   done_ = true;
   done_cv_.notify_all();
@@ -336,6 +337,7 @@ void Engine::route(std::vector<Queued>& lines, const LineResults& r) {
       if (!q.restart.empty()) restart_lane(l, q.restart);
       const size_t D = size_t(l.pixels);
       std::memcpy(l.xray.data(), q.line.xray.data(), D * 2);
+      bytes_xray_copied_ += D * 2;
       l.arrivals.emplace_back(q.line.encoder, q.arrived_ns);
       const size_t G = r.profile_valid.size() / std::max<size_t>(1, lines.size());
       const bool blind = G > 0 && LaneProcessor::blind(&r.profile_valid[k * G], G);
@@ -423,14 +425,22 @@ void Engine::inspector() {
     std::optional<InspectJob> job;
     {
       std::unique_lock<std::mutex> lock(inspect_mu_);
-      // Idle, it wakes every 100 ms: unsaved decisions need looking after.
-      inspect_cv_.wait_for(lock, std::chrono::milliseconds(100),
-                           [&] { return !inspect_queue_.empty() || inspect_stop_; });
-      if (!inspect_queue_.empty()) {
-        job.emplace(std::move(inspect_queue_.front()));
-        inspect_queue_.pop_front();
+      // The first fillet whose lane no other inspector holds: each lane's decisions stay in
+      // order. Idle, it wakes every 100 ms: unsaved decisions need looking after.
+      auto ready = [&] {
+        return std::find_if(inspect_queue_.begin(), inspect_queue_.end(),
+                            [](const InspectJob& j) { return !j.lane->inspecting; });
+      };
+      inspect_cv_.wait_for(lock, std::chrono::milliseconds(100), [&] {
+        return ready() != inspect_queue_.end() || (inspect_stop_ && inspect_queue_.empty());
+      });
+      const auto it = ready();
+      if (it != inspect_queue_.end()) {
+        job.emplace(std::move(*it));
+        inspect_queue_.erase(it);
+        job->lane->inspecting = true;
         inspect_room_.notify_all();
-      } else if (inspect_stop_) {
+      } else if (inspect_stop_ && inspect_queue_.empty()) {
         break;
       }
     }
@@ -451,10 +461,21 @@ void Engine::inspector() {
         std::fprintf(stderr, "rangexd: lane %d: %s\n", job->lane->id, f.result.reason.c_str());
       }
       on_fillet(*job, std::move(f));
+      {
+        std::lock_guard<std::mutex> lock(inspect_mu_);
+        job->lane->inspecting = false;
+      }
+      // The lane's next fillet may be waiting for it.
+      inspect_cv_.notify_all();
     }
+    std::lock_guard<std::mutex> lock(save_mu_);
     retry_unsaved();
   }
+}
+
+void Engine::flush_unsaved() {
   // Give the store a last chance with what it could not take.
+  std::lock_guard<std::mutex> lock(save_mu_);
   for (int tries = 0; tries < 20 && !unsaved_.empty(); ++tries) {
     retry_unsaved();
     if (!unsaved_.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -494,6 +515,7 @@ void Engine::on_fillet(const InspectJob& job, InspectedFillet&& f) {
   not_inspected_ += r.decision == Decision::kNotInspected;
   u.fillet = std::move(f);
   // Decisions are published in order, each once it is stored.
+  std::lock_guard<std::mutex> saving(save_mu_);
   retry_unsaved();
   if (!unsaved_.empty() || !save(u)) {
     if (unsaved_.size() >= kMaxUnsaved) {
@@ -716,10 +738,10 @@ Health Engine::health() {
     h.reasons.push_back(buf);
   } else {
     std::lock_guard<std::mutex> lock(mu_);
-    if (!started && !queue_.empty() && now - queue_.front().arrived_ns > stall) {
+    const int64_t oldest = queue_.oldest_arrival_ns();
+    if (!started && !queue_.empty() && now - oldest > stall) {
       std::snprintf(buf, sizeof buf, "worker not taking lines: %zu queued, the oldest for %.1f s%s",
-                    queue_.size(), (now - queue_.front().arrived_ns) / 1e9,
-                    paused_ ? " (paused)" : "");
+                    queue_.size(), (now - oldest) / 1e9, paused_ ? " (paused)" : "");
       h.reasons.push_back(buf);
     }
   }
@@ -744,6 +766,8 @@ EngineStats Engine::stats() {
   s.rejects = rejects_;
   s.not_inspected = not_inspected_;
   s.store_errors = store_errors_;
+  s.bytes_parsed = bytes_parsed_;
+  s.bytes_xray_copied = bytes_xray_copied_;
   for (size_t i = 0; i < kRefusals; ++i)
     if (const uint64_t n = refused_[i]) s.refused[std::string(refusal_name(Refusal(i)))] = n;
   for (size_t i = 0; i < kDropReasons; ++i)

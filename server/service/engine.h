@@ -1,19 +1,21 @@
-// The server's processing core: validated lines from every lane go into one bounded queue;
-// a worker takes them in batches (bounded by count and by time), runs each lane's share
-// through its LaneProcessor, and every fillet decided is stored and then published.
-// Calibration and threshold changes wait for a batch boundary at which the lane has no
-// fillet in progress, so no fillet is ever measured half with one calibration and half with
+// The server's processing core: validated lines from every lane go into one bounded queue
+// (a queue per lane, taken round-robin); a worker takes them in batches (bounded by count and by
+// time), runs each lane's share through its LaneProcessor, and every fillet decided is stored and
+// then published. Calibration and threshold changes wait for a batch boundary at which the lane has
+// no fillet in progress, so no fillet is ever measured half with one calibration and half with
 // another.
 //
 // Threads and locks (docs/concurrency.md): ingest handlers call submit() from gRPC threads;
-// one worker thread owns every LaneProcessor (the assembly); one inspector thread inspects,
-// stores and publishes the fillets they cut, in order; control RPCs and the watchdog read
-// state.
+// one worker thread owns every LaneProcessor (the assembly); inspector threads inspect,
+// store and publish the fillets they cut, each lane's in order; control RPCs and the
+// watchdog read state.
 // Engine locks never nest and are never held while calling out of the engine (store, hub,
-// processors):
+// processors), but save_mu_:
 //   mu_      admission: the queue, every lane's LaneAdmission, stopping/paused flags
 //   ctl_mu_  control: lanes' configurations, pending changes, calibration ids
-//   inspect_mu_  the fillets waiting for the inspector
+//   inspect_mu_  the fillets waiting for an inspector, which lanes an inspector holds
+//   save_mu_ storing and publishing decisions; held while calling the store and the hub
+//            (neither calls back into the engine), and around health_mu_
 //   leaf locks inside LatencyStats, rate_mu_, health_mu_
 // Counters are atomics, so statistics never wait for ingest and ingest never waits for them.
 #pragma once
@@ -36,6 +38,7 @@
 #include "pipeline/lane_processor.h"
 #include "service/incoming_line.h"
 #include "service/lane_admission.h"
+#include "service/lane_queues.h"
 #include "service/latency_stats.h"
 #include "service/line_codes.h"
 #include "service/results_hub.h"
@@ -61,6 +64,9 @@ struct Health {
 struct EngineStats {
   uint64_t received = 0, accepted = 0, processed = 0;
   uint64_t fillets = 0, rejects = 0, not_inspected = 0, lane_restarts = 0, store_errors = 0;
+  // Bytes copied on the way in: by gRPC's parser out of the wire into each request's strings
+  // (every line received), and each processed line's X-ray into its lane's assembly.
+  uint64_t bytes_parsed = 0, bytes_xray_copied = 0;
   std::map<std::string, uint64_t> refused;  // at admission, by code
   std::map<std::string, uint64_t> dropped;  // accepted but not processed, by reason
   double lines_per_second = 0;
@@ -134,8 +140,10 @@ class Engine {
 
  private:
   struct Lane {
-    Lane(const LaneConfig& c, const EngineOptions& o);
-    const int id, width, height, pixels;  // fixed for the server's life
+    Lane(const LaneConfig& c, const EngineOptions& o, size_t slot);
+    const int id;
+    const size_t slot;                // its place in lanes_ and in the queues
+    const int width, height, pixels;  // fixed for the server's life
     // Admission (mu_):
     LaneAdmission admission;
     std::string admit_calibration;  // lines naming another calibration are refused
@@ -157,6 +165,8 @@ class Engine {
     // Read anywhere:
     std::atomic<bool> in_progress{false};
     std::atomic<uint64_t> restarts{0};
+    // Inspection (inspect_mu_): an inspector holds one of the lane's fillets.
+    bool inspecting = false;
   };
   using Queued = QueuedLine;
   struct InspectJob {  // a fillet the worker cut, for the inspector
@@ -185,10 +195,11 @@ class Engine {
   void note_assembly_restarts(Lane& l);
   void close_idle_lanes();
   void on_image(Lane& l, FilletImage&& img);                   // worker
-  void inspector();                                            // the inspector thread
+  void inspector();                                            // an inspector thread
   void on_fillet(const InspectJob& job, InspectedFillet&& f);  // inspector
-  bool save(Unsaved& u);
-  void retry_unsaved();
+  void flush_unsaved();
+  bool save(Unsaved& u);  // save_mu_
+  void retry_unsaved();   // save_mu_
   Lane& lane(int id);
 
   PlantConfig plant_;
@@ -201,7 +212,7 @@ class Engine {
 
   std::mutex mu_;
   std::condition_variable cv_;
-  std::deque<Queued> queue_;
+  LaneQueues queue_;
   bool stopping_ = false, paused_ = false;
   std::atomic<size_t> queued_{0};
   std::atomic<bool> stopping_flag_{false};
@@ -209,10 +220,10 @@ class Engine {
   std::mutex ctl_mu_;
 
   std::thread worker_;
-  // Fillets cut by the worker, inspected in order on the inspector thread, so that a
-  // decision does not wait behind the lines of other lanes (bounded: a full queue holds
-  // the worker).
-  std::thread inspector_;
+  // Fillets cut by the worker, inspected on the inspector threads (each lane's in order),
+  // so that a decision does not wait behind the lines of other lanes (bounded: a full queue
+  // holds the worker).
+  std::vector<std::thread> inspectors_;
   std::mutex inspect_mu_;
   std::condition_variable inspect_cv_, inspect_room_;
   std::deque<InspectJob> inspect_queue_;
@@ -222,9 +233,13 @@ class Engine {
   std::condition_variable done_cv_;
   bool done_ = false;
   std::atomic<int64_t> batch_started_ns_{0};
-  std::deque<Unsaved> unsaved_;  // inspector only
+  // Storing and publishing, one decision at a time: save_mu_ (never held with another lock
+  // of the engine's but health_mu_, a leaf).
+  std::mutex save_mu_;
+  std::deque<Unsaved> unsaved_;
 
   std::atomic<uint64_t> received_{0}, accepted_{0}, processed_{0};
+  std::atomic<uint64_t> bytes_parsed_{0}, bytes_xray_copied_{0};
   std::atomic<uint64_t> fillets_{0}, rejects_{0}, not_inspected_{0}, store_errors_{0};
   std::array<std::atomic<uint64_t>, kRefusals> refused_{};
   std::array<std::atomic<uint64_t>, kDropReasons> dropped_{};

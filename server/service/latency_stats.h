@@ -1,6 +1,9 @@
-// p50/p99 of the most recent samples of a stage's latency (a ring of 4096).
+// A stage's latency: p50/p99 of the most recent samples (a ring of 4096), and a histogram of
+// every sample since the start (cumulative counts at fixed bounds, and their sum), the shape
+// Prometheus expects of a histogram.
 #pragma once
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <mutex>
 #include <vector>
@@ -9,6 +12,10 @@ namespace rangex {
 
 class LatencyStats {
  public:
+  // Upper bounds of the histogram's buckets, ms; a last bucket (+Inf) holds every sample.
+  static constexpr std::array<double, 14> kBoundsMs = {0.5, 1,   2,   5,    10,   20,   50,
+                                                       100, 200, 500, 1000, 2000, 5000, 10000};
+
   void add(double ms) {
     std::lock_guard<std::mutex> lock(mu_);
     if (ring_.size() < kCap)
@@ -16,21 +23,29 @@ class LatencyStats {
     else
       ring_[next_++ % kCap] = ms;
     ++count_;
+    sum_ms_ += ms;
+    const size_t b =
+        size_t(std::lower_bound(kBoundsMs.begin(), kBoundsMs.end(), ms) - kBoundsMs.begin());
+    ++buckets_[b];
   }
   struct Summary {
-    double p50 = 0, p99 = 0;
-    uint64_t samples = 0;
+    double p50 = 0, p99 = 0;  // of the most recent samples
+    uint64_t samples = 0;     // since the start
+    double sum_ms = 0;        // of every sample
+    // Samples <= kBoundsMs[k], cumulative (the +Inf bucket is `samples`).
+    std::array<uint64_t, kBoundsMs.size()> cumulative{};
   };
   Summary summary() {
     std::vector<double> v;
-    uint64_t n;
+    Summary s;
     {
       std::lock_guard<std::mutex> lock(mu_);
       v = ring_;
-      n = count_;
+      s.samples = count_;
+      s.sum_ms = sum_ms_;
+      uint64_t c = 0;
+      for (size_t k = 0; k < kBoundsMs.size(); ++k) s.cumulative[k] = c += buckets_[k];
     }
-    Summary s;
-    s.samples = n;
     if (v.empty()) return s;
     std::sort(v.begin(), v.end());
     s.p50 = v[v.size() / 2];
@@ -44,6 +59,8 @@ class LatencyStats {
   std::vector<double> ring_;
   size_t next_ = 0;
   uint64_t count_ = 0;
+  double sum_ms_ = 0;
+  std::array<uint64_t, kBoundsMs.size() + 1> buckets_{};  // the last: above every bound
 };
 
 }  // namespace rangex

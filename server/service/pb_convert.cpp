@@ -105,6 +105,11 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
     p->set_p50_ms(l.p50);
     p->set_p99_ms(l.p99);
     p->set_samples(l.samples);
+    p->set_sum_ms(l.sum_ms);
+    for (size_t k = 0; k < LatencyStats::kBoundsMs.size(); ++k) {
+      p->add_bucket_le_ms(LatencyStats::kBoundsMs[k]);
+      p->add_bucket_count(l.cumulative[k]);
+    }
   };
   lat("queue_wait", s.queue_wait);
   lat("line_pipeline_batch", s.pipeline);

@@ -78,7 +78,8 @@ std::string StageRunner::note() const {
 }
 
 StageRunnerStats StageRunner::stats() const {
-  return {batches_.load(), verified_.load(), mismatches_.load(), failures_.load()};
+  return {batches_.load(), verified_.load(), mismatches_.load(), failures_.load(),
+          bytes_staged_.load()};
 }
 
 size_t StageRunner::in_flight(int group) const {
@@ -140,6 +141,7 @@ LineBatchSlot& StageRunner::fill(Group& g, Backend& b, const std::vector<QueuedL
     slots[k] = where_.at(in.lane).second;
   }
   s.lines = n;
+  bytes_staged_ += 2 * g.frame_bytes * size_t(n);
   return s;
 }
 

@@ -36,6 +36,7 @@ struct StageRunnerOptions {
 
 struct StageRunnerStats {
   uint64_t batches = 0, verified = 0, mismatches = 0, failures = 0;
+  uint64_t bytes_staged = 0;  // frame bytes copied into backends' staging
 };
 
 class StageRunner {
@@ -99,6 +100,7 @@ class StageRunner {
   double verify_credit_ = 1;  // the first batch on a device is always verified
 
   std::atomic<uint64_t> batches_{0}, verified_{0}, mismatches_{0}, failures_{0};
+  std::atomic<uint64_t> bytes_staged_{0};
   mutable std::mutex info_mu_;
   BackendInfo running_;
   std::string note_;
