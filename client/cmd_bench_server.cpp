@@ -63,6 +63,7 @@ void print_server_path(const EngineStats& st, int batch_lines) {
   row("inspection wait", st.inspection_wait, "fillets");
   row("inspection", st.inspection, "fillets");
   for (const auto& [name, l] : st.inspection_stages) row("  " + name, l, "fillets");
+  row("store (record, images)", st.store, "fillets");
   row("last line -> decision", st.decision, "fillets");
   if (st.pipeline.samples && st.processed)
     std::printf("     line stages per line: %.1f us (batches of up to %d lines)\n",

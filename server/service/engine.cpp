@@ -533,6 +533,7 @@ void Engine::on_fillet(const InspectJob& job, InspectedFillet&& f) {
 }
 
 bool Engine::save(Unsaved& u) {
+  const int64_t t0 = steady_ns();
   StoredFillet& s = u.record;
   try {
     if (s.uid == 0) s.uid = store_.add_fillet(s);
@@ -561,7 +562,9 @@ bool Engine::save(Unsaved& u) {
                    e.what());
     }
   }
-  if (u.last_arrival_ns) decision_.add((steady_ns() - u.last_arrival_ns) / 1e6);
+  const int64_t t1 = steady_ns();
+  store_time_.add((t1 - t0) / 1e6);
+  if (u.last_arrival_ns) decision_.add((t1 - u.last_arrival_ns) / 1e6);
   hub_.publish(s);
   return true;
 }
@@ -794,6 +797,7 @@ EngineStats Engine::stats() {
   s.pipeline = pipeline_.summary();
   s.inspection = inspection_.summary();
   s.inspection_wait = inspection_wait_.summary();
+  s.store = store_time_.summary();
   for (int k = 0; k < kStages; ++k)
     s.inspection_stages.emplace_back(inspect_stage_name(k), inspection_stage_[k].summary());
   s.decision = decision_.summary();

@@ -73,6 +73,7 @@ struct EngineStats {
   int queue_depth = 0, queue_capacity = 0;
   LatencyStats::Summary queue_wait, pipeline, inspection, decision;
   LatencyStats::Summary inspection_wait;  // a cut fillet waiting for the inspector
+  LatencyStats::Summary store;            // storing a decision (its images included)
   std::vector<std::pair<std::string, LatencyStats::Summary>> inspection_stages;
   Health health;
   std::vector<std::string> warnings;  // e.g. lanes that stopped being fed
@@ -250,7 +251,7 @@ class Engine {
 
   std::mutex rate_mu_;
   std::deque<std::pair<int64_t, uint64_t>> rate_;  // (steady ns, processed) samples
-  LatencyStats queue_wait_, pipeline_, inspection_, decision_, inspection_wait_;
+  LatencyStats queue_wait_, pipeline_, inspection_, decision_, inspection_wait_, store_time_;
   LatencyStats inspection_stage_[kStages];
 };
 

@@ -116,6 +116,7 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
   lat("inspection_fillet", s.inspection);
   lat("last_line_to_decision", s.decision);
   lat("inspection_wait", s.inspection_wait);
+  lat("store_decision", s.store);
   for (const auto& [name, l] : s.inspection_stages) {
     std::string stage = "inspection_" + name;
     for (char& c : stage)
