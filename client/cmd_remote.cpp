@@ -1,5 +1,6 @@
 // rangexctl as a gRPC client of rangexd: feed, watch, status, fillets, image, calib
 // upload|list|activate, lanes.
+#include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 
 #include <atomic>
@@ -157,7 +158,7 @@ int cmd_watch(int argc, char** argv) {
 }
 
 int cmd_status(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"server", "config"});
+  const Args a(argc, argv, 2, {"json"}, {"server", "config"});
   auto ch = channel(a);
   auto stub = pb::ControlService::NewStub(ch);
   Call c1, c2;
@@ -165,6 +166,17 @@ int cmd_status(int argc, char** argv) {
   check(stub->GetServerInfo(&c1, {}, &info), "server info");
   pb::GetStatisticsResponse s;
   check(stub->GetStatistics(&c2, {}, &s), "statistics");
+  if (a.flag("json")) {
+    // GetStatistics as protobuf's JSON mapping (for scripts and dashboards' checks).
+    std::string out;
+    google::protobuf::util::JsonPrintOptions jo;
+    jo.preserve_proto_field_names = true;
+    jo.always_print_primitive_fields = true;
+    if (!google::protobuf::util::MessageToJsonString(s, &out, jo).ok())
+      fail("statistics: cannot be written as JSON");
+    std::printf("%s\n", out.c_str());
+    return 0;
+  }
   std::printf("%s, plant '%s', backend %s, store %s\n", info.version().c_str(),
               info.plant().c_str(), info.backend().c_str(), info.storage().c_str());
   std::printf("%s\n", s.serving() ? "SERVING" : "NOT SERVING");

@@ -62,7 +62,7 @@ server commands (--server HOST:PORT, default: plant.yaml's listen address):
       stream line scans into rangexd (rate per lane; default as fast as the server takes them)
   watch [--lane L] [--decision pass|reject|not_inspected] [--count N] [--seconds S]
       live fillet decisions
-  status                      statistics: lines/s, latencies, queue, drops by reason
+  status [--json]             statistics: lines/s, latencies, queue, drops by reason
   fillets [--lane L] [--limit N] [--from-ns T] [--to-ns T]  |  fillets --uid U
   image --uid U [--kind overlay|xray|thickness|pseudo_xray|residual] --out FILE.png
   calib upload --lane L --id ID --file CAL.yaml [--report R.json]  (default: CAL.yaml.reports/)

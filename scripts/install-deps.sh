@@ -6,11 +6,13 @@ set -euo pipefail
 packages=(
   cmake ninja-build g++ pkg-config
   libyaml-cpp-dev libpng-dev libsqlite3-dev libeigen3-dev libceres-dev libopencv-dev
+  libcpp-httplib-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   glslang-tools libvulkan-dev mesa-vulkan-drivers
   ocl-icd-opencl-dev opencl-headers pocl-opencl-icd
   python3-statsmodels python3-grpcio python3-protobuf
+  chromium chromium-driver python3-selenium python3-prometheus-client
 )
 
 missing=()

@@ -368,7 +368,7 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
   PlantConfig p;
   if (top.has("plant")) {
     const Node n = top.at("plant");
-    n.only_keys({"name", "calibration_id", "backend", "device", "listen", "storage"});
+    n.only_keys({"name", "calibration_id", "backend", "device", "listen", "http", "storage"});
     n.get("name", p.name);
     n.get("calibration_id", p.calibration_id);
     n.get("backend", p.backend);
@@ -376,6 +376,9 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
       n.at("backend").bad("must be one of auto, cpu, opencl, vulkan (got '" + p.backend + "')");
     n.get("device", p.device);
     n.get("listen", p.listen);
+    n.get("http", p.http);
+    if (p.http != "off" && p.http.rfind(':') == std::string::npos)
+      n.at("http").bad("must be host:port or off (got '" + p.http + "')");
     n.get("storage", p.storage);
   }
   if (top.has("server")) read_engine(top.at("server"), p.engine);

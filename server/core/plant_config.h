@@ -15,6 +15,7 @@ struct PlantConfig {
   std::string backend = "auto";  // auto | cpu | opencl | vulkan
   std::string device;            // which device: an index or a name substring (empty: first)
   std::string listen = "127.0.0.1:50051";
+  std::string http = "127.0.0.1:8080";  // the dashboard and /metrics; "off": none
   std::string storage = "rangex-data";
   EngineSettings engine;  // the `server:` section
   std::vector<LaneConfig> lanes;

@@ -35,7 +35,63 @@ void write_png(const std::string& path, const uint8_t* rows, int width, int heig
   png_destroy_write_struct(&png, &info);
   if (std::fclose(f) != 0) fail(path, ": write failed");
 }
+void append_to_string(png_structp png, png_bytep data, png_size_t n) {
+  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<char*>(data), n);
+}
+void no_flush(png_structp) {}
 }  // namespace
+
+std::string encode_png8(const uint8_t* pixels, int width, int height, int channels) {
+  std::string out;
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!png || !info || setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    fail("PNG encoding failed");
+  }
+  png_set_write_fn(png, &out, append_to_string, no_flush);
+  png_set_IHDR(png, info, width, height, 8,
+               channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_set_compression_level(png, 3);
+  png_write_info(png, info);
+  for (int y = 0; y < height; ++y)
+    png_write_row(png, const_cast<png_bytep>(pixels + size_t(width) * channels * size_t(y)));
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  return out;
+}
+
+std::vector<uint16_t> read_png16(const std::string& path, int& width, int& height) {
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) fail(path, ": cannot open (", std::strerror(errno), ")");
+  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  std::vector<uint16_t> out;
+  if (!png || !info || setjmp(png_jmpbuf(png))) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    std::fclose(f);
+    fail(path, ": not a readable PNG");
+  }
+  png_init_io(png, f);
+  png_read_info(png, info);
+  const int depth = png_get_bit_depth(png, info), color = png_get_color_type(png, info);
+  if (depth != 16 || color != PNG_COLOR_TYPE_GRAY) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    std::fclose(f);
+    fail(path, ": expected a 16-bit grayscale PNG (depth ", depth, ", color type ", color, ")");
+  }
+  width = int(png_get_image_width(png, info));
+  height = int(png_get_image_height(png, info));
+  png_set_swap(png);  // to host order
+  out.resize(size_t(width) * size_t(height));
+  for (int y = 0; y < height; ++y)
+    png_read_row(png, reinterpret_cast<png_bytep>(&out[size_t(y) * size_t(width)]), nullptr);
+  png_read_end(png, nullptr);
+  png_destroy_read_struct(&png, &info, nullptr);
+  std::fclose(f);
+  return out;
+}
 
 void write_png16(const std::string& path, const uint16_t* pixels, int width, int height) {
   write_png(path, reinterpret_cast<const uint8_t*>(pixels), width, height, 16, PNG_COLOR_TYPE_GRAY,

@@ -81,8 +81,9 @@ Engine::Lane& Engine::lane(int id) {
                  plant_.lanes.back().id, ")");
 }
 
-Engine::Verdict Engine::refuse(Refusal code, std::string message, size_t queued) {
+Engine::Verdict Engine::refuse(Lane* l, Refusal code, std::string message, size_t queued) {
   ++refused_[size_t(code)];
+  if (l) ++l->refused[size_t(code)];
   Verdict v;
   v.code = code;
   v.message = std::move(message);
@@ -92,8 +93,8 @@ Engine::Verdict Engine::refuse(Refusal code, std::string message, size_t queued)
 
 Engine::Verdict Engine::refuse_empty(uint64_t sequence) {
   ++received_;
-  return refuse(Refusal::kMissingLine, "request " + std::to_string(sequence) + " carries no line",
-                queued_.load());
+  return refuse(nullptr, Refusal::kMissingLine,
+                "request " + std::to_string(sequence) + " carries no line", queued_.load());
 }
 
 int Engine::free_places() const {
@@ -106,27 +107,28 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
   const auto found = by_id_.find(line.lane);
   Lane* l = found == by_id_.end() ? nullptr : found->second;
   if (!l)
-    return refuse(Refusal::kUnknownLane, "unknown lane " + std::to_string(line.lane),
+    return refuse(nullptr, Refusal::kUnknownLane, "unknown lane " + std::to_string(line.lane),
                   queued_.load());
+  ++l->received;
   const size_t frame = size_t(l->width) * l->height;
   const size_t expected = 2 * frame + size_t(l->pixels) * 2;
   const size_t size = line.cam0.size() + line.cam1.size() + line.xray.size();
   if (size > 4 * expected)
-    return refuse(Refusal::kOversized,
+    return refuse(l, Refusal::kOversized,
                   join("line of ", size, " bytes; lane ", l->id, " lines are ", expected, " bytes"),
                   queued_.load());
   if (line.cam0.size() != frame || line.cam1.size() != frame)
-    return refuse(Refusal::kWrongFrameSize,
+    return refuse(l, Refusal::kWrongFrameSize,
                   join("camera frames of ", line.cam0.size(), " and ", line.cam1.size(),
                        " bytes; lane ", l->id, " expects ", l->width, "x", l->height, " = ", frame),
                   queued_.load());
   if (line.xray.size() != size_t(l->pixels) * 2)
-    return refuse(Refusal::kWrongXraySize,
+    return refuse(l, Refusal::kWrongXraySize,
                   join("X-ray line of ", line.xray.size(), " bytes; lane ", l->id, " expects ",
                        l->pixels, " 16-bit pixels"),
                   queued_.load());
   if (line.encoder > kMaxEncoder || line.encoder < -kMaxEncoder)
-    return refuse(Refusal::kEncoderOutOfRange,
+    return refuse(l, Refusal::kEncoderOutOfRange,
                   join("encoder ", line.encoder, " of lane ", l->id, " is outside +-2^62"),
                   queued_.load());
 
@@ -137,21 +139,21 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
   {
     std::lock_guard<std::mutex> lock(mu_);
     if (stopping_)
-      return refuse(Refusal::kShuttingDown, "the server is shutting down", queue_.size());
+      return refuse(l, Refusal::kShuttingDown, "the server is shutting down", queue_.size());
     if (!line.calibration_id.empty() && line.calibration_id != l->admit_calibration)
-      return refuse(Refusal::kCalibrationMismatch,
+      return refuse(l, Refusal::kCalibrationMismatch,
                     join("line made with calibration '", line.calibration_id, "' but lane ", l->id,
                          " runs '", l->admit_calibration, "'"),
                     queue_.size());
     LaneAdmission::Verdict a = l->admission.check(line.encoder);
     if (a.outcome == LaneAdmission::Outcome::kDuplicate)
-      return refuse(Refusal::kDuplicateLine, std::move(a.message), queue_.size());
+      return refuse(l, Refusal::kDuplicateLine, std::move(a.message), queue_.size());
     if (a.outcome == LaneAdmission::Outcome::kBackwards)
-      return refuse(Refusal::kEncoderBackwards, std::move(a.message), queue_.size());
+      return refuse(l, Refusal::kEncoderBackwards, std::move(a.message), queue_.size());
     if (queue_.size() >= opt_.queue_lines)
       // The line is lost: its count stays unaccounted, so the assembly sees a gap and fails
       // the fillets around it safe.
-      return refuse(Refusal::kOverload,
+      return refuse(l, Refusal::kOverload,
                     join("queue full (", opt_.queue_lines,
                          " lines); line dropped, its fillet will be rejected as not inspected"),
                     queue_.size());
@@ -344,9 +346,11 @@ void Engine::route(std::vector<Queued>& lines, const LineResults& r) {
       l.proc->push(&r.thickness[k * D], &r.thickness_valid[k * D], l.xray.data(), q.line.encoder,
                    blind);
       ++done;
+      ++l.processed;
     } catch (const std::exception& e) {
       // The lane's state is suspect: its open fillets end not inspected; the line is counted.
       ++dropped_[size_t(DropReason::kProcessingError)];
+      ++l.dropped[size_t(DropReason::kProcessingError)];
       recover(l, std::string("processing error: ") + e.what());
     }
     // Arrival times are kept for the decision latency as long as a fillet can reach back.
@@ -369,6 +373,7 @@ void Engine::lose(std::vector<Queued>& lines, const std::string& why) {
   dropped_[size_t(DropReason::kProcessingError)] += lines.size();
   std::vector<int> seen;
   for (const Queued& q : lines) {
+    ++lane(q.line.lane).dropped[size_t(DropReason::kProcessingError)];
     if (std::find(seen.begin(), seen.end(), q.line.lane) != seen.end()) continue;
     seen.push_back(q.line.lane);
     recover(lane(q.line.lane), why);
@@ -508,11 +513,15 @@ void Engine::on_fillet(const InspectJob& job, InspectedFillet&& f) {
   for (const auto* list : {&r.fragments, &r.air_pockets})
     for (const Blob& b : *list)
       s.fragments.push_back({list == &r.fragments ? "bone" : "air", b.x_mm, b.y_mm, b.area_mm2,
-                             b.peak_z, b.attenuation_mm2, b.meat_mm});
+                             b.peak_z, b.attenuation_mm2, b.meat_mm, b.row0, b.row1, b.col0,
+                             b.col1});
   u.last_arrival_ns = job.last_arrival_ns;
   ++fillets_;
   rejects_ += r.decision == Decision::kReject;
   not_inspected_ += r.decision == Decision::kNotInspected;
+  ++job.lane->fillets;
+  job.lane->rejects += r.decision == Decision::kReject;
+  job.lane->not_inspected += r.decision == Decision::kNotInspected;
   u.fillet = std::move(f);
   // Decisions are published in order, each once it is stored.
   std::lock_guard<std::mutex> saving(save_mu_);
@@ -623,6 +632,15 @@ LaneState Engine::lane_state(int id) {
   }
   s.fillet_in_progress = l.in_progress;
   s.restarts = l.restarts;
+  s.received = l.received;
+  s.processed = l.processed;
+  s.fillets = l.fillets;
+  s.rejects = l.rejects;
+  s.not_inspected = l.not_inspected;
+  for (size_t i = 0; i < kRefusals; ++i)
+    if (const uint64_t n = l.refused[i]) s.refused[std::string(refusal_name(Refusal(i)))] = n;
+  for (size_t i = 0; i < kDropReasons; ++i)
+    if (const uint64_t n = l.dropped[i]) s.dropped[std::string(drop_name(DropReason(i)))] = n;
   return s;
 }
 

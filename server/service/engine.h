@@ -92,6 +92,10 @@ struct LaneState {
   bool fillet_in_progress = false;
   uint64_t restarts = 0;
   std::string last_restart;
+  // Since the server started: lines received (sizes checked, then refused or accepted),
+  // processed, refused by code, dropped by reason; fillets decided, by decision.
+  uint64_t received = 0, processed = 0, fillets = 0, rejects = 0, not_inspected = 0;
+  std::map<std::string, uint64_t> refused, dropped;
 };
 
 class Engine {
@@ -166,6 +170,9 @@ class Engine {
     // Read anywhere:
     std::atomic<bool> in_progress{false};
     std::atomic<uint64_t> restarts{0};
+    std::atomic<uint64_t> received{0}, processed{0}, fillets{0}, rejects{0}, not_inspected{0};
+    std::array<std::atomic<uint64_t>, kRefusals> refused{};
+    std::array<std::atomic<uint64_t>, kDropReasons> dropped{};
     // Inspection (inspect_mu_): an inspector holds one of the lane's fillets.
     bool inspecting = false;
   };
@@ -184,7 +191,7 @@ class Engine {
     int64_t last_arrival_ns;
   };
 
-  Verdict refuse(Refusal code, std::string message, size_t queued);
+  Verdict refuse(Lane* l, Refusal code, std::string message, size_t queued);  // l: when known
   void worker();
   void process(std::vector<Queued>& batch);
   bool changes_waiting(const std::vector<Queued>& batch);

@@ -8,10 +8,12 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <thread>
 
 #include "core/error.h"
+#include "service/http_server.h"
 #include "service/server.h"
 
 namespace {
@@ -21,7 +23,8 @@ void on_signal(int) {
 }
 
 constexpr const char* kUsage =
-    "usage: rangexd [--config PLANT.yaml] [--listen HOST:PORT] [--data DIR] [--threads N]\n"
+    "usage: rangexd [--config PLANT.yaml] [--listen HOST:PORT] [--http HOST:PORT|off]\n"
+    "               [--data DIR] [--threads N]\n"
     "               [--queue LINES] [--batch LINES] [--backend auto|cpu|opencl|vulkan]\n"
     "               [--device INDEX|NAME]\n"
     "  --backend and --device override plant.backend and plant.device; --threads is the\n"
@@ -36,7 +39,7 @@ void print_stats(rangex::RangexServer& server) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string config, listen, data, backend, device;
+  std::string config, listen, http, data, backend, device;
   int threads = int(std::max(1u, std::thread::hardware_concurrency()));
   long queue = 0, batch = 0;
   for (int i = 1; i < argc; ++i) {
@@ -62,6 +65,8 @@ int main(int argc, char** argv) {
       config = value();
     else if (a == "--listen")
       listen = value();
+    else if (a == "--http")
+      http = value();
     else if (a == "--data")
       data = value();
     else if (a == "--threads")
@@ -114,6 +119,14 @@ int main(int argc, char** argv) {
       std::_Exit(3);  // nothing can be drained through a stalled worker
     };
     rangex::RangexServer server(plant, opt);
+    // The dashboard and /metrics, over the same engine, store and results hub.
+    std::unique_ptr<rangex::HttpServer> web;
+    if (const std::string where = http.empty() ? plant.http : http; where != "off") {
+      rangex::HttpOptions ho;
+      ho.listen = where;
+      ho.ingest_streams = [&server] { return server.ingest_streams(); };
+      web = std::make_unique<rangex::HttpServer>(server.engine(), server.store(), server.hub(), ho);
+    }
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     const rangex::BackendInfo b = server.engine().backend();
@@ -126,6 +139,9 @@ int main(int argc, char** argv) {
     std::printf("rangexd: backend %s (%s): %s, %s; %s\n", b.name.c_str(),
                 server.engine().backend_note().c_str(), b.device.c_str(), b.driver.c_str(),
                 b.limits.c_str());
+    if (web)
+      std::printf("rangexd: dashboard at http://%s/ (metrics at /metrics)\n",
+                  web->address().c_str());
     std::fflush(stdout);
     while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
     std::printf("rangexd: stopping: draining queued lines and closing open fillets\n");
@@ -137,6 +153,8 @@ int main(int argc, char** argv) {
       std::fflush(stderr);
       std::_Exit(3);
     }
+    // The dashboard's event streams have every decision and have ended; then it stops.
+    if (web) web->stop();
     const auto s = server.engine().stats();
     std::printf("rangexd: stopped after %llu lines, %llu fillets\n",
                 (unsigned long long)s.processed, (unsigned long long)s.fillets);

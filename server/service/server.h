@@ -46,6 +46,7 @@ class RangexServer {
   void wait();
   Engine& engine() { return *engine_; }
   Store& store() { return *store_; }
+  ResultsHub& hub() { return *hub_; }
   int ingest_streams() const;
 
  private:

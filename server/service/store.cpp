@@ -79,9 +79,10 @@ constexpr const char* kFilletColumns =
     "uid, lane, lane_fillet, first_encoder, rows, decision, reason, beta0, beta1, "
     "resid_mean_dn, resid_std_dn, calibration_id, decided_ns, belt_y0_mm, beta2";
 constexpr const char* kFragmentColumns =
-    "kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2, meat_mm";
+    "kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2, meat_mm, row0, row1, col0, col1";
 StoredFragment fragment_row(const Stmt& g) {
-  return {g.str(0), g.dbl(1), g.dbl(2), g.dbl(3), g.dbl(4), g.dbl(5), g.dbl(6)};
+  return {g.str(0), g.dbl(1),      g.dbl(2),      g.dbl(3),      g.dbl(4),      g.dbl(5),
+          g.dbl(6), int(g.i64(7)), int(g.i64(8)), int(g.i64(9)), int(g.i64(10))};
 }
 }  // namespace
 
@@ -118,6 +119,8 @@ Store::Store(const std::string& dir) : dir_(dir) {
   add_column("calibrations", "report", "TEXT DEFAULT ''");
   add_column("fillets", "beta2", "REAL DEFAULT 0");
   add_column("fragments", "meat_mm", "REAL DEFAULT 0");
+  for (const char* c : {"row0", "row1", "col0", "col1"})
+    add_column("fragments", c, "INTEGER DEFAULT 0");
   exec("CREATE TABLE IF NOT EXISTS audit (ts_ns INTEGER, who TEXT, what TEXT, detail TEXT)");
 }
 
@@ -161,10 +164,12 @@ int64_t Store::add_fillet(const StoredFillet& f) {
     const int64_t uid = sqlite3_last_insert_rowid(db_);
     for (const StoredFragment& g : f.fragments) {
       Stmt r(db_, (std::string("INSERT INTO fragments (fillet_uid, ") + kFragmentColumns +
-                   ") VALUES (?,?,?,?,?,?,?,?)")
+                   ") VALUES (?,?,?,?,?,?,?,?,?,?,?,?)")
                       .c_str());
       r.bind(1, uid).bind(2, g.kind).bind(3, g.x_mm).bind(4, g.y_mm).bind(5, g.area_mm2);
       r.bind(6, g.peak_z).bind(7, g.attenuation_mm2).bind(8, g.meat_mm);
+      r.bind(9, int64_t(g.row0)).bind(10, int64_t(g.row1)).bind(11, int64_t(g.col0));
+      r.bind(12, int64_t(g.col1));
       r.step();
     }
     exec("COMMIT");
@@ -210,15 +215,22 @@ std::optional<StoredFillet> Store::fillet(int64_t uid) {
 
 std::vector<StoredFillet> Store::list_fillets(int64_t from_ns, int64_t to_ns, int lane,
                                               int64_t after, int limit) {
+  FilletQuery fq;
+  fq.from_ns = from_ns, fq.to_ns = to_ns, fq.lane = lane, fq.after = after, fq.limit = limit;
+  return list_fillets(fq);
+}
+
+std::vector<StoredFillet> Store::list_fillets(const FilletQuery& fq) {
   std::vector<StoredFillet> out;
   {
     std::lock_guard<std::mutex> lock(mu_);
     Stmt q(db_, (std::string("SELECT ") + kFilletColumns +
                  " FROM fillets WHERE decided_ns >= ? AND (? = 0 OR decided_ns < ?) AND (? < 0 OR "
-                 "lane = ?) AND uid > ? ORDER BY uid LIMIT ?")
+                 "lane = ?) AND uid > ? AND (? = '' OR decision = ?) ORDER BY uid LIMIT ?")
                     .c_str());
-    q.bind(1, from_ns).bind(2, to_ns).bind(3, to_ns).bind(4, int64_t(lane)).bind(5, int64_t(lane));
-    q.bind(6, after).bind(7, int64_t(limit));
+    q.bind(1, fq.from_ns).bind(2, fq.to_ns).bind(3, fq.to_ns);
+    q.bind(4, int64_t(fq.lane)).bind(5, int64_t(fq.lane));
+    q.bind(6, fq.after).bind(7, fq.decision).bind(8, fq.decision).bind(9, int64_t(fq.limit));
     while (q.step()) out.push_back(fillet_row(q));
   }
   for (StoredFillet& f : out) {
@@ -298,15 +310,21 @@ void Store::audit(const std::string& who, const std::string& what, const std::st
   q.step();
 }
 
-std::vector<std::string> Store::audit_log(int limit) {
+std::vector<AuditEntry> Store::audit_entries(int limit) {
   std::lock_guard<std::mutex> lock(mu_);
   Stmt q(db_,
          "SELECT ts_ns, who, what, detail FROM (SELECT rowid, * FROM audit ORDER BY rowid DESC "
          "LIMIT ?) ORDER BY rowid");
   q.bind(1, int64_t(limit));
+  std::vector<AuditEntry> out;
+  while (q.step()) out.push_back({q.i64(0), q.str(1), q.str(2), q.str(3)});
+  return out;
+}
+
+std::vector<std::string> Store::audit_log(int limit) {
   std::vector<std::string> out;
-  while (q.step())
-    out.push_back(std::to_string(q.i64(0)) + " " + q.str(1) + " " + q.str(2) + " " + q.str(3));
+  for (const AuditEntry& e : audit_entries(limit))
+    out.push_back(std::to_string(e.ts_ns) + " " + e.who + " " + e.what + " " + e.detail);
   return out;
 }
 

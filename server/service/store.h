@@ -17,7 +17,8 @@ namespace rangex {
 struct StoredFragment {
   std::string kind;
   double x_mm, y_mm, area_mm2, peak_z, attenuation_mm2;
-  double meat_mm = 0;  // peak excess attenuation in mm of the fillet's meat
+  double meat_mm = 0;                          // peak excess attenuation in mm of the fillet's meat
+  int row0 = 0, row1 = 0, col0 = 0, col1 = 0;  // bounding box in the fillet's images
 };
 
 struct StoredFillet {
@@ -39,6 +40,21 @@ struct StoredCalibration {
   std::string report;  // the solvers' JSON report; empty when none came with it
 };
 
+// Fillets decided in [from_ns, to_ns) (to_ns 0: no bound), on `lane` (-1: all), with
+// `decision` ("": any), uid > after, oldest first, at most `limit`.
+struct FilletQuery {
+  int64_t from_ns = 0, to_ns = 0;
+  int lane = -1;
+  std::string decision;
+  int64_t after = 0;
+  int limit = 1000;
+};
+
+struct AuditEntry {
+  int64_t ts_ns = 0;
+  std::string who, what, detail;
+};
+
 class Store {
  public:
   // Opens (creating if needed) <dir>/rangex.sqlite and <dir>/images/.
@@ -55,6 +71,7 @@ class Store {
   // Decided in [from_ns, to_ns) (to_ns 0: no bound), lane -1 for all, uid > after, oldest first.
   std::vector<StoredFillet> list_fillets(int64_t from_ns, int64_t to_ns, int lane, int64_t after,
                                          int limit);
+  std::vector<StoredFillet> list_fillets(const FilletQuery& q);
   int64_t count_fillets();
 
   void add_calibration(const StoredCalibration& c);       // throws Error if (lane, id) exists
@@ -63,7 +80,8 @@ class Store {
   void set_active_calibration(int lane, const std::string& id);
 
   void audit(const std::string& who, const std::string& what, const std::string& detail);
-  std::vector<std::string> audit_log(int limit);  // "ts who what detail", newest last
+  std::vector<std::string> audit_log(int limit);     // "ts who what detail", newest last
+  std::vector<AuditEntry> audit_entries(int limit);  // the same, field by field
 
  private:
   void exec(const std::string& sql);

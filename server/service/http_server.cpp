@@ -1,0 +1,538 @@
+#include "service/http_server.h"
+
+#include <httplib.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+#include "service/fillet_csv.h"
+#include "service/image_view.h"
+#include "service/metrics_text.h"
+#include "web_assets.h"
+
+namespace rangex {
+
+using json = nlohmann::json;
+
+namespace {
+
+int64_t wall_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// A request parameter that is wrong: answered 400 with what is wrong.
+struct BadRequest : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+int64_t int_param(const httplib::Request& req, const char* name, int64_t fallback, int64_t lo,
+                  int64_t hi) {
+  if (!req.has_param(name)) return fallback;
+  const std::string v = req.get_param_value(name);
+  size_t used = 0;
+  int64_t n = 0;
+  try {
+    n = std::stoll(v, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (v.empty() || used != v.size())
+    throw BadRequest(std::string(name) + " must be an integer (got '" + v + "')");
+  if (n < lo || n > hi)
+    throw BadRequest(std::string(name) + " must be within " + std::to_string(lo) + ".." +
+                     std::to_string(hi) + " (got " + v + ")");
+  return n;
+}
+
+FilletQuery fillet_query(const httplib::Request& req) {
+  FilletQuery q;
+  q.lane = int(int_param(req, "lane", -1, -1, 1 << 20));
+  q.from_ns = int_param(req, "from_ns", 0, 0, INT64_MAX);
+  q.to_ns = int_param(req, "to_ns", 0, 0, INT64_MAX);
+  q.after = int_param(req, "after", 0, 0, INT64_MAX);
+  q.limit = int(int_param(req, "limit", 200, 1, 10000));
+  if (req.has_param("decision")) {
+    q.decision = req.get_param_value("decision");
+    if (q.decision != "pass" && q.decision != "reject" && q.decision != "not_inspected" &&
+        !q.decision.empty())
+      throw BadRequest("decision must be pass, reject or not_inspected (got '" + q.decision + "')");
+  }
+  return q;
+}
+
+std::set<int> int_set(const httplib::Request& req, const char* name) {
+  std::set<int> out;
+  if (!req.has_param(name)) return out;
+  std::stringstream ss(req.get_param_value(name));
+  std::string item;
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) {
+      size_t used = 0;
+      int v = 0;
+      try {
+        v = std::stoi(item, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used != item.size())
+        throw BadRequest(std::string(name) + " must list integers (got '" + item + "')");
+      out.insert(v);
+    }
+  return out;
+}
+
+json fragment_json(const StoredFragment& g) {
+  return {{"kind", g.kind},         {"x_mm", g.x_mm},     {"y_mm", g.y_mm},
+          {"area_mm2", g.area_mm2}, {"peak_z", g.peak_z}, {"attenuation_mm2", g.attenuation_mm2},
+          {"meat_mm", g.meat_mm},   {"row0", g.row0},     {"row1", g.row1},
+          {"col0", g.col0},         {"col1", g.col1}};
+}
+
+json fillet_json(const StoredFillet& f) {
+  json frags = json::array();
+  for (const StoredFragment& g : f.fragments) frags.push_back(fragment_json(g));
+  return {{"uid", f.uid},
+          {"lane", f.lane},
+          {"lane_fillet", f.lane_fillet},
+          {"first_encoder", f.first_encoder},
+          {"rows", f.rows},
+          {"decision", f.decision},
+          {"reason", f.reason},
+          {"calibration", f.calibration_id},
+          {"beta0", f.beta0},
+          {"beta1", f.beta1},
+          {"beta2", f.beta2},
+          {"resid_mean_dn", f.resid_mean_dn},
+          {"resid_std_dn", f.resid_std_dn},
+          {"belt_y0_mm", f.belt_y0_mm},
+          {"decided_ns", f.decided_ns},
+          {"fragments", frags}};
+}
+
+json latency_json(const LatencyStats::Summary& l) {
+  json buckets = json::array();
+  for (size_t k = 0; k < LatencyStats::kBoundsMs.size(); ++k)
+    buckets.push_back({{"le_ms", LatencyStats::kBoundsMs[k]}, {"count", l.cumulative[k]}});
+  return {{"p50_ms", l.p50},
+          {"p99_ms", l.p99},
+          {"samples", l.samples},
+          {"sum_ms", l.sum_ms},
+          {"buckets", buckets}};
+}
+
+json stats_json(const EngineStats& s, int subscribers, int ingest_streams) {
+  json lat = {{"queue_wait", latency_json(s.queue_wait)},
+              {"line_batch", latency_json(s.pipeline)},
+              {"inspection_wait", latency_json(s.inspection_wait)},
+              {"inspection", latency_json(s.inspection)},
+              {"store", latency_json(s.store)},
+              {"last_line_to_decision", latency_json(s.decision)}};
+  for (const auto& [name, l] : s.inspection_stages) lat["inspection_" + name] = latency_json(l);
+  return {{"lines_received", s.received},
+          {"lines_accepted", s.accepted},
+          {"lines_processed", s.processed},
+          {"refused", s.refused},
+          {"dropped", s.dropped},
+          {"fillets", s.fillets},
+          {"rejects", s.rejects},
+          {"not_inspected", s.not_inspected},
+          {"lane_restarts", s.lane_restarts},
+          {"store_errors", s.store_errors},
+          {"lines_per_second", s.lines_per_second},
+          {"queue_depth", s.queue_depth},
+          {"queue_capacity", s.queue_capacity},
+          {"subscribers", subscribers},
+          {"ingest_streams", ingest_streams},
+          {"serving", s.health.serving},
+          {"health", s.health.reasons},
+          {"warnings", s.warnings},
+          {"backend", s.backend.name},
+          {"device", s.backend.device},
+          {"backend_note", s.backend_note},
+          {"batches", s.batches.batches},
+          {"batches_verified", s.batches.verified},
+          {"verify_mismatches", s.batches.mismatches},
+          {"backend_failures", s.batches.failures},
+          {"latencies", lat}};
+}
+
+const LaneCounts* find_lane(const HistorySample& s, int lane) {
+  for (const LaneCounts& c : s.lanes)
+    if (c.lane == lane) return &c;
+  return nullptr;
+}
+
+// What an operator's tile shows of a lane, and its light: grey (never fed), red (stopped:
+// fed and silent for more than 5 s, or restarted in the last minute), amber (more than 2 %
+// of the last 5 minutes' fillets not inspected), green.
+json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) {
+  double line_rate = 0, fillets_per_min = 0, reject_rate = 0, ni_rate = 0;
+  HistorySample a, b;
+  if (h.window(10'000'000'000, a, b)) {
+    const LaneCounts *ca = find_lane(a, l.config.id), *cb = find_lane(b, l.config.id);
+    const double dt = double(b.t_ns - a.t_ns) / 1e9;
+    if (ca && cb && dt > 0) line_rate = double(cb->processed - ca->processed) / dt;
+  }
+  if (h.window(300'000'000'000, a, b)) {
+    const LaneCounts *ca = find_lane(a, l.config.id), *cb = find_lane(b, l.config.id);
+    const double dt = double(b.t_ns - a.t_ns) / 1e9;
+    if (ca && cb && dt > 0) {
+      const double n = double(cb->fillets - ca->fillets);
+      fillets_per_min = 60 * n / dt;
+      if (n > 0) {
+        reject_rate = double(cb->rejects - ca->rejects) / n;
+        ni_rate = double(cb->not_inspected - ca->not_inspected) / n;
+      }
+    }
+  }
+  std::string light = "green", why = "inspecting";
+  if (!l.fed) {
+    light = "grey", why = "never fed";
+  } else if (l.idle_ms > 5000) {
+    light = "red", why = "stopped: no line for " + std::to_string(l.idle_ms / 1000) + " s";
+  } else if (ni_rate > 0.02) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%.1f %% of the last 5 minutes' fillets not inspected",
+                  100 * ni_rate);
+    light = "amber", why = buf;
+  }
+  return {{"lane", l.config.id},
+          {"fed", l.fed},
+          {"idle_ms", l.idle_ms},
+          {"calibration", l.calibration_id},
+          {"fillet_in_progress", l.fillet_in_progress},
+          {"restarts", l.restarts},
+          {"last_restart", l.last_restart},
+          {"received", l.received},
+          {"processed", l.processed},
+          {"fillets", l.fillets},
+          {"rejects", l.rejects},
+          {"not_inspected", l.not_inspected},
+          {"refused", l.refused},
+          {"dropped", l.dropped},
+          {"line_rate", line_rate},
+          {"fillets_per_min", fillets_per_min},
+          {"reject_rate", reject_rate},
+          {"not_inspected_rate", ni_rate},
+          {"light", light},
+          {"light_reason", why},
+          {"backend", backend}};
+}
+
+// The images the store keeps of a fillet (rejects and fillets not inspected have them).
+json image_kinds(Store& store, int64_t uid) {
+  json kinds = json::array();
+  for (const char* k : {"overlay", "xray", "thickness", "pseudo_xray", "residual"})
+    if (store.image_path(uid, k)) kinds.push_back(k);
+  return kinds;
+}
+
+void send_json(httplib::Response& res, const json& j) {
+  res.set_content(j.dump(), "application/json");
+}
+
+// One live event stream: a hub subscription whose wake() rings this bell.
+struct EventClient {
+  std::mutex mu;
+  std::condition_variable cv;
+  bool rung = false;
+  std::shared_ptr<ResultsHub::Subscription> sub;
+};
+
+}  // namespace
+
+HttpServer::HttpServer(Engine& engine, Store& store, ResultsHub& hub, HttpOptions opt)
+    : engine_(engine), store_(store), hub_(hub), opt_(std::move(opt)) {
+  const size_t colon = opt_.listen.rfind(':');
+  if (colon == std::string::npos)
+    fail("plant.http '", opt_.listen, "' must be host:port (port 0: any free one)");
+  host_ = opt_.listen.substr(0, colon);
+  int want = 0;
+  try {
+    want = std::stoi(opt_.listen.substr(colon + 1));
+  } catch (const std::exception&) {
+    fail("plant.http '", opt_.listen, "': the port is not a number");
+  }
+  if (want < 0 || want > 65535) fail("plant.http '", opt_.listen, "': port out of range");
+  http_ = std::make_unique<httplib::Server>();
+  // Event streams hold a thread each while open: the pool has room for all of them and for
+  // the ordinary requests beside them.
+  const size_t threads = size_t(opt_.max_event_streams) + 8;
+  http_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
+  http_->set_read_timeout(10, 0);
+  http_->set_write_timeout(10, 0);
+  routes();
+  port_ =
+      want == 0 ? http_->bind_to_any_port(host_) : (http_->bind_to_port(host_, want) ? want : -1);
+  if (port_ <= 0)
+    fail("plant.http: cannot listen on ", opt_.listen, " (in use, or no such address)");
+  history_.add(PlantHistory::sample(engine_.stats(), engine_.lanes(), wall_ns()));
+  listener_ = std::thread([this] { http_->listen_after_bind(); });
+  sampler_ = std::thread([this] { sampler(); });
+}
+
+HttpServer::~HttpServer() {
+  stop();
+}
+
+std::string HttpServer::address() const {
+  return host_ + ":" + std::to_string(port_);
+}
+
+void HttpServer::stop() {
+  if (stopping_.exchange(true)) return;
+  http_->stop();
+  if (listener_.joinable()) listener_.join();
+  if (sampler_.joinable()) sampler_.join();
+}
+
+void HttpServer::sampler() {
+  const auto period = std::chrono::duration<double>(opt_.history_period_s);
+  auto next = std::chrono::steady_clock::now() + period;
+  while (!stopping_) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    if (std::chrono::steady_clock::now() < next) continue;
+    next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    history_.add(PlantHistory::sample(engine_.stats(), engine_.lanes(), wall_ns()));
+  }
+}
+
+void HttpServer::routes() {
+  httplib::Server& s = *http_;
+  s.set_exception_handler(
+      [](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+        std::string msg = "internal error";
+        int status = 500;
+        try {
+          std::rethrow_exception(ep);
+        } catch (const BadRequest& e) {
+          msg = e.what(), status = 400;
+        } catch (const NotFound& e) {
+          msg = e.what(), status = 404;
+        } catch (const std::exception& e) {
+          msg = e.what();
+        }
+        res.status = status;
+        res.set_content(json{{"error", msg}}.dump(), "application/json");
+      });
+
+  for (const WebAsset& a : kWebAssets) {
+    const std::string path = std::string("/") + (std::string(a.path) == "index.html" ? "" : a.path);
+    s.Get(path, [a](const httplib::Request&, httplib::Response& res) {
+      res.set_content(a.body, a.size, a.type);
+      res.set_header("Cache-Control", "no-cache");
+    });
+  }
+
+  s.Get("/api/info", [this](const httplib::Request&, httplib::Response& res) {
+    const BackendInfo b = engine_.backend();
+    send_json(res, {{"version", opt_.version},
+                    {"plant", engine_.plant().name},
+                    {"lanes", engine_.plant().lanes.size()},
+                    {"backend", b.name},
+                    {"device", b.device},
+                    {"backend_note", engine_.backend_note()},
+                    {"now_ns", wall_ns()}});
+  });
+  s.Get("/api/lanes", [this](const httplib::Request&, httplib::Response& res) {
+    const std::string backend = engine_.backend().name;
+    json out = json::array();
+    for (const LaneState& l : engine_.lanes()) out.push_back(lane_json(l, history_, backend));
+    send_json(res, out);
+  });
+  s.Get("/api/statistics", [this](const httplib::Request&, httplib::Response& res) {
+    send_json(res, stats_json(engine_.stats(), hub_.subscribers(),
+                              opt_.ingest_streams ? opt_.ingest_streams() : 0));
+  });
+  s.Get("/api/history", [this](const httplib::Request& req, httplib::Response& res) {
+    const int64_t minutes = int_param(req, "minutes", 60, 1, 60);
+    const std::vector<HistorySample> h = history_.since(wall_ns() - minutes * 60'000'000'000);
+    json out = json::array();
+    for (size_t k = 1; k < h.size(); ++k) {
+      const double dt = double(h[k].t_ns - h[k - 1].t_ns) / 1e9;
+      if (dt <= 0) continue;
+      out.push_back(
+          {{"t_ns", h[k].t_ns},
+           {"lines_per_s", double(h[k].processed - h[k - 1].processed) / dt},
+           {"fillets_per_min", 60 * double(h[k].fillets - h[k - 1].fillets) / dt},
+           {"rejects_per_min", 60 * double(h[k].rejects - h[k - 1].rejects) / dt},
+           {"not_inspected_per_min", 60 * double(h[k].not_inspected - h[k - 1].not_inspected) / dt},
+           {"decision_p50_ms", h[k].decision_p50_ms},
+           {"decision_p99_ms", h[k].decision_p99_ms},
+           {"inspection_p50_ms", h[k].inspection_p50_ms}});
+    }
+    send_json(res, {{"period_s", opt_.history_period_s}, {"samples", out}});
+  });
+  s.Get("/api/fillets", [this](const httplib::Request& req, httplib::Response& res) {
+    const FilletQuery q = fillet_query(req);
+    json list = json::array();
+    int64_t last = q.after;
+    for (const StoredFillet& f : store_.list_fillets(q)) {
+      list.push_back(fillet_json(f));
+      last = f.uid;
+    }
+    // `next_after` continues the search where this page ended.
+    send_json(res, {{"fillets", list}, {"next_after", last}});
+  });
+  s.Get("/api/fillets.csv", [this](const httplib::Request& req, httplib::Response& res) {
+    FilletQuery q = fillet_query(req);
+    q.limit = 5000;
+    std::string csv = fillet_csv_header();
+    while (true) {
+      const std::vector<StoredFillet> page = store_.list_fillets(q);
+      for (const StoredFillet& f : page) csv += fillet_csv_row(f);
+      if (int(page.size()) < q.limit) break;
+      q.after = page.back().uid;
+    }
+    res.set_header("Content-Disposition", "attachment; filename=\"rangex-fillets.csv\"");
+    res.set_content(csv, "text/csv");
+  });
+  s.Get(R"(/api/fillets/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
+    const int64_t uid = std::stoll(req.matches[1]);
+    const std::optional<StoredFillet> f = store_.fillet(uid);
+    if (!f) throw NotFound("no fillet " + std::to_string(uid) + " in the store");
+    json j = fillet_json(*f);
+    j["images"] = image_kinds(store_, uid);
+    send_json(res, j);
+  });
+  s.Get(R"(/api/fillets/(\d+)/images/([a-z_]+))",
+        [this](const httplib::Request& req, httplib::Response& res) {
+          const int64_t uid = std::stoll(req.matches[1]);
+          const std::string kind = req.matches[2];
+          if (kind != "overlay" && kind != "xray" && kind != "thickness" && kind != "pseudo_xray" &&
+              kind != "residual")
+            throw BadRequest(
+                "image kind must be overlay, xray, thickness, pseudo_xray or "
+                "residual (got '" +
+                kind + "')");
+          const std::optional<std::string> path = store_.image_path(uid, kind);
+          if (!path)
+            throw NotFound("fillet " + std::to_string(uid) + " has no " + kind +
+                           " image (images are kept for rejects and fillets not inspected)");
+          std::string body;
+          if (kind == "overlay" || req.get_param_value("raw") == "1") {
+            std::ifstream in(*path, std::ios::binary);
+            if (!in) throw NotFound("image file " + *path + " is missing");
+            body.assign(std::istreambuf_iterator<char>(in), {});
+          } else {
+            body = display_png(*path, kind);
+          }
+          res.set_header("Cache-Control", "max-age=3600");
+          res.set_content(body, "image/png");
+        });
+  s.Get("/api/calibrations", [this](const httplib::Request& req, httplib::Response& res) {
+    const int lane = int(int_param(req, "lane", -1, -1, 1 << 20));
+    json versions = json::array();
+    for (const StoredCalibration& c : store_.calibrations(lane))
+      versions.push_back({{"lane", c.lane},
+                          {"id", c.id},
+                          {"uploaded_ns", c.uploaded_ns},
+                          {"active", c.active},
+                          {"has_report", !c.report.empty()}});
+    json events = json::array();
+    for (const AuditEntry& e : store_.audit_entries(100000))
+      if (e.what.rfind("calibration.", 0) == 0)
+        events.push_back(
+            {{"ts_ns", e.ts_ns}, {"who", e.who}, {"what", e.what}, {"detail", e.detail}});
+    send_json(res, {{"versions", versions}, {"events", events}});
+  });
+  s.Get("/api/audit", [this](const httplib::Request& req, httplib::Response& res) {
+    const int limit = int(int_param(req, "limit", 200, 1, 100000));
+    json out = json::array();
+    for (const AuditEntry& e : store_.audit_entries(limit))
+      out.push_back({{"ts_ns", e.ts_ns}, {"who", e.who}, {"what", e.what}, {"detail", e.detail}});
+    send_json(res, out);
+  });
+  s.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
+    MetricsInput m;
+    m.stats = engine_.stats();
+    m.lanes = engine_.lanes();
+    m.subscribers = hub_.subscribers();
+    m.ingest_streams = opt_.ingest_streams ? opt_.ingest_streams() : 0;
+    m.http_clients = event_streams_;
+    res.set_content(prometheus_text(m), "text/plain; version=0.0.4; charset=utf-8");
+  });
+  s.Get("/api/events", [this](const httplib::Request& req, httplib::Response& res) {
+    std::set<std::string> decisions;
+    if (req.has_param("decisions")) {
+      std::stringstream ss(req.get_param_value("decisions"));
+      std::string d;
+      while (std::getline(ss, d, ','))
+        if (!d.empty()) {
+          if (d != "pass" && d != "reject" && d != "not_inspected")
+            throw BadRequest("decisions must list pass, reject, not_inspected (got '" + d + "')");
+          decisions.insert(d);
+        }
+    }
+    const std::set<int> lanes = int_set(req, "lanes");
+    if (++event_streams_ > opt_.max_event_streams) {
+      --event_streams_;
+      res.status = 503;
+      res.set_content(
+          json{{"error", "too many event streams (" + std::to_string(opt_.max_event_streams) + ")"}}
+              .dump(),
+          "application/json");
+      return;
+    }
+    auto client = std::make_shared<EventClient>();
+    std::weak_ptr<EventClient> weak = client;
+    client->sub = hub_.subscribe(lanes, decisions, 256, [weak] {
+      if (auto c = weak.lock()) {
+        std::lock_guard<std::mutex> lock(c->mu);
+        c->rung = true;
+        c->cv.notify_all();
+      }
+    });
+    res.set_header("Cache-Control", "no-cache");
+    res.set_header("X-Accel-Buffering", "no");
+    res.set_chunked_content_provider(
+        "text/event-stream",
+        [this, client, last_beat = std::chrono::steady_clock::now()](
+            size_t, httplib::DataSink& sink) mutable {
+          {
+            std::unique_lock<std::mutex> lock(client->mu);
+            client->cv.wait_for(lock, std::chrono::milliseconds(500), [&] { return client->rung; });
+            client->rung = false;
+          }
+          if (stopping_ || !sink.is_writable()) return false;
+          StoredFillet f;
+          uint64_t lagged = 0;
+          std::string out;
+          while (hub_.take(client->sub, f, lagged)) {
+            json j = fillet_json(f);
+            j["images"] = image_kinds(store_, f.uid);
+            // Results this client lost (it fell behind its 256) before this one.
+            j["lagged"] = lagged;
+            out += "event: fillet\ndata: " + j.dump() + "\n\n";
+          }
+          if (hub_.closed(client->sub)) {
+            if (!out.empty()) sink.write(out.data(), out.size());
+            sink.done();
+            return true;
+          }
+          const auto now = std::chrono::steady_clock::now();
+          if (out.empty() && now - last_beat > std::chrono::seconds(10))
+            out = ": keep-alive\n\n";  // a comment: proxies and the client see it alive
+          if (!out.empty()) {
+            last_beat = now;
+            if (!sink.write(out.data(), out.size())) return false;
+          }
+          return true;
+        },
+        [this, client](bool) {
+          hub_.unsubscribe(client->sub);
+          --event_streams_;
+        });
+  });
+}
+
+}  // namespace rangex

@@ -1,0 +1,74 @@
+// rangexd's HTTP side (plant.http, loopback by default): the operator's web dashboard
+// (static files embedded in the binary), a JSON API over the same engine, store and results
+// hub as the gRPC services, a live event stream of decisions (server-sent events, one
+// bounded, lag-reporting hub subscription per client), and Prometheus metrics at /metrics.
+//
+// Endpoints (docs/dashboard.md):
+//   GET /                          the dashboard (index.html, app.js, style.css)
+//   GET /api/info                  plant, version, backend
+//   GET /api/lanes                 per lane: state, rates, light, calibration
+//   GET /api/statistics            the engine's statistics (as GetStatistics)
+//   GET /api/history               the last hour, sampled every 2 s
+//   GET /api/fillets               ?lane=&decision=&from_ns=&to_ns=&after=&limit=
+//   GET /api/fillets.csv           the same, every match, as CSV for an audit
+//   GET /api/fillets/UID           one fillet with its fragments and images
+//   GET /api/fillets/UID/images/K  K: overlay | xray | thickness | pseudo_xray | residual
+//                                  (8-bit views; ?raw=1: the stored 16-bit record)
+//   GET /api/calibrations          ?lane=: versions, and who uploaded/activated what when
+//   GET /api/audit                 ?limit=: the audit log, newest last
+//   GET /api/events                ?lanes=1,2&decisions=reject: server-sent events
+//   GET /metrics                   Prometheus text format
+#pragma once
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "service/engine.h"
+#include "service/plant_history.h"
+
+namespace httplib {
+class Server;
+}
+
+namespace rangex {
+
+struct HttpOptions {
+  std::string listen = "127.0.0.1:8080";  // host:port; port 0 picks a free one
+  int max_event_streams = 32;             // more are refused with 503
+  double history_period_s = 2;            // the charts' sampling period
+  std::string version = "rangex 0.1.0";
+  // Counts the gRPC side knows (open ingest streams).
+  std::function<int()> ingest_streams;
+};
+
+class HttpServer {
+ public:
+  // Binds (throws Error naming the address when it cannot) and serves on its own threads.
+  HttpServer(Engine& engine, Store& store, ResultsHub& hub, HttpOptions opt);
+  ~HttpServer();
+  int port() const { return port_; }
+  std::string address() const;  // host:port as bound
+  // Ends every event stream and stops serving (before the engine's drain).
+  void stop();
+  int event_streams() const { return event_streams_; }
+
+ private:
+  void routes();
+  void sampler();
+
+  Engine& engine_;
+  Store& store_;
+  ResultsHub& hub_;
+  HttpOptions opt_;
+  PlantHistory history_;
+  std::unique_ptr<httplib::Server> http_;
+  std::string host_;
+  int port_ = 0;
+  std::thread listener_, sampler_;
+  std::atomic<bool> stopping_{false};
+  std::atomic<int> event_streams_{0};
+};
+
+}  // namespace rangex

@@ -1,0 +1,196 @@
+#include "service/metrics_text.h"
+
+#include <cinttypes>
+#include <cstdio>
+
+namespace rangex {
+
+namespace {
+
+// A label value, escaped as the format requires (backslash, quote, newline).
+std::string quoted(const std::string& v) {
+  std::string out = "\"";
+  for (char c : v) {
+    if (c == '\\' || c == '"')
+      out += '\\', out += c;
+    else if (c == '\n')
+      out += "\\n";
+    else
+      out += c;
+  }
+  return out + "\"";
+}
+
+class Writer {
+ public:
+  void family(const char* name, const char* type, const char* help) {
+    out_ += "# HELP ";
+    out_ += name;
+    out_ += ' ';
+    out_ += help;
+    out_ += "\n# TYPE ";
+    out_ += name;
+    out_ += ' ';
+    out_ += type;
+    out_ += '\n';
+  }
+  void sample(const std::string& name, const std::string& labels, double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    out_ += name;
+    if (!labels.empty()) out_ += "{" + labels + "}";
+    out_ += ' ';
+    out_ += buf;
+    out_ += '\n';
+  }
+  void sample(const std::string& name, const std::string& labels, uint64_t v) {
+    out_ += name;
+    if (!labels.empty()) out_ += "{" + labels + "}";
+    out_ += ' ';
+    out_ += std::to_string(v);
+    out_ += '\n';
+  }
+  // A histogram in seconds from one in milliseconds.
+  void histogram(const std::string& name, const std::string& labels,
+                 const LatencyStats::Summary& l) {
+    const std::string sep = labels.empty() ? "" : labels + ",";
+    for (size_t k = 0; k < LatencyStats::kBoundsMs.size(); ++k) {
+      char le[32];
+      std::snprintf(le, sizeof le, "%g", LatencyStats::kBoundsMs[k] / 1e3);
+      sample(name + "_bucket", sep + "le=\"" + le + "\"", l.cumulative[k]);
+    }
+    sample(name + "_bucket", sep + "le=\"+Inf\"", l.samples);
+    sample(name + "_sum", labels, l.sum_ms / 1e3);
+    sample(name + "_count", labels, l.samples);
+  }
+  std::string str() && { return std::move(out_); }
+
+ private:
+  std::string out_;
+};
+
+std::string lane_label(int lane) {
+  return "lane=\"" + std::to_string(lane) + "\"";
+}
+
+}  // namespace
+
+std::string prometheus_text(const MetricsInput& m) {
+  const EngineStats& s = m.stats;
+  Writer w;
+
+  w.family("rangex_lines_received_total", "counter",
+           "Lines received, by lane (lane=\"none\": requests naming no lane of this plant).");
+  uint64_t laneless = s.received;
+  for (const LaneState& l : m.lanes) {
+    w.sample("rangex_lines_received_total", lane_label(l.config.id), l.received);
+    laneless -= std::min(laneless, l.received);
+  }
+  w.sample("rangex_lines_received_total", "lane=\"none\"", laneless);
+
+  w.family("rangex_lines_processed_total", "counter",
+           "Lines through the line stages and into their lane's assembly, by lane.");
+  for (const LaneState& l : m.lanes)
+    w.sample("rangex_lines_processed_total", lane_label(l.config.id), l.processed);
+
+  w.family("rangex_lines_refused_total", "counter",
+           "Lines refused at admission, by lane and code (lane=\"none\": unknown lane or no "
+           "line).");
+  for (const auto& [code, n] : s.refused) {
+    uint64_t rest = n;
+    for (const LaneState& l : m.lanes)
+      if (const auto it = l.refused.find(code); it != l.refused.end()) {
+        w.sample("rangex_lines_refused_total", lane_label(l.config.id) + ",code=" + quoted(code),
+                 it->second);
+        rest -= std::min(rest, it->second);
+      }
+    if (rest) w.sample("rangex_lines_refused_total", "lane=\"none\",code=" + quoted(code), rest);
+  }
+
+  w.family("rangex_lines_dropped_total", "counter",
+           "Lines accepted and then not processed, by lane and reason.");
+  for (const LaneState& l : m.lanes)
+    for (const auto& [reason, n] : l.dropped)
+      w.sample("rangex_lines_dropped_total", lane_label(l.config.id) + ",reason=" + quoted(reason),
+               n);
+
+  w.family("rangex_fillets_total", "counter", "Fillets decided, by lane and decision.");
+  for (const LaneState& l : m.lanes) {
+    const std::string lane = lane_label(l.config.id);
+    w.sample("rangex_fillets_total", lane + ",decision=\"pass\"",
+             l.fillets - l.rejects - l.not_inspected);
+    w.sample("rangex_fillets_total", lane + ",decision=\"reject\"", l.rejects);
+    w.sample("rangex_fillets_total", lane + ",decision=\"not_inspected\"", l.not_inspected);
+  }
+
+  w.family("rangex_lane_restarts_total", "counter",
+           "Lane restarts (encoder resets, jumps, lanes that stopped being fed), by lane.");
+  for (const LaneState& l : m.lanes)
+    w.sample("rangex_lane_restarts_total", lane_label(l.config.id), l.restarts);
+
+  w.family("rangex_batches_total", "counter", "Line batches computed by the backend.");
+  w.sample("rangex_batches_total", "", s.batches.batches);
+  w.family("rangex_batches_verified_total", "counter",
+           "Device batches recomputed on the CPU reference and compared.");
+  w.sample("rangex_batches_verified_total", "", s.batches.verified);
+  w.family("rangex_verify_mismatches_total", "counter",
+           "Verified batches whose device results differed from the CPU's (decided from the "
+           "CPU's).");
+  w.sample("rangex_verify_mismatches_total", "", s.batches.mismatches);
+  w.family("rangex_backend_failures_total", "counter",
+           "Device failures (the server went on on the CPU).");
+  w.sample("rangex_backend_failures_total", "", s.batches.failures);
+  w.family("rangex_store_errors_total", "counter", "Failed writes to the store.");
+  w.sample("rangex_store_errors_total", "", s.store_errors);
+
+  w.family("rangex_stage_latency_seconds", "histogram",
+           "Latency of each stage: queue_wait (a line), line_batch (a batch through the line "
+           "stages), inspection_wait and inspection (a fillet), inspection_<part>, store.");
+  w.histogram("rangex_stage_latency_seconds", "stage=\"queue_wait\"", s.queue_wait);
+  w.histogram("rangex_stage_latency_seconds", "stage=\"line_batch\"", s.pipeline);
+  w.histogram("rangex_stage_latency_seconds", "stage=\"inspection_wait\"", s.inspection_wait);
+  w.histogram("rangex_stage_latency_seconds", "stage=\"inspection\"", s.inspection);
+  for (const auto& [name, l] : s.inspection_stages) {
+    std::string stage = "inspection_" + name;
+    for (char& c : stage)
+      if (c == ' ') c = '_';
+    w.histogram("rangex_stage_latency_seconds", "stage=" + quoted(stage), l);
+  }
+  w.histogram("rangex_stage_latency_seconds", "stage=\"store\"", s.store);
+  w.family("rangex_decision_latency_seconds", "histogram",
+           "From the arrival of a fillet's last line to its decision being stored and "
+           "published.");
+  w.histogram("rangex_decision_latency_seconds", "", s.decision);
+
+  w.family("rangex_queue_depth_lines", "gauge", "Lines waiting for the worker.");
+  w.sample("rangex_queue_depth_lines", "", uint64_t(s.queue_depth));
+  w.family("rangex_queue_capacity_lines", "gauge", "Lines the queue holds at most.");
+  w.sample("rangex_queue_capacity_lines", "", uint64_t(s.queue_capacity));
+  w.family("rangex_lines_per_second", "gauge", "Lines processed per second, recently.");
+  w.sample("rangex_lines_per_second", "", s.lines_per_second);
+  w.family("rangex_subscribers", "gauge",
+           "Live result subscribers (gRPC streams and the dashboard's event streams).");
+  w.sample("rangex_subscribers", "", uint64_t(m.subscribers));
+  w.family("rangex_http_event_streams", "gauge", "The dashboard's open event streams.");
+  w.sample("rangex_http_event_streams", "", uint64_t(m.http_clients));
+  w.family("rangex_ingest_streams", "gauge", "Open StreamLines calls.");
+  w.sample("rangex_ingest_streams", "", uint64_t(m.ingest_streams));
+  w.family("rangex_serving", "gauge", "1 when the server can inspect (health SERVING).");
+  w.sample("rangex_serving", "", uint64_t(s.health.serving ? 1 : 0));
+  w.family("rangex_backend_info", "gauge", "The backend running the line stages (value 1).");
+  w.sample("rangex_backend_info",
+           "backend=" + quoted(s.backend.name) + ",device=" + quoted(s.backend.device),
+           uint64_t(1));
+  w.family("rangex_lane_calibration_info", "gauge", "Each lane's active calibration (value 1).");
+  for (const LaneState& l : m.lanes)
+    w.sample("rangex_lane_calibration_info",
+             lane_label(l.config.id) + ",calibration=" + quoted(l.calibration_id), uint64_t(1));
+  w.family("rangex_lane_idle_seconds", "gauge",
+           "Seconds since each fed lane's last accepted line.");
+  for (const LaneState& l : m.lanes)
+    if (l.idle_ms >= 0)
+      w.sample("rangex_lane_idle_seconds", lane_label(l.config.id), double(l.idle_ms) / 1e3);
+  return std::move(w).str();
+}
+
+}  // namespace rangex

@@ -1,0 +1,288 @@
+// rangex's operator dashboard: plain JavaScript over rangexd's JSON API and its live event
+// stream (/api/events). Views: lanes (tiles, live reject feed, charts of the last hour), a
+// fillet (its four images side by side with fragments boxed), records (search, CSV export)
+// and calibrations (who uploaded and activated what, when).
+"use strict";
+
+const view = document.getElementById("view");
+const state = { info: null, feed: [], events: null, timers: [] };
+const FEED_MAX = 40;
+
+function esc(s) {
+  return String(s ?? "").replace(/[&<>"']/g, (c) =>
+    ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;" })[c]);
+}
+function fmtTime(ns) {
+  return new Date(Number(ns) / 1e6).toLocaleString();
+}
+function pct(x) {
+  return (100 * x).toFixed(1) + " %";
+}
+async function api(path) {
+  const r = await fetch(path);
+  const body = await r.json();
+  if (!r.ok) throw new Error(body.error || r.statusText);
+  return body;
+}
+// Runs f now and every `ms` while the view is shown; a failure is shown, not thrown.
+function every(ms, f) {
+  const run = () => Promise.resolve().then(f).catch(showError);
+  run();
+  state.timers.push(setInterval(run, ms));
+}
+function clearTimers() {
+  state.timers.forEach(clearInterval);
+  state.timers = [];
+}
+
+// ---- the live event stream, kept open across views ----------------------------------------
+function connectEvents() {
+  const conn = document.getElementById("conn");
+  const es = new EventSource("/api/events?decisions=reject,not_inspected");
+  state.events = es;
+  es.onopen = () => { conn.textContent = "live"; conn.className = "conn live"; };
+  es.onerror = () => { conn.textContent = "reconnecting"; conn.className = "conn lost"; };
+  es.addEventListener("fillet", (ev) => {
+    const f = JSON.parse(ev.data);
+    f.shown_ms = Date.now();
+    state.feed.unshift(f);
+    state.feed.length = Math.min(state.feed.length, FEED_MAX);
+    const list = document.getElementById("feed-list");
+    if (list) list.prepend(feedItem(f));
+    while (list && list.children.length > FEED_MAX) list.lastChild.remove();
+  });
+}
+
+function feedItem(f) {
+  const li = document.createElement("li");
+  li.dataset.uid = f.uid;
+  li.dataset.decidedNs = f.decided_ns;
+  li.dataset.shownMs = f.shown_ms;
+  const bones = f.fragments.filter((g) => g.kind === "bone").length;
+  const thumb = f.images.includes("overlay")
+    ? `<img alt="fillet ${f.uid}" src="/api/fillets/${f.uid}/images/overlay">`
+    : `<div class="noimg muted">no image</div>`;
+  li.innerHTML =
+    thumb +
+    `<div><span class="badge ${esc(f.decision)}">${esc(f.decision.replace("_", " "))}</span> ` +
+    `lane ${f.lane} · fillet ${f.lane_fillet}<br>` +
+    `<span class="muted">${fmtTime(f.decided_ns)} · ${bones} fragment${bones === 1 ? "" : "s"}` +
+    `${f.lagged ? " · " + f.lagged + " missed" : ""}</span></div>`;
+  li.addEventListener("click", () => { location.hash = "#/fillet/" + f.uid; });
+  return li;
+}
+
+// ---- lanes: tiles, the reject feed, charts ------------------------------------------------
+function lanesView() {
+  view.innerHTML =
+    `<h2>Lanes</h2><div class="tiles" id="tiles"></div>
+     <div class="row">
+       <div class="panel feed"><h2>Rejects, live</h2><ul id="feed-list"></ul></div>
+       <div class="panel charts"><h2>Last hour</h2>
+         <div class="muted">lines/s (all lanes)</div><canvas id="c-rate"></canvas>
+         <div class="muted">fillets/min: decided (black), rejected (red)</div><canvas id="c-fillets"></canvas>
+         <div class="muted">last line to decision, ms: p50 (black), p99 (red)</div><canvas id="c-lat"></canvas>
+       </div>
+     </div>`;
+  const list = document.getElementById("feed-list");
+  state.feed.forEach((f) => list.append(feedItem(f)));
+  every(1000, refreshTiles);
+  every(5000, refreshCharts);
+}
+
+async function refreshTiles() {
+  const tiles = document.getElementById("tiles");
+  if (!tiles) return;
+  const lanes = await api("/api/lanes");
+  tiles.innerHTML = lanes.map((l) =>
+    `<div class="tile" data-lane="${l.lane}" data-light="${l.light}">
+       <div class="top"><span class="light ${l.light}" title="${esc(l.light_reason)}"></span>lane ${l.lane}</div>
+       <dl>
+         <dt>lines/s</dt><dd>${l.line_rate.toFixed(0)}</dd>
+         <dt>fillets/min</dt><dd>${l.fillets_per_min.toFixed(1)}</dd>
+         <dt>rejected</dt><dd>${pct(l.reject_rate)}</dd>
+         <dt>not inspected</dt><dd>${pct(l.not_inspected_rate)}</dd>
+         <dt>backend</dt><dd>${esc(l.backend)}</dd>
+         <dt>calibration</dt><dd title="${esc(l.calibration)}">${esc(l.calibration)}</dd>
+       </dl>
+       <div class="why">${esc(l.light_reason)}</div>
+     </div>`).join("");
+}
+
+function chart(id, samples, series) {
+  const c = document.getElementById(id);
+  if (!c) return;
+  const w = (c.width = c.clientWidth * devicePixelRatio);
+  const h = (c.height = c.clientHeight * devicePixelRatio);
+  const g = c.getContext("2d");
+  g.clearRect(0, 0, w, h);
+  if (samples.length < 2) {
+    g.fillStyle = "#667085";
+    g.font = `${12 * devicePixelRatio}px sans-serif`;
+    g.fillText("collecting (a sample every 2 s)", 8, h / 2);
+    return;
+  }
+  const t0 = samples[0].t_ns, t1 = samples[samples.length - 1].t_ns;
+  let top = 1;
+  for (const s of samples) for (const [k] of series) top = Math.max(top, s[k]);
+  const pad = 4 * devicePixelRatio;
+  g.fillStyle = "#667085";
+  g.font = `${11 * devicePixelRatio}px sans-serif`;
+  g.fillText(top.toFixed(0), pad, 12 * devicePixelRatio);
+  for (const [k, colour] of series) {
+    g.strokeStyle = colour;
+    g.lineWidth = devicePixelRatio * 1.5;
+    g.beginPath();
+    samples.forEach((s, i) => {
+      const x = pad + ((w - 2 * pad) * (s.t_ns - t0)) / Math.max(1, t1 - t0);
+      const y = h - pad - ((h - 2 * pad) * s[k]) / top;
+      if (i === 0) g.moveTo(x, y); else g.lineTo(x, y);
+    });
+    g.stroke();
+  }
+}
+
+async function refreshCharts() {
+  const h = await api("/api/history?minutes=60");
+  chart("c-rate", h.samples, [["lines_per_s", "#1d2330"]]);
+  chart("c-fillets", h.samples, [["fillets_per_min", "#1d2330"], ["rejects_per_min", "#d63b3b"]]);
+  chart("c-lat", h.samples, [["decision_p50_ms", "#1d2330"], ["decision_p99_ms", "#d63b3b"]]);
+}
+
+// ---- one fillet: four images side by side, fragments boxed -----------------------------------
+async function filletView(uid) {
+  view.innerHTML = `<h2>Fillet ${esc(uid)}</h2><div id="fillet">loading</div>`;
+  const f = await api("/api/fillets/" + encodeURIComponent(uid));
+  const kinds = ["xray", "thickness", "pseudo_xray", "residual"].filter((k) => f.images.includes(k));
+  const names = { xray: "X-ray", thickness: "thickness", pseudo_xray: "pseudo-X-ray", residual: "residual" };
+  const boxes = (W, H) => f.fragments.map((g) => {
+    const l = (100 * Math.max(0, g.col0 - 2)) / W, t = (100 * Math.max(0, g.row0 - 2)) / H;
+    const bw = (100 * (g.col1 - g.col0 + 5)) / W, bh = (100 * (g.row1 - g.row0 + 5)) / H;
+    return `<div class="box ${esc(g.kind)}" style="left:${l}%;top:${t}%;width:${bw}%;height:${bh}%"></div>`;
+  }).join("");
+  document.getElementById("fillet").innerHTML =
+    `<p><span class="badge ${esc(f.decision)}">${esc(f.decision.replace("_", " "))}</span>
+       lane ${f.lane} · fillet ${f.lane_fillet} · ${fmtTime(f.decided_ns)} · calibration ${esc(f.calibration)}
+       <br><span class="muted">${esc(f.reason)}</span></p>
+     ${kinds.length ? "" : '<p class="muted">No images are kept for passed fillets.</p>'}
+     <div class="images">${kinds.map((k) =>
+       `<figure data-kind="${k}"><figcaption>${names[k]}</figcaption>
+          <div class="frame"><img alt="${names[k]}" src="/api/fillets/${f.uid}/images/${k}"></div></figure>`).join("")}
+     </div>
+     <h2>Fragments</h2>
+     <table><tr><th>kind</th><th>x mm</th><th>y mm</th><th>area mm²</th><th>peak z</th><th>mm of meat</th></tr>
+     ${f.fragments.map((g) => `<tr><td>${esc(g.kind)}</td><td>${g.x_mm.toFixed(1)}</td><td>${g.y_mm.toFixed(1)}</td>
+       <td>${g.area_mm2.toFixed(2)}</td><td>${g.peak_z.toFixed(1)}</td><td>${g.meat_mm.toFixed(2)}</td></tr>`).join("")}
+     </table>`;
+  // Boxes go on once each image's size (the fillet's pixels) is known.
+  document.querySelectorAll(".frame img").forEach((img) => {
+    const place = () => img.insertAdjacentHTML("afterend", boxes(img.naturalWidth, img.naturalHeight));
+    if (img.complete && img.naturalWidth) place(); else img.addEventListener("load", place, { once: true });
+  });
+}
+
+// ---- records: search by time, lane and decision; CSV export ----------------------------------
+function recordsView() {
+  const lanes = state.info ? Array.from({ length: state.info.lanes }, (_, i) => i) : [];
+  view.innerHTML =
+    `<h2>Records</h2>
+     <form class="search" id="search">
+       <label>from<input type="datetime-local" name="from" step="1"></label>
+       <label>to<input type="datetime-local" name="to" step="1"></label>
+       <label>lane<select name="lane"><option value="">all</option>
+         ${lanes.map((l) => `<option>${l}</option>`).join("")}</select></label>
+       <label>decision<select name="decision"><option value="">any</option>
+         <option>pass</option><option>reject</option><option value="not_inspected">not inspected</option></select></label>
+       <button type="submit">Search</button>
+       <a class="button" id="csv" href="/api/fillets.csv">Export CSV</a>
+     </form>
+     <table id="records"><thead><tr><th>uid</th><th>decided</th><th>lane</th><th>fillet</th>
+       <th>decision</th><th>fragments</th><th>reason</th></tr></thead><tbody></tbody></table>
+     <p><button id="more" hidden>More</button> <span id="count" class="muted"></span></p>`;
+  let after = 0, params = "", shown = 0;
+  const form = document.getElementById("search");
+  const query = () => {
+    const q = new URLSearchParams();
+    const v = (n) => form.elements[n].value;
+    if (v("from")) q.set("from_ns", String(BigInt(new Date(v("from")).getTime()) * 1000000n));
+    if (v("to")) q.set("to_ns", String(BigInt(new Date(v("to")).getTime()) * 1000000n));
+    if (v("lane") !== "") q.set("lane", v("lane"));
+    if (v("decision")) q.set("decision", v("decision"));
+    return q.toString();
+  };
+  const load = async () => {
+    const page = await api(`/api/fillets?limit=200&after=${after}${params ? "&" + params : ""}`);
+    const body = document.querySelector("#records tbody");
+    body.insertAdjacentHTML("beforeend", page.fillets.map((f) =>
+      `<tr data-uid="${f.uid}"><td><a href="#/fillet/${f.uid}">${f.uid}</a></td><td>${fmtTime(f.decided_ns)}</td>
+         <td>${f.lane}</td><td>${f.lane_fillet}</td><td><span class="badge ${esc(f.decision)}">${esc(f.decision.replace("_", " "))}</span></td>
+         <td>${f.fragments.filter((g) => g.kind === "bone").length}</td><td>${esc(f.reason)}</td></tr>`).join(""));
+    shown += page.fillets.length;
+    after = page.next_after;
+    document.getElementById("more").hidden = page.fillets.length < 200;
+    document.getElementById("count").textContent = `${shown} fillets`;
+  };
+  form.addEventListener("submit", (e) => {
+    e.preventDefault();
+    params = query();
+    after = 0;
+    shown = 0;
+    document.querySelector("#records tbody").innerHTML = "";
+    document.getElementById("csv").href = "/api/fillets.csv" + (params ? "?" + params : "");
+    load().catch(showError);
+  });
+  document.getElementById("more").addEventListener("click", () => load().catch(showError));
+  load().catch(showError);
+}
+
+// ---- calibrations: versions and who did what ------------------------------------------------
+async function calibrationsView() {
+  view.innerHTML = `<h2>Calibrations</h2><div id="cal">loading</div>`;
+  const c = await api("/api/calibrations");
+  document.getElementById("cal").innerHTML =
+    `<table><tr><th>lane</th><th>id</th><th>uploaded</th><th>active</th><th>solver report</th></tr>
+     ${c.versions.map((v) => `<tr><td>${v.lane}</td><td>${esc(v.id)}</td><td>${fmtTime(v.uploaded_ns)}</td>
+       <td>${v.active ? "active" : ""}</td><td>${v.has_report ? "yes" : "none"}</td></tr>`).join("")}
+     </table>
+     <h2>History</h2>
+     <table id="cal-events"><tr><th>when</th><th>who</th><th>what</th><th>detail</th></tr>
+     ${c.events.slice().reverse().map((e) => `<tr><td>${fmtTime(e.ts_ns)}</td><td>${esc(e.who)}</td>
+       <td>${esc(e.what)}</td><td>${esc(e.detail)}</td></tr>`).join("")}
+     </table>`;
+}
+
+function showError(e) {
+  let p = document.getElementById("error");
+  if (!p) {
+    view.insertAdjacentHTML("afterbegin", `<p class="error" id="error"></p>`);
+    p = document.getElementById("error");
+  }
+  p.textContent = e.message;
+}
+
+function route() {
+  clearTimers();
+  const h = location.hash || "#/";
+  document.querySelectorAll("nav a").forEach((a) => a.classList.toggle("active", a.getAttribute("href") === h));
+  const m = h.match(/^#\/fillet\/(\d+)$/);
+  let p;
+  if (m) p = filletView(m[1]);
+  else if (h === "#/records") p = recordsView();
+  else if (h === "#/calibrations") p = calibrationsView();
+  else p = lanesView();
+  Promise.resolve(p).catch(showError);
+}
+
+async function main() {
+  try {
+    state.info = await api("/api/info");
+    document.getElementById("plant").textContent =
+      `${state.info.plant} · ${state.info.lanes} lanes · ${state.info.backend}`;
+  } catch (e) {
+    showError(e);
+  }
+  connectEvents();
+  window.addEventListener("hashchange", route);
+  route();
+}
+main();
