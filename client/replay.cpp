@@ -77,17 +77,16 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
                        [&](InspectedFillet&& f) { r.fillets.push_back(std::move(f)); });
     LineResults res;
     const size_t frame = size_t(info.width) * info.height;
-    std::vector<uint8_t> cam0, cam1;
+    // The frames stay where the page cache has them until they are copied into staging.
+    const RecordingReader::MappedFrames frames = rec.map_frames(id);
     std::vector<uint16_t> xray;
     std::vector<int64_t> enc;
     int64_t last_encoder = std::numeric_limits<int64_t>::min();
     for (int64_t n0 = 0; n0 < info.lines; n0 += opt.batch_lines) {
       const int count = int(std::min<int64_t>(opt.batch_lines, info.lines - n0));
-      cam0.resize(frame * count);
-      cam1.resize(frame * count);
       xray.resize(size_t(info.xray_pixels) * count);
       enc.resize(count);
-      rec.read(id, n0, count, cam0.data(), cam1.data(), xray.data(), enc.data());
+      rec.read(id, n0, count, nullptr, nullptr, xray.data(), enc.data());
       for (int k = 0; k < count; ++k) {
         if (enc[k] <= last_encoder)
           fail("lane ", id, ": encoder count ", enc[k], " at line ", n0 + k,
@@ -102,8 +101,8 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
       const auto t0 = std::chrono::steady_clock::now();
       LineBatchSlot& batch = backend->acquire(count);
       for (int k = 0; k < count; ++k) {
-        std::copy_n(&cam0[frame * k], frame, batch.frames() + frame * (2 * k));
-        std::copy_n(&cam1[frame * k], frame, batch.frames() + frame * (2 * k + 1));
+        std::copy_n(frames.frame(0, n0 + k), frame, batch.frames() + frame * (2 * k));
+        std::copy_n(frames.frame(1, n0 + k), frame, batch.frames() + frame * (2 * k + 1));
       }
       std::fill_n(batch.lane_slot(), count, int(slot));
       backend->submit(batch);

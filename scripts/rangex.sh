@@ -21,8 +21,8 @@ if [ "$what" = test ]; then
 fi
 
 # The demo plant. Part 1: rangexd on the default configuration with its embedded store
-# (build/demo/data), fed a simulated 4-lane plant over gRPC; decisions print live as they
-# are made.
+# (build/demo/data) and its dashboard (plant.http, http://127.0.0.1:8080/), fed a simulated
+# 4-lane plant over gRPC; decisions print live as they are made.
 demo=build/demo
 rm -rf "$demo"
 mkdir -p "$demo"
@@ -33,6 +33,7 @@ server=$!
 watcher=""
 trap 'kill $server $watcher 2>/dev/null || true' EXIT
 for _ in $(seq 50); do "$ctl" status --server "$addr" >/dev/null 2>&1 && break; sleep 0.2; done
+echo "rangex demo: follow the plant live at http://127.0.0.1:8080/ (lanes, rejects, images)"
 "$ctl" watch --server "$addr" &
 watcher=$!
 "$ctl" feed --server "$addr" --simulate --lanes 4 --fillets 6 --seed 1

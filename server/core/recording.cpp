@@ -183,6 +183,23 @@ std::string RecordingReader::lane_dir(int lane) const {
   return (fs::path(dir_) / ("lane" + std::to_string(lane))).string();
 }
 
+RecordingReader::MappedFrames RecordingReader::map_frames(int lane) const {
+  if (std::find(info_.lanes.begin(), info_.lanes.end(), lane) == info_.lanes.end())
+    fail("recording ", dir_, ": unknown lane ", lane);
+  MappedFrames m;
+  m.frame_bytes = size_t(info_.width) * info_.height;
+  const char* names[2] = {"cam0.u8", "cam1.u8"};
+  for (int c = 0; c < 2; ++c) {
+    const std::string path = (fs::path(lane_dir(lane)) / names[c]).string();
+    m.cam[c] = std::make_unique<MappedFile>(path);
+    if (m.cam[c]->size() < m.frame_bytes * size_t(info_.lines))
+      fail("lane ", lane, ": ", names[c], " holds ", m.cam[c]->size(), " bytes, fewer than ",
+           info_.lines, " frames of ", m.frame_bytes);
+    m.cam[c]->advise_sequential();
+  }
+  return m;
+}
+
 void RecordingReader::read(int lane, int64_t first, int64_t count, uint8_t* cam0, uint8_t* cam1,
                            uint16_t* xray, int64_t* encoder) const {
   if (std::find(info_.lanes.begin(), info_.lanes.end(), lane) == info_.lanes.end())

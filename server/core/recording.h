@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "core/mapped_file.h"
+
 namespace rangex {
 
 struct RecordingInfo {
@@ -61,6 +63,16 @@ class RecordingReader {
   // Reads `count` lines from `first` of one lane into the caller's buffers.
   void read(int lane, int64_t first, int64_t count, uint8_t* cam0, uint8_t* cam1, uint16_t* xray,
             int64_t* encoder) const;
+  // Both cameras' frames of one lane, mapped read-only: frame n of camera c starts at
+  // frame(c, n). One copy takes them from the page cache to where they are computed.
+  struct MappedFrames {
+    std::unique_ptr<MappedFile> cam[2];
+    size_t frame_bytes = 0;
+    const uint8_t* frame(int camera, int64_t n) const {
+      return cam[camera]->data() + frame_bytes * size_t(n);
+    }
+  };
+  MappedFrames map_frames(int lane) const;
   // Truth arrays (float32 unless stated); empty when the recording has no truth.
   std::vector<float> truth_f32(int lane, const std::string& name, size_t per_line) const;
   std::string truth_text(int lane, const std::string& name) const;
