@@ -240,7 +240,7 @@ async function calibrationsView() {
   view.innerHTML = `<h2>Calibrations</h2><div id="cal">loading</div>`;
   const c = await api("/api/calibrations");
   document.getElementById("cal").innerHTML =
-    `<table><tr><th>lane</th><th>id</th><th>uploaded</th><th>active</th><th>solver report</th></tr>
+    `<table id="cal-versions"><tr><th>lane</th><th>id</th><th>uploaded</th><th>active</th><th>solver report</th></tr>
      ${c.versions.map((v) => `<tr><td>${v.lane}</td><td>${esc(v.id)}</td><td>${fmtTime(v.uploaded_ns)}</td>
        <td>${v.active ? "active" : ""}</td><td>${v.has_report ? "yes" : "none"}</td></tr>`).join("")}
      </table>

@@ -204,6 +204,25 @@ try:
     except urllib.error.HTTPError as e:
         check(e.code == 400 and "lane" in json.loads(e.read())["error"], "a bad parameter is a 400 naming it")
 
+    # The calibration history: an upload and a forced activation, with who and when.
+    cal = os.path.join(tmp, "cal.yaml")
+    with open(cal, "w") as f:
+        f.write("laser_plane: {normal: [0, 1, 0], offset_mm: 0.02}\n")
+    for args in (["calib", "upload", "--lane", "1", "--id", "cal-7", "--file", cal],
+                 ["calib", "activate", "--lane", "1", "--id", "cal-7", "--force"]):
+        subprocess.run([rangexctl] + args + ["--server", grpc_addr], check=True, timeout=30,
+                       capture_output=True)
+    driver.get(base + "/#/calibrations")
+    events = wait_for("the calibration history", lambda: [
+        [td.text for td in tr.find_elements(By.TAG_NAME, "td")]
+        for tr in driver.find_elements(By.CSS_SELECTOR, "#cal-events tr")[1:]] or None, 20)
+    audit = db.execute("SELECT who, what FROM audit WHERE what LIKE 'calibration.%' ORDER BY rowid DESC").fetchall()
+    check([(e[1], e[2]) for e in events] == [tuple(a) for a in audit] and len(audit) >= 2,
+          "the calibration history lists who did what, newest first, as the audit log (%s)" % audit)
+    versions = [tr.text for tr in driver.find_elements(By.CSS_SELECTOR, "#cal-versions tr")]
+    check(any("cal-7" in v and "active" in v for v in versions), "the activated set shows active")
+    driver.save_screenshot(os.path.join(out_dir, "dashboard-calibrations.png"))
+
     severe = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
     check(not severe, "no console errors (%s)" % severe)
 finally:
