@@ -45,19 +45,34 @@ function connectEvents() {
   es.addEventListener("fillet", (ev) => {
     const f = JSON.parse(ev.data);
     f.shown_ms = Date.now();
-    state.feed.unshift(f);
-    state.feed.length = Math.min(state.feed.length, FEED_MAX);
-    const list = document.getElementById("feed-list");
-    if (list) list.prepend(feedItem(f));
-    while (list && list.children.length > FEED_MAX) list.lastChild.remove();
+    addToFeed([f]);
   });
+}
+
+// Newest first, each fillet once (the stored rejects loaded at start and the live ones can
+// overlap).
+function addToFeed(fillets) {
+  const seen = new Set(state.feed.map((f) => f.uid));
+  const fresh = fillets.filter((f) => !seen.has(f.uid));
+  state.feed = fresh.concat(state.feed).sort((a, b) => b.uid - a.uid).slice(0, FEED_MAX);
+  const list = document.getElementById("feed-list");
+  if (!list) return;
+  list.innerHTML = "";
+  state.feed.forEach((f) => list.append(feedItem(f)));
+}
+
+// The latest rejects already stored, so that the feed is not empty when the page opens.
+async function loadRecentRejects() {
+  const pages = await Promise.all(["reject", "not_inspected"].map((d) =>
+    api(`/api/fillets?decision=${d}&newest=1&limit=${FEED_MAX}`)));
+  addToFeed(pages.flatMap((p) => p.fillets));
 }
 
 function feedItem(f) {
   const li = document.createElement("li");
   li.dataset.uid = f.uid;
   li.dataset.decidedNs = f.decided_ns;
-  li.dataset.shownMs = f.shown_ms;
+  if (f.shown_ms) li.dataset.shownMs = f.shown_ms;  // live: when it arrived
   const bones = f.fragments.filter((g) => g.kind === "bone").length;
   const thumb = f.images.includes("overlay")
     ? `<img alt="fillet ${f.uid}" src="/api/fillets/${f.uid}/images/overlay">`
@@ -282,6 +297,7 @@ async function main() {
     showError(e);
   }
   connectEvents();
+  loadRecentRejects().catch(showError);
   window.addEventListener("hashchange", route);
   route();
 }

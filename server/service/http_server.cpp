@@ -60,6 +60,7 @@ FilletQuery fillet_query(const httplib::Request& req) {
   q.to_ns = int_param(req, "to_ns", 0, 0, INT64_MAX);
   q.after = int_param(req, "after", 0, 0, INT64_MAX);
   q.limit = int(int_param(req, "limit", 200, 1, 10000));
+  q.newest_first = int_param(req, "newest", 0, 0, 1) == 1;
   if (req.has_param("decision")) {
     q.decision = req.get_param_value("decision");
     if (q.decision != "pass" && q.decision != "reject" && q.decision != "not_inspected" &&
@@ -378,7 +379,8 @@ void HttpServer::routes() {
     int64_t last = q.after;
     for (const StoredFillet& f : store_.list_fillets(q)) {
       list.push_back(fillet_json(f));
-      last = f.uid;
+      list.back()["images"] = image_kinds(store_, f.uid);
+      last = std::max(last, f.uid);
     }
     // `next_after` continues the search where this page ended.
     send_json(res, {{"fillets", list}, {"next_after", last}});

@@ -9,7 +9,7 @@
 //   GET /api/lanes                 per lane: state, rates, light, calibration
 //   GET /api/statistics            the engine's statistics (as GetStatistics)
 //   GET /api/history               the last hour, sampled every 2 s
-//   GET /api/fillets               ?lane=&decision=&from_ns=&to_ns=&after=&limit=
+//   GET /api/fillets               ?lane=&decision=&from_ns=&to_ns=&after=&limit=&newest=1
 //   GET /api/fillets.csv           the same, every match, as CSV for an audit
 //   GET /api/fillets/UID           one fillet with its fragments and images
 //   GET /api/fillets/UID/images/K  K: overlay | xray | thickness | pseudo_xray | residual

@@ -226,11 +226,15 @@ std::vector<StoredFillet> Store::list_fillets(const FilletQuery& fq) {
     std::lock_guard<std::mutex> lock(mu_);
     Stmt q(db_, (std::string("SELECT ") + kFilletColumns +
                  " FROM fillets WHERE decided_ns >= ? AND (? = 0 OR decided_ns < ?) AND (? < 0 OR "
-                 "lane = ?) AND uid > ? AND (? = '' OR decision = ?) ORDER BY uid LIMIT ?")
+                 "lane = ?) AND uid > ? AND (? = '' OR decision = ?) ORDER BY uid " +
+                 (fq.newest_first ? "DESC" : "ASC") + " LIMIT ?")
                     .c_str());
     q.bind(1, fq.from_ns).bind(2, fq.to_ns).bind(3, fq.to_ns);
     q.bind(4, int64_t(fq.lane)).bind(5, int64_t(fq.lane));
-    q.bind(6, fq.after).bind(7, fq.decision).bind(8, fq.decision).bind(9, int64_t(fq.limit));
+    q.bind(6, fq.newest_first ? int64_t(0) : fq.after)
+        .bind(7, fq.decision)
+        .bind(8, fq.decision)
+        .bind(9, int64_t(fq.limit));
     while (q.step()) out.push_back(fillet_row(q));
   }
   for (StoredFillet& f : out) {

@@ -48,6 +48,7 @@ struct FilletQuery {
   std::string decision;
   int64_t after = 0;
   int limit = 1000;
+  bool newest_first = false;  // the latest `limit` matches, newest first (after is ignored)
 };
 
 struct AuditEntry {

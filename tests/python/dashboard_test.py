@@ -120,7 +120,14 @@ try:
     shown = {int(li.get_attribute("data-uid")) for li in items}
     check(shown == fed_rejects, "the feed holds exactly the stored rejects (%d)" % len(shown))
 
+    # Opened later, the page shows the stored rejects in its feed.
+    driver.refresh()
+    wait_for("the stored rejects in a fresh page's feed", lambda: {int(li.get_attribute("data-uid"))
+             for li in driver.find_elements(By.CSS_SELECTOR, "#feed-list li")} == fed_rejects, 20)
+    check(True, "a page opened later lists the stored rejects in its feed")
+
     # Two clicks from the lane view to a reject's images: click it in the feed.
+    items = driver.find_elements(By.CSS_SELECTOR, "#feed-list li")
     uid = int(items[0].get_attribute("data-uid"))
     items[0].click()
     wait_for("the fillet page", lambda: driver.current_url.endswith("#/fillet/%d" % uid), 10)
