@@ -53,9 +53,16 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
       batches in flight, beside the CPU backend; a device's stripe stage against its
       host-to-device bandwidth
 
-  bench-server [--lines N] [--backend NAME|all] [--lanes 1,4,16] [--rate R] [--capacity]
+  bench-server [--lines N] [--backend NAME|all] [--lanes 1,4,16] [--rate R [--seconds S]]
+               [--path] [--capacity]
       lines/s through gRPC on loopback for 1, 4, 16 lanes beside the in-process pipeline, and
-      the latency from a fillet's last line to its decision (--rate: lines/s per lane)
+      the latency from a fillet's last line to its decision (--rate: lines/s per lane;
+      --seconds: a long run, resident memory by minute; --path: the server's stages)
+
+  audit verify [--data DIR]   the store's hash chain over every decision and audit entry:
+                              verified with its head, or the first broken link and why
+  audit export [--data DIR] [--from-ns T] [--to-ns T] --out FILE.jsonl
+      the links of a time range with their contents and the chain's head (a chain proof)
 
 server commands (--server HOST:PORT, default: plant.yaml's listen address):
   feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]
@@ -97,6 +104,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "lanes")) return cmd_lanes(argc, argv);
     if (!std::strcmp(cmd, "bench")) return cmd_bench(argc, argv);
     if (!std::strcmp(cmd, "bench-server")) return cmd_bench_server(argc, argv);
+    if (!std::strcmp(cmd, "audit")) return cmd_audit(argc, argv);
     std::fprintf(stderr, "rangexctl: unknown command '%s'\n\n%s", cmd, kUsage);
     return 2;
   } catch (const rangex::Error& e) {

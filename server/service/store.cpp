@@ -4,8 +4,10 @@
 
 #include <chrono>
 #include <filesystem>
+#include <set>
 
 #include "core/error.h"
+#include "service/record_chain.h"
 
 namespace fs = std::filesystem;
 
@@ -122,6 +124,70 @@ Store::Store(const std::string& dir) : dir_(dir) {
   for (const char* c : {"row0", "row1", "col0", "col1"})
     add_column("fragments", c, "INTEGER DEFAULT 0");
   exec("CREATE TABLE IF NOT EXISTS audit (ts_ns INTEGER, who TEXT, what TEXT, detail TEXT)");
+  // The hash chain over fillets and audit entries (service/record_chain.h).
+  exec(
+      "CREATE TABLE IF NOT EXISTS ledger (seq INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT, "
+      "ref INTEGER, ts_ns INTEGER, prev TEXT, hash TEXT)");
+  exec("CREATE INDEX IF NOT EXISTS ledger_time ON ledger(ts_ns)");
+  std::lock_guard<std::mutex> lock(mu_);
+  head_ = kChainGenesis;
+  {
+    Stmt q(db_, "SELECT hash FROM ledger ORDER BY seq DESC LIMIT 1");
+    if (q.step()) head_ = q.str(0);
+  }
+  if (head_ == kChainGenesis) chain_existing();
+}
+
+void Store::chain_existing() {
+  // A store from before the chain: its rows are chained once, fillets then audit entries,
+  // each in the order stored.
+  exec("BEGIN");
+  try {
+    std::vector<int64_t> uids;
+    {
+      Stmt q(db_, "SELECT uid FROM fillets ORDER BY uid");
+      while (q.step()) uids.push_back(q.i64(0));
+    }
+    std::string head = head_;
+    for (int64_t uid : uids) {
+      const StoredFillet f = read_fillet(uid);
+      head = append_link("fillet", uid, f.decided_ns, chain_content(f), head);
+    }
+    std::vector<std::pair<int64_t, AuditEntry>> rows;
+    {
+      Stmt q(db_, "SELECT rowid, ts_ns, who, what, detail FROM audit ORDER BY rowid");
+      while (q.step()) rows.push_back({q.i64(0), {q.i64(1), q.str(2), q.str(3), q.str(4)}});
+    }
+    for (const auto& [row, e] : rows)
+      head = append_link("audit", row, e.ts_ns, chain_content(row, e), head);
+    exec("COMMIT");
+    head_ = head;
+  } catch (...) {
+    exec("ROLLBACK");
+    throw;
+  }
+}
+
+std::string Store::append_link(const char* kind, int64_t ref, int64_t ts_ns,
+                               const std::string& content, const std::string& prev) {
+  const std::string hash = chain_hash(prev, content);
+  Stmt q(db_, "INSERT INTO ledger (kind, ref, ts_ns, prev, hash) VALUES (?,?,?,?,?)");
+  q.bind(1, std::string(kind)).bind(2, ref).bind(3, ts_ns).bind(4, prev).bind(5, hash);
+  q.step();
+  return hash;
+}
+
+StoredFillet Store::read_fillet(int64_t uid) {
+  Stmt q(db_, (std::string("SELECT ") + kFilletColumns + " FROM fillets WHERE uid = ?").c_str());
+  q.bind(1, uid);
+  if (!q.step()) fail_not_found("fillet ", uid, " is not in the store");
+  StoredFillet f = fillet_row(q);
+  Stmt g(db_, (std::string("SELECT ") + kFragmentColumns +
+               " FROM fragments WHERE fillet_uid = ? ORDER BY rowid")
+                  .c_str());
+  g.bind(1, uid);
+  while (g.step()) f.fragments.push_back(fragment_row(g));
+  return f;
 }
 
 Store::~Store() {
@@ -172,7 +238,13 @@ int64_t Store::add_fillet(const StoredFillet& f) {
       r.bind(12, int64_t(g.col1));
       r.step();
     }
+    // The decision joins the chain in the same transaction: stored means chained.
+    StoredFillet chained = f;
+    chained.uid = uid;
+    const std::string head =
+        append_link("fillet", uid, f.decided_ns, chain_content(chained), head_);
     exec("COMMIT");
+    head_ = head;
     return uid;
   } catch (...) {
     exec("ROLLBACK");
@@ -306,12 +378,133 @@ void Store::set_active_calibration(int lane, const std::string& id) {
 
 void Store::audit(const std::string& who, const std::string& what, const std::string& detail) {
   std::lock_guard<std::mutex> lock(mu_);
-  Stmt q(db_, "INSERT INTO audit VALUES (?,?,?,?)");
-  q.bind(1, now_ns())
-      .bind(2, who.empty() ? std::string("unknown") : who)
-      .bind(3, what)
-      .bind(4, detail);
-  q.step();
+  const AuditEntry e{now_ns(), who.empty() ? std::string("unknown") : who, what, detail};
+  exec("BEGIN");
+  try {
+    Stmt q(db_, "INSERT INTO audit VALUES (?,?,?,?)");
+    q.bind(1, e.ts_ns).bind(2, e.who).bind(3, e.what).bind(4, e.detail);
+    q.step();
+    const int64_t row = sqlite3_last_insert_rowid(db_);
+    const std::string head = append_link("audit", row, e.ts_ns, chain_content(row, e), head_);
+    exec("COMMIT");
+    head_ = head;
+  } catch (...) {
+    exec("ROLLBACK");
+    throw;
+  }
+}
+
+std::unique_ptr<Store> Store::read_only(const std::string& dir) {
+  const std::string path = (fs::path(dir) / "rangex.sqlite").string();
+  if (!fs::exists(path)) fail(path, ": no store here");
+  std::unique_ptr<Store> view(new Store());
+  if (sqlite3_open_v2(path.c_str(), &view->db_, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK)
+    fail(path,
+         ": cannot open the store: ", view->db_ ? sqlite3_errmsg(view->db_) : "out of memory");
+  sqlite3_busy_timeout(view->db_, 2000);
+  return view;
+}
+
+std::string Store::row_content(const std::string& kind, int64_t ref) {
+  if (kind == "fillet") return chain_content(read_fillet(ref));
+  if (kind == "audit") {
+    Stmt a(db_, "SELECT ts_ns, who, what, detail FROM audit WHERE rowid = ?");
+    a.bind(1, ref);
+    if (!a.step()) fail_not_found("audit entry ", ref, " is not in the store");
+    return chain_content(ref, {a.i64(0), a.str(1), a.str(2), a.str(3)});
+  }
+  fail("a link of unknown kind '", kind, "'");
+}
+
+std::vector<ChainLink> Store::chain_links(const std::string& dir, int64_t from_ns, int64_t to_ns) {
+  const std::unique_ptr<Store> view = read_only(dir);
+  std::vector<ChainLink> out;
+  Stmt q(view->db_,
+         "SELECT seq, kind, ref, ts_ns, prev, hash FROM ledger WHERE ts_ns >= ? AND (? = 0 OR "
+         "ts_ns < ?) ORDER BY seq");
+  q.bind(1, from_ns).bind(2, to_ns).bind(3, to_ns);
+  while (q.step()) {
+    ChainLink l{q.i64(0), q.str(1), q.i64(2), q.i64(3), q.str(4), q.str(5), ""};
+    l.content = view->row_content(l.kind, l.ref);
+    out.push_back(std::move(l));
+  }
+  return out;
+}
+
+ChainReport Store::verify_chain(const std::string& dir) {
+  const std::unique_ptr<Store> view = read_only(dir);
+  sqlite3* db = view->db_;
+  ChainReport r;
+  auto broken = [&](int64_t seq, std::string why) {
+    r.ok = false;
+    r.first_broken_seq = seq;
+    r.problem = std::move(why);
+  };
+  {
+    std::string prev = kChainGenesis;
+    std::set<int64_t> fillets, audits;
+    Stmt q(db, "SELECT seq, kind, ref, ts_ns, prev, hash FROM ledger ORDER BY seq");
+    while (r.ok && q.step()) {
+      const int64_t seq = q.i64(0), ref = q.i64(2);
+      const std::string kind = q.str(1), link_prev = q.str(4), hash = q.str(5);
+      const std::string what = kind + " " + std::to_string(ref);
+      if (link_prev != prev) {
+        broken(seq, "link " + std::to_string(seq) + " (" + what +
+                        ") does not follow the link before it: a link was removed, inserted or "
+                        "reordered");
+        break;
+      }
+      std::string content;
+      if (kind == "fillet") {
+        if (!fillets.insert(ref).second) {
+          broken(seq, "fillet " + std::to_string(ref) + " is chained twice");
+          break;
+        }
+        try {
+          content = chain_content(view->read_fillet(ref));
+        } catch (const NotFound&) {
+          broken(seq, "fillet " + std::to_string(ref) + " was removed from the store");
+          break;
+        }
+      } else if (kind == "audit") {
+        audits.insert(ref);
+        Stmt a(db, "SELECT ts_ns, who, what, detail FROM audit WHERE rowid = ?");
+        a.bind(1, ref);
+        if (!a.step()) {
+          broken(seq, "audit entry " + std::to_string(ref) + " was removed from the store");
+          break;
+        }
+        content = chain_content(ref, {a.i64(0), a.str(1), a.str(2), a.str(3)});
+      } else {
+        broken(seq, "link " + std::to_string(seq) + " is of an unknown kind '" + kind + "'");
+        break;
+      }
+      if (chain_hash(prev, content) != hash) {
+        broken(seq, what +
+                        " was changed after it was recorded (its content no longer hashes to "
+                        "link " +
+                        std::to_string(seq) + ")");
+        break;
+      }
+      prev = hash;
+      ++r.links;
+      r.head = hash;
+    }
+    if (r.ok) {
+      // Rows that never joined the chain were added behind its back.
+      Stmt f(db, "SELECT uid FROM fillets ORDER BY uid");
+      while (r.ok && f.step())
+        if (!fillets.count(f.i64(0)))
+          broken(0,
+                 "fillet " + std::to_string(f.i64(0)) + " is not in the chain (added afterwards)");
+      Stmt a(db, "SELECT rowid FROM audit ORDER BY rowid");
+      while (r.ok && a.step())
+        if (!audits.count(a.i64(0)))
+          broken(0, "audit entry " + std::to_string(a.i64(0)) +
+                        " is not in the chain (added afterwards)");
+    }
+  }
+  return r;
 }
 
 std::vector<AuditEntry> Store::audit_entries(int limit) {

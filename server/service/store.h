@@ -3,6 +3,7 @@
 // live as PNG files beside the database; the database holds their paths.
 #pragma once
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -56,6 +57,24 @@ struct AuditEntry {
   std::string who, what, detail;
 };
 
+// What verifying a store's hash chain found: ok, or the first link that does not hold and
+// why (first_broken_seq 0: a row outside the chain).
+struct ChainReport {
+  bool ok = true;
+  int64_t links = 0;
+  std::string head;  // the last link's hash: a record of it elsewhere anchors the chain
+  int64_t first_broken_seq = 0;
+  std::string problem;
+};
+
+struct ChainLink {
+  int64_t seq = 0;
+  std::string kind;  // fillet | audit
+  int64_t ref = 0;   // the fillet's uid or the audit entry's row
+  int64_t ts_ns = 0;
+  std::string prev, hash, content;
+};
+
 class Store {
  public:
   // Opens (creating if needed) <dir>/rangex.sqlite and <dir>/images/.
@@ -84,12 +103,31 @@ class Store {
   std::vector<std::string> audit_log(int limit);     // "ts who what detail", newest last
   std::vector<AuditEntry> audit_entries(int limit);  // the same, field by field
 
+  // Checks the hash chain of the store in `dir`, opened read-only (rangexd may be running).
+  static ChainReport verify_chain(const std::string& dir);
+  // The links stamped in [from_ns, to_ns) (to_ns 0: no bound), oldest first, each with its
+  // row's canonical content recomputed from the store: with the first link's `prev`, a
+  // reader checks them by hashing alone (an export's chain proof).
+  static std::vector<ChainLink> chain_links(const std::string& dir, int64_t from_ns, int64_t to_ns);
+  std::string chain_head() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return head_;
+  }
+
  private:
   void exec(const std::string& sql);
+  Store() = default;  // a view of a read-only connection (verify_chain, chain_links)
+  static std::unique_ptr<Store> read_only(const std::string& dir);
+  std::string row_content(const std::string& kind, int64_t ref);  // throws NotFound
   void add_column(const std::string& table, const std::string& column, const std::string& decl);
+  void chain_existing();
+  std::string append_link(const char* kind, int64_t ref, int64_t ts_ns, const std::string& content,
+                          const std::string& prev);
+  StoredFillet read_fillet(int64_t uid);  // with its fragments in stored order; mu_ held
   std::string dir_;
   sqlite3* db_ = nullptr;
   std::mutex mu_;
+  std::string head_;  // the chain's last hash
 };
 
 int64_t now_ns();

@@ -223,7 +223,8 @@ class Stream:
 
 
 def start_server(rangexd, config, data, log):
-    proc = subprocess.Popen([rangexd, "--config", config, "--listen", "127.0.0.1:0", "--data",
+    proc = subprocess.Popen([rangexd, "--config", config, "--listen", "127.0.0.1:0", "--http",
+                             "127.0.0.1:0", "--data",
                              data], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     start = time.time()
     for line in proc.stdout:
