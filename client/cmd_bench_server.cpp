@@ -18,6 +18,7 @@
 #include "commands.h"
 #include "core/error.h"
 #include "feeder.h"
+#include "memory_source.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "resident_memory.h"
 #include "service/server.h"
@@ -28,27 +29,6 @@ namespace rangex::cli {
 namespace pb = rangex::v1;
 
 namespace {
-// One lane's lines, already rendered, sent as lane `lane`, `repeats` times over (the belt
-// runs on: counts go on rising).
-class MemorySource : public LineSource {
- public:
-  MemorySource(const std::vector<pb::LineScan>& scans, int lane, int64_t repeats = 1)
-      : scans_(scans), lane_(lane), repeats_(repeats) {}
-  std::vector<int> lanes() const override { return {lane_}; }
-  int64_t lines() const override { return int64_t(scans_.size()) * repeats_; }
-  void line(int, int64_t n, pb::LineScan& out) override {
-    const int64_t L = int64_t(scans_.size());
-    out = scans_[size_t(n % L)];
-    out.set_encoder(out.encoder() + (n / L) * L);
-    out.set_lane(lane_);
-  }
-
- private:
-  const std::vector<pb::LineScan>& scans_;
-  int lane_;
-  int64_t repeats_;
-};
-
 // The server's side of the path, from its statistics: where a line's and a fillet's time
 // went, and the bytes copied on the way in.
 void print_server_path(const EngineStats& st, int batch_lines) {
@@ -199,29 +179,18 @@ int cmd_bench_server(int argc, char** argv) {
   }
   PlantConfig plant = default_plant_config(16);
   const LaneConfig& lc = plant.lanes[0];
-  // One lane's worth of lines with fillets in them, reused on every lane.
-  sim::SimulationParams sp;
-  sp.scene.fillets = 3;
-  sp.scene.lead_in_mm = 10;
-  const sim::LaneSimulator sim(lc, sp);
-  // A repeated scene is whole, so that no fillet is cut where it starts again.
-  const int lines = int(seconds > 0 ? sim.lines() : std::min<int64_t>(n, sim.lines()));
+  // One lane's worth of lines with fillets in them, reused on every lane; a repeated scene
+  // is whole, so that no fillet is cut where it starts again.
+  constexpr int kFillets = 3;
+  const std::vector<pb::LineScan> scans =
+      render_lane_lines(lc, kFillets, seconds > 0 ? INT64_MAX : int64_t(n));
+  const int lines = int(scans.size());
   const int64_t repeats =
       seconds > 0 ? std::max<int64_t>(1, int64_t(std::ceil(seconds * rate / lines))) : 1;
   const size_t frame = size_t(lc.frame_width) * lc.frame_height;
-  std::vector<pb::LineScan> scans(lines);
-  for (int k = 0; k < lines; ++k) {
-    std::string c0(frame, '\0'), c1(frame, '\0'), x(size_t(lc.xray.pixels) * 2, '\0');
-    sim.render(k, reinterpret_cast<uint8_t*>(c0.data()), reinterpret_cast<uint8_t*>(c1.data()),
-               reinterpret_cast<uint16_t*>(x.data()), nullptr, nullptr, nullptr);
-    scans[k].set_encoder(sim.encoder(k));
-    scans[k].set_cam0(std::move(c0));
-    scans[k].set_cam1(std::move(c1));
-    scans[k].set_xray(std::move(x));
-  }
   std::printf(
       "end to end through gRPC on loopback, %d lines per lane (%d fillets each), %d threads, %s\n",
-      int(lines * repeats), int(sp.scene.fillets * repeats), threads,
+      int(lines * repeats), int(kFillets * repeats), threads,
       rate > 0 ? ("fed at " + std::to_string(int(rate)) + " lines/s per lane").c_str()
                : "fed as fast as the server takes lines");
   std::printf("%-6s %-8s %16s %16s %8s %24s\n", "lanes", "backend", "in-process l/s", "gRPC l/s",

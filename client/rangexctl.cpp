@@ -59,6 +59,10 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
       the latency from a fillet's last line to its decision (--rate: lines/s per lane;
       --seconds: a long run, resident memory by minute; --path: the server's stages)
 
+  soak [--minutes 30] [--lanes 4] [--rate 600] [--backend NAME]
+      rangexd fed a simulated plant at a fixed rate with a subscriber and queries: per minute
+      lines, decisions, fail-safe rejects, decision p50/p99 and resident memory; lines lost
+
   audit verify [--data DIR]   the store's hash chain over every decision and audit entry:
                               verified with its head, or the first broken link and why
   audit export [--data DIR] [--from-ns T] [--to-ns T] --out FILE.jsonl
@@ -105,6 +109,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "bench")) return cmd_bench(argc, argv);
     if (!std::strcmp(cmd, "bench-server")) return cmd_bench_server(argc, argv);
     if (!std::strcmp(cmd, "audit")) return cmd_audit(argc, argv);
+    if (!std::strcmp(cmd, "soak")) return cmd_soak(argc, argv);
     std::fprintf(stderr, "rangexctl: unknown command '%s'\n\n%s", cmd, kUsage);
     return 2;
   } catch (const rangex::Error& e) {
