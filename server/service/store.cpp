@@ -100,7 +100,10 @@ Store::Store(const std::string& dir) : dir_(dir) {
   // longer, and the write fails, the engine keeps the decision and retries.
   sqlite3_busy_timeout(db_, 250);
   exec("PRAGMA journal_mode=WAL");
-  exec("PRAGMA synchronous=NORMAL");
+  // The durability rule: a decision is committed (to the WAL, fsync'd) before it is
+  // published, so a decision any subscriber saw survives a crash of rangexd or of the
+  // machine. One fsync per decision and audit entry: a few per second at a plant's rate.
+  exec("PRAGMA synchronous=FULL");
   exec(
       "CREATE TABLE IF NOT EXISTS fillets (uid INTEGER PRIMARY KEY AUTOINCREMENT, lane INTEGER, "
       "lane_fillet INTEGER, first_encoder INTEGER, rows INTEGER, decision TEXT, reason TEXT, "
