@@ -278,6 +278,10 @@ HttpServer::HttpServer(Engine& engine, Store& store, ResultsHub& hub, HttpOption
     fail("plant.http: cannot listen on ", opt_.listen, " (in use, or no such address)");
   history_.add(PlantHistory::sample(engine_.stats(), engine_.lanes(), wall_ns()));
   listener_ = std::thread([this] { http_->listen_after_bind(); });
+  // Serving before the constructor returns: a stop() that came before the listener started
+  // would find nothing to stop, and the listener would then never return.
+  for (int k = 0; k < 500 && !http_->is_running(); ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   sampler_ = std::thread([this] { sampler(); });
 }
 
