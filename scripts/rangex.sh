@@ -13,12 +13,14 @@ esac
 
 scripts/install-deps.sh
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
-cmake --build build --parallel "$(nproc)"
-
 if [ "$what" = test ]; then
+  cmake --build build --parallel "$(nproc)"
   cd build
   exec ctest --output-on-failure --parallel "$(nproc)" --timeout 900
 fi
+
+# The demo needs the server and the command-line tool only (not the tests' sanitized builds).
+cmake --build build --parallel "$(nproc)" --target rangexd rangexctl
 
 # The demo plant. Part 1: rangexd on the default configuration with its embedded store
 # (build/demo/data) and its dashboard (plant.http, http://127.0.0.1:8080/), fed a simulated
