@@ -1,6 +1,5 @@
 // rangexctl as a gRPC client of rangexd: feed, watch, status, fillets, image, calib
 // upload|list|activate, lanes.
-#include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 
 #include <atomic>
@@ -18,6 +17,7 @@
 #include "feeder.h"
 #include "line_source.h"
 #include "rangex/v1/rangex.grpc.pb.h"
+#include "service/pb_convert.h"
 #include "sim/plant_simulator.h"
 
 namespace rangex::cli {
@@ -168,13 +168,7 @@ int cmd_status(int argc, char** argv) {
   check(stub->GetStatistics(&c2, {}, &s), "statistics");
   if (a.flag("json")) {
     // GetStatistics as protobuf's JSON mapping (for scripts and dashboards' checks).
-    std::string out;
-    google::protobuf::util::JsonPrintOptions jo;
-    jo.preserve_proto_field_names = true;
-    jo.always_print_primitive_fields = true;
-    if (!google::protobuf::util::MessageToJsonString(s, &out, jo).ok())
-      fail("statistics: cannot be written as JSON");
-    std::printf("%s\n", out.c_str());
+    std::printf("%s\n", to_json(s).c_str());
     return 0;
   }
   std::printf("%s, plant '%s', backend %s, store %s\n", info.version().c_str(),

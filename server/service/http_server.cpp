@@ -15,6 +15,7 @@
 #include "service/fillet_csv.h"
 #include "service/image_view.h"
 #include "service/metrics_text.h"
+#include "service/pb_convert.h"
 #include "web_assets.h"
 
 namespace rangex {
@@ -117,53 +118,6 @@ json fillet_json(const StoredFillet& f) {
           {"belt_y0_mm", f.belt_y0_mm},
           {"decided_ns", f.decided_ns},
           {"fragments", frags}};
-}
-
-json latency_json(const LatencyStats::Summary& l) {
-  json buckets = json::array();
-  for (size_t k = 0; k < LatencyStats::kBoundsMs.size(); ++k)
-    buckets.push_back({{"le_ms", LatencyStats::kBoundsMs[k]}, {"count", l.cumulative[k]}});
-  return {{"p50_ms", l.p50},
-          {"p99_ms", l.p99},
-          {"samples", l.samples},
-          {"sum_ms", l.sum_ms},
-          {"buckets", buckets}};
-}
-
-json stats_json(const EngineStats& s, int subscribers, int ingest_streams) {
-  json lat = {{"queue_wait", latency_json(s.queue_wait)},
-              {"line_batch", latency_json(s.pipeline)},
-              {"inspection_wait", latency_json(s.inspection_wait)},
-              {"inspection", latency_json(s.inspection)},
-              {"store", latency_json(s.store)},
-              {"last_line_to_decision", latency_json(s.decision)}};
-  for (const auto& [name, l] : s.inspection_stages) lat["inspection_" + name] = latency_json(l);
-  return {{"lines_received", s.received},
-          {"lines_accepted", s.accepted},
-          {"lines_processed", s.processed},
-          {"refused", s.refused},
-          {"dropped", s.dropped},
-          {"fillets", s.fillets},
-          {"rejects", s.rejects},
-          {"not_inspected", s.not_inspected},
-          {"lane_restarts", s.lane_restarts},
-          {"store_errors", s.store_errors},
-          {"lines_per_second", s.lines_per_second},
-          {"queue_depth", s.queue_depth},
-          {"queue_capacity", s.queue_capacity},
-          {"subscribers", subscribers},
-          {"ingest_streams", ingest_streams},
-          {"serving", s.health.serving},
-          {"health", s.health.reasons},
-          {"warnings", s.warnings},
-          {"backend", s.backend.name},
-          {"device", s.backend.device},
-          {"backend_note", s.backend_note},
-          {"batches", s.batches.batches},
-          {"batches_verified", s.batches.verified},
-          {"verify_mismatches", s.batches.mismatches},
-          {"backend_failures", s.batches.failures},
-          {"latencies", lat}};
 }
 
 const LaneCounts* find_lane(const HistorySample& s, int lane) {
@@ -355,8 +309,12 @@ void HttpServer::routes() {
     send_json(res, out);
   });
   s.Get("/api/statistics", [this](const httplib::Request&, httplib::Response& res) {
-    send_json(res, stats_json(engine_.stats(), hub_.subscribers(),
-                              opt_.ingest_streams ? opt_.ingest_streams() : 0));
+    // GetStatistics itself, in protobuf's JSON mapping: the same fields, the same figures.
+    v1::GetStatisticsResponse st;
+    fill(&st, engine_.stats());
+    st.set_subscribers(hub_.subscribers());
+    st.set_ingest_streams(opt_.ingest_streams ? opt_.ingest_streams() : 0);
+    res.set_content(to_json(st), "application/json");
   });
   s.Get("/api/history", [this](const httplib::Request& req, httplib::Response& res) {
     const int64_t minutes = int_param(req, "minutes", 60, 1, 60);

@@ -14,5 +14,8 @@ void fill(v1::FilletResult* o, const StoredFillet& f);
 void fill(v1::CalibrationInfo* o, const StoredCalibration& c, bool with_yaml);
 void fill(v1::LaneInfo* o, const LaneState& l);
 void fill(v1::GetStatisticsResponse* o, const EngineStats& s);
+// A message in protobuf's JSON mapping, with the .proto's field names and every field
+// (zeros included): what `rangexctl status --json` and the HTTP API print.
+std::string to_json(const google::protobuf::Message& m);
 
 }  // namespace rangex

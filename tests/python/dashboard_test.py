@@ -29,20 +29,11 @@ from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 
+from checks import check, fail
+
 rangexd, rangexctl, plant_yaml, out_dir = sys.argv[1:5]
 os.makedirs(out_dir, exist_ok=True)
 signal.alarm(600)  # the whole test, whatever hangs
-
-
-def fail(msg):
-    print("FAIL:", msg, flush=True)
-    sys.exit(1)
-
-
-def check(cond, msg):
-    if not cond:
-        fail(msg)
-    print("ok  ", msg, flush=True)
 
 
 def wait_for(what, f, timeout):

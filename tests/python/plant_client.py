@@ -28,20 +28,11 @@ import time
 import grpc
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 
+from checks import check, fail
+
 DEADLINE = 20  # seconds for any single call or ack
 FRAME = 640 * 200
 PIXELS = 480
-
-
-def fail(msg):
-    print("FAIL:", msg, flush=True)
-    sys.exit(1)
-
-
-def check(cond, msg):
-    if not cond:
-        fail(msg)
-    print("ok  ", msg, flush=True)
 
 
 # --- the reflection protocol, by hand (grpc.reflection.v1alpha, proto wire format) ---------
