@@ -35,10 +35,8 @@ struct BadRequest : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-int64_t int_param(const httplib::Request& req, const char* name, int64_t fallback, int64_t lo,
-                  int64_t hi) {
-  if (!req.has_param(name)) return fallback;
-  const std::string v = req.get_param_value(name);
+// `v`, the value (or one item) of parameter `name`, as an integer within lo..hi.
+int64_t parse_int(const char* name, const std::string& v, int64_t lo, int64_t hi) {
   size_t used = 0;
   int64_t n = 0;
   try {
@@ -54,6 +52,19 @@ int64_t int_param(const httplib::Request& req, const char* name, int64_t fallbac
   return n;
 }
 
+int64_t int_param(const httplib::Request& req, const char* name, int64_t fallback, int64_t lo,
+                  int64_t hi) {
+  return req.has_param(name) ? parse_int(name, req.get_param_value(name), lo, hi) : fallback;
+}
+
+// A decision as the API names it (pass, reject, not_inspected).
+const std::string& checked_decision(const char* name, const std::string& d) {
+  if (d != "pass" && d != "reject" && d != "not_inspected")
+    throw BadRequest(std::string(name) + " must be pass, reject or not_inspected (got '" + d +
+                     "')");
+  return d;
+}
+
 FilletQuery fillet_query(const httplib::Request& req) {
   FilletQuery q;
   q.lane = int(int_param(req, "lane", -1, -1, 1 << 20));
@@ -62,12 +73,8 @@ FilletQuery fillet_query(const httplib::Request& req) {
   q.after = int_param(req, "after", 0, 0, INT64_MAX);
   q.limit = int(int_param(req, "limit", 200, 1, 10000));
   q.newest_first = int_param(req, "newest", 0, 0, 1) == 1;
-  if (req.has_param("decision")) {
-    q.decision = req.get_param_value("decision");
-    if (q.decision != "pass" && q.decision != "reject" && q.decision != "not_inspected" &&
-        !q.decision.empty())
-      throw BadRequest("decision must be pass, reject or not_inspected (got '" + q.decision + "')");
-  }
+  if (req.has_param("decision") && !req.get_param_value("decision").empty())
+    q.decision = checked_decision("decision", req.get_param_value("decision"));
   return q;
 }
 
@@ -77,18 +84,7 @@ std::set<int> int_set(const httplib::Request& req, const char* name) {
   std::stringstream ss(req.get_param_value(name));
   std::string item;
   while (std::getline(ss, item, ','))
-    if (!item.empty()) {
-      size_t used = 0;
-      int v = 0;
-      try {
-        v = std::stoi(item, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used != item.size())
-        throw BadRequest(std::string(name) + " must list integers (got '" + item + "')");
-      out.insert(v);
-    }
+    if (!item.empty()) out.insert(int(parse_int(name, item, INT32_MIN, INT32_MAX)));
   return out;
 }
 
@@ -431,11 +427,7 @@ void HttpServer::routes() {
       std::stringstream ss(req.get_param_value("decisions"));
       std::string d;
       while (std::getline(ss, d, ','))
-        if (!d.empty()) {
-          if (d != "pass" && d != "reject" && d != "not_inspected")
-            throw BadRequest("decisions must list pass, reject, not_inspected (got '" + d + "')");
-          decisions.insert(d);
-        }
+        if (!d.empty()) decisions.insert(checked_decision("decisions", d));
     }
     const std::set<int> lanes = int_set(req, "lanes");
     if (++event_streams_ > opt_.max_event_streams) {
