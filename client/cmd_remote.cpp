@@ -25,10 +25,37 @@ namespace rangex::cli {
 namespace {
 namespace pb = rangex::v1;
 
-std::shared_ptr<grpc::Channel> channel(const Args& a) {
+// The options of every command that talks to rangexd, beside its own.
+std::set<std::string> remote(std::set<std::string> own) {
+  own.insert({"server", "config", "ca", "cert", "key", "token-file", "tls-name"});
+  return own;
+}
+
+// TLS and credentials: the options, else RANGEX_CA, RANGEX_CERT, RANGEX_KEY and
+// RANGEX_TOKEN or RANGEX_TOKEN_FILE (a token is never an argument: `ps` would show it).
+ClientSecurity security(const Args& a) {
+  ClientSecurity s = ClientSecurity::from_environment();
+  s.ca = a.get("ca", s.ca);
+  s.cert = a.get("cert", s.cert);
+  s.key = a.get("key", s.key);
+  s.server_name = a.get("tls-name", "");
+  if (a.has("token-file")) {
+    std::ifstream in(a.get("token-file", ""));
+    if (!in) fail("--token-file: cannot read ", a.get("token-file", ""));
+    std::getline(in, s.token);
+    while (!s.token.empty() && (s.token.back() == '\r' || s.token.back() == ' '))
+      s.token.pop_back();
+  }
+  return s;
+}
+
+std::string server_address(const Args& a) {
   std::string addr = a.get("server", "");
-  if (addr.empty()) addr = load_config(a.get("config", "")).listen;
-  return rangex_channel(addr);
+  return addr.empty() ? load_config(a.get("config", "")).listen : addr;
+}
+
+std::shared_ptr<grpc::Channel> channel(const Args& a) {
+  return rangex_channel(server_address(a), security(a));
 }
 
 // A unary call that cannot hang the command line: a server that does not answer in 15 s is
@@ -38,9 +65,13 @@ struct Call : grpc::ClientContext {
 };
 
 void check(const grpc::Status& s, const char* what) {
-  if (!s.ok())
-    fail(what, ": ", s.error_message().empty() ? "server unreachable" : s.error_message(), " (",
-         int(s.error_code()), ")");
+  if (s.ok()) return;
+  // A plaintext client closed on by a TLS server sees only "Socket closed".
+  const char* hint = s.error_code() == grpc::StatusCode::UNAVAILABLE
+                         ? "; if rangexd speaks TLS, give its CA (--ca or RANGEX_CA)"
+                         : "";
+  fail(what, ": ", s.error_message().empty() ? "server unreachable" : s.error_message(), " (",
+       int(s.error_code()), ")", hint);
 }
 
 const char* decision_text(pb::Decision d) {
@@ -70,9 +101,9 @@ void print_fillet(const pb::FilletResult& f) {
 }  // namespace
 
 int cmd_feed(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"simulate"},
-               {"server", "config", "recording", "lanes", "fillets", "seed", "rate", "window",
-                "reconnect-for"});
+  const Args a(
+      argc, argv, 2, {"simulate"},
+      remote({"recording", "lanes", "fillets", "seed", "rate", "window", "reconnect-for"}));
   a.expect_positionals(
       0,
       "feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]");
@@ -97,9 +128,7 @@ int cmd_feed(int argc, char** argv) {
   fo.reconnect_for_s = std::stod(a.get("reconnect-for", "60"));
   if (fo.window < 1) fail("--window must be >= 1");
   fo.log = [](const std::string& m) { std::fprintf(stderr, "feed: %s\n", m.c_str()); };
-  std::string addr = a.get("server", "");
-  if (addr.empty()) addr = plant.listen;
-  Feeder feeder(rangex_channel(addr), fo);
+  Feeder feeder(channel(a), fo);
   const FeedReport r = feeder.run(*src);
   std::printf(
       "fed %llu lines over %zu lanes in %.1f s (%.0f lines/s): %llu accepted, %llu refused\n",
@@ -116,7 +145,7 @@ int cmd_feed(int argc, char** argv) {
 }
 
 int cmd_watch(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"server", "config", "lane", "decision", "count", "seconds"});
+  const Args a(argc, argv, 2, {}, remote({"lane", "decision", "count", "seconds"}));
   auto stub = pb::ResultsService::NewStub(channel(a));
   pb::SubscribeFilletsRequest req;
   if (a.has("lane")) req.add_lanes(int(a.integer("lane", 0)));
@@ -158,7 +187,7 @@ int cmd_watch(int argc, char** argv) {
 }
 
 int cmd_status(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"json"}, {"server", "config"});
+  const Args a(argc, argv, 2, {"json"}, remote({}));
   auto ch = channel(a);
   auto stub = pb::ControlService::NewStub(ch);
   Call c1, c2;
@@ -199,7 +228,7 @@ int cmd_status(int argc, char** argv) {
 }
 
 int cmd_fillets(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"server", "config", "lane", "from-ns", "to-ns", "limit", "uid"});
+  const Args a(argc, argv, 2, {}, remote({"lane", "from-ns", "to-ns", "limit", "uid"}));
   auto stub = pb::ResultsService::NewStub(channel(a));
   if (a.has("uid")) {
     Call ctx;
@@ -234,7 +263,7 @@ int cmd_fillets(int argc, char** argv) {
 }
 
 int cmd_image(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, {"server", "config", "uid", "kind", "out"});
+  const Args a(argc, argv, 2, {}, remote({"uid", "kind", "out"}));
   auto stub = pb::ResultsService::NewStub(channel(a));
   Call ctx;
   pb::GetFilletImageRequest req;
@@ -250,11 +279,9 @@ int cmd_image(int argc, char** argv) {
 
 int cmd_calib_remote(int argc, char** argv) {
   const std::string verb = argv[2];
-  const Args a(argc, argv, 3, {"force"},
-               {"server", "config", "lane", "id", "file", "who", "report"});
+  const Args a(argc, argv, 3, {"force"}, remote({"lane", "id", "file", "report"}));
   auto stub = pb::CalibrationService::NewStub(channel(a));
   Call ctx;
-  const char* who = std::getenv("USER");
   if (verb == "upload") {
     std::ifstream in(a.require("file"));
     if (!in) fail(a.require("file"), ": cannot open");
@@ -264,7 +291,6 @@ int cmd_calib_remote(int argc, char** argv) {
     req.set_lane(int(a.integer("lane", 0)));
     req.set_id(a.require("id"));
     req.set_yaml(ss.str());
-    req.set_who(a.get("who", who ? who : "rangexctl"));
     // The solvers' reports: --report FILE, else those rangexctl calib wrote beside the file.
     std::string report;
     if (a.has("report")) {
@@ -304,7 +330,6 @@ int cmd_calib_remote(int argc, char** argv) {
     pb::ActivateCalibrationRequest req;
     req.set_lane(int(a.integer("lane", 0)));
     req.set_id(a.require("id"));
-    req.set_who(a.get("who", who ? who : "rangexctl"));
     req.set_force(a.flag("force"));
     pb::ActivateCalibrationResponse resp;
     check(stub->ActivateCalibration(&ctx, req, &resp), "activate");
@@ -321,16 +346,13 @@ int cmd_calib_remote(int argc, char** argv) {
 }
 
 int cmd_lanes(int argc, char** argv) {
-  const Args a(
-      argc, argv, 2, {},
-      {"server", "config", "lane", "z-threshold", "min-area-mm2", "floor-mm", "who", "reason"});
+  const Args a(argc, argv, 2, {},
+               remote({"lane", "z-threshold", "min-area-mm2", "floor-mm", "reason"}));
   auto stub = pb::ControlService::NewStub(channel(a));
   if (a.positional().size() == 1 && a.positional()[0] == "reset") {
     Call ctx;
     pb::ResetLaneRequest req;
     req.set_lane(int(std::stol(a.require("lane"))));
-    const char* who = std::getenv("USER");
-    req.set_who(a.get("who", who ? who : "rangexctl"));
     req.set_reason(a.get("reason", ""));
     pb::ResetLaneResponse resp;
     check(stub->ResetLane(&ctx, req, &resp), "lane reset");
@@ -345,8 +367,6 @@ int cmd_lanes(int argc, char** argv) {
     if (a.has("z-threshold")) req.set_z_threshold(std::stod(a.get("z-threshold", "")));
     if (a.has("min-area-mm2")) req.set_min_fragment_area_mm2(std::stod(a.get("min-area-mm2", "")));
     if (a.has("floor-mm")) req.set_floor_mm(std::stod(a.get("floor-mm", "")));
-    const char* who = std::getenv("USER");
-    req.set_who(a.get("who", who ? who : "rangexctl"));
     pb::UpdateLaneThresholdsResponse resp;
     check(stub->UpdateLaneThresholds(&ctx, req, &resp), "lane thresholds");
     std::printf("lane %d: z threshold %.2f, min fragment %.2f mm2, floor %.2f mm\n",

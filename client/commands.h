@@ -26,6 +26,7 @@ int cmd_bench(int argc, char** argv);
 int cmd_bench_server(int argc, char** argv);
 int cmd_audit(int argc, char** argv);
 int cmd_soak(int argc, char** argv);
+int cmd_token(int argc, char** argv);
 
 // --config, else $RANGEX_CONFIG, else ./config/plant.yaml, else the source tree's default.
 std::string config_path(const std::string& option_value);

@@ -21,18 +21,6 @@ uint64_t FeedReport::refused_total() const {
   return n;
 }
 
-std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address) {
-  grpc::ChannelArguments args;
-  args.SetMaxSendMessageSize(64 << 20);
-  args.SetMaxReceiveMessageSize(64 << 20);
-  args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, 10000);
-  args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 5000);
-  args.SetInt(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
-  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
-  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 2000);
-  return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
-}
-
 Feeder::Feeder(std::shared_ptr<grpc::Channel> channel, FeedOptions opt)
     : channel_(std::move(channel)), opt_(std::move(opt)) {}
 

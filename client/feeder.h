@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 
+#include "channel.h"
 #include "line_source.h"
 
 namespace rangex {
@@ -33,9 +34,6 @@ struct FeedReport {
   double seconds = 0;
   uint64_t refused_total() const;
 };
-
-// A channel with keepalive, so that a dead connection is noticed and replaced.
-std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address);
 
 class Feeder {
  public:

@@ -68,7 +68,12 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
   audit export [--data DIR] [--from-ns T] [--to-ns T] --out FILE.jsonl
       the links of a time range with their contents and the chain's head (a chain proof)
 
-server commands (--server HOST:PORT, default: plant.yaml's listen address):
+  token --name NAME --role viewer|operator|engineer|admin [--out FILE]
+      a new bearer token, and the line (its SHA-256) that grants it in plant.yaml
+
+server commands (--server HOST:PORT, default: plant.yaml's listen address; over TLS:
+  --ca CA.pem [--cert C.pem --key K.pem] [--token-file F] [--tls-name NAME], or
+  RANGEX_CA, RANGEX_CERT, RANGEX_KEY, RANGEX_TOKEN / RANGEX_TOKEN_FILE):
   feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]
       stream line scans into rangexd (rate per lane; default as fast as the server takes them)
   watch [--lane L] [--decision pass|reject|not_inspected] [--count N] [--seconds S]
@@ -78,7 +83,7 @@ server commands (--server HOST:PORT, default: plant.yaml's listen address):
   image --uid U [--kind overlay|xray|thickness|pseudo_xray|residual] --out FILE.png
   calib upload --lane L --id ID --file CAL.yaml [--report R.json]  (default: CAL.yaml.reports/)
   calib list [--lane L]  |  calib show --lane L --id ID  |  calib activate --lane L --id ID [--force]
-      activation refuses a set whose report is missing or failed unless --force (audited)
+      activation refuses a set whose report is missing or failed unless --force (admin role)
   lanes  |  lanes set --lane L [--z-threshold Z] [--min-area-mm2 A] [--floor-mm F]
 
 stripe methods: centroid, squared, binary, gaussian3, parabola, shifted, modified
@@ -110,6 +115,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "bench-server")) return cmd_bench_server(argc, argv);
     if (!std::strcmp(cmd, "audit")) return cmd_audit(argc, argv);
     if (!std::strcmp(cmd, "soak")) return cmd_soak(argc, argv);
+    if (!std::strcmp(cmd, "token")) return cmd_token(argc, argv);
     std::fprintf(stderr, "rangexctl: unknown command '%s'\n\n%s", cmd, kUsage);
     return 2;
   } catch (const rangex::Error& e) {

@@ -114,3 +114,48 @@ TEST(PlantConfig, RegistrationRoundTripsAndIsChecked) {
                 .find("xray.plane_alpha_deg: must be within +-5 degrees"),
             std::string::npos);
 }
+
+TEST(PlantConfig, SecuritySectionIsReadAndChecked) {
+  const std::string lanes = "lanes: [{id: 0}]\n";
+  const std::string sha(64, 'a');
+  const PlantConfig p = parse_plant_config(lanes + R"(
+security:
+  tls: {cert: s.crt, key: s.key, client_ca: ca.crt}
+  identities: {line-1: operator, qa: viewer}
+  tokens:
+    - {name: mes, role: engineer, sha256: )" + sha +
+                                               R"(}
+)",
+                                           "test.yaml");
+  EXPECT_TRUE(p.security.tls());
+  EXPECT_EQ(p.security.identities.at("line-1"), Role::operator_);
+  ASSERT_EQ(p.security.tokens.size(), 1u);
+  EXPECT_EQ(p.security.tokens[0].role, Role::engineer);
+  EXPECT_EQ(p.security.anonymous_role(), Role::none);  // authentication configured
+  // Zero configuration: no authentication, every loopback caller is admin.
+  EXPECT_EQ(parse_plant_config(lanes, "t").security.anonymous_role(), Role::admin);
+
+  const std::pair<std::string, std::string> bad[] = {
+      {"security: {tls: {cert: s.crt}}", "security.tls: needs both cert and key"},
+      {"security: {tls: {client_ca: ca.crt}}", "client_ca needs the server's own cert"},
+      {"security: {identities: {a: viewer}}", "tls.client_ca is not set"},
+      {"security: {tls: {cert: c, key: k, client_ca: a}, identities: {a: root}}",
+       "security.identities.a: must be one of viewer, operator, engineer, admin (got 'root')"},
+      {"security: {tokens: [{name: a, role: viewer, sha256: " + sha + "}]}",
+       "bearer tokens need tls"},
+      {"security: {tls: {cert: c, key: k}, tokens: [{name: a, role: viewer, sha256: abc}]}",
+       "security.tokens[0].sha256: must be the token's SHA-256"},
+      {"security: {tls: {cert: c, key: k}, tokens: [{name: a, role: viewer}]}",
+       "missing key 'sha256'"},
+      {"security: {tls: {cert: c, key: k}, tokens: [{name: a, role: viewer, sha256: " + sha +
+           "}, {name: b, role: admin, sha256: " + sha + "}]}",
+       "the same token is listed twice"},
+      {"security: {anonymous: everyone}", "security.anonymous: must be one of none"},
+      {"security: {insecure: maybe}", "security.insecure: expected true or false"},
+      {"security: {password: x}", "unknown key 'password'"},
+  };
+  for (const auto& [yaml, why] : bad) {
+    const std::string e = error_of(lanes + yaml + "\n");
+    EXPECT_NE(e.find(why), std::string::npos) << yaml << "\n -> " << e;
+  }
+}

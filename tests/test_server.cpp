@@ -280,9 +280,12 @@ TEST(Server, CalibrationActivatesBetweenFillets) {
   const auto log = server.store().audit_log(20);
   bool audited = false;
   for (const auto& l : log)
+    // The caller as the connection proved it (anonymous on loopback), never its own "who".
     audited |= l.find(
-                   "test calibration.activate.forced lane 0 id recal-2026-11-22: the "
-                   "calibration has no report") != std::string::npos;
+                   " calibration.activate.forced lane 0 id recal-2026-11-22: the "
+                   "calibration has no report") != std::string::npos &&
+               l.find(" anonymous@ipv4:127.0.0.1:") != std::string::npos &&
+               l.find("test") == std::string::npos;
   EXPECT_TRUE(audited);
 }
 
@@ -357,9 +360,12 @@ TEST(Server, ActivationIsGatedByTheCalibrationReport) {
   }
   bool plain = false, forced = false;
   for (const auto& l : server.store().audit_log(20)) {
-    plain |= l.find("integrator calibration.activate lane 0 id good") != std::string::npos;
-    forced |= l.find("integrator calibration.activate.forced lane 0 id bad: the xray solve") !=
-              std::string::npos;
+    // The name the client claimed is not recorded: the audit names the caller as proved.
+    EXPECT_EQ(l.find("integrator"), std::string::npos) << l;
+    const bool caller = l.find(" anonymous@ipv4:127.0.0.1:") != std::string::npos;
+    plain |= caller && l.find(" calibration.activate lane 0 id good") != std::string::npos;
+    forced |= caller && l.find(" calibration.activate.forced lane 0 id bad: the xray solve") !=
+                            std::string::npos;
   }
   EXPECT_TRUE(plain);
   EXPECT_TRUE(forced);

@@ -345,6 +345,75 @@ void read_engine(const Node& n, EngineSettings& e) {
     n.at("verify_fraction").bad("must be between 0 and 1");
 }
 
+Role read_role(const Node& n) {
+  const std::string s = n.str();
+  const auto r = parse_role(s);
+  if (!r || *r == Role::none)
+    n.bad("must be one of viewer, operator, engineer, admin (got '" + s + "')");
+  return *r;
+}
+
+void read_security(const Node& n, SecurityConfig& s) {
+  n.only_keys({"tls", "identities", "tokens", "anonymous", "insecure"});
+  if (n.has("tls")) {
+    const Node t = n.at("tls");
+    t.only_keys({"cert", "key", "client_ca"});
+    t.get("cert", s.tls_cert);
+    t.get("key", s.tls_key);
+    t.get("client_ca", s.client_ca);
+    if (s.tls_cert.empty() != s.tls_key.empty())
+      t.bad("needs both cert and key (the server's certificate chain and its private key)");
+    if (!s.client_ca.empty() && s.tls_cert.empty())
+      t.bad("client_ca needs the server's own cert and key: client certificates are TLS");
+  }
+  if (n.has("identities")) {
+    const Node ids = n.at("identities");
+    if (!ids.node.IsMap()) ids.bad("expected a mapping of certificate common name to role");
+    for (const auto& kv : ids.node) {
+      const auto name = kv.first.as<std::string>();
+      if (!s.identities.emplace(name, read_role(ids.at(name))).second)
+        ids.bad("duplicate identity '" + name + "'");
+    }
+    if (!s.identities.empty() && s.client_ca.empty())
+      ids.bad(
+          "names certificate identities but tls.client_ca is not set: no client "
+          "certificate could be verified");
+  }
+  if (n.has("tokens")) {
+    const Node list = n.at("tokens");
+    if (!list.node.IsSequence()) list.bad("expected a list of {name, role, sha256}");
+    std::set<std::string> names, hashes;
+    for (size_t i = 0; i < list.node.size(); ++i) {
+      const Node t = list.item(i);
+      t.only_keys({"name", "role", "sha256"});
+      for (const char* k : {"name", "role", "sha256"})
+        if (!t.has(k)) t.bad(std::string("missing key '") + k + "'");
+      TokenEntry e{t.at("name").str(), read_role(t.at("role")), t.at("sha256").str()};
+      if (e.name.empty()) t.at("name").bad("must not be empty");
+      const bool hex = e.sha256.size() == 64 &&
+                       e.sha256.find_first_not_of("0123456789abcdef") == std::string::npos;
+      if (!hex)
+        t.at("sha256").bad(
+            "must be the token's SHA-256 as 64 lower-case hex digits "
+            "(rangexctl token prints it)");
+      if (!names.insert(e.name).second) t.at("name").bad("duplicate token name '" + e.name + "'");
+      if (!hashes.insert(e.sha256).second) t.at("sha256").bad("the same token is listed twice");
+      s.tokens.push_back(std::move(e));
+    }
+    if (!s.tokens.empty() && !s.tls())
+      list.bad(
+          "bearer tokens need tls: a token sent in clear can be replayed by anyone on "
+          "the path");
+  }
+  if (n.has("anonymous")) {
+    const Node a = n.at("anonymous");
+    const auto r = parse_role(a.str());
+    if (!r) a.bad("must be one of none, viewer, operator, engineer, admin (got '" + a.str() + "')");
+    s.anonymous = *r;
+  }
+  n.get("insecure", s.insecure);
+}
+
 }  // namespace
 
 static YAML::Node load_yaml(const std::string& text, const std::string& origin) {
@@ -364,7 +433,7 @@ const LaneConfig& PlantConfig::lane(int id) const {
 PlantConfig parse_plant_config(const std::string& text, const std::string& origin) {
   const YAML::Node root = load_yaml(text, origin);
   const Node top{root, "", &origin};
-  top.only_keys({"plant", "server", "lane_defaults", "lanes"});
+  top.only_keys({"plant", "server", "security", "lane_defaults", "lanes"});
   PlantConfig p;
   if (top.has("plant")) {
     const Node n = top.at("plant");
@@ -382,6 +451,7 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
     n.get("storage", p.storage);
   }
   if (top.has("server")) read_engine(top.at("server"), p.engine);
+  if (top.has("security")) read_security(top.at("security"), p.security);
   std::optional<Node> defaults;
   if (top.has("lane_defaults")) defaults = top.at("lane_defaults");
   if (!top.has("lanes")) top.bad("missing key 'lanes'");

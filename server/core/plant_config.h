@@ -6,6 +6,7 @@
 
 #include "core/engine_settings.h"
 #include "core/lane_config.h"
+#include "core/security_config.h"
 
 namespace rangex {
 
@@ -18,6 +19,7 @@ struct PlantConfig {
   std::string http = "127.0.0.1:8080";  // the dashboard and /metrics; "off": none
   std::string storage = "rangex-data";
   EngineSettings engine;  // the `server:` section
+  SecurityConfig security;  // the `security:` section
   std::vector<LaneConfig> lanes;
 
   const LaneConfig& lane(int id) const;  // throws Error for an unknown lane

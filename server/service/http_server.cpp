@@ -1,6 +1,9 @@
 #include "service/http_server.h"
 
 #include <httplib.h>
+#include <openssl/err.h>
+#include <openssl/ssl.h>
+#include <openssl/x509.h>
 
 #include <chrono>
 #include <condition_variable>
@@ -199,10 +202,47 @@ struct EventClient {
   std::shared_ptr<ResultsHub::Subscription> sub;
 };
 
+// The server's certificate and key; with a client CA, client certificates are asked for and
+// verified when presented (a browser without one logs in with a token instead).
+bool setup_tls(SSL_CTX& ctx, const SecurityConfig& s, std::string& why) {
+  auto failed = [&](const std::string& what) {
+    char buf[256] = "";
+    ERR_error_string_n(ERR_get_error(), buf, sizeof buf);
+    why = what + " (" + buf + ")";
+    return false;
+  };
+  SSL_CTX_set_min_proto_version(&ctx, TLS1_2_VERSION);
+  if (SSL_CTX_use_certificate_chain_file(&ctx, s.tls_cert.c_str()) != 1)
+    return failed("security.tls.cert: cannot load " + s.tls_cert);
+  if (SSL_CTX_use_PrivateKey_file(&ctx, s.tls_key.c_str(), SSL_FILETYPE_PEM) != 1)
+    return failed("security.tls.key: cannot load " + s.tls_key);
+  if (SSL_CTX_check_private_key(&ctx) != 1)
+    return failed("security.tls.key does not match security.tls.cert");
+  if (!s.client_ca.empty()) {
+    if (SSL_CTX_load_verify_locations(&ctx, s.client_ca.c_str(), nullptr) != 1)
+      return failed("security.tls.client_ca: cannot load " + s.client_ca);
+    SSL_CTX_set_client_CA_list(&ctx, SSL_load_client_CA_file(s.client_ca.c_str()));
+    SSL_CTX_set_verify(&ctx, SSL_VERIFY_PEER, nullptr);
+  }
+  return true;
+}
+
+// The common name of the client's verified certificate ("" without one).
+std::string peer_common_name(const httplib::Request& req) {
+  if (!req.ssl) return "";
+  X509* cert = SSL_get0_peer_certificate(req.ssl);
+  if (!cert || SSL_get_verify_result(req.ssl) != X509_V_OK) return "";
+  char cn[256] = "";
+  if (X509_NAME_get_text_by_NID(X509_get_subject_name(cert), NID_commonName, cn, sizeof cn) <= 0)
+    return "";
+  return cn;
+}
+
 }  // namespace
 
 HttpServer::HttpServer(Engine& engine, Store& store, ResultsHub& hub, HttpOptions opt)
-    : engine_(engine), store_(store), hub_(hub), opt_(std::move(opt)) {
+    : engine_(engine), store_(store), hub_(hub), opt_(std::move(opt)), access_(opt_.security) {
+  check_listen_security(opt_.listen, opt_.security, "the dashboard");
   const size_t colon = opt_.listen.rfind(':');
   if (colon == std::string::npos)
     fail("plant.http '", opt_.listen, "' must be host:port (port 0: any free one)");
@@ -214,13 +254,22 @@ HttpServer::HttpServer(Engine& engine, Store& store, ResultsHub& hub, HttpOption
     fail("plant.http '", opt_.listen, "': the port is not a number");
   }
   if (want < 0 || want > 65535) fail("plant.http '", opt_.listen, "': port out of range");
-  http_ = std::make_unique<httplib::Server>();
+  if (opt_.security.tls()) {
+    std::string why;
+    auto ssl = std::make_unique<httplib::SSLServer>(
+        [&](SSL_CTX& ctx) { return setup_tls(ctx, opt_.security, why); });
+    if (!ssl->is_valid()) fail("plant.http: TLS: ", why.empty() ? "cannot set up" : why);
+    http_ = std::move(ssl);
+  } else {
+    http_ = std::make_unique<httplib::Server>();
+  }
   // Event streams hold a thread each while open: the pool has room for all of them and for
   // the ordinary requests beside them.
   const size_t threads = size_t(opt_.max_event_streams) + 8;
   http_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   http_->set_read_timeout(10, 0);
   http_->set_write_timeout(10, 0);
+  authorise(*http_);
   routes();
   port_ =
       want == 0 ? http_->bind_to_any_port(host_) : (http_->bind_to_port(host_, want) ? want : -1);
@@ -259,6 +308,27 @@ void HttpServer::sampler() {
     next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
     history_.add(PlantHistory::sample(engine_.stats(), engine_.lanes(), wall_ns()));
   }
+}
+
+void HttpServer::authorise(httplib::Server& s) {
+  // Every request, before routing: the dashboard's files too, so that a page never loads
+  // without its data.
+  s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    try {
+      const Identity who = access_.identify(peer_common_name(req),
+                                            req.get_header_value("Authorization"), req.remote_addr);
+      AccessControl::require(who, Role::viewer, "reading the dashboard");
+      return httplib::Server::HandlerResponse::Unhandled;
+    } catch (const Unauthenticated& e) {
+      res.status = 401;
+      res.set_header("WWW-Authenticate", "Basic realm=\"rangex\", charset=\"UTF-8\"");
+      res.set_content(json{{"error", e.what()}}.dump(), "application/json");
+    } catch (const PermissionDenied& e) {
+      res.status = 403;
+      res.set_content(json{{"error", e.what()}}.dump(), "application/json");
+    }
+    return httplib::Server::HandlerResponse::Handled;
+  });
 }
 
 void HttpServer::routes() {

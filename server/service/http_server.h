@@ -25,6 +25,7 @@
 #include <string>
 #include <thread>
 
+#include "service/access_control.h"
 #include "service/engine.h"
 #include "service/plant_history.h"
 
@@ -39,6 +40,10 @@ struct HttpOptions {
   int max_event_streams = 32;             // more are refused with 503
   double history_period_s = 2;            // the charts' sampling period
   std::string version = "rangex 0.1.0";
+  // TLS and who may read (plant.yaml security): every endpoint needs the viewer role. A
+  // client proves itself with a client certificate, or a token as "Bearer T" or as Basic's
+  // password (browsers ask for it when answered 401).
+  SecurityConfig security;
   // Counts the gRPC side knows (open ingest streams).
   std::function<int()> ingest_streams;
 };
@@ -50,18 +55,21 @@ class HttpServer {
   ~HttpServer();
   int port() const { return port_; }
   std::string address() const;  // host:port as bound
+  bool tls() const { return opt_.security.tls(); }
   // Ends every event stream and stops serving (before the engine's drain).
   void stop();
   int event_streams() const { return event_streams_; }
 
  private:
   void routes();
+  void authorise(httplib::Server& s);
   void sampler();
 
   Engine& engine_;
   Store& store_;
   ResultsHub& hub_;
   HttpOptions opt_;
+  AccessControl access_;
   PlantHistory history_;
   std::unique_ptr<httplib::Server> http_;
   std::string host_;

@@ -124,6 +124,7 @@ int main(int argc, char** argv) {
     if (const std::string where = http.empty() ? plant.http : http; where != "off") {
       rangex::HttpOptions ho;
       ho.listen = where;
+      ho.security = plant.security;
       ho.ingest_streams = [&server] { return server.ingest_streams(); };
       web = std::make_unique<rangex::HttpServer>(server.engine(), server.store(), server.hub(), ho);
     }
@@ -133,6 +134,12 @@ int main(int argc, char** argv) {
     std::printf("rangexd: plant '%s', %zu lanes, listening on %s, store %s\n", plant.name.c_str(),
                 plant.lanes.size(), server.address().c_str(),
                 (data.empty() ? plant.storage : data).c_str());
+    const rangex::SecurityConfig& sec = plant.security;
+    std::printf("rangexd: %s; %s%s; clients without credentials: %s\n",
+                sec.tls() ? "TLS" : "plaintext",
+                sec.client_ca.empty() ? "" : "client certificates, ",
+                sec.tokens.empty() ? "no tokens" : "bearer tokens",
+                rangex::role_name(sec.anonymous_role()));
     for (const rangex::LaneConfig& l : plant.lanes)
       if (const std::string w = rangex::unfitted_constants(l); !w.empty())
         std::fprintf(stderr, "rangexd: warning: %s\n", w.c_str());
@@ -140,8 +147,8 @@ int main(int argc, char** argv) {
                 server.engine().backend_note().c_str(), b.device.c_str(), b.driver.c_str(),
                 b.limits.c_str());
     if (web)
-      std::printf("rangexd: dashboard at http://%s/ (metrics at /metrics)\n",
-                  web->address().c_str());
+      std::printf("rangexd: dashboard at %s://%s/ (metrics at /metrics)\n",
+                  web->tls() ? "https" : "http", web->address().c_str());
     std::fflush(stdout);
     while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
     std::printf("rangexd: stopping: draining queued lines and closing open fillets\n");

@@ -1,10 +1,9 @@
 #include "service/record_chain.h"
 
-#include <openssl/evp.h>
-
 #include <cstdio>
 
 #include "core/error.h"
+#include "service/sha256_hex.h"
 
 namespace rangex {
 
@@ -70,18 +69,7 @@ std::string chain_content(int64_t audit_row, const AuditEntry& e) {
 }
 
 std::string chain_hash(const std::string& prev, const std::string& content) {
-  const std::string msg = prev + "\n" + content;
-  unsigned char md[EVP_MAX_MD_SIZE];
-  unsigned int n = 0;
-  if (EVP_Digest(msg.data(), msg.size(), md, &n, EVP_sha256(), nullptr) != 1)
-    fail("record chain: SHA-256 failed");
-  static const char* hex = "0123456789abcdef";
-  std::string out(2 * n, '0');
-  for (unsigned int i = 0; i < n; ++i) {
-    out[2 * i] = hex[md[i] >> 4];
-    out[2 * i + 1] = hex[md[i] & 15];
-  }
-  return out;
+  return sha256_hex(prev + "\n" + content);
 }
 
 }  // namespace rangex

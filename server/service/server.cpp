@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "rangex/v1/rangex.grpc.pb.h"
+#include "service/access_control.h"
 #include "service/pb_convert.h"
 #include "service/streams.h"
 
@@ -25,33 +26,64 @@ using grpc::StatusCode;
 constexpr const char* kServices[] = {"rangex.v1.IngestService", "rangex.v1.ResultsService",
                                      "rangex.v1.CalibrationService", "rangex.v1.ControlService"};
 
-// Runs a unary handler body, turning refused input into the status gRPC defines for it.
-template <typename F>
-Status guarded(F&& f) {
-  try {
-    return f();
-  } catch (const NotFound& e) {
-    return Status(StatusCode::NOT_FOUND, e.what());
-  } catch (const AlreadyExists& e) {
-    return Status(StatusCode::ALREADY_EXISTS, e.what());
-  } catch (const FailedPrecondition& e) {
+// The caller's identity from what its connection proved (throws Unauthenticated or
+// PermissionDenied when it may not make the call `what`).
+Identity caller(const AccessControl& access, const grpc::ServerContextBase& ctx, Role needed,
+                const std::string& what) {
+  std::string cn, authorization;
+  if (const auto auth = ctx.auth_context(); auth && auth->IsPeerAuthenticated()) {
+    const auto v = auth->FindPropertyValues("x509_common_name");
+    if (!v.empty()) cn.assign(v[0].data(), v[0].size());
+  }
+  const auto& md = ctx.client_metadata();
+  if (const auto it = md.find("authorization"); it != md.end())
+    authorization.assign(it->second.data(), it->second.size());
+  Identity who = access.identify(cn, authorization, ctx.peer());
+  AccessControl::require(who, needed, what);
+  return who;
+}
+
+// The status gRPC defines for a refused call or refused input.
+Status refusal(const std::exception& e) {
+  if (dynamic_cast<const Unauthenticated*>(&e))
+    return Status(StatusCode::UNAUTHENTICATED, e.what());
+  if (dynamic_cast<const PermissionDenied*>(&e))
+    return Status(StatusCode::PERMISSION_DENIED, e.what());
+  if (dynamic_cast<const NotFound*>(&e)) return Status(StatusCode::NOT_FOUND, e.what());
+  if (dynamic_cast<const AlreadyExists*>(&e)) return Status(StatusCode::ALREADY_EXISTS, e.what());
+  if (dynamic_cast<const FailedPrecondition*>(&e))
     return Status(StatusCode::FAILED_PRECONDITION, e.what());
-  } catch (const Error& e) {
-    return Status(StatusCode::INVALID_ARGUMENT, e.what());
+  if (dynamic_cast<const Error*>(&e)) return Status(StatusCode::INVALID_ARGUMENT, e.what());
+  return Status(StatusCode::INTERNAL, e.what());
+}
+
+// Runs a unary handler body for an authorised caller: every RPC names the role it needs.
+template <typename F>
+Status guarded(const AccessControl& access, const ServerContext* ctx, Role needed, const char* what,
+               F&& f) {
+  try {
+    return f(caller(access, *ctx, needed, what));
   } catch (const std::exception& e) {
-    return Status(StatusCode::INTERNAL, e.what());
+    return refusal(e);
   }
 }
 
 class IngestImpl final : public pb::IngestService::CallbackService {
  public:
-  IngestImpl(Engine& e, StreamCounters& c) : engine_(e), counters_(c) {}
+  IngestImpl(const AccessControl& a, Engine& e, StreamCounters& c)
+      : access_(a), engine_(e), counters_(c) {}
   grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>* StreamLines(
-      grpc::CallbackServerContext*) override {
+      grpc::CallbackServerContext* ctx) override {
+    try {
+      caller(access_, *ctx, Role::operator_, "StreamLines");
+    } catch (const std::exception& e) {
+      return refused_ingest_stream(refusal(e));
+    }
     return new_ingest_stream(engine_, counters_);
   }
 
  private:
+  const AccessControl& access_;
   Engine& engine_;
   StreamCounters& counters_;
 };
@@ -59,23 +91,29 @@ class IngestImpl final : public pb::IngestService::CallbackService {
 class ResultsImpl final
     : public pb::ResultsService::WithCallbackMethod_SubscribeFillets<pb::ResultsService::Service> {
  public:
-  ResultsImpl(Store& s, ResultsHub& h, StreamCounters& c) : store_(s), hub_(h), counters_(c) {}
+  ResultsImpl(const AccessControl& a, Store& s, ResultsHub& h, StreamCounters& c)
+      : access_(a), store_(s), hub_(h), counters_(c) {}
   grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>* SubscribeFillets(
-      grpc::CallbackServerContext*, const pb::SubscribeFilletsRequest* req) override {
+      grpc::CallbackServerContext* ctx, const pb::SubscribeFilletsRequest* req) override {
+    try {
+      caller(access_, *ctx, Role::viewer, "SubscribeFillets");
+    } catch (const std::exception& e) {
+      return refused_subscription(refusal(e));
+    }
     return new_subscription(hub_, *req, counters_);
   }
-  Status GetFillet(ServerContext*, const pb::GetFilletRequest* req,
+  Status GetFillet(ServerContext* ctx, const pb::GetFilletRequest* req,
                    pb::GetFilletResponse* resp) override {
-    return guarded([&] {
+    return guarded(access_, ctx, Role::viewer, "GetFillet", [&](const Identity&) {
       const auto f = store_.fillet(req->uid());
       if (!f) return Status(StatusCode::NOT_FOUND, "no fillet " + std::to_string(req->uid()));
       fill(resp->mutable_fillet(), *f);
       return Status::OK;
     });
   }
-  Status ListFillets(ServerContext*, const pb::ListFilletsRequest* req,
+  Status ListFillets(ServerContext* ctx, const pb::ListFilletsRequest* req,
                      pb::ListFilletsResponse* resp) override {
-    return guarded([&] {
+    return guarded(access_, ctx, Role::viewer, "ListFillets", [&](const Identity&) {
       int64_t after = 0;
       if (!req->page_token().empty()) {
         try {
@@ -93,9 +131,9 @@ class ResultsImpl final
       return Status::OK;
     });
   }
-  Status GetFilletImage(ServerContext*, const pb::GetFilletImageRequest* req,
+  Status GetFilletImage(ServerContext* ctx, const pb::GetFilletImageRequest* req,
                         pb::GetFilletImageResponse* resp) override {
-    return guarded([&] {
+    return guarded(access_, ctx, Role::viewer, "GetFilletImage", [&](const Identity&) {
       const std::string kind = req->kind().empty() ? "overlay" : req->kind();
       const auto path = store_.image_path(req->uid(), kind);
       if (!path)
@@ -111,6 +149,7 @@ class ResultsImpl final
   }
 
  private:
+  const AccessControl& access_;
   Store& store_;
   ResultsHub& hub_;
   StreamCounters& counters_;
@@ -118,28 +157,29 @@ class ResultsImpl final
 
 class CalibrationImpl final : public pb::CalibrationService::Service {
  public:
-  CalibrationImpl(Engine& e, Store& s) : engine_(e), store_(s) {}
-  Status UploadCalibration(ServerContext*, const pb::UploadCalibrationRequest* req,
+  CalibrationImpl(const AccessControl& a, Engine& e, Store& s)
+      : access_(a), engine_(e), store_(s) {}
+  Status UploadCalibration(ServerContext* ctx, const pb::UploadCalibrationRequest* req,
                            pb::UploadCalibrationResponse* resp) override {
-    return guarded([&] {
+    return guarded(access_, ctx, Role::engineer, "UploadCalibration", [&](const Identity& who) {
       fill(resp->mutable_calibration(),
-           engine_.upload_calibration(req->lane(), req->id(), req->yaml(), req->who(),
+           engine_.upload_calibration(req->lane(), req->id(), req->yaml(), who.name,
                                       req->report_json()),
            false);
       return Status::OK;
     });
   }
-  Status ListCalibrations(ServerContext*, const pb::ListCalibrationsRequest* req,
+  Status ListCalibrations(ServerContext* ctx, const pb::ListCalibrationsRequest* req,
                           pb::ListCalibrationsResponse* resp) override {
-    return guarded([&] {
+    return guarded(access_, ctx, Role::viewer, "ListCalibrations", [&](const Identity&) {
       for (const auto& c : store_.calibrations(req->lane()))
         fill(resp->add_calibrations(), c, false);
       return Status::OK;
     });
   }
-  Status GetCalibration(ServerContext*, const pb::GetCalibrationRequest* req,
+  Status GetCalibration(ServerContext* ctx, const pb::GetCalibrationRequest* req,
                         pb::GetCalibrationResponse* resp) override {
-    return guarded([&] {
+    return guarded(access_, ctx, Role::viewer, "GetCalibration", [&](const Identity&) {
       const auto c = store_.calibration(req->lane(), req->id());
       if (!c)
         return Status(StatusCode::NOT_FOUND, "lane " + std::to_string(req->lane()) +
@@ -148,78 +188,109 @@ class CalibrationImpl final : public pb::CalibrationService::Service {
       return Status::OK;
     });
   }
-  Status ActivateCalibration(ServerContext*, const pb::ActivateCalibrationRequest* req,
+  Status ActivateCalibration(ServerContext* ctx, const pb::ActivateCalibrationRequest* req,
                              pb::ActivateCalibrationResponse* resp) override {
-    return guarded([&] {
+    return guarded(access_, ctx, Role::engineer, "ActivateCalibration", [&](const Identity& who) {
+      // Forcing overrides the calibration's quality gate: the server's own check.
+      if (req->force()) AccessControl::require(who, Role::admin, "a forced ActivateCalibration");
       resp->set_pending(
-          engine_.activate_calibration(req->lane(), req->id(), req->who(), req->force()));
+          engine_.activate_calibration(req->lane(), req->id(), who.name, req->force()));
       return Status::OK;
     });
   }
 
  private:
+  const AccessControl& access_;
   Engine& engine_;
   Store& store_;
 };
 
 class ControlImpl final : public pb::ControlService::Service {
  public:
-  ControlImpl(Engine& e, ResultsHub& h, StreamCounters& c, const ServerOptions& o, int64_t started)
-      : engine_(e), hub_(h), counters_(c), opt_(o), started_(started) {}
-  Status ListLanes(ServerContext*, const pb::ListLanesRequest*,
+  ControlImpl(const AccessControl& a, Engine& e, ResultsHub& h, StreamCounters& c,
+              const ServerOptions& o, int64_t started)
+      : access_(a), engine_(e), hub_(h), counters_(c), opt_(o), started_(started) {}
+  Status ListLanes(ServerContext* ctx, const pb::ListLanesRequest*,
                    pb::ListLanesResponse* resp) override {
-    return guarded([&] {
+    return guarded(access_, ctx, Role::viewer, "ListLanes", [&](const Identity&) {
       for (const LaneState& l : engine_.lanes()) fill(resp->add_lanes(), l);
       return Status::OK;
     });
   }
-  Status UpdateLaneThresholds(ServerContext*, const pb::UpdateLaneThresholdsRequest* req,
+  Status UpdateLaneThresholds(ServerContext* ctx, const pb::UpdateLaneThresholdsRequest* req,
                               pb::UpdateLaneThresholdsResponse* resp) override {
-    return guarded([&] {
+    return guarded(access_, ctx, Role::operator_, "UpdateLaneThresholds", [&](const Identity& who) {
       auto opt = [](bool has, double v) { return has ? std::optional<double>(v) : std::nullopt; };
       engine_.update_thresholds(req->lane(), opt(req->has_z_threshold(), req->z_threshold()),
                                 opt(req->has_min_fragment_area_mm2(), req->min_fragment_area_mm2()),
-                                opt(req->has_floor_mm(), req->floor_mm()), req->who());
+                                opt(req->has_floor_mm(), req->floor_mm()), who.name);
       fill(resp->mutable_lane(), engine_.lane_state(req->lane()));
       return Status::OK;
     });
   }
-  Status ResetLane(ServerContext*, const pb::ResetLaneRequest* req,
+  Status ResetLane(ServerContext* ctx, const pb::ResetLaneRequest* req,
                    pb::ResetLaneResponse* resp) override {
-    return guarded([&] {
-      fill(resp->mutable_lane(), engine_.reset_lane(req->lane(), req->who(), req->reason()));
+    return guarded(access_, ctx, Role::operator_, "ResetLane", [&](const Identity& who) {
+      fill(resp->mutable_lane(), engine_.reset_lane(req->lane(), who.name, req->reason()));
       return Status::OK;
     });
   }
-  Status GetStatistics(ServerContext*, const pb::GetStatisticsRequest*,
+  Status GetStatistics(ServerContext* ctx, const pb::GetStatisticsRequest*,
                        pb::GetStatisticsResponse* resp) override {
-    fill(resp, engine_.stats());
-    resp->set_subscribers(hub_.subscribers());
-    resp->set_ingest_streams(counters_.ingest);
-    return Status::OK;
+    return guarded(access_, ctx, Role::viewer, "GetStatistics", [&](const Identity&) {
+      fill(resp, engine_.stats());
+      resp->set_subscribers(hub_.subscribers());
+      resp->set_ingest_streams(counters_.ingest);
+      return Status::OK;
+    });
   }
-  Status GetServerInfo(ServerContext*, const pb::GetServerInfoRequest*,
+  Status GetServerInfo(ServerContext* ctx, const pb::GetServerInfoRequest*,
                        pb::GetServerInfoResponse* resp) override {
-    resp->set_version("rangex 0.1.0");
-    resp->set_plant(engine_.plant().name);
-    const BackendInfo b = engine_.backend();
-    resp->set_backend(b.name);
-    resp->set_device(b.device);
-    resp->set_driver(b.driver);
-    resp->set_limits(b.limits);
-    resp->set_backend_note(engine_.backend_note());
-    resp->set_storage(opt_.data_dir);
-    resp->set_started_ns(started_);
-    return Status::OK;
+    return guarded(access_, ctx, Role::viewer, "GetServerInfo", [&](const Identity&) {
+      resp->set_version("rangex 0.1.0");
+      resp->set_plant(engine_.plant().name);
+      const BackendInfo b = engine_.backend();
+      resp->set_backend(b.name);
+      resp->set_device(b.device);
+      resp->set_driver(b.driver);
+      resp->set_limits(b.limits);
+      resp->set_backend_note(engine_.backend_note());
+      resp->set_storage(opt_.data_dir);
+      resp->set_started_ns(started_);
+      return Status::OK;
+    });
   }
 
  private:
+  const AccessControl& access_;
   Engine& engine_;
   ResultsHub& hub_;
   StreamCounters& counters_;
   const ServerOptions& opt_;
   int64_t started_;
 };
+
+std::string read_pem(const std::string& path, const char* what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail("security.tls.", what, ": cannot read ", path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  if (ss.str().find("-----BEGIN ") == std::string::npos)
+    fail("security.tls.", what, ": ", path, " is not PEM");
+  return ss.str();
+}
+
+std::shared_ptr<grpc::ServerCredentials> server_credentials(const SecurityConfig& s) {
+  if (!s.tls()) return grpc::InsecureServerCredentials();
+  // A client certificate is asked for and verified when presented; a client without one may
+  // still prove itself with a token, or is refused per call with a message saying so.
+  grpc::SslServerCredentialsOptions o(s.client_ca.empty()
+                                          ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
+                                          : GRPC_SSL_REQUEST_CLIENT_CERTIFICATE_AND_VERIFY);
+  if (!s.client_ca.empty()) o.pem_root_certs = read_pem(s.client_ca, "client_ca");
+  o.pem_key_cert_pairs.push_back({read_pem(s.tls_key, "key"), read_pem(s.tls_cert, "cert")});
+  return grpc::SslServerCredentials(o);
+}
 
 }  // namespace
 
@@ -234,19 +305,21 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
     : plant_(plant), opt_(std::move(opt)) {
   if (opt_.listen.empty()) opt_.listen = plant_.listen;
   if (opt_.data_dir.empty()) opt_.data_dir = plant_.storage;
+  check_listen_security(opt_.listen, plant_.security, "gRPC");
   started_ns_ = now_ns();
   store_ = std::make_unique<Store>(opt_.data_dir);
   hub_ = std::make_unique<ResultsHub>();
   engine_ = std::make_unique<Engine>(plant_, *store_, *hub_, opt_.engine);
   counters_ = std::make_unique<StreamCounters>();
-  services_.reset(new Services{IngestImpl(*engine_, *counters_),
-                               ResultsImpl(*store_, *hub_, *counters_),
-                               CalibrationImpl(*engine_, *store_),
-                               ControlImpl(*engine_, *hub_, *counters_, opt_, started_ns_)});
+  access_ = std::make_unique<AccessControl>(plant_.security);
+  services_.reset(new Services{
+      IngestImpl(*access_, *engine_, *counters_), ResultsImpl(*access_, *store_, *hub_, *counters_),
+      CalibrationImpl(*access_, *engine_, *store_),
+      ControlImpl(*access_, *engine_, *hub_, *counters_, opt_, started_ns_)});
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder b;
-  b.AddListeningPort(opt_.listen, grpc::InsecureServerCredentials(), &port_);
+  b.AddListeningPort(opt_.listen, server_credentials(plant_.security), &port_);
   b.SetMaxReceiveMessageSize(opt_.max_message_bytes);
   if (opt_.max_connection_age_ms > 0) {
     b.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS, opt_.max_connection_age_ms);

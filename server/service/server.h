@@ -21,6 +21,7 @@ class Server;
 namespace rangex {
 
 struct StreamCounters;
+class AccessControl;
 
 struct ServerOptions {
   std::string listen;    // host:port; empty takes plant.yaml's
@@ -60,6 +61,7 @@ class RangexServer {
   std::unique_ptr<ResultsHub> hub_;
   std::unique_ptr<Engine> engine_;
   std::unique_ptr<StreamCounters> counters_;
+  std::unique_ptr<AccessControl> access_;
   std::unique_ptr<Services> services_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;

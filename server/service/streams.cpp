@@ -269,6 +269,26 @@ class Subscription final : public grpc::ServerWriteReactor<pb::SubscribeFilletsR
 
 }  // namespace
 
+namespace {
+// A stream refused before it starts (its caller may not open it): finished at once.
+template <typename Base>
+struct Refused final : Base {
+  explicit Refused(const grpc::Status& s) { this->Finish(s); }
+  void OnDone() override { delete this; }
+};
+}  // namespace
+
+grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>* refused_ingest_stream(
+    const grpc::Status& status) {
+  return new Refused<grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>>(
+      status);
+}
+
+grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>* refused_subscription(
+    const grpc::Status& status) {
+  return new Refused<grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>>(status);
+}
+
 grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>* new_ingest_stream(
     Engine& engine, StreamCounters& counters) {
   return new IngestStream(engine, counters);

@@ -27,4 +27,10 @@ grpc::ServerBidiReactor<v1::StreamLinesRequest, v1::StreamLinesResponse>* new_in
 grpc::ServerWriteReactor<v1::SubscribeFilletsResponse>* new_subscription(
     ResultsHub& hub, const v1::SubscribeFilletsRequest& request, StreamCounters& counters);
 
+// A stream its caller may not open, finished at once with `status`.
+grpc::ServerBidiReactor<v1::StreamLinesRequest, v1::StreamLinesResponse>* refused_ingest_stream(
+    const grpc::Status& status);
+grpc::ServerWriteReactor<v1::SubscribeFilletsResponse>* refused_subscription(
+    const grpc::Status& status);
+
 }  // namespace rangex

@@ -1,0 +1,26 @@
+// The client's channel to rangexd: keepalive and reconnect backoff, and, when the server
+// speaks TLS, its CA, an optional client certificate and an optional bearer token.
+#pragma once
+#include <grpcpp/grpcpp.h>
+
+#include <memory>
+#include <string>
+
+namespace rangex {
+
+struct ClientSecurity {
+  std::string ca;           // PEM file of the CA that signed rangexd's certificate: TLS on
+  std::string cert, key;    // PEM files of this client's certificate and key (mTLS)
+  std::string token;        // sent as "authorization: Bearer TOKEN" (TLS only)
+  std::string server_name;  // the name to check the server's certificate against
+
+  // RANGEX_CA, RANGEX_CERT, RANGEX_KEY, RANGEX_TOKEN (or RANGEX_TOKEN_FILE): what command-line
+  // options do not set.
+  static ClientSecurity from_environment();
+};
+
+// Throws Error when the security options are inconsistent or a file cannot be read.
+std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address,
+                                              const ClientSecurity& security = {});
+
+}  // namespace rangex
