@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   cmake ninja-build g++ pkg-config
   libyaml-cpp-dev libpng-dev libsqlite3-dev libeigen3-dev libceres-dev libopencv-dev
-  libcpp-httplib-dev nlohmann-json3-dev libssl-dev
+  libcpp-httplib-dev nlohmann-json3-dev libssl-dev openssl
   libgtest-dev libgmock-dev libbenchmark-dev
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   glslang-tools libvulkan-dev mesa-vulkan-drivers
