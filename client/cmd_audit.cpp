@@ -51,6 +51,11 @@ int cmd_audit(int argc, char** argv) {
     }
     std::printf("chain verified: %lld links (every fillet decision and audit entry), head %s\n",
                 (long long)r.links, r.head.empty() ? "(empty)" : r.head.c_str());
+    if (r.checkpoint_seq)
+      std::printf(
+          "  links 1-%lld were pruned by retention; verified from the checkpoint the "
+          "latest retention.prune entry names\n",
+          (long long)r.checkpoint_seq);
     return 0;
   }
   if (verb == "export") {

@@ -159,3 +159,17 @@ security:
     EXPECT_NE(e.find(why), std::string::npos) << yaml << "\n -> " << e;
   }
 }
+
+TEST(PlantConfig, RetentionIsReadAndChecked) {
+  const std::string lanes = "lanes: [{id: 0}]\n";
+  EXPECT_DOUBLE_EQ(parse_plant_config(lanes, "t").retention.days, 730);  // 2 years
+  const PlantConfig p = parse_plant_config(lanes + "retention: {days: 1095}\n", "t");
+  EXPECT_DOUBLE_EQ(p.retention.images_days, 1095);  // images follow the records by default
+  EXPECT_NE(error_of(lanes + "retention: {days: 0}\n").find("retention.days: must be >= 1"),
+            std::string::npos);
+  EXPECT_NE(error_of(lanes + "retention: {days: 30, images_days: 60}\n")
+                .find("retention.images_days: must be between 1 and days"),
+            std::string::npos);
+  EXPECT_NE(error_of(lanes + "retention: {every_h: -1}\n").find("retention.every_h"),
+            std::string::npos);
+}

@@ -9,11 +9,13 @@
 
 #include "service/record_chain.h"
 #include "service/store.h"
+#include "store_tamper.h"
 #include "temp_dir.h"
 
 using namespace rangex;
 
 namespace {
+using test::tamper;
 StoredFillet fillet(int lane, int64_t encoder, const char* decision, int fragments) {
   StoredFillet f;
   f.lane = lane;
@@ -28,15 +30,6 @@ StoredFillet fillet(int lane, int64_t encoder, const char* decision, int fragmen
   for (int k = 0; k < fragments; ++k)
     f.fragments.push_back({"bone", 1.0 + k, 2.0, 3.5, -12.0, 0.8, 3.7, 1, 2, 3, 4});
   return f;
-}
-
-// Runs SQL on the store's file from outside, as someone editing it would.
-void tamper(const test::TempDir& t, const std::string& sql) {
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open((t.str() + "/rangex.sqlite").c_str(), &db), SQLITE_OK);
-  char* err = nullptr;
-  ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err), SQLITE_OK) << err;
-  sqlite3_close(db);
 }
 
 // Five links: fillets 1..3 and two audit entries between them.

@@ -433,7 +433,7 @@ const LaneConfig& PlantConfig::lane(int id) const {
 PlantConfig parse_plant_config(const std::string& text, const std::string& origin) {
   const YAML::Node root = load_yaml(text, origin);
   const Node top{root, "", &origin};
-  top.only_keys({"plant", "server", "security", "lane_defaults", "lanes"});
+  top.only_keys({"plant", "server", "security", "retention", "lane_defaults", "lanes"});
   PlantConfig p;
   if (top.has("plant")) {
     const Node n = top.at("plant");
@@ -452,6 +452,18 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
   }
   if (top.has("server")) read_engine(top.at("server"), p.engine);
   if (top.has("security")) read_security(top.at("security"), p.security);
+  if (top.has("retention")) {
+    const Node n = top.at("retention");
+    RetentionSettings& r = p.retention;
+    n.only_keys({"days", "images_days", "every_h"});
+    n.get("days", r.days);
+    if (!(r.days >= 1)) n.at("days").bad("must be >= 1 (records are kept at least a day)");
+    r.images_days = r.days;
+    n.get("images_days", r.images_days);
+    if (!(r.images_days >= 1 && r.images_days <= r.days))
+      n.at("images_days").bad("must be between 1 and days (" + std::to_string(r.days) + ")");
+    n.positive("every_h", r.every_h);
+  }
   std::optional<Node> defaults;
   if (top.has("lane_defaults")) defaults = top.at("lane_defaults");
   if (!top.has("lanes")) top.bad("missing key 'lanes'");

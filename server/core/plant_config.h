@@ -10,6 +10,14 @@
 
 namespace rangex {
 
+// How long the store keeps what (plant.yaml `retention:`). HACCP records (9 CFR 417.5) are
+// kept for the plant's required period; images may go sooner, the record staying.
+struct RetentionSettings {
+  double days = 730;         // every record (decisions, fragments, audit entries)
+  double images_days = 730;  // images of rejected and not-inspected fillets (<= days)
+  double every_h = 1;        // how often rangexd runs a pass
+};
+
 struct PlantConfig {
   std::string name = "plant";
   std::string calibration_id = "dissertation-default";
@@ -18,8 +26,9 @@ struct PlantConfig {
   std::string listen = "127.0.0.1:50051";
   std::string http = "127.0.0.1:8080";  // the dashboard and /metrics; "off": none
   std::string storage = "rangex-data";
-  EngineSettings engine;  // the `server:` section
+  EngineSettings engine;    // the `server:` section
   SecurityConfig security;  // the `security:` section
+  RetentionSettings retention;
   std::vector<LaneConfig> lanes;
 
   const LaneConfig& lane(int id) const;  // throws Error for an unknown lane

@@ -337,6 +337,7 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
   set_health(engine_->health());
   store_->audit("rangexd", "server.start", "listening on " + address());
   watchdog_ = std::thread([this] { watchdog(); });
+  retention_ = std::thread([this] { retention(); });
 }
 
 RangexServer::~RangexServer() {
@@ -394,6 +395,38 @@ void RangexServer::watchdog() {
   }
 }
 
+void RangexServer::retention() {
+  const RetentionSettings& r = plant_.retention;
+  constexpr double kDayNs = 86400e9;
+  std::unique_lock<std::mutex> lock(wd_mu_);
+  do {
+    PruneReport total;
+    try {
+      // In slices, the store free between them for the decisions still arriving.
+      for (bool more = true; more && !wd_stop_;) {
+        lock.unlock();
+        const int64_t now = now_ns();
+        const PruneReport p = store_->prune(now - int64_t(r.days * kDayNs),
+                                            now - int64_t(r.images_days * kDayNs), 2000);
+        lock.lock();
+        total.links += p.links, total.fillets += p.fillets, total.images += p.images;
+        total.audit_entries += p.audit_entries;
+        more = p.more;
+      }
+    } catch (const std::exception& e) {
+      if (!lock.owns_lock()) lock.lock();
+      std::fprintf(stderr, "rangexd: retention pass failed (kept everything): %s\n", e.what());
+    }
+    if (total.links || total.images)
+      std::fprintf(stderr,
+                   "rangexd: retention: pruned %lld fillet records, %lld audit entries and "
+                   "%lld images (kept: records %.0f days, images %.0f days)\n",
+                   (long long)total.fillets, (long long)total.audit_entries,
+                   (long long)total.images, r.days, r.images_days);
+  } while (!wd_cv_.wait_for(lock, std::chrono::duration<double>(r.every_h * 3600),
+                            [&] { return wd_stop_; }));
+}
+
 bool RangexServer::shutdown() {
   if (down_) return true;
   down_ = true;
@@ -403,6 +436,7 @@ bool RangexServer::shutdown() {
   }
   wd_cv_.notify_all();
   if (watchdog_.joinable()) watchdog_.join();
+  if (retention_.joinable()) retention_.join();
   Health stopping;
   stopping.serving = false;
   set_health(stopping);

@@ -2,7 +2,8 @@
 // checking (per service: "", rangex.v1.IngestService, ResultsService, CalibrationService,
 // ControlService) and server reflection. A watchdog thread turns the engine's health into
 // grpc.health.v1 statuses and, after exit_after_s of NOT_SERVING, calls on_fatal so that
-// rangexd can exit for its supervisor to restart it.
+// rangexd can exit for its supervisor to restart it. A retention thread prunes the store
+// (plant.yaml retention) at start and every retention.every_h.
 #pragma once
 #include <condition_variable>
 #include <functional>
@@ -53,6 +54,7 @@ class RangexServer {
  private:
   struct Services;
   void watchdog();
+  void retention();  // a pass at start, then every retention.every_h
   void set_health(const Health& h);
 
   PlantConfig plant_;
@@ -68,7 +70,7 @@ class RangexServer {
   int64_t started_ns_ = 0;
   bool down_ = false;
 
-  std::thread watchdog_;
+  std::thread watchdog_, retention_;
   std::mutex wd_mu_;
   std::condition_variable wd_cv_;
   bool wd_stop_ = false;

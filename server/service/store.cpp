@@ -5,9 +5,11 @@
 #include <chrono>
 #include <filesystem>
 #include <set>
+#include <vector>
 
 #include "core/error.h"
 #include "service/record_chain.h"
+#include "service/sqlite_stmt.h"
 
 namespace fs = std::filesystem;
 
@@ -20,44 +22,6 @@ int64_t now_ns() {
 }
 
 namespace {
-// A prepared statement that finalises itself.
-class Stmt {
- public:
-  Stmt(sqlite3* db, const char* sql) : db_(db) {
-    if (sqlite3_prepare_v2(db, sql, -1, &s_, nullptr) != SQLITE_OK)
-      fail("store: cannot prepare '", sql, "': ", sqlite3_errmsg(db));
-  }
-  ~Stmt() { sqlite3_finalize(s_); }
-  Stmt& bind(int i, int64_t v) {
-    sqlite3_bind_int64(s_, i, v);
-    return *this;
-  }
-  Stmt& bind(int i, double v) {
-    sqlite3_bind_double(s_, i, v);
-    return *this;
-  }
-  Stmt& bind(int i, const std::string& v) {
-    sqlite3_bind_text(s_, i, v.c_str(), int(v.size()), SQLITE_TRANSIENT);
-    return *this;
-  }
-  bool step() {
-    const int rc = sqlite3_step(s_);
-    if (rc == SQLITE_ROW) return true;
-    if (rc == SQLITE_DONE) return false;
-    fail("store: ", sqlite3_errmsg(db_));
-  }
-  int64_t i64(int c) const { return sqlite3_column_int64(s_, c); }
-  double dbl(int c) const { return sqlite3_column_double(s_, c); }
-  std::string str(int c) const {
-    const auto* t = sqlite3_column_text(s_, c);
-    return t ? reinterpret_cast<const char*>(t) : "";
-  }
-
- private:
-  sqlite3* db_;
-  sqlite3_stmt* s_ = nullptr;
-};
-
 StoredFillet fillet_row(const Stmt& q) {
   StoredFillet f;
   f.uid = q.i64(0);
@@ -132,9 +96,15 @@ Store::Store(const std::string& dir) : dir_(dir) {
       "CREATE TABLE IF NOT EXISTS ledger (seq INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT, "
       "ref INTEGER, ts_ns INTEGER, prev TEXT, hash TEXT)");
   exec("CREATE INDEX IF NOT EXISTS ledger_time ON ledger(ts_ns)");
+  // Where the chain starts once retention has pruned its oldest links (one row).
+  exec(
+      "CREATE TABLE IF NOT EXISTS chain_checkpoint (id INTEGER PRIMARY KEY CHECK (id = 1), "
+      "seq INTEGER, hash TEXT, ts_ns INTEGER, before_ns INTEGER)");
   std::lock_guard<std::mutex> lock(mu_);
   head_ = kChainGenesis;
   {
+    Stmt c(db_, "SELECT hash FROM chain_checkpoint");
+    if (c.step()) head_ = c.str(0);
     Stmt q(db_, "SELECT hash FROM ledger ORDER BY seq DESC LIMIT 1");
     if (q.step()) head_ = q.str(0);
   }
@@ -384,17 +354,21 @@ void Store::audit(const std::string& who, const std::string& what, const std::st
   const AuditEntry e{now_ns(), who.empty() ? std::string("unknown") : who, what, detail};
   exec("BEGIN");
   try {
-    Stmt q(db_, "INSERT INTO audit VALUES (?,?,?,?)");
-    q.bind(1, e.ts_ns).bind(2, e.who).bind(3, e.what).bind(4, e.detail);
-    q.step();
-    const int64_t row = sqlite3_last_insert_rowid(db_);
-    const std::string head = append_link("audit", row, e.ts_ns, chain_content(row, e), head_);
+    const std::string head = append_audit(e, head_);
     exec("COMMIT");
     head_ = head;
   } catch (...) {
     exec("ROLLBACK");
     throw;
   }
+}
+
+std::string Store::append_audit(const AuditEntry& e, const std::string& prev) {
+  Stmt q(db_, "INSERT INTO audit VALUES (?,?,?,?)");
+  q.bind(1, e.ts_ns).bind(2, e.who).bind(3, e.what).bind(4, e.detail);
+  q.step();
+  const int64_t row = sqlite3_last_insert_rowid(db_);
+  return append_link("audit", row, e.ts_ns, chain_content(row, e), prev);
 }
 
 std::unique_ptr<Store> Store::read_only(const std::string& dir) {
@@ -445,6 +419,29 @@ ChainReport Store::verify_chain(const std::string& dir) {
   };
   {
     std::string prev = kChainGenesis;
+    bool has_checkpoint_table = false;
+    {
+      Stmt t(db, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'chain_checkpoint'");
+      has_checkpoint_table = t.step();
+    }
+    if (has_checkpoint_table) {
+      Stmt c(db, "SELECT seq, hash FROM chain_checkpoint");
+      if (c.step()) {
+        r.checkpoint_seq = c.i64(0);
+        prev = r.head = c.str(1);
+        // The checkpoint is only as good as the chained entry of the pass that set it.
+        Stmt a(db,
+               "SELECT detail FROM audit WHERE what = 'retention.prune' ORDER BY rowid DESC "
+               "LIMIT 1");
+        if (!a.step() || a.str(0).find(prev) == std::string::npos) {
+          broken(r.checkpoint_seq,
+                 "the chain's checkpoint (link " + std::to_string(r.checkpoint_seq) +
+                     ") is not the one the latest retention.prune audit entry names: the "
+                     "start of the chain was changed");
+          return r;
+        }
+      }
+    }
     std::set<int64_t> fillets, audits;
     Stmt q(db, "SELECT seq, kind, ref, ts_ns, prev, hash FROM ledger ORDER BY seq");
     while (r.ok && q.step()) {

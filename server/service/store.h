@@ -62,6 +62,9 @@ struct AuditEntry {
 struct ChainReport {
   bool ok = true;
   int64_t links = 0;
+  // Links up to this one were pruned by retention: the chain is verified from the hash the
+  // checkpoint keeps, which the latest retention.prune audit entry (itself chained) names.
+  int64_t checkpoint_seq = 0;
   std::string head;  // the last link's hash: a record of it elsewhere anchors the chain
   int64_t first_broken_seq = 0;
   std::string problem;
@@ -73,6 +76,14 @@ struct ChainLink {
   int64_t ref = 0;   // the fillet's uid or the audit entry's row
   int64_t ts_ns = 0;
   std::string prev, hash, content;
+};
+
+// What one retention pass removed (Store::prune).
+struct PruneReport {
+  int64_t links = 0, fillets = 0, audit_entries = 0, images = 0;
+  bool more = false;  // stopped at max_rows with more to prune: call again
+  int64_t checkpoint_seq = 0;
+  std::string checkpoint_hash;
 };
 
 class Store {
@@ -109,6 +120,15 @@ class Store {
   // row's canonical content recomputed from the store: with the first link's `prev`, a
   // reader checks them by hashing alone (an export's chain proof).
   static std::vector<ChainLink> chain_links(const std::string& dir, int64_t from_ns, int64_t to_ns);
+  // Retention (store_retention.cpp). Images first: the image files of fillets decided before
+  // images_before_ns go (passed, then not inspected, then rejected; the records stay). Then
+  // records: the chain's oldest links stamped before records_before_ns, with their fillets,
+  // fragments, images and audit entries, as a prefix of the chain (it stops at the first
+  // link inside retention, so no record inside retention is ever pruned, a reject's least
+  // of all). Where the chain now starts is kept as a checkpoint, and the pass is audited.
+  // At most max_rows images and max_rows links per call.
+  PruneReport prune(int64_t records_before_ns, int64_t images_before_ns, int max_rows = 5000);
+
   std::string chain_head() {
     std::lock_guard<std::mutex> lock(mu_);
     return head_;
@@ -124,6 +144,9 @@ class Store {
   std::string append_link(const char* kind, int64_t ref, int64_t ts_ns, const std::string& content,
                           const std::string& prev);
   StoredFillet read_fillet(int64_t uid);  // with its fragments in stored order; mu_ held
+  // An audit entry and its link, inside the caller's transaction (mu_ held); the new head.
+  std::string append_audit(const AuditEntry& e, const std::string& prev);
+  int64_t prune_images(int64_t before_ns, int max_rows, std::vector<std::string>& files);
   std::string dir_;
   sqlite3* db_ = nullptr;
   std::mutex mu_;
