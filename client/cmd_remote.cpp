@@ -135,8 +135,9 @@ int cmd_feed(int argc, char** argv) {
       (unsigned long long)r.sent, src->lanes().size(), r.seconds, double(r.sent) / r.seconds,
       (unsigned long long)r.accepted, (unsigned long long)r.refused_total());
   if (r.reconnects)
-    std::printf("  %llu reconnects, %llu lines resent\n", (unsigned long long)r.reconnects,
-                (unsigned long long)r.resent);
+    std::printf("  %llu reconnects, %llu lines resent (%llu the server already had)\n",
+                (unsigned long long)r.reconnects, (unsigned long long)r.resent,
+                (unsigned long long)r.duplicates);
   for (const auto& [code, n] : r.refused)
     std::printf("  %s: %llu\n", code.c_str(), (unsigned long long)n);
   check(r.status, "feed");

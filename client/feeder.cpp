@@ -45,6 +45,7 @@ bool retryable(const grpc::Status& s) {
 struct InFlight {
   std::shared_ptr<const pb::StreamLinesRequest> req;
   bool resent = false;
+  bool acked = false;  // counted as accepted already (a retained line sent again)
 };
 
 // What the writer and the reader of one feed share.
@@ -52,12 +53,28 @@ struct Shared {
   std::mutex mu;
   std::condition_variable cv;
   std::deque<InFlight> unacked;  // in sequence order
+  // Acknowledged lines whose outcome the server has not yet made durable, by lane, in
+  // order: resent after a reconnect with the unacknowledged ones, so that a server that
+  // crashed rebuilds what it had not stored.
+  std::map<int, std::deque<InFlight>> retained;
   int credit = 1 << 20;
   bool broken = false;         // the current stream ended
   bool query_pending = false;  // a credit query awaits its answer
   uint64_t query_sequence = 0;
   Clock::time_point progress = Clock::now();
 };
+
+// Keeps an acknowledged line until its lane is durable past it, and forgets what is.
+void retain(std::map<int, std::deque<InFlight>>& retained, InFlight&& line, int64_t durable) {
+  const int lane = line.req->line().lane();
+  const int64_t encoder = line.req->line().encoder();
+  std::deque<InFlight>& kept = retained[lane];
+  // Counts that went back (an encoder reset the server took): the older lines belong to a
+  // count sequence that is over.
+  if (!kept.empty() && encoder < kept.back().req->line().encoder()) kept.clear();
+  if (encoder > durable) kept.push_back(std::move(line));
+  while (!kept.empty() && kept.front().req->line().encoder() <= durable) kept.pop_front();
+}
 
 }  // namespace
 
@@ -99,11 +116,14 @@ FeedReport Feeder::run(LineSource& source) {
           continue;
         }
         if (sh.unacked.empty() || sh.unacked.front().req->sequence() != r.sequence()) continue;
-        const bool resent = sh.unacked.front().resent;
+        InFlight line = std::move(sh.unacked.front());
         sh.unacked.pop_front();
         const std::string& code = r.error().code();
-        if (r.accepted() || (resent && code == "DUPLICATE_LINE")) {
-          ++rep.accepted;
+        if (r.accepted() || (line.resent && code == "DUPLICATE_LINE")) {
+          if (!line.acked) ++rep.accepted;
+          if (line.resent && code == "DUPLICATE_LINE") ++rep.duplicates;
+          line.acked = true;
+          if (r.has_durable_encoder()) retain(sh.retained, std::move(line), r.durable_encoder());
         } else {
           ++rep.refused[code];
           if (told[code]++ < 3)
@@ -117,10 +137,20 @@ FeedReport Feeder::run(LineSource& source) {
       sh.cv.notify_all();
     });
 
-    // Resend what the last stream left unacknowledged, then carry on with new lines.
+    // Resend what the server had not made durable and what the last stream left
+    // unacknowledged, in the order first sent, then carry on with new lines.
     std::deque<std::shared_ptr<const pb::StreamLinesRequest>> resend;
     {
       std::lock_guard<std::mutex> lock(sh.mu);
+      std::deque<InFlight> again;
+      for (auto& [lane, kept] : sh.retained)
+        for (InFlight& f : kept) again.push_back(std::move(f));
+      sh.retained.clear();
+      std::sort(again.begin(), again.end(), [](const InFlight& a, const InFlight& b) {
+        return a.req->sequence() < b.req->sequence();
+      });
+      for (InFlight& f : sh.unacked) again.push_back(std::move(f));
+      sh.unacked = std::move(again);
       for (InFlight& f : sh.unacked) {
         f.resent = true;
         resend.push_back(f.req);
@@ -197,9 +227,11 @@ FeedReport Feeder::run(LineSource& source) {
       break;
     }
     ++rep.reconnects;
+    size_t kept = 0;
+    for (const auto& [lane, k] : sh.retained) kept += k.size();
     say("stream ended (" + (rep.status.ok() ? std::string("OK") : rep.status.error_message()) +
         "); reconnecting and resending " + std::to_string(sh.unacked.size()) +
-        " unacknowledged lines");
+        " unacknowledged lines and " + std::to_string(kept) + " not yet durable");
     std::this_thread::sleep_for(backoff);
     backoff = std::min(backoff * 2, std::chrono::milliseconds(2000));
   }

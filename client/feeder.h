@@ -2,7 +2,9 @@
 // credit (a line sent into a full queue would be dropped), keeps a window of lines not yet
 // acknowledged, and after a dropped connection reconnects and resends from the last
 // acknowledged line. The server answers a resent line it already has DUPLICATE_LINE; the
-// feeder counts that as accepted (no second decision is made).
+// feeder counts that as accepted (no second decision is made). Acknowledged lines are kept
+// until the server says their outcome is durable (StreamLinesResponse.durable_encoder) and
+// are resent too: a server that crashed rebuilds from them what it had not stored.
 #pragma once
 #include <grpcpp/grpcpp.h>
 
@@ -29,6 +31,7 @@ struct FeedReport {
   uint64_t sent = 0;      // distinct lines
   uint64_t accepted = 0;  // resent lines the server already had included
   uint64_t resent = 0, reconnects = 0;
+  uint64_t duplicates = 0;                  // resent lines the server answered it already had
   std::map<std::string, uint64_t> refused;  // by code
   grpc::Status status;                      // of the last stream (OK when all went through)
   double seconds = 0;

@@ -55,6 +55,11 @@ class LaneAssembler {
   // No fillet in progress and no waiting thickness line with fillet in it: a new
   // configuration can take over without any fillet seeing two.
   bool quiet() const;
+  // The first X-ray count whose row can still become part of a fillet: the open segment's
+  // first row, else the next count to come (INT64_MIN before the first line).
+  int64_t pending_from() const {
+    return open_ && !segment_.empty() ? segment_.front().encoder : next_encoder_;
+  }
   void set_config(const LaneConfig& lane) { lane_ = lane; }
 
  private:

@@ -63,6 +63,7 @@ class LaneProcessor {
   const AssemblyStats& assembly() const { return assembler_.stats(); }
   const std::string& last_restart() const { return assembler_.last_restart(); }
   bool quiet() const { return assembler_.quiet(); }
+  int64_t pending_from() const { return assembler_.pending_from(); }
   // New thresholds or calibration for the assembly and the inspection (the caller updates
   // the backend's tables); applied only when quiet().
   void reconfigure(const LaneConfig& lane);

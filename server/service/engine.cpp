@@ -66,8 +66,10 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
         route(lines, r);
       },
       [this](std::vector<Queued>& lines, const std::string& why) { lose(lines, why); });
+  resume_from_store();
   for (int k = 0; k < opt_.inspectors; ++k) inspectors_.emplace_back([this] { inspector(); });
   worker_ = std::thread([this] { worker(); });
+  progress_ = std::thread([this] { progress_loop(); });
 }
 
 Engine::~Engine() {
@@ -88,6 +90,7 @@ Engine::Verdict Engine::refuse(Lane* l, Refusal code, std::string message, size_
   v.code = code;
   v.message = std::move(message);
   v.credit = int(opt_.queue_lines - std::min(queued, opt_.queue_lines));
+  if (l) v.durable = l->durable_saved;
   return v;
 }
 
@@ -166,6 +169,7 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
     ++accepted_;
     v.accepted = true;
     v.credit = int(opt_.queue_lines - queue_.size());
+    v.durable = l->durable_saved;
   }
   cv_.notify_one();
   return v;
@@ -270,6 +274,8 @@ void Engine::restart_lane(Lane& l, const std::string& reason) {
   l.arrivals.clear();
   ++l.restarts;
   l.in_progress = !l.proc->quiet();
+  l.decided_until = INT64_MIN;  // a new count sequence
+  note_assembly(l);
   std::lock_guard<std::mutex> lock(ctl_mu_);
   l.last_restart = reason;
 }
@@ -358,6 +364,7 @@ void Engine::route(std::vector<Queued>& lines, const LineResults& r) {
                         size_t(l.config.xray.delay_lines) + 4 * size_t(opt_.batch_lines);
     while (l.arrivals.size() > keep) l.arrivals.pop_front();
     note_assembly_restarts(l);
+    note_assembly(l);
     l.last_push_ns = steady_ns();
     l.in_progress = !l.proc->quiet();
   }
@@ -411,6 +418,7 @@ void Engine::close_idle_lanes() {
 }
 
 void Engine::on_image(Lane& l, FilletImage&& img) {
+  if (!fillet_cut(l, img)) return;
   InspectJob job{&l, std::move(img), l.config.inspection, l.running_calibration, 0, steady_ns()};
   // Decision latency runs from the arrival of the fillet's last line.
   const int64_t last = job.image.first_encoder + job.image.rows - 1;
@@ -533,6 +541,7 @@ void Engine::on_fillet(const InspectJob& job, InspectedFillet&& f) {
           "rangexd: the store has failed for %zu decisions; lost: lane %d fillet %lld (%s)\n",
           unsaved_.size(), unsaved_.front().record.lane,
           (long long)unsaved_.front().record.lane_fillet, unsaved_.front().record.decision.c_str());
+      fillet_stored(unsaved_.front().record.lane, unsaved_.front().record.first_encoder);
       unsaved_.pop_front();
     }
     unsaved_.push_back(std::move(u));
@@ -545,7 +554,10 @@ bool Engine::save(Unsaved& u) {
   const int64_t t0 = steady_ns();
   StoredFillet& s = u.record;
   try {
-    if (s.uid == 0) s.uid = store_.add_fillet(s);
+    if (s.uid == 0) {
+      s.uid = store_.add_fillet(s);
+      fillet_stored(s.lane, s.first_encoder);
+    }
   } catch (const std::exception& e) {
     ++store_errors_;
     std::lock_guard<std::mutex> lock(health_mu_);
@@ -605,6 +617,15 @@ bool Engine::drain_and_stop(double timeout_s) {
       return false;
   }
   if (worker_.joinable()) worker_.join();
+  {
+    std::lock_guard<std::mutex> lock(progress_mu_);
+    progress_stop_ = true;
+  }
+  progress_cv_.notify_all();
+  if (progress_.joinable()) {
+    progress_.join();
+    save_progress();  // every fillet decided: the counts as they end
+  }
   return true;
 }
 

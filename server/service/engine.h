@@ -108,6 +108,9 @@ class Engine {
     Refusal code = Refusal::kCount;  // when refused
     std::string message;
     int credit = 0;  // lines the queue can take now
+    // The lane's durable count (INT64_MIN: none yet, or no lane): every line of the lane up
+    // to it has its outcome in the store; a feeder may forget those lines.
+    int64_t durable = INT64_MIN;
   };
   // Validates and queues one line; never throws for bad input (the verdict says why).
   Verdict submit(IncomingLine&& line);
@@ -175,6 +178,16 @@ class Engine {
     std::array<std::atomic<uint64_t>, kDropReasons> dropped{};
     // Inspection (inspect_mu_): an inspector holds one of the lane's fillets.
     bool inspecting = false;
+    // Durability (engine_progress.cpp): the count up to which the lane's lines are settled in
+    // the assembly (worker), the same for each fillet cut and not yet stored (pending_mu),
+    // both less the lines needed to rebuild what follows; what was last made durable.
+    std::atomic<int64_t> assembly_durable{INT64_MIN};
+    std::mutex pending_mu;
+    std::multimap<int64_t, int64_t> pending_fillets;  // first count -> its durable bound
+    std::atomic<int64_t> durable_saved{INT64_MIN};
+    // Worker: after a restart of the server, fillets starting at or before this count were
+    // decided before it (their lines come again from the resuming feeder): not again.
+    int64_t decided_until = INT64_MIN;
   };
   using Queued = QueuedLine;
   struct InspectJob {  // a fillet the worker cut, for the inspector
@@ -206,6 +219,14 @@ class Engine {
   void inspector();                                            // an inspector thread
   void on_fillet(const InspectJob& job, InspectedFillet&& f);  // inspector
   void flush_unsaved();
+  // Durable counts (engine_progress.cpp).
+  void resume_from_store();                             // constructor
+  int64_t durable_margin(const Lane& l) const;          // lines to rebuild from
+  void note_assembly(Lane& l);                          // worker, after lines or a restart
+  bool fillet_cut(Lane& l, const FilletImage& img);     // worker; false: decided before
+  void fillet_stored(int lane, int64_t first_encoder);  // inspector, once committed
+  void save_progress();                                 // the progress thread
+  void progress_loop();
   bool save(Unsaved& u);  // save_mu_
   void retry_unsaved();   // save_mu_
   Lane& lane(int id);
@@ -245,6 +266,12 @@ class Engine {
   // of the engine's but health_mu_, a leaf).
   std::mutex save_mu_;
   std::deque<Unsaved> unsaved_;
+
+  std::thread progress_;
+  std::mutex progress_mu_;
+  std::condition_variable progress_cv_;
+  bool progress_stop_ = false;
+  bool progress_failed_ = false;  // progress thread only
 
   std::atomic<uint64_t> received_{0}, accepted_{0}, processed_{0};
   std::atomic<uint64_t> bytes_parsed_{0}, bytes_xray_copied_{0};

@@ -76,6 +76,14 @@ void LaneAdmission::commit(int64_t e, bool restarted) {
   fed_ = true;
 }
 
+void LaneAdmission::resume(int64_t durable) {
+  clear();
+  reset_.clear();
+  for (uint64_t k = 0; k < window_; ++k) mark(durable - int64_t(k), true);
+  last_ = durable;
+  fed_ = true;
+}
+
 void LaneAdmission::request_reset(const std::string& why) {
   reset_ = why;
 }

@@ -26,6 +26,9 @@ class LaneAdmission {
   void commit(int64_t encoder, bool restarted);
   // The next line starts the lane afresh, whatever its count.
   void request_reset(const std::string& why);
+  // After a restart of the server: every count up to `durable` (within the window) was
+  // taken before; a resend of one is a duplicate, the next count is new.
+  void resume(int64_t durable);
 
   bool fed() const { return fed_; }
   int64_t last() const { return last_; }

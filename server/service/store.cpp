@@ -96,6 +96,9 @@ Store::Store(const std::string& dir) : dir_(dir) {
       "CREATE TABLE IF NOT EXISTS ledger (seq INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT, "
       "ref INTEGER, ts_ns INTEGER, prev TEXT, hash TEXT)");
   exec("CREATE INDEX IF NOT EXISTS ledger_time ON ledger(ts_ns)");
+  exec(
+      "CREATE TABLE IF NOT EXISTS lane_progress (lane INTEGER PRIMARY KEY, durable_encoder "
+      "INTEGER, updated_ns INTEGER)");
   // Where the chain starts once retention has pruned its oldest links (one row).
   exec(
       "CREATE TABLE IF NOT EXISTS chain_checkpoint (id INTEGER PRIMARY KEY CHECK (id = 1), "
@@ -361,6 +364,41 @@ void Store::audit(const std::string& who, const std::string& what, const std::st
     exec("ROLLBACK");
     throw;
   }
+}
+
+void Store::save_progress(const std::vector<std::pair<int, int64_t>>& lane_durable) {
+  std::lock_guard<std::mutex> lock(mu_);
+  exec("BEGIN");
+  try {
+    for (const auto& [lane, durable] : lane_durable) {
+      Stmt q(db_,
+             "INSERT OR REPLACE INTO lane_progress (lane, durable_encoder, updated_ns) VALUES "
+             "(?,?,?)");
+      q.bind(1, int64_t(lane)).bind(2, durable).bind(3, now_ns());
+      q.step();
+    }
+    exec("COMMIT");
+  } catch (...) {
+    exec("ROLLBACK");
+    throw;
+  }
+}
+
+std::vector<std::pair<int, int64_t>> Store::progress() {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::vector<std::pair<int, int64_t>> out;
+  Stmt q(db_, "SELECT lane, durable_encoder FROM lane_progress ORDER BY lane");
+  while (q.step()) out.push_back({int(q.i64(0)), q.i64(1)});
+  return out;
+}
+
+std::optional<int64_t> Store::last_fillet_end(int lane) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt q(db_,
+         "SELECT first_encoder + rows - 1 FROM fillets WHERE lane = ? ORDER BY uid DESC LIMIT 1");
+  q.bind(1, int64_t(lane));
+  if (!q.step()) return std::nullopt;
+  return q.i64(0);
 }
 
 std::string Store::append_audit(const AuditEntry& e, const std::string& prev) {

@@ -120,6 +120,13 @@ class Store {
   // row's canonical content recomputed from the store: with the first link's `prev`, a
   // reader checks them by hashing alone (an export's chain proof).
   static std::vector<ChainLink> chain_links(const std::string& dir, int64_t from_ns, int64_t to_ns);
+  // Each lane's durable count (Engine: every line up to it has its outcome stored), kept so
+  // that a restarted server knows which resent lines it already had.
+  void save_progress(const std::vector<std::pair<int, int64_t>>& lane_durable);
+  std::vector<std::pair<int, int64_t>> progress();
+  // The last X-ray count of the lane's latest stored fillet (nullopt: none).
+  std::optional<int64_t> last_fillet_end(int lane);
+
   // Retention (store_retention.cpp). Images first: the image files of fillets decided before
   // images_before_ns go (passed, then not inspected, then rejected; the records stay). Then
   // records: the chain's oldest links stamped before records_before_ns, with their fillets,

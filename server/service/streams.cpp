@@ -135,6 +135,7 @@ class IngestStream final
     }
     resp.set_accepted(v.accepted);
     resp.set_credit(credit(v));
+    if (v.durable != INT64_MIN) resp.set_durable_encoder(v.durable);
     if (!v.accepted) {
       resp.mutable_error()->set_code(std::string(refusal_name(v.code)));
       resp.mutable_error()->set_message(v.message);
