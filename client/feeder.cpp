@@ -57,6 +57,7 @@ struct Shared {
   // order: resent after a reconnect with the unacknowledged ones, so that a server that
   // crashed rebuilds what it had not stored.
   std::map<int, std::deque<InFlight>> retained;
+  uint64_t epoch = 0;  // the server's, from its last answer
   int credit = 1 << 20;
   bool broken = false;         // the current stream ended
   bool query_pending = false;  // a credit query awaits its answer
@@ -94,6 +95,8 @@ FeedReport Feeder::run(LineSource& source) {
   auto backoff = std::chrono::milliseconds(100);
   auto probe_wait = std::chrono::milliseconds(50);
   std::minstd_rand jitter(uint32_t(reinterpret_cast<uintptr_t>(&sh)));
+  std::deque<InFlight> again;  // to resend on this stream, in first-sent order
+  uint64_t known_epoch = 0;    // of the server that acknowledged what is retained
 
   while (true) {
     grpc::ClientContext ctx;
@@ -109,6 +112,7 @@ FeedReport Feeder::run(LineSource& source) {
       while (stream->Read(&r)) {
         std::lock_guard<std::mutex> lock(sh.mu);
         sh.credit = r.credit();
+        sh.epoch = r.server_epoch();
         sh.progress = Clock::now();
         if (sh.query_pending && r.sequence() == sh.query_sequence) {
           sh.query_pending = false;
@@ -137,34 +141,38 @@ FeedReport Feeder::run(LineSource& source) {
       sh.cv.notify_all();
     });
 
-    // Resend what the server had not made durable and what the last stream left
-    // unacknowledged, in the order first sent, then carry on with new lines.
-    std::deque<std::shared_ptr<const pb::StreamLinesRequest>> resend;
+    // First a credit query: its answer tells whether this is the server that had our
+    // lines. Another one (rangexd restarted) lacks what it had not made durable: those are
+    // resent with the unacknowledged lines, in the order first sent, before new lines; the
+    // same one still has them.
+    bool open = true;
     {
-      std::lock_guard<std::mutex> lock(sh.mu);
-      std::deque<InFlight> again;
-      for (auto& [lane, kept] : sh.retained)
-        for (InFlight& f : kept) again.push_back(std::move(f));
-      sh.retained.clear();
+      pb::StreamLinesRequest query;
+      query.set_sequence(seq++);
+      query.set_credit_query(true);
+      std::unique_lock<std::mutex> lock(sh.mu);
+      sh.query_pending = true;
+      sh.query_sequence = query.sequence();
+      lock.unlock();
+      open = stream->Write(query);
+      lock.lock();
+      if (open) sh.cv.wait(lock, [&] { return !sh.query_pending || sh.broken; });
+      if (sh.epoch != known_epoch && known_epoch != 0) {
+        for (auto& [lane, kept] : sh.retained)
+          for (InFlight& f : kept) again.push_back(std::move(f));
+        sh.retained.clear();
+      }
+      if (!sh.broken) known_epoch = sh.epoch;
+      for (InFlight& f : sh.unacked) again.push_back(std::move(f));
+      sh.unacked.clear();
       std::sort(again.begin(), again.end(), [](const InFlight& a, const InFlight& b) {
         return a.req->sequence() < b.req->sequence();
       });
-      for (InFlight& f : sh.unacked) again.push_back(std::move(f));
-      sh.unacked = std::move(again);
-      for (InFlight& f : sh.unacked) {
-        f.resent = true;
-        resend.push_back(f.req);
-      }
     }
-    bool open = true;
-    for (const auto& r : resend) {
-      if (!(open = stream->Write(*r))) break;
-      ++rep.resent;
-    }
-    while (open && next < total) {
+    while (open && (!again.empty() || next < total)) {
       const int64_t n = next / int64_t(lanes.size());
       const int li = int(next % int64_t(lanes.size()));
-      if (opt_.rate > 0 && li == 0)  // pace: line n of every lane leaves at n / rate seconds
+      if (again.empty() && opt_.rate > 0 && li == 0)  // pace: line n of every lane at n / rate s
         std::this_thread::sleep_until(t0 + std::chrono::duration<double>(double(n) / opt_.rate));
       std::shared_ptr<const pb::StreamLinesRequest> out;
       {
@@ -200,16 +208,24 @@ FeedReport Feeder::run(LineSource& source) {
         if (sh.broken || !open) break;
         probe_wait = std::chrono::milliseconds(50);
       }
-      auto req = std::make_shared<pb::StreamLinesRequest>();
-      req->set_sequence(seq++);
-      source.line(li, n, *req->mutable_line());
-      out = req;
-      {
+      if (!again.empty()) {  // a resend, under the same flow control as new lines
+        InFlight f = std::move(again.front());
+        again.pop_front();
+        f.resent = true;
+        out = f.req;
+        std::lock_guard<std::mutex> lock(sh.mu);
+        sh.unacked.push_back(std::move(f));
+        ++rep.resent;
+      } else {
+        auto req = std::make_shared<pb::StreamLinesRequest>();
+        req->set_sequence(seq++);
+        source.line(li, n, *req->mutable_line());
+        out = req;
         std::lock_guard<std::mutex> lock(sh.mu);
         sh.unacked.push_back({out, false});
+        ++next;
+        ++rep.sent;
       }
-      ++next;
-      ++rep.sent;
       open = stream->Write(*out);  // no lock held: the reader must keep taking acks
     }
     if (open) stream->WritesDone();
@@ -217,7 +233,11 @@ FeedReport Feeder::run(LineSource& source) {
     rep.status = stream->Finish();
     bool done;
     {
+      // What this stream did not get to resend waits for the next, with what it left
+      // unacknowledged.
       std::lock_guard<std::mutex> lock(sh.mu);
+      for (InFlight& f : again) sh.unacked.push_back(std::move(f));
+      again.clear();
       done = next >= total && sh.unacked.empty();
     }
     if (done && rep.status.ok()) break;

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <random>
 
 #include "core/calibration_report.h"
 #include "core/error.h"
@@ -66,6 +67,7 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
         route(lines, r);
       },
       [this](std::vector<Queued>& lines, const std::string& why) { lose(lines, why); });
+  epoch_ = std::random_device{}() | uint64_t(std::random_device{}()) << 32 | 1;
   resume_from_store();
   for (int k = 0; k < opt_.inspectors; ++k) inspectors_.emplace_back([this] { inspector(); });
   worker_ = std::thread([this] { worker(); });

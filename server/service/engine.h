@@ -144,6 +144,8 @@ class Engine {
   const PlantConfig& plant() const { return plant_; }
   const EngineOptions& options() const { return opt_; }
   BackendInfo backend() const { return runner_->running(); }
+  // Drawn at start: tells a reconnecting feeder whether this server had its lines.
+  uint64_t epoch() const { return epoch_; }
   std::string backend_note() const { return runner_->note(); }
 
  private:
@@ -267,6 +269,7 @@ class Engine {
   std::mutex save_mu_;
   std::deque<Unsaved> unsaved_;
 
+  uint64_t epoch_ = 0;
   std::thread progress_;
   std::mutex progress_mu_;
   std::condition_variable progress_cv_;

@@ -113,6 +113,7 @@ class IngestStream final
   pb::StreamLinesResponse handle(pb::StreamLinesRequest& req) {
     pb::StreamLinesResponse resp;
     resp.set_sequence(req.sequence());
+    resp.set_server_epoch(engine_.epoch());
     Engine::Verdict v;
     if (!req.has_line() && req.credit_query()) {
       v.credit = engine_.free_places();  // a question, not a line: nothing is counted
