@@ -61,8 +61,9 @@ PathResult ray_path_length(const ProfileGrid& g, double xd, double zd, double xs
     // only crosses a cell boundary: there is no meat in it to sample.
     if (zexit - z > kMinRaySegmentMm) {
       const double h0 = sample(cell), h1 = sample(cell + 1);
+      const double x_cell = g.x0_mm + cell * g.pitch_mm;  // (a lambda may not name a binding)
       auto h_at = [&](double zz) {
-        const double t = (x_at(zz) - (g.x0_mm + cell * g.pitch_mm)) / g.pitch_mm;
+        const double t = (x_at(zz) - x_cell) / g.pitch_mm;
         return h0 + (h1 - h0) * t;
       };
       len += positive_span(z, zexit, h_at(z) - z, h_at(zexit) - zexit);

@@ -11,6 +11,7 @@
 #include "core/calibration_report.h"
 #include "core/error.h"
 #include "pipeline/fillet_images.h"
+#include "service/line_shape.h"
 
 namespace fs = std::filesystem;
 
@@ -115,27 +116,8 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
     return refuse(nullptr, Refusal::kUnknownLane, "unknown lane " + std::to_string(line.lane),
                   queued_.load());
   ++l->received;
-  const size_t frame = size_t(l->width) * l->height;
-  const size_t expected = 2 * frame + size_t(l->pixels) * 2;
-  const size_t size = line.cam0.size() + line.cam1.size() + line.xray.size();
-  if (size > 4 * expected)
-    return refuse(l, Refusal::kOversized,
-                  join("line of ", size, " bytes; lane ", l->id, " lines are ", expected, " bytes"),
-                  queued_.load());
-  if (line.cam0.size() != frame || line.cam1.size() != frame)
-    return refuse(l, Refusal::kWrongFrameSize,
-                  join("camera frames of ", line.cam0.size(), " and ", line.cam1.size(),
-                       " bytes; lane ", l->id, " expects ", l->width, "x", l->height, " = ", frame),
-                  queued_.load());
-  if (line.xray.size() != size_t(l->pixels) * 2)
-    return refuse(l, Refusal::kWrongXraySize,
-                  join("X-ray line of ", line.xray.size(), " bytes; lane ", l->id, " expects ",
-                       l->pixels, " 16-bit pixels"),
-                  queued_.load());
-  if (line.encoder > kMaxEncoder || line.encoder < -kMaxEncoder)
-    return refuse(l, Refusal::kEncoderOutOfRange,
-                  join("encoder ", line.encoder, " of lane ", l->id, " is outside +-2^62"),
-                  queued_.load());
+  if (auto bad = check_line_shape({l->id, l->width, l->height, l->pixels}, line))
+    return refuse(l, bad->code, std::move(bad->message), queued_.load());
 
   // The checks against the lane's state and the update of that state are one step under
   // mu_: two streams on one lane can never both be accepted for a count.

@@ -16,6 +16,7 @@
 
 #include "core/error.h"
 #include "service/fillet_csv.h"
+#include "service/http_params.h"
 #include "service/image_view.h"
 #include "service/metrics_text.h"
 #include "service/pb_convert.h"
@@ -31,64 +32,6 @@ int64_t wall_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(
              std::chrono::system_clock::now().time_since_epoch())
       .count();
-}
-
-// A request parameter that is wrong: answered 400 with what is wrong.
-struct BadRequest : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
-// `v`, the value (or one item) of parameter `name`, as an integer within lo..hi.
-int64_t parse_int(const char* name, const std::string& v, int64_t lo, int64_t hi) {
-  size_t used = 0;
-  int64_t n = 0;
-  try {
-    n = std::stoll(v, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (v.empty() || used != v.size())
-    throw BadRequest(std::string(name) + " must be an integer (got '" + v + "')");
-  if (n < lo || n > hi)
-    throw BadRequest(std::string(name) + " must be within " + std::to_string(lo) + ".." +
-                     std::to_string(hi) + " (got " + v + ")");
-  return n;
-}
-
-int64_t int_param(const httplib::Request& req, const char* name, int64_t fallback, int64_t lo,
-                  int64_t hi) {
-  return req.has_param(name) ? parse_int(name, req.get_param_value(name), lo, hi) : fallback;
-}
-
-// A decision as the API names it (pass, reject, not_inspected).
-const std::string& checked_decision(const char* name, const std::string& d) {
-  if (d != "pass" && d != "reject" && d != "not_inspected")
-    throw BadRequest(std::string(name) + " must be pass, reject or not_inspected (got '" + d +
-                     "')");
-  return d;
-}
-
-FilletQuery fillet_query(const httplib::Request& req) {
-  FilletQuery q;
-  q.lane = int(int_param(req, "lane", -1, -1, 1 << 20));
-  q.from_ns = int_param(req, "from_ns", 0, 0, INT64_MAX);
-  q.to_ns = int_param(req, "to_ns", 0, 0, INT64_MAX);
-  q.after = int_param(req, "after", 0, 0, INT64_MAX);
-  q.limit = int(int_param(req, "limit", 200, 1, 10000));
-  q.newest_first = int_param(req, "newest", 0, 0, 1) == 1;
-  if (req.has_param("decision") && !req.get_param_value("decision").empty())
-    q.decision = checked_decision("decision", req.get_param_value("decision"));
-  return q;
-}
-
-std::set<int> int_set(const httplib::Request& req, const char* name) {
-  std::set<int> out;
-  if (!req.has_param(name)) return out;
-  std::stringstream ss(req.get_param_value(name));
-  std::string item;
-  while (std::getline(ss, item, ','))
-    if (!item.empty()) out.insert(int(parse_int(name, item, INT32_MIN, INT32_MAX)));
-  return out;
 }
 
 json fragment_json(const StoredFragment& g) {
@@ -383,7 +326,7 @@ void HttpServer::routes() {
     res.set_content(to_json(st), "application/json");
   });
   s.Get("/api/history", [this](const httplib::Request& req, httplib::Response& res) {
-    const int64_t minutes = int_param(req, "minutes", 60, 1, 60);
+    const int64_t minutes = int_param(req.params, "minutes", 60, 1, 60);
     const std::vector<HistorySample> h = history_.since(wall_ns() - minutes * 60'000'000'000);
     json out = json::array();
     for (size_t k = 1; k < h.size(); ++k) {
@@ -402,7 +345,7 @@ void HttpServer::routes() {
     send_json(res, {{"period_s", opt_.history_period_s}, {"samples", out}});
   });
   s.Get("/api/fillets", [this](const httplib::Request& req, httplib::Response& res) {
-    const FilletQuery q = fillet_query(req);
+    const FilletQuery q = fillet_query(req.params);
     json list = json::array();
     int64_t last = q.after;
     for (const StoredFillet& f : store_.list_fillets(q)) {
@@ -414,7 +357,7 @@ void HttpServer::routes() {
     send_json(res, {{"fillets", list}, {"next_after", last}});
   });
   s.Get("/api/fillets.csv", [this](const httplib::Request& req, httplib::Response& res) {
-    FilletQuery q = fillet_query(req);
+    FilletQuery q = fillet_query(req.params);
     q.limit = 5000;
     std::string csv = fillet_csv_header();
     while (true) {
@@ -427,7 +370,7 @@ void HttpServer::routes() {
     res.set_content(csv, "text/csv");
   });
   s.Get(R"(/api/fillets/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
-    const int64_t uid = std::stoll(req.matches[1]);
+    const int64_t uid = parse_uid(req.matches[1]);
     const std::optional<StoredFillet> f = store_.fillet(uid);
     if (!f) throw NotFound("no fillet " + std::to_string(uid) + " in the store");
     json j = fillet_json(*f);
@@ -436,14 +379,8 @@ void HttpServer::routes() {
   });
   s.Get(R"(/api/fillets/(\d+)/images/([a-z_]+))",
         [this](const httplib::Request& req, httplib::Response& res) {
-          const int64_t uid = std::stoll(req.matches[1]);
-          const std::string kind = req.matches[2];
-          if (kind != "overlay" && kind != "xray" && kind != "thickness" && kind != "pseudo_xray" &&
-              kind != "residual")
-            throw BadRequest(
-                "image kind must be overlay, xray, thickness, pseudo_xray or "
-                "residual (got '" +
-                kind + "')");
+          const int64_t uid = parse_uid(req.matches[1]);
+          const std::string kind = checked_image_kind(req.matches[2]);
           const std::optional<std::string> path = store_.image_path(uid, kind);
           if (!path)
             throw NotFound("fillet " + std::to_string(uid) + " has no " + kind +
@@ -460,7 +397,7 @@ void HttpServer::routes() {
           res.set_content(body, "image/png");
         });
   s.Get("/api/calibrations", [this](const httplib::Request& req, httplib::Response& res) {
-    const int lane = int(int_param(req, "lane", -1, -1, 1 << 20));
+    const int lane = int(int_param(req.params, "lane", -1, -1, 1 << 20));
     json versions = json::array();
     for (const StoredCalibration& c : store_.calibrations(lane))
       versions.push_back({{"lane", c.lane},
@@ -476,7 +413,7 @@ void HttpServer::routes() {
     send_json(res, {{"versions", versions}, {"events", events}});
   });
   s.Get("/api/audit", [this](const httplib::Request& req, httplib::Response& res) {
-    const int limit = int(int_param(req, "limit", 200, 1, 100000));
+    const int limit = int(int_param(req.params, "limit", 200, 1, 100000));
     json out = json::array();
     for (const AuditEntry& e : store_.audit_entries(limit))
       out.push_back({{"ts_ns", e.ts_ns}, {"who", e.who}, {"what", e.what}, {"detail", e.detail}});
@@ -492,14 +429,8 @@ void HttpServer::routes() {
     res.set_content(prometheus_text(m), "text/plain; version=0.0.4; charset=utf-8");
   });
   s.Get("/api/events", [this](const httplib::Request& req, httplib::Response& res) {
-    std::set<std::string> decisions;
-    if (req.has_param("decisions")) {
-      std::stringstream ss(req.get_param_value("decisions"));
-      std::string d;
-      while (std::getline(ss, d, ','))
-        if (!d.empty()) decisions.insert(checked_decision("decisions", d));
-    }
-    const std::set<int> lanes = int_set(req, "lanes");
+    const std::set<std::string> decisions = decision_set(req.params, "decisions");
+    const std::set<int> lanes = int_set(req.params, "lanes");
     if (++event_streams_ > opt_.max_event_streams) {
       --event_streams_;
       res.status = 503;

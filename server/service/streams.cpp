@@ -6,6 +6,7 @@
 #include <mutex>
 
 #include "service/engine.h"
+#include "service/line_from_proto.h"
 #include "service/pb_convert.h"
 #include "service/results_hub.h"
 #include "service/tsan_annotations.h"
@@ -123,14 +124,7 @@ class IngestStream final
     if (!req.has_line()) {
       v = engine_.refuse_empty(req.sequence());
     } else {
-      pb::LineScan* l = req.mutable_line();
-      IncomingLine in;
-      in.lane = l->lane();
-      in.encoder = l->encoder();
-      in.cam0 = std::move(*l->mutable_cam0());
-      in.cam1 = std::move(*l->mutable_cam1());
-      in.xray = std::move(*l->mutable_xray());
-      in.calibration_id = l->calibration_id();
+      IncomingLine in = take_line(*req.mutable_line());
       in.queued_by = queued_;
       v = engine_.submit(std::move(in));
     }

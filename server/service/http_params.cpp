@@ -1,0 +1,94 @@
+#include "service/http_params.h"
+
+#include <sstream>
+
+namespace rangex {
+
+namespace {
+const std::string* value(const QueryParams& p, const char* name) {
+  const auto it = p.find(name);
+  return it == p.end() ? nullptr : &it->second;
+}
+}  // namespace
+
+int64_t parse_int(const char* name, const std::string& v, int64_t lo, int64_t hi) {
+  size_t used = 0;
+  int64_t n = 0;
+  try {
+    n = std::stoll(v, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (v.empty() || used != v.size())
+    throw BadRequest(std::string(name) + " must be an integer (got '" + v + "')");
+  if (n < lo || n > hi)
+    throw BadRequest(std::string(name) + " must be within " + std::to_string(lo) + ".." +
+                     std::to_string(hi) + " (got " + v + ")");
+  return n;
+}
+
+int64_t int_param(const QueryParams& p, const char* name, int64_t fallback, int64_t lo,
+                  int64_t hi) {
+  const std::string* v = value(p, name);
+  return v ? parse_int(name, *v, lo, hi) : fallback;
+}
+
+const std::string& checked_decision(const char* name, const std::string& d) {
+  if (d != "pass" && d != "reject" && d != "not_inspected")
+    throw BadRequest(std::string(name) + " must be pass, reject or not_inspected (got '" + d +
+                     "')");
+  return d;
+}
+
+FilletQuery fillet_query(const QueryParams& p) {
+  FilletQuery q;
+  q.lane = int(int_param(p, "lane", -1, -1, 1 << 20));
+  q.from_ns = int_param(p, "from_ns", 0, 0, INT64_MAX);
+  q.to_ns = int_param(p, "to_ns", 0, 0, INT64_MAX);
+  q.after = int_param(p, "after", 0, 0, INT64_MAX);
+  q.limit = int(int_param(p, "limit", 200, 1, 10000));
+  q.newest_first = int_param(p, "newest", 0, 0, 1) == 1;
+  if (const std::string* d = value(p, "decision"); d && !d->empty())
+    q.decision = checked_decision("decision", *d);
+  return q;
+}
+
+namespace {
+template <typename F>
+void each_item(const QueryParams& p, const char* name, F&& f) {
+  const std::string* v = value(p, name);
+  if (!v) return;
+  std::stringstream ss(*v);
+  std::string item;
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) f(item);
+}
+}  // namespace
+
+std::set<int> int_set(const QueryParams& p, const char* name) {
+  std::set<int> out;
+  each_item(p, name, [&](const std::string& s) {
+    out.insert(int(parse_int(name, s, INT32_MIN, INT32_MAX)));
+  });
+  return out;
+}
+
+std::set<std::string> decision_set(const QueryParams& p, const char* name) {
+  std::set<std::string> out;
+  each_item(p, name, [&](const std::string& s) { out.insert(checked_decision(name, s)); });
+  return out;
+}
+
+int64_t parse_uid(const std::string& digits) {
+  return parse_int("the fillet uid", digits, 1, INT64_MAX);
+}
+
+const std::string& checked_image_kind(const std::string& kind) {
+  if (kind != "overlay" && kind != "xray" && kind != "thickness" && kind != "pseudo_xray" &&
+      kind != "residual")
+    throw BadRequest("image kind must be overlay, xray, thickness, pseudo_xray or residual (got '" +
+                     kind + "')");
+  return kind;
+}
+
+}  // namespace rangex

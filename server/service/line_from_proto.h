@@ -1,0 +1,10 @@
+// A LineScan as the server takes it in: its bytes moved out of the message, not copied.
+#pragma once
+#include "rangex/v1/rangex.pb.h"
+#include "service/incoming_line.h"
+
+namespace rangex {
+
+IncomingLine take_line(v1::LineScan& line);
+
+}  // namespace rangex

@@ -1,0 +1,29 @@
+#include "service/line_shape.h"
+
+#include "core/error.h"
+
+namespace rangex {
+
+std::optional<ShapeRefusal> check_line_shape(const LaneShape& l, const IncomingLine& line) {
+  const size_t frame = size_t(l.width) * size_t(l.height);
+  const size_t expected = 2 * frame + size_t(l.pixels) * 2;
+  const size_t size = line.cam0.size() + line.cam1.size() + line.xray.size();
+  if (size > 4 * expected)
+    return ShapeRefusal{Refusal::kOversized, join("line of ", size, " bytes; lane ", l.lane,
+                                                  " lines are ", expected, " bytes")};
+  if (line.cam0.size() != frame || line.cam1.size() != frame)
+    return ShapeRefusal{
+        Refusal::kWrongFrameSize,
+        join("camera frames of ", line.cam0.size(), " and ", line.cam1.size(), " bytes; lane ",
+             l.lane, " expects ", l.width, "x", l.height, " = ", frame)};
+  if (line.xray.size() != size_t(l.pixels) * 2)
+    return ShapeRefusal{Refusal::kWrongXraySize,
+                        join("X-ray line of ", line.xray.size(), " bytes; lane ", l.lane,
+                             " expects ", l.pixels, " 16-bit pixels")};
+  if (line.encoder > kMaxEncoder || line.encoder < -kMaxEncoder)
+    return ShapeRefusal{Refusal::kEncoderOutOfRange,
+                        join("encoder ", line.encoder, " of lane ", l.lane, " is outside +-2^62")};
+  return std::nullopt;
+}
+
+}  // namespace rangex

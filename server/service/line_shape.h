@@ -1,0 +1,24 @@
+// Admission's first step: a line's shape against its lane's (the frames' and the X-ray line's
+// sizes, the encoder's range), before the lane's state is looked at (Engine::submit).
+#pragma once
+#include <optional>
+#include <string>
+
+#include "service/incoming_line.h"
+#include "service/line_codes.h"
+
+namespace rangex {
+
+struct LaneShape {
+  int lane = 0, width = 0, height = 0, pixels = 0;  // Mono8 frames, 16-bit X-ray pixels
+};
+
+struct ShapeRefusal {
+  Refusal code;
+  std::string message;
+};
+
+// nullopt: the line has the lane's shape.
+std::optional<ShapeRefusal> check_line_shape(const LaneShape& lane, const IncomingLine& line);
+
+}  // namespace rangex

@@ -1,0 +1,95 @@
+#!/usr/bin/env python3
+"""Writes the fuzz targets' seed corpus (tests/fuzz/corpus/<target>/): small valid inputs of
+each kind, in each target's input format, for libFuzzer to mutate from. Run from anywhere;
+the corpus is committed, this script is how it was made.
+
+usage: make_seeds.py [CORPUS_DIR]
+"""
+import os
+import struct
+import sys
+
+here = os.path.dirname(os.path.abspath(__file__))
+out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "corpus")
+
+
+def put(target, name, data):
+    d = os.path.join(out, target)
+    os.makedirs(d, exist_ok=True)
+    with open(os.path.join(d, name), "wb") as f:
+        f.write(data if isinstance(data, bytes) else data.encode())
+
+
+def fdp_strings(*parts):
+    """FuzzedDataProvider.ConsumeRandomLengthString's encoding: a backslash is doubled, and a
+    backslash followed by another byte ends the string."""
+    return b"".join(p.replace(b"\\", b"\\\\") + b"\\\n" for p in parts)
+
+
+def varint(n):
+    n &= (1 << 64) - 1
+    b = bytearray()
+    while True:
+        b.append((n & 0x7F) | (0x80 if n > 0x7F else 0))
+        n >>= 7
+        if not n:
+            return bytes(b)
+
+
+def field(num, wire, payload):
+    key = varint(num << 3 | wire)
+    return key + (varint(payload) if wire == 0 else varint(len(payload)) + payload)
+
+
+def request(seq, lane, encoder, w, h, px, cal=b""):
+    line = (field(1, 0, lane) + field(2, 0, encoder) + field(4, 2, bytes(w * h)) +
+            field(5, 2, bytes(range(w * h))) + field(6, 2, struct.pack("<%dH" % px, *range(px))))
+    if cal:
+        line += field(7, 2, cal)
+    return field(1, 0, seq) + field(2, 2, line)
+
+
+# plant.yaml and calibration sets
+root = os.path.join(here, "..", "..")
+put("plant_config", "shipped.yaml", open(os.path.join(root, "config", "plant.yaml")).read())
+put("plant_config", "minimal.yaml", "lanes: [{id: 0}]\n")
+put("plant_config", "sections.yaml", """plant: {name: p, listen: 127.0.0.1:1, http: off}
+server: {queue_lines: 64, batch_lines: 8}
+retention: {days: 30, images_days: 7, every_h: 0.5}
+security:
+  tls: {cert: s.crt, key: s.key, client_ca: ca.crt}
+  identities: {line-1: operator}
+  tokens: [{name: t, role: viewer, sha256: %s}]
+lanes:
+  - {id: 0, frame: {width: 64, height: 20}, stripe: {method: gaussian3}}
+  - {id: 2, encoder_step_mm: 0.5, xray: {pixels: 100, delay_lines: 10}}
+""" % ("ab" * 32))
+put("plant_config", "calibration.yaml",
+    "laser_plane: {normal: [0, 1, 0], offset_mm: 0.05}\nencoder_step_mm: 0.41\n")
+
+# recordings: a valid one-lane, two-line recording, and one whose arrays are short
+yaml = (b"format: rangex-recording/1\nlanes: [0]\nframe: {width: 4, height: 2}\n"
+        b"xray_pixels: 3\nlines: 2\nencoder_step_mm: 0.4\ncalibration_id: c\n")
+cam = bytes(range(16))
+put("recording", "valid", fdp_strings(yaml, cam, cam[::-1], struct.pack("<6H", *range(6)),
+                                      struct.pack("<2q", 7, 8)))
+put("recording", "short", fdp_strings(yaml, cam[:9], cam, b"\x01\x02", struct.pack("<q", 7)))
+
+# LineScan requests: right sizes (lane 0 is 8x4 with 6 pixels in the target), a resend, a
+# count far back (a reset), a wrong size, an unknown lane, encoders at the range's edges
+reqs = [request(0, 0, 10, 8, 4, 6), request(1, 0, 11, 8, 4, 6), request(2, 0, 10, 8, 4, 6),
+        request(3, 3, 5, 16, 2, 4, b"cal-1"), request(4, 0, 10 - 5000, 8, 4, 6),
+        request(5, 0, 12, 8, 3, 6), request(6, 9, 1, 8, 4, 6),
+        request(7, 0, (1 << 62), 8, 4, 6), request(8, 0, -(1 << 62) - 1, 8, 4, 6),
+        field(1, 0, 9) + field(3, 0, 1)]
+put("line_admission", "sequence", fdp_strings(*reqs))
+put("line_admission", "one", fdp_strings(reqs[0]))
+
+# queries: path "uid/kind", then ?parameters
+for i, q in enumerate(["12/overlay?lane=1&decision=reject&limit=5",
+                       "?from_ns=0&to_ns=5000&newest=1&after=3",
+                       "7/residual?lanes=1,2&decisions=reject,pass&minutes=30&limit=10",
+                       "99999999999999999999/xray?lane=-1&limit=0",
+                       "3?decision=&lane=2&from_ns=2000"]):
+    put("query_params", "q%d" % i, q)
+print("seeds written to", out)
