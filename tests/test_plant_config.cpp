@@ -213,3 +213,14 @@ TEST(PlantConfig, AKeyThatIsNotANameIsRefusedNamingWhere) {
         << e.what();
   }
 }
+
+// Found by fuzzing: strings in a stored calibration (camera names, where the scatter
+// constants were fitted) were written unquoted and did not read back.
+TEST(PlantConfig, CalibrationStringsReadBackAsWritten) {
+  LaneConfig l = default_plant_config(1).lanes[0];
+  l.cameras[0].name = "cam: \"left\"\nsecond line # not a comment";
+  l.cameras[1].scatter_fitted_on = "fitted on 2026-11-23, rig 'B' \\ lane 0\ttab";
+  const LaneConfig back = apply_lane_calibration(l, lane_calibration_yaml(l), "stored");
+  EXPECT_EQ(back.cameras[0].name, l.cameras[0].name);
+  EXPECT_EQ(back.cameras[1].scatter_fitted_on, l.cameras[1].scatter_fitted_on);
+}

@@ -531,6 +531,17 @@ PlantConfig default_plant_config(int lanes) {
   return p;
 }
 
+namespace {
+// A string as a YAML scalar that reads back as itself (found by fuzzing: a camera name or a
+// fitted_on note with a quote or a line break was written as is, and the stored calibration
+// no longer read back).
+std::string yaml_string(const std::string& s) {
+  YAML::Emitter e;
+  e << YAML::DoubleQuoted << s;
+  return e.c_str();
+}
+}  // namespace
+
 std::string lane_calibration_yaml(const LaneConfig& l) {
   std::ostringstream o;
   o.precision(15);
@@ -546,8 +557,9 @@ std::string lane_calibration_yaml(const LaneConfig& l) {
     const double dist[5] = {d.k1, d.k2, d.p1, d.p2, d.k3};
     const Vec3 ctr = c.model.center();
     const double centre[3] = {ctr.x, ctr.y, ctr.z};
-    o << "  - name: " << c.name << "\n    intrinsics: {fx: " << k.fx << ", fy: " << k.fy
-      << ", cx: " << k.cx << ", cy: " << k.cy << ", skew: " << k.skew << "}\n    distortion: ";
+    o << "  - name: " << yaml_string(c.name) << "\n    intrinsics: {fx: " << k.fx
+      << ", fy: " << k.fy << ", cx: " << k.cx << ", cy: " << k.cy << ", skew: " << k.skew
+      << "}\n    distortion: ";
     list(dist, 5);
     o << "\n    rotation: ";
     list(c.model.rotation().m.data(), 9);
@@ -555,7 +567,7 @@ std::string lane_calibration_yaml(const LaneConfig& l) {
     list(centre, 3);
     o << "\n    scatter: {k1: " << c.scatter.k1 << ", k2: " << c.scatter.k2
       << ", k2_offset: " << c.scatter.k2_offset;
-    if (!c.scatter_fitted_on.empty()) o << ", fitted_on: \"" << c.scatter_fitted_on << "\"";
+    if (!c.scatter_fitted_on.empty()) o << ", fitted_on: " << yaml_string(c.scatter_fitted_on);
     o << "}\n";
   }
   const double n[3] = {l.laser.normal.x, l.laser.normal.y, l.laser.normal.z};
