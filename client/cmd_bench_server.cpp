@@ -116,6 +116,7 @@ void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans,
           feeders.emplace_back([&, lane] {
             MemorySource src(scans, lane);
             FeedOptions fo;
+            fo.keep_until_durable = false;  // the server's memory is what is measured
             fo.window = 8;
             const FeedReport r = Feeder(ch, fo).run(src);
             const uint64_t dups =
@@ -263,6 +264,7 @@ int cmd_bench_server(int argc, char** argv) {
                   std::chrono::duration<double>(double(lane) / nl * lines / rate));
             MemorySource src(scans, lane, repeats);
             FeedOptions fo;
+            fo.keep_until_durable = false;  // the server's memory is what is measured
             fo.window = 128;
             fo.rate = rate;
             const FeedReport r = Feeder(ch, fo).run(src);

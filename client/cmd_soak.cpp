@@ -158,6 +158,7 @@ int cmd_soak(int argc, char** argv) {
             std::chrono::duration<double>(double(lane) / lanes * double(scans.size()) / rate));
         MemorySource src(scans, lane, repeats);
         FeedOptions fo;
+        fo.keep_until_durable = false;  // the server's memory is what is measured
         fo.window = 128;
         fo.rate = rate;
         reports[size_t(lane)] = Feeder(ch, fo).run(src);

@@ -127,7 +127,8 @@ FeedReport Feeder::run(LineSource& source) {
           if (!line.acked) ++rep.accepted;
           if (line.resent && code == "DUPLICATE_LINE") ++rep.duplicates;
           line.acked = true;
-          if (r.has_durable_encoder()) retain(sh.retained, std::move(line), r.durable_encoder());
+          if (opt_.keep_until_durable && r.has_durable_encoder())
+            retain(sh.retained, std::move(line), r.durable_encoder());
         } else {
           ++rep.refused[code];
           if (told[code]++ < 3)

@@ -23,6 +23,10 @@ struct FeedOptions {
   int window = 256;             // lines in flight at most
   double rate = 0;              // lines/s per lane; 0: as fast as the server takes them
   double reconnect_for_s = 60;  // without progress this long, give up
+  // Keep acknowledged lines until the server says they are durable, to resend them to a
+  // server that restarted. Off only where the feeder shares the server's process and its
+  // memory would be counted as the server's (bench-server, soak).
+  bool keep_until_durable = true;
   // Told about refused lines (first few of each code, at most), and about reconnects.
   std::function<void(const std::string&)> log;
 };

@@ -14,14 +14,18 @@ const std::string* value(const QueryParams& p, const char* name) {
 int64_t parse_int(const char* name, const std::string& v, int64_t lo, int64_t hi) {
   size_t used = 0;
   int64_t n = 0;
+  bool too_big = false;
   try {
     n = std::stoll(v, &used);
+  } catch (const std::out_of_range&) {
+    too_big = v.find_first_not_of("+-0123456789") == std::string::npos;
+    used = 0;
   } catch (const std::exception&) {
     used = 0;
   }
-  if (v.empty() || used != v.size())
+  if (!too_big && (v.empty() || used != v.size()))
     throw BadRequest(std::string(name) + " must be an integer (got '" + v + "')");
-  if (n < lo || n > hi)
+  if (too_big || n < lo || n > hi)
     throw BadRequest(std::string(name) + " must be within " + std::to_string(lo) + ".." +
                      std::to_string(hi) + " (got " + v + ")");
   return n;
