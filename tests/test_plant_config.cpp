@@ -224,3 +224,12 @@ TEST(PlantConfig, CalibrationStringsReadBackAsWritten) {
   EXPECT_EQ(back.cameras[0].name, l.cameras[0].name);
   EXPECT_EQ(back.cameras[1].scatter_fitted_on, l.cameras[1].scatter_fitted_on);
 }
+
+// Found by fuzzing: a camera 43 km from the lane was taken (a typo a rig cannot have).
+TEST(PlantConfig, ACameraKilometresAwayIsRefused) {
+  const std::string e = error_of(
+      "lanes: [{id: 0, cameras: [{name: a, center_mm: [0, 414.5, 43067232.8]}, {name: b}]}]\n");
+  EXPECT_NE(e.find("lanes[0].cameras[0].center_mm: is more than 10 m from the lane's origin"),
+            std::string::npos)
+      << e;
+}

@@ -159,6 +159,9 @@ void read_camera(const Node& n, LaneCamera& cam, int w, int h) {
   if (n.has("center_mm")) {
     const auto v = n.at("center_mm").numbers(3);
     c = {v[0], v[1], v[2]};
+    // A rig is a metre or two across; kilometres are a typo (found by fuzzing: 43 km).
+    if (std::sqrt(c.x * c.x + c.y * c.y + c.z * c.z) > 10000)
+      n.at("center_mm").bad("is more than 10 m from the lane's origin");
   }
   if (n.has("scatter")) {
     const Node s = n.at("scatter");

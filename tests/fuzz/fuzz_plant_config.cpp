@@ -14,15 +14,15 @@
 using namespace rangex;
 
 namespace {
-// Two YAML texts equal but for numbers, which agree to 1e-9 (a camera's centre is kept as a
-// rotation and translation, so it reads back within rounding, not bit for bit).
+// Two YAML texts equal but for numbers, which agree to 1 nm or 1e-9 relative (a camera's
+// centre is kept as a rotation and translation, so it reads back within rounding).
 bool same_but_rounding(const std::string& a, const std::string& b) {
   const char *p = a.c_str(), *q = b.c_str();
   while (*p && *q) {
     char *pe = nullptr, *qe = nullptr;
     const double x = std::strtod(p, &pe), y = std::strtod(q, &qe);
     if (pe != p && qe != q) {
-      if (!(std::fabs(x - y) <= 1e-9 * (1 + std::fabs(x)))) return false;
+      if (!(std::fabs(x - y) <= 1e-6 + 1e-9 * std::fabs(x))) return false;  // 1 nm, or 1e-9
       p = pe, q = qe;
     } else if (*p++ != *q++) {
       return false;
