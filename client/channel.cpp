@@ -37,8 +37,13 @@ ClientSecurity ClientSecurity::from_environment() {
   s.key = env("RANGEX_KEY");
   s.token = env("RANGEX_TOKEN");
   if (s.token.empty() && !env("RANGEX_TOKEN_FILE").empty())
-    s.token = trimmed(read_file(env("RANGEX_TOKEN_FILE"), "RANGEX_TOKEN_FILE"));
+    s.token = read_token(env("RANGEX_TOKEN_FILE"), "RANGEX_TOKEN_FILE");
   return s;
+}
+
+std::string ClientSecurity::read_token(const std::string& path, const char* what) {
+  const std::string text = read_file(path, what);
+  return trimmed(text.substr(0, text.find('\n')));
 }
 
 std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address,

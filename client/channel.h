@@ -17,6 +17,8 @@ struct ClientSecurity {
   // RANGEX_CA, RANGEX_CERT, RANGEX_KEY, RANGEX_TOKEN (or RANGEX_TOKEN_FILE): what command-line
   // options do not set.
   static ClientSecurity from_environment();
+  // A token file's first line (throws Error naming the option when it cannot be read).
+  static std::string read_token(const std::string& path, const char* what);
 };
 
 // Throws Error when the security options are inconsistent or a file cannot be read.

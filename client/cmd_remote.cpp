@@ -39,13 +39,8 @@ ClientSecurity security(const Args& a) {
   s.cert = a.get("cert", s.cert);
   s.key = a.get("key", s.key);
   s.server_name = a.get("tls-name", "");
-  if (a.has("token-file")) {
-    std::ifstream in(a.get("token-file", ""));
-    if (!in) fail("--token-file: cannot read ", a.get("token-file", ""));
-    std::getline(in, s.token);
-    while (!s.token.empty() && (s.token.back() == '\r' || s.token.back() == ' '))
-      s.token.pop_back();
-  }
+  if (a.has("token-file"))
+    s.token = ClientSecurity::read_token(a.get("token-file", ""), "--token-file");
   return s;
 }
 
