@@ -144,8 +144,10 @@ def watch():
 
 watcher = threading.Thread(target=watch, daemon=True)
 watcher.start()
-feeder = subprocess.Popen([rangexctl, "feed", "--server", server.addr, "--reconnect-for", "90"]
-                          + FEED, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+# Paced (about 13 s of lines), so that the kills fall mid-stream on a fast machine too.
+feeder = subprocess.Popen([rangexctl, "feed", "--server", server.addr, "--reconnect-for", "90",
+                           "--rate", "300"] + FEED,
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 done_kills = 0
 for k in range(kills):
     time.sleep(rng.uniform(0.8, 2.5))
