@@ -148,6 +148,15 @@ watcher.start()
 feeder = subprocess.Popen([rangexctl, "feed", "--server", server.addr, "--reconnect-for", "90",
                            "--rate", "300"] + FEED,
                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+# The kills start once lines are flowing (the feeder renders its plant first).
+end = time.time() + 60
+while time.time() < end:
+    m = re.search(r"lines: (\d+) received", ctl("status", "--server", server.addr).stdout)
+    if m and int(m.group(1)) > 0:
+        break
+    time.sleep(0.1)
+else:
+    fail("no line reached rangexd within 60 s")
 done_kills = 0
 for k in range(kills):
     time.sleep(rng.uniform(0.8, 2.5))
@@ -169,7 +178,7 @@ check(feeder.returncode == 0 and " 0 refused" in feed_out,
 m = re.search(r"(\d+) reconnects, (\d+) lines resent \((\d+) the server already had\)", feed_out)
 # Lines the server had made durable after the last acknowledgement the feeder read are
 # answered DUPLICATE (the no-second-decision checks below cover them); the rest it rebuilds.
-check(m and int(m.group(1)) >= 2,
+check(m and int(m.group(1)) >= 1,
       "the feeder reconnected after the kills and resent what was not durable (%s)"
       % (m.group(0) if m else feed_out))
 settle(server)
