@@ -20,6 +20,22 @@ LaneConfig load_lane_calibration(const PlantConfig& plant, int lane, const std::
   return apply_lane_calibration(base, read_text_file(file), file);
 }
 
+void apply_calibration_option(PlantConfig& plant, const std::string& value) {
+  std::stringstream list(value);
+  std::string item;
+  while (std::getline(list, item, ',')) {
+    const size_t colon = item.find(':');
+    const bool one =
+        colon != std::string::npos && colon > 0 && item.find_first_not_of("0123456789") == colon;
+    for (auto& l : plant.lanes)
+      if (!one || l.id == std::stoi(item.substr(0, colon))) {
+        const std::string file = one ? item.substr(colon + 1) : item;
+        if (!std::filesystem::exists(file)) fail(file, ": no such calibration file");
+        l = load_lane_calibration(plant, l.id, file);
+      }
+  }
+}
+
 void save_lane_calibration(const LaneConfig& lane, const std::string& file,
                            const SolveReport& report) {
   {

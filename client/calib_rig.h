@@ -12,6 +12,8 @@ namespace rangex::cli {
 
 // --calibration FILE over the plant's lane, or the plant's lane itself.
 LaneConfig load_lane_calibration(const PlantConfig& plant, int lane, const std::string& file);
+// --calibration FILE (every lane) or L:FILE,L:FILE applied over the plant's lanes.
+void apply_calibration_option(PlantConfig& plant, const std::string& value);
 void save_lane_calibration(const LaneConfig& lane, const std::string& file,
                            const SolveReport& report);
 // Every report saved beside `file`, as one {"reports": [...]} document ("" when none).

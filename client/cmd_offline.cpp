@@ -61,10 +61,11 @@ std::vector<float> read_f32(const fs::path& p, size_t expect) {
 }  // namespace
 
 int cmd_simulate(int argc, char** argv) {
-  const Args a(argc, argv, 2, {},
+  const Args a(argc, argv, 2, {"clean"},
                {"lanes", "fillets", "seed", "out", "config", "rig-seed", "physics"});
-  a.expect_positionals(
-      0, "simulate --out DIR [--lanes N] [--fillets M] [--seed S] [--rig-seed R] [--physics F]");
+  a.expect_positionals(0,
+                       "simulate --out DIR [--lanes N] [--fillets M] [--seed S] [--rig-seed R] "
+                       "[--physics F] [--clean]");
   PlantConfig plant = load_config(a.get("config", ""));
   // A plant whose rigs differ from plant.yaml (as `calib simulate --rig-seed` draws them).
   if (a.has("rig-seed"))
@@ -75,6 +76,8 @@ int cmd_simulate(int argc, char** argv) {
   p.seed = uint64_t(a.integer("seed", 1));
   // A plant rendered with other physics (config/variants/*.yaml).
   if (a.has("physics")) p.physics = sim::load_plant_physics(a.require("physics"));
+  // A learning run of clean product: no bone (cartilage and everything else as the plant has).
+  if (a.flag("clean")) p.physics.bones.probability = 0;
   const std::string out = a.require("out");
   ProgressBar bar("simulate");
   sim::simulate_recording(plant, p, out, [&](int64_t d, int64_t t) { bar.update(d, t); });
@@ -247,19 +250,7 @@ int cmd_process(int argc, char** argv) {
   PlantConfig plant = load_config(a.get("config", ""));
   // Replay with new calibrations: --calibration FILE (every lane) or L:FILE,L:FILE.
   if (a.has("calibration")) {
-    std::stringstream list(a.get("calibration", ""));
-    std::string item;
-    while (std::getline(list, item, ',')) {
-      const size_t colon = item.find(':');
-      const bool one =
-          colon != std::string::npos && colon > 0 && item.find_first_not_of("0123456789") == colon;
-      for (auto& l : plant.lanes)
-        if (!one || l.id == std::stoi(item.substr(0, colon))) {
-          const std::string file = one ? item.substr(colon + 1) : item;
-          if (!fs::exists(file)) fail(file, ": no such calibration file");
-          l = load_lane_calibration(plant, l.id, file);
-        }
-    }
+    apply_calibration_option(plant, a.get("calibration", ""));
     plant.calibration_id = a.get("calibration", "");
     std::printf("replaying %s (made with calibration '%s') with %s\n",
                 a.positional(0, "recording folder").c_str(),

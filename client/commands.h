@@ -11,6 +11,7 @@ int cmd_extract(int argc, char** argv);
 int cmd_process(int argc, char** argv);
 int cmd_eval(int argc, char** argv);
 int cmd_eval_matrix(int argc, char** argv);
+int cmd_learn(int argc, char** argv);
 int cmd_calib(int argc, char** argv);
 int cmd_fit(int argc, char** argv);
 int cmd_feed(int argc, char** argv);

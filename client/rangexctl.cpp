@@ -10,7 +10,7 @@ namespace {
 constexpr const char* kUsage = R"(usage: rangexctl <command> [options]
 
 commands:
-  simulate --out DIR [--lanes N] [--fillets M] [--seed S] [--physics VARIANT.yaml]
+  simulate --out DIR [--lanes N] [--fillets M] [--seed S] [--physics VARIANT.yaml] [--clean]
       simulate a plant and write a recording with ground truth (--physics: another plant's
       physics, config/variants/*.yaml)
   extract DIR --lane L --camera C [--method NAME] --out peaks.csv [--config ...]
@@ -25,6 +25,11 @@ commands:
   eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] [--seed S]
       each plant variant (config/variants) calibrated from its own scenes, simulated,
       inspected and evaluated beside the X-ray-only baseline (a benchmark: minutes each)
+  learn RECORDING --out PLANT.yaml [--target-frr 0.003] [--confidence 0.9] [--lanes L,..]
+        [--calibration F] [--report DIR] [--version NAME] [--excess-ratio 2] [--force]
+      learn each lane's detection thresholds from a recording of clean product: an
+      extreme-value model per thickness band, the sensitivity it buys (test pieces), a
+      report (JSON, PNG); writes a copy of the plant configuration that uses them
   fit FILE.csv [--c C] [--degree 1|2] [--json]
       robust fit ln I = b0 + b1 T (Tukey biweight) of a two-column CSV with a header
       (--degree 2: + b2 T^2, the parabola of a hardened beam)
@@ -103,6 +108,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "process")) return cmd_process(argc, argv);
     if (!std::strcmp(cmd, "eval")) return cmd_eval(argc, argv);
     if (!std::strcmp(cmd, "eval-matrix")) return cmd_eval_matrix(argc, argv);
+    if (!std::strcmp(cmd, "learn")) return cmd_learn(argc, argv);
     if (!std::strcmp(cmd, "calib")) return cmd_calib(argc, argv);
     if (!std::strcmp(cmd, "fit")) return cmd_fit(argc, argv);
     if (!std::strcmp(cmd, "feed")) return cmd_feed(argc, argv);

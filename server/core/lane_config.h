@@ -7,6 +7,7 @@
 #include "core/camera_model.h"
 #include "core/fan_beam.h"
 #include "core/laser_plane.h"
+#include "core/learned_detection.h"
 #include "core/stripe_params.h"
 
 namespace rangex {
@@ -46,7 +47,12 @@ struct InspectionParams {
   double smooth_sigma_px = 1.0;
   // Elongated kernels for needles (0: off): along and across, pixels.
   double line_sigma_along_px = 3.0, line_sigma_across_px = 0.7;
-  double z_threshold = 5.0;  // smoothed z below -threshold is bone
+  double z_threshold = 5.0;  // smoothed z below -threshold is bone (unless learned)
+  // The per-fillet false-reject budget product learning sets thresholds for.
+  double false_reject_target = 0.003;
+  // Thresholds learned from the plant's own clean product (rangexctl learn); when active
+  // they replace z_threshold and air_z_threshold.
+  LearnedDetection learned;
   double min_fragment_area_mm2 = 0.3;
   // A fragment must attenuate at its peak like this many mm of the fillet's own meat (0: off).
   // Cartilage and tendon stay under about 1.5 mm; so do needles and thin rib plates, which is

@@ -176,6 +176,57 @@ void read_camera(const Node& n, LaneCamera& cam, int w, int h) {
 
 // Reads one lane from its own node over `c`, falling back section by section to
 // lane_defaults.
+std::vector<double> number_list(const Node& n, size_t expect) {
+  if (!n.node.IsSequence()) n.bad("expected a list of numbers");
+  return n.numbers(expect ? expect : n.node.size());
+}
+
+// inspection.learned (rangexctl learn writes it): every list matches the bands, the
+// thresholds are finite and the model's scale is a scale.
+void read_learned(const Node& n, LearnedDetection& L) {
+  n.only_keys({"version", "learned_on", "target_frr", "confidence", "fillets", "band_edges_mm",
+               "round", "needle", "air"});
+  n.get("version", L.version);
+  n.get("learned_on", L.learned_on);
+  n.get("target_frr", L.target_frr);
+  if (!(L.target_frr > 0 && L.target_frr < 0.5)) n.at("target_frr").bad("must be in (0, 0.5)");
+  n.get("confidence", L.confidence);
+  if (!(L.confidence >= 0.5 && L.confidence < 1)) n.at("confidence").bad("must be in [0.5, 1)");
+  n.get("fillets", L.fillets);
+  if (!n.has("band_edges_mm")) n.bad("missing key 'band_edges_mm'");
+  L.band_edges_mm = number_list(n.at("band_edges_mm"), 0);
+  if (L.band_edges_mm.size() < 2 || L.band_edges_mm.size() > 33)
+    n.at("band_edges_mm").bad("expected 2 to 33 band edges");
+  for (size_t i = 1; i < L.band_edges_mm.size(); ++i)
+    if (!(L.band_edges_mm[i] > L.band_edges_mm[i - 1])) n.at("band_edges_mm").bad("must increase");
+  const size_t bands = L.band_edges_mm.size() - 1;
+  for (int s = 0; s < kStatistics; ++s) {
+    const char* name = statistic_name(s);
+    if (!n.has(name)) n.bad(std::string("missing key '") + name + "'");
+    const Node st = n.at(name);
+    st.only_keys({"thresholds", "band_fraction", "band_pixels", "band_thickness_mm", "model"});
+    LearnedStatistic& ls = L.stats[size_t(s)];
+    if (!st.has("thresholds")) st.bad("missing key 'thresholds'");
+    ls.thresholds = number_list(st.at("thresholds"), bands);
+    for (double t : ls.thresholds)
+      if (!(t > 0 && t < 1000)) st.at("thresholds").bad("must be within (0, 1000)");
+    if (st.has("band_fraction")) ls.band_fraction = number_list(st.at("band_fraction"), bands);
+    if (st.has("band_pixels")) ls.band_pixels = number_list(st.at("band_pixels"), bands);
+    if (st.has("band_thickness_mm"))
+      ls.band_thickness_mm = number_list(st.at("band_thickness_mm"), bands);
+    if (st.has("model")) {
+      const Node m = st.at("model");
+      m.only_keys({"m0", "m_logn", "m_t", "s0", "s_t", "xi", "log_n_ref", "t_ref"});
+      GevModel& g = ls.model;
+      m.get("m0", g.m0), m.get("m_logn", g.m_logn), m.get("m_t", g.m_t), m.get("s0", g.s0);
+      m.get("s_t", g.s_t), m.get("xi", g.xi), m.get("log_n_ref", g.log_n_ref);
+      m.get("t_ref", g.t_ref);
+      if (!(g.xi > -1 && g.xi < 1)) m.at("xi").bad("must be within (-1, 1)");
+      if (!(std::abs(g.s0) < 20)) m.at("s0").bad("must be within (-20, 20) (a log scale)");
+    }
+  }
+}
+
 LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
   auto section = [&](const char* key) -> std::optional<Node> {
     if (lane.has(key)) return lane.at(key);
@@ -307,7 +358,9 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
                   "line_sigma_along_px",
                   "line_sigma_across_px",
                   "attenuation_degree",
-                  "min_fragment_meat_mm"});
+                  "min_fragment_meat_mm",
+                  "false_reject_target",
+                  "learned"});
     n->positive("floor_mm", q.floor_mm);
     n->positive("min_fillet_area_mm2", q.min_fillet_area_mm2);
     n->positive("gap_lines", q.gap_lines);
@@ -328,6 +381,10 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     if (!(q.min_fragment_meat_mm >= 0 && q.min_fragment_meat_mm <= 20))
       n->at("min_fragment_meat_mm").bad("must be within 0..20 mm (0: off)");
     n->positive("air_z_threshold", q.air_z_threshold);
+    n->get("false_reject_target", q.false_reject_target);
+    if (!(q.false_reject_target > 0 && q.false_reject_target < 0.5))
+      n->at("false_reject_target").bad("must be in (0, 0.5), a fraction of fillets");
+    if (n->has("learned")) read_learned(n->at("learned"), q.learned);
     n->positive("min_air_area_mm2", q.min_air_area_mm2);
     n->positive("baseline_sigma_mm", q.baseline_sigma_mm);
     n->positive("encoder_horizon_lines", q.encoder_horizon_lines);
@@ -518,6 +575,13 @@ LaneConfig apply_lane_calibration(const LaneConfig& base, const std::string& tex
                         : "expected a mapping with cameras, laser_plane, xray or encoder_step_mm");
   n.only_keys({"cameras", "laser_plane", "xray", "encoder_step_mm"});
   return read_lane(n, nullptr, base);
+}
+
+LearnedDetection parse_learned_detection(const std::string& text, const std::string& origin) {
+  const YAML::Node root = load_yaml(text, origin);
+  LearnedDetection L;
+  read_learned(Node{root, "", &origin}, L);
+  return L;
 }
 
 PlantConfig load_plant_config(const std::string& path) {

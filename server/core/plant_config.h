@@ -42,6 +42,10 @@ PlantConfig default_plant_config(int lanes);
 // sections, as in plant.yaml) applied over `base`; refused like plant.yaml, naming the key.
 LaneConfig apply_lane_calibration(const LaneConfig& base, const std::string& yaml,
                                   const std::string& origin);
+// An inspection.learned section on its own (a learned-settings version), refused like
+// plant.yaml, naming the key.
+LearnedDetection parse_learned_detection(const std::string& yaml, const std::string& origin);
+
 // The calibration sections of one lane as apply_lane_calibration reads them (full precision).
 std::string lane_calibration_yaml(const LaneConfig& lane);
 

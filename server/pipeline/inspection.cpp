@@ -6,9 +6,11 @@
 #include <limits>
 
 #include "core/error.h"
+#include "pipeline/component_extreme.h"
 #include "pipeline/connected_components.h"
 #include "pipeline/detector_match.h"
 #include "pipeline/masked_smooth.h"
+#include "pipeline/thickness_spread.h"
 
 namespace rangex {
 
@@ -95,13 +97,13 @@ double local_excess(const std::vector<float>& resid, const std::vector<uint8_t>&
   return std::isfinite(best) ? best : 0.0;
 }
 
-std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& resid,
-                        const std::vector<uint8_t>& use, const FilletImage& img, double sign,
-                        double threshold, double min_area_mm2, const RobustFit* fit,
-                        const InspectionParams& p) {
+// Components of `on` of at least min_area_mm2; w: the statistic oriented so that larger is
+// more bone-like (sign -1) or air-like (+1).
+std::vector<Blob> blobs(const std::vector<float>& w_map, const std::vector<uint8_t>& on,
+                        const std::vector<float>& resid, const std::vector<uint8_t>& use,
+                        const FilletImage& img, double sign, double min_area_mm2,
+                        const RobustFit* fit, const InspectionParams& p) {
   const double px_area = img.pitch_mm * img.step_mm;
-  std::vector<uint8_t> on(img.size());
-  for (size_t i = 0; i < on.size(); ++i) on[i] = use[i] && sign * zs[i] > threshold;
   std::vector<int> labels;
   const auto comps = label_components(on.data(), img.rows, img.cols, labels);
   std::vector<Blob> out;
@@ -125,7 +127,7 @@ std::vector<Blob> blobs(const std::vector<float>& zs, const std::vector<float>& 
       for (int k = c.col0; k <= c.col1; ++k) {
         const size_t i = size_t(r) * img.cols + k;
         if (labels[i] != c.label) continue;
-        const double w = sign * zs[i];
+        const double w = w_map[i];
         wsum += w;
         wx += w * k;
         wy += w * r;
@@ -221,40 +223,81 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
   for (size_t i = 0; i < n; ++i)
     if (use[i]) z[i] = float(resid[i] / res.noise.sigma_ln(pred[i], grad2[i]));
   lap(kStageNoise);
+  // Each statistic is brought to unit spread where it is computed: after its kernel, by
+  // thickness, robustly (thickness_spread.h). What compensation leaves is not white (meat
+  // texture, thickness error), smoothing shrinks white noise far more than that, and thick
+  // meat is rougher than thin; the white-noise factor is the floor.
+  const ThicknessBins bins = thickness_bins(img.thickness.data(), use.data(), n);
   masked_gaussian(z.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, zs);
-  // Back to unit spread: measured (MAD) on the smoothed image itself, because what is left
-  // after compensation is not white (meat texture, thickness error), and smoothing shrinks
-  // white noise far more than that.
-  auto unit_spread = [&](std::vector<float>& img_z, double white_gain) {
-    std::vector<double> spread;
-    for (size_t i = 0; i < n; ++i)
-      if (use[i] && std::isfinite(img_z[i])) spread.push_back(img_z[i]);
-    const double med = median_inplace(spread.data(), spread.size());
-    for (double& v : spread) v = std::abs(v - med);
-    const double sd = median_inplace(spread.data(), spread.size()) / 0.6744897501960817;
-    const double scale = std::max(sd, white_gain);  // never below white noise
-    for (float& v : img_z) v = float((v - med) / scale);
-    return scale;
-  };
-  res.z_spread = unit_spread(zs, gaussian_noise_gain(p.smooth_sigma_px));
+  const SpreadProfile round_spread = unit_spread_by_thickness(
+      zs, img.thickness.data(), use.data(), bins, gaussian_noise_gain(p.smooth_sigma_px));
+  res.z_spread =
+      round_spread.scale.empty() ? 0.0 : round_spread.scale[round_spread.scale.size() / 2];
+  // The statistics, oriented so that larger is more bone-like (round, needle) or air-like.
+  std::vector<float> stat[kStatistics];
+  stat[kStatRound].assign(n, kNaN);
+  stat[kStatAir] = zs;
+  for (size_t i = 0; i < n; ++i) stat[kStatRound][i] = -zs[i];
   // Needles and slivers: a pixel or less wide, they fade under the round kernel; elongated
   // kernels along four directions, each brought to unit spread the same way, find them. A
-  // pixel is as bone-like as its most bone-like statistic.
-  std::vector<float> zb = zs, zl;
-  if (p.line_sigma_along_px > 0)
+  // pixel is as needle-like as its most needle-like direction.
+  stat[kStatNeedle].assign(n, kNaN);
+  if (p.line_sigma_along_px > 0) {
+    std::vector<float> zl;
     for (int dir = 0; dir < 4; ++dir) {
       const double gain =
           masked_line_gaussian(z.data(), use.data(), img.rows, img.cols, p.line_sigma_along_px,
                                p.line_sigma_across_px, dir, zl);
-      unit_spread(zl, gain);
+      unit_spread_by_thickness(zl, img.thickness.data(), use.data(), bins, gain);
       for (size_t i = 0; i < n; ++i)
-        if (std::isfinite(zl[i]) && zl[i] < zb[i]) zb[i] = zl[i];
+        if (std::isfinite(zl[i]) && !(stat[kStatNeedle][i] >= -zl[i]))
+          stat[kStatNeedle][i] = -zl[i];
     }
+  }
   lap(kStageSmooth);
-  res.fragments = blobs(zb, resid, use, img, -1, p.z_threshold, p.min_fragment_area_mm2, fit, p);
+  // Thresholds: learned from the plant's own product per thickness band, else the fixed ones.
+  const LearnedDetection& L = p.learned;
+  auto threshold = [&](int s, size_t i) {
+    if (L.active()) return L.threshold(s, img.thickness[i]);
+    return s == kStatAir ? p.air_z_threshold : p.z_threshold;
+  };
+  std::vector<uint8_t> bone_on(n, 0), air_on(n, 0);
+  std::vector<float> bone_w(n, kNaN);
+  for (size_t i = 0; i < n; ++i) {
+    if (!use[i]) continue;
+    const float r = stat[kStatRound][i], nd = stat[kStatNeedle][i];
+    bone_on[i] =
+        r > threshold(kStatRound, i) || (std::isfinite(nd) && nd > threshold(kStatNeedle, i));
+    bone_w[i] = std::isfinite(nd) ? std::max(r, nd) : r;
+    air_on[i] = stat[kStatAir][i] > threshold(kStatAir, i);
+  }
+  res.fragments = blobs(bone_w, bone_on, resid, use, img, -1, p.min_fragment_area_mm2, fit, p);
   if (fit && p.min_fragment_meat_mm > 0)
     std::erase_if(res.fragments, [&](const Blob& b) { return b.meat_mm < p.min_fragment_meat_mm; });
-  res.air_pockets = blobs(zs, resid, use, img, +1, p.air_z_threshold, p.min_air_area_mm2, fit, p);
+  res.air_pockets = blobs(stat[kStatAir], air_on, resid, use, img, +1, p.min_air_area_mm2, fit, p);
+  // Each statistic's extreme per thickness band: what product learning fits and drift
+  // tracking follows.
+  const std::vector<double>& edges = L.active() ? L.band_edges_mm : default_band_edges_mm();
+  const double px_area = img.pitch_mm * img.step_mm;
+  std::vector<uint8_t> in_band(n);
+  for (int band = 0; band + 1 < int(edges.size()); ++band) {
+    int count = 0;
+    std::vector<double> ts;
+    for (size_t i = 0; i < n; ++i) {
+      in_band[i] = use[i] && band_index(edges, img.thickness[i]) == band;
+      if (in_band[i]) ++count, ts.push_back(img.thickness[i]);
+    }
+    if (count < kMinBandPixels) continue;
+    const double t_mid = median_inplace(ts.data(), ts.size());
+    for (int s = 0; s < kStatistics; ++s) {
+      if (s == kStatNeedle && p.line_sigma_along_px <= 0) continue;
+      const double area = s == kStatAir ? p.min_air_area_mm2 : p.min_fragment_area_mm2;
+      const int min_px = std::max(1, int(std::ceil(area / px_area - 1e-9)));
+      const double x =
+          component_extreme(stat[s].data(), in_band.data(), img.rows, img.cols, min_px);
+      if (std::isfinite(x)) res.extremes.push_back({s, band, x, double(count), t_mid});
+    }
+  }
   lap(kStageComponents);
   if (res.fragments.empty()) {
     res.decision = Decision::kPass;
@@ -266,7 +309,7 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
   if (keep) {
     res.pseudo = std::move(pred);
     res.residual = std::move(resid);
-    res.zs = std::move(zs);
+    res.zs = std::move(stat[kStatAir]);
   }
 }
 

@@ -39,6 +39,18 @@ struct Blob {
 enum InspectStage { kStageFit, kStageMatch, kStageNoise, kStageSmooth, kStageComponents, kStages };
 const char* inspect_stage_name(int stage);
 
+// One detection statistic's extreme over one thickness band of a fillet
+// (component_extreme.h): what product learning fits and drift tracking follows.
+struct BandExtreme {
+  int stat = 0;  // DetectionStatistic
+  int band = 0;  // of the learned bands, or default_band_edges_mm()
+  double x = 0;  // the extreme
+  double n = 0;  // usable pixels in the band
+  double t = 0;  // their median thickness, mm
+};
+// A band holds an extreme when it has at least this many usable pixels.
+constexpr int kMinBandPixels = 100;
+
 struct FilletResult {
   int lane = 0;
   int64_t id = 0;
@@ -55,7 +67,8 @@ struct FilletResult {
   int pixels = 0;            // fillet pixels used
   double resid_mean_dn = 0;  // mean of I - P
   double resid_std_dn = 0;   // standard deviation of I - P
-  double z_spread = 0;       // robust spread of the smoothed z before normalisation
+  double z_spread = 0;       // robust spread of the smoothed z before normalisation (middle bin)
+  std::vector<BandExtreme> extremes;
   double stage_seconds[kStages] = {};
   // Images over the fillet's box (kept on request): pseudo-X-ray (DN), residual ln I - ln P,
   // smoothed z; NaN off the fillet.

@@ -76,8 +76,10 @@ float Fillet::height_at(double x, double b) const {
 }
 
 double Fillet::mu_at(double x, double b) const {
-  return mu * (1 + texture_amp * std::sin(texture_kx * x + texture_phase) *
-                       std::cos(texture_kb * b - texture_phase));
+  return mu *
+         (1 + texture_amp * std::sin(texture_kx * x + texture_phase) *
+                  std::cos(texture_kb * b - texture_phase)) *
+         (1 + rough.at(x, b));
 }
 
 Fillet make_fillet(Rng& rng, Rng& phys, int id, double b_start, double x_center,
@@ -285,6 +287,12 @@ Fillet make_fillet(Rng& rng, Rng& phys, int id, double b_start, double x_center,
     if (Inclusion* in = place(Inclusion::kCartilage, len, phys.uniform(0.1, 0.3),
                               phys.uniform(0.08, 0.2), phys.uniform(0.15, 0.35) * f.mu, 0))
       in->shape = Inclusion::kCompact;
+  }
+  // Rough meat draws from a stream of its own, seeded from the physics stream only when
+  // asked for, so that every other plant stays draw for draw as it was.
+  if (prm.meat.texture_std > 0 || prm.meat.marbling > 0) {
+    Rng tex(phys.next(), 0x7e47, uint64_t(id));
+    f.rough = make_meat_texture(tex, f.x_min, f.x_max, f.b_min, f.b_max, prm.meat);
   }
   return f;
 }

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/vec.h"
+#include "sim/meat_texture.h"
 #include "sim/rng.h"
 
 namespace rangex::sim {
@@ -42,6 +43,7 @@ struct Fillet {
   double scatter_scale = 1;  // this fillet's scattering against the plant's usual
   bool debris = false;
   double texture_amp = 0, texture_kx = 0, texture_kb = 0, texture_phase = 0;
+  MeatTexture rough;  // a plant's rough meat (empty in the nominal simulator)
 
   // Height at an object point (bilinear on the raster), 0 outside.
   float height_at(double x, double b) const;
@@ -58,6 +60,7 @@ struct FilletParams {
   double needle = 0, chip = 0, rib = 0, cluster = 0;  // shares of the fragment shapes
   double cartilage_probability = 0;
   double steep_fraction = 0, flap_probability = 0, fold_probability = 0;
+  MeatTextureParams meat;
 };
 
 // Builds a fillet whose leading edge (smallest b) is at b_start; x_center is its centre

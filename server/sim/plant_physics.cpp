@@ -62,7 +62,7 @@ PlantPhysics parse_plant_physics(const std::string& yaml, const std::string& ori
   if (!root || root.IsNull()) return p;
   if (!root.IsMap()) fail(origin, ": expected a map of sections");
   static const std::set<std::string> kSections = {
-      "name", "held_out", "xray", "laser", "scatter", "speckle", "shapes", "bones", "belt"};
+      "name", "held_out", "xray", "laser", "scatter", "speckle", "shapes", "bones", "belt", "meat"};
   for (const auto& kv : root)
     if (!kSections.count(kv.first.as<std::string>()))
       fail(origin, ": unknown section '", kv.first.as<std::string>(), "'");
@@ -81,6 +81,14 @@ PlantPhysics parse_plant_physics(const std::string& yaml, const std::string& ori
       .num("alpha_deg", p.xray.alpha_deg, -2, 2)
       .num("beta_deg", p.xray.beta_deg, -2, 2)
       .num("hardening", p.xray.hardening, 0, 5)
+      .num("flat_field_std", p.xray.flat_field_std, 0, 0.05)
+      .num("ripple", p.xray.ripple, 0, 0.05)
+      .num("ripple_lines", p.xray.ripple_lines, 2, 100000)
+      .done();
+  Section(root, "meat", origin)
+      .num("texture_std", p.meat.texture_std, 0, 0.2)
+      .num("marbling", p.meat.marbling, 0, 0.5)
+      .num("marbling_contrast", p.meat.marbling_contrast, 0, 0.6)
       .done();
   Section(root, "laser", origin)
       .num("core_sigma_px", p.laser.core_sigma_px, 0.3, 5)
@@ -147,7 +155,9 @@ std::string to_yaml(const PlantPhysics& p) {
     << "\nxray: {detector_sigma_px: " << x.detector_sigma_px
     << ", focal_spot_sigma_mm: " << x.focal_spot_sigma_mm
     << ", plane_offset_lines: " << x.plane_offset_lines << ", alpha_deg: " << x.alpha_deg
-    << ", beta_deg: " << x.beta_deg << ", hardening: " << x.hardening << "}\n"
+    << ", beta_deg: " << x.beta_deg << ", hardening: " << x.hardening
+    << ", flat_field_std: " << x.flat_field_std << ", ripple: " << x.ripple
+    << ", ripple_lines: " << x.ripple_lines << "}\n"
     << "laser: {core_sigma_px: " << p.laser.core_sigma_px
     << ", defocus_px_per_mm: " << p.laser.defocus_px_per_mm << "}\n"
     << "scatter: {tail_base: " << p.scatter.tail_base << ", tail_gain: " << p.scatter.tail_gain
@@ -167,7 +177,9 @@ std::string to_yaml(const PlantPhysics& p) {
     << ", cartilage_probability: " << p.bones.cartilage_probability << "}\n"
     << "belt: {dropped_line_rate: " << p.belt.dropped_line_rate
     << ", debris_probability: " << p.belt.debris_probability << ", texture: " << p.belt.texture
-    << ", encoder_jitter_mm: " << p.belt.encoder_jitter_mm << "}\n";
+    << ", encoder_jitter_mm: " << p.belt.encoder_jitter_mm << "}\n"
+    << "meat: {texture_std: " << p.meat.texture_std << ", marbling: " << p.meat.marbling
+    << ", marbling_contrast: " << p.meat.marbling_contrast << "}\n";
   return o.str();
 }
 

@@ -15,6 +15,11 @@ struct XrayPhysics {
   // Beam hardening: the effective attenuation falls with path length,
   // mu_eff = mu / (1 + hardening * mu * L) (a polychromatic beam's harder tail).
   double hardening = 0;
+  // What a flat-field correction leaves: a fixed gain pattern across the detector (relative
+  // std per pixel); and the source's ripple: the tube's output varying along the belt by
+  // this fraction with a period of ripple_lines lines.
+  double flat_field_std = 0;
+  double ripple = 0, ripple_lines = 37;
 };
 
 struct LaserPhysics {
@@ -53,6 +58,13 @@ struct BoneShapes {
   double cartilage_probability = 0;  // cartilage or tendon: denser than meat, not bone
 };
 
+// Meat as rough as real meat (sim/meat_texture.h): attenuation texture and fat marbling.
+struct MeatPhysics {
+  double texture_std = 0;
+  double marbling = 0;
+  double marbling_contrast = 0.15;
+};
+
 struct BeltPhysics {
   double dropped_line_rate = 0;   // camera lines lost on the way (a whole line, both cameras)
   double debris_probability = 0;  // small bits of meat between fillets
@@ -70,6 +82,7 @@ struct PlantPhysics {
   FilletShapes shapes;
   BoneShapes bones;
   BeltPhysics belt;
+  MeatPhysics meat;
 };
 
 // Parses a variant; unknown keys, NaN and out-of-range values are refused naming the key.

@@ -27,6 +27,7 @@ SceneParams scene_params(const SimulationParams& p) {
   f.steep_fraction = ph.shapes.steep_fraction;
   f.flap_probability = ph.shapes.flap_probability;
   f.fold_probability = ph.shapes.fold_probability;
+  f.meat = {ph.meat.texture_std, ph.meat.marbling, ph.meat.marbling_contrast};
   return s;
 }
 

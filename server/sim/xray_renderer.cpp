@@ -55,7 +55,14 @@ XrayRenderer::XrayRenderer(const LaneConfig& lane, XrayRenderParams p, XrayPhysi
       xray_y_(lane.laser.offset_mm + lane.xray.delay_lines * lane.encoder_step_mm),
       step_(lane.encoder_step_mm),
       p_(p),
-      ph_(physics) {}
+      ph_(physics) {
+  // The detector's own pattern: fixed for the lane, whatever the plant's seed.
+  if (ph_.flat_field_std > 0) {
+    Rng r(0xf1a7f1e1d, uint64_t(lane.id));
+    gain_.resize(size_t(fb_.pixels));
+    for (float& g : gain_) g = float(1 + ph_.flat_field_std * r.normal());
+  }
+}
 
 double XrayRenderer::plane_y(double x, double z) const {
   return xray_y_ + ph_.plane_offset_lines * step_ + x * std::tan(ph_.alpha_deg * M_PI / 180) +
@@ -65,7 +72,9 @@ double XrayRenderer::plane_y(double x, double z) const {
 void XrayRenderer::render(const LaneScene& scene, double s, Rng& rng, uint16_t* line,
                           float* thickness) const {
   const double maxv = double((1 << fb_.bits) - 1);
+  const double ripple = 1 + ph_.ripple * std::sin(2 * M_PI * s / (step_ * ph_.ripple_lines) + 0.7);
   auto emit = [&](int i, double mean) {
+    mean *= ripple * (gain_.empty() ? 1.0 : gain_[size_t(i)]);
     const double photons = mean * p_.photons_per_dn;
     // Photon counts are large (> 1000), where the normal approximation of Poisson holds.
     const double counts = photons + std::sqrt(photons) * rng.normal();

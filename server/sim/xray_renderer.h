@@ -9,6 +9,7 @@
 // hardening. With none of them the nominal renderer runs unchanged.
 #pragma once
 #include <cstdint>
+#include <vector>
 
 #include "core/lane_config.h"
 #include "sim/lane_scene.h"
@@ -41,6 +42,7 @@ class XrayRenderer {
   double xray_y_, step_;
   XrayRenderParams p_;
   XrayPhysics ph_;
+  std::vector<float> gain_;  // the flat-field residual per pixel (empty: none)
 };
 
 }  // namespace rangex::sim

@@ -1,0 +1,195 @@
+// learn: product learning on a recording of the plant's own clean product (issue 23). The
+// recording is replayed through the same line stages and inspection as `process`; each
+// fillet's detection extremes per thickness band are fitted with an extreme-value model per
+// lane (pipeline/product_learning.h), the thresholds that meet the lane's false-reject
+// budget are written into a copy of the plant configuration, and the sensitivity they buy
+// is measured with test pieces injected into the same fillets (pipeline/sensitivity.h).
+#include <yaml-cpp/yaml.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "args.h"
+#include "backend_args.h"
+#include "calib_rig.h"
+#include "commands.h"
+#include "core/error.h"
+#include "learn_report.h"
+#include "pipeline/product_learning.h"
+#include "pipeline/sensitivity.h"
+#include "progress_bar.h"
+#include "replay.h"
+
+namespace fs = std::filesystem;
+
+namespace rangex::cli {
+
+namespace {
+
+double number(const Args& a, const char* name, double def, double lo, double hi) {
+  if (!a.has(name)) return def;
+  const std::string v = a.get(name, "");
+  double x = NAN;
+  try {
+    size_t used = 0;
+    x = std::stod(v, &used);
+    if (used != v.size()) x = NAN;
+  } catch (const std::exception&) {
+  }
+  if (!(x >= lo && x <= hi))
+    fail("--", name, " must be a number within ", lo, "..", hi, " (got '", v, "')");
+  return x;
+}
+
+std::vector<int> lane_list(const std::string& v) {
+  std::vector<int> out;
+  std::stringstream ss(v);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (item.empty() || item.find_first_not_of("0123456789") != std::string::npos ||
+        item.size() > 6)
+      fail("--lanes must be lane ids separated by commas (got '", v, "')");
+    out.push_back(std::stoi(item));
+  }
+  return out;
+}
+
+std::string default_version() {
+  const std::time_t now = std::time(nullptr);
+  char b[32];
+  std::strftime(b, sizeof b, "learn-%Y%m%d-%H%M%S", std::gmtime(&now));
+  return b;
+}
+
+// The plant configuration at `config` with each learned lane's inspection section replaced.
+std::string learned_plant_yaml(const std::string& config,
+                               const std::vector<std::pair<int, LearnedDetection>>& learned) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(config);
+  } catch (const YAML::Exception& e) {
+    fail(config, ": not valid YAML: ", e.what());
+  }
+  for (const auto& [lane, L] : learned) {
+    bool found = false;
+    for (YAML::Node ln : root["lanes"])
+      if (ln["id"] && ln["id"].as<int>() == lane) {
+        ln["inspection"]["false_reject_target"] = L.target_frr;
+        ln["inspection"]["learned"] = YAML::Load(learned_detection_yaml(L));
+        found = true;
+      }
+    if (!found) fail(config, ": lanes: no lane ", lane, " to hold what was learned for it");
+  }
+  YAML::Emitter out;
+  out << root;
+  return std::string(
+             "# Written by rangexctl learn: the plant configuration with learned "
+             "inspection thresholds.\n") +
+         out.c_str() + "\n";
+}
+
+}  // namespace
+
+int cmd_learn(int argc, char** argv) {
+  const Args a(
+      argc, argv, 2, {"force"},
+      {"out", "config", "target-frr", "confidence", "lanes", "calibration", "report", "version",
+       "bootstrap", "excess-ratio", "excess-per-mm", "min-fillets", "backend", "device"});
+  a.expect_positionals(
+      1,
+      "learn RECORDING --out PLANT.yaml [--config plant.yaml] [--target-frr 0.003] "
+      "[--confidence 0.9] [--lanes 0,1] [--calibration F] [--report DIR] "
+      "[--version NAME] [--excess-ratio 2] [--force]");
+  const std::string config = config_path(a.get("config", ""));
+  PlantConfig plant = load_plant_config(config);
+  if (a.has("calibration")) apply_calibration_option(plant, a.get("calibration", ""));
+  const RecordingReader rec(a.positional(0, "recording folder"));
+  const std::string out = a.require("out");
+  const fs::path report_dir =
+      a.get("report",
+            (fs::path(out).parent_path() / (fs::path(out).stem().string() + ".report")).string());
+  LearnOptions lo;
+  lo.bootstrap = int(number(a, "bootstrap", 100, 20, 10000));
+  lo.min_fillets = int(number(a, "min-fillets", 30, 10, 100000));
+  SensitivityOptions so;
+  so.material.excess_ratio = number(a, "excess-ratio", so.material.excess_ratio, 0.05, 100);
+  so.material.excess_per_mm = number(a, "excess-per-mm", 0, 0, 10);
+  const std::string version = a.get("version", default_version());
+  ReplayOptions opt;
+  opt.keep_images = true;
+  opt.baseline = false;
+  opt.recalibrated = a.has("calibration");
+  opt.backend = backend_request(a, plant.backend);
+  if (a.has("lanes")) opt.lanes = lane_list(a.get("lanes", ""));
+  // Learned afresh: the extremes are taken in the default bands, whatever was learned before.
+  for (auto& l : plant.lanes) l.inspection.learned = LearnedDetection{};
+  ProgressBar bar("replay");
+  const auto lanes =
+      replay_recording(rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
+  fs::create_directories(report_dir);
+  nlohmann::json report = {{"recording", rec.dir()}, {"config", config}, {"version", version}};
+  std::vector<std::pair<int, LearnedDetection>> learned;
+  bool all_ok = true;
+  for (const LaneReplay& r : lanes) {
+    const LaneConfig& lane = plant.lane(r.lane);
+    lo.target_frr = number(a, "target-frr", lane.inspection.false_reject_target, 1e-5, 0.2);
+    lo.confidence = number(a, "confidence", lo.confidence, 0.5, 0.999);
+    std::vector<LearningFillet> fillets;
+    std::vector<SensitivityFillet> images;
+    int skipped = 0;
+    for (const InspectedFillet& f : r.fillets) {
+      if (f.result.decision == Decision::kNotInspected || !f.result.fitted) {
+        ++skipped;  // fail-safe fillets say nothing about the product's texture
+        continue;
+      }
+      fillets.push_back({f.result.lane, f.result.id, f.result.y0_mm, f.result.extremes});
+      images.push_back({&f.image, f.result.fit.beta1, f.result.fit.beta2});
+    }
+    std::printf("lane %d: %zu fillets inspected (%d not inspected, left out); fitting ...\n",
+                r.lane, fillets.size(), skipped);
+    std::fflush(stdout);
+    ProductLearning L = learn_product(fillets, lo);
+    L.learned.version = version;
+    L.learned.learned_on = rec.dir() + " lane " + std::to_string(r.lane);
+    // The sensitivity those thresholds buy, on the same fillets (the report says so; a
+    // held-out check is `rangexctl learn-check`, or the matrix's).
+    InspectionParams p = lane.inspection;
+    p.learned = L.learned;
+    ProgressBar sbar("sensitivity");
+    const SensitivityResult sens =
+        measure_sensitivity(images, p, so, [&](int d, int t) { sbar.update(d, t); });
+    report["lanes"].push_back(learn_report_json(r.lane, L, sens));
+    write_learn_plots(report_dir, r.lane, L, sens);
+    std::printf("%s", learn_summary_text(r.lane, L, sens).c_str());
+    all_ok = all_ok && L.ok;
+    learned.push_back({r.lane, L.learned});
+  }
+  report["ok"] = all_ok;
+  std::ofstream(report_dir / "learn.json") << report.dump(2) << "\n";
+  std::printf(
+      "report: %s/learn.json and lane*_thresholds.png, lane*_sensitivity.png, lane*_qq.png\n",
+      report_dir.c_str());
+  if (!all_ok && !a.flag("force")) {
+    std::fprintf(stderr,
+                 "learning failed (see the problems above): %s not written (--force writes it)\n",
+                 out.c_str());
+    return 2;
+  }
+  const std::string text = learned_plant_yaml(config, learned);
+  {
+    std::ofstream o(out);
+    o << text;
+    if (!o) fail(out, ": cannot write");
+  }
+  load_plant_config(out);  // it must read back as a plant configuration
+  std::printf("wrote %s (version %s)\n", out.c_str(), version.c_str());
+  return all_ok ? 0 : 2;
+}
+
+}  // namespace rangex::cli

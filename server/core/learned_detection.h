@@ -1,0 +1,51 @@
+// Detection thresholds learned from a plant's own clean product (issue 23): for each
+// detection statistic (round kernel, needle kernels, air pockets) a GEV model of its
+// per-fillet extreme in thickness bands, and the threshold per band that meets the lane's
+// per-fillet false-reject budget with a stated confidence. Empty (no bands): the fixed
+// z thresholds of InspectionParams apply.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include "core/gev_model.h"
+
+namespace rangex {
+
+enum DetectionStatistic { kStatRound, kStatNeedle, kStatAir, kStatistics };
+const char* statistic_name(int stat);  // "round", "needle", "air"
+
+// The thickness bands (mm of X-ray path) in which extremes are taken when nothing was learned.
+const std::vector<double>& default_band_edges_mm();
+
+struct LearnedStatistic {
+  GevModel model;
+  std::vector<double> thresholds;         // per band: the statistic above it is a detection
+  std::vector<double> band_fraction;      // of the learning fillets that held the band
+  std::vector<double> band_pixels;        // their median pixel count in the band
+  std::vector<double> band_thickness_mm;  // and median thickness there
+};
+
+struct LearnedDetection {
+  std::string version;                // e.g. "learn-20261125-1" (rangexctl learn names it)
+  std::string learned_on;             // the learning run: recording or live lane
+  double target_frr = 0.003;          // per-fillet false-reject budget it was learned for
+  double confidence = 0.9;            // the thresholds meet the budget with this confidence
+  int fillets = 0;                    // clean fillets it was learned from
+  std::vector<double> band_edges_mm;  // bands [e0, e1), [e1, e2), ...; the last open-ended
+  std::array<LearnedStatistic, kStatistics> stats;
+
+  bool active() const { return band_edges_mm.size() >= 2; }
+  int bands() const { return int(band_edges_mm.size()) - 1; }
+  int band_of(double thickness_mm) const;  // clamped to the first and last band
+  double threshold(int stat, double thickness_mm) const;
+};
+
+// The section as plant.yaml's inspection.learned holds it (full precision), without the
+// `learned:` key; parse_learned_detection (core/plant_config.h) reads it back.
+std::string learned_detection_yaml(const LearnedDetection& learned);
+
+// Band index of `t` in `edges` (clamped), shared by learning and inspection.
+int band_index(const std::vector<double>& edges, double t);
+
+}  // namespace rangex

@@ -1,0 +1,272 @@
+#include "pipeline/product_learning.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+
+#include "pipeline/robust_fit.h"
+
+namespace rangex {
+
+namespace {
+
+bool rejecting(int s) {
+  return s != kStatAir;
+}
+
+double median_of(std::vector<double> v) {
+  return v.empty() ? 0.0 : median_inplace(v.data(), v.size());
+}
+
+// Where each band sits among the learning fillets: how often it is present, with how many
+// pixels and what thickness (medians over the fillets that hold it).
+struct BandUse {
+  std::vector<double> fraction, pixels, thickness;
+};
+
+BandUse band_use(const std::vector<const LearningFillet*>& fillets, int stat, int bands) {
+  BandUse u;
+  for (int b = 0; b < bands; ++b) {
+    std::vector<double> n, t;
+    for (const LearningFillet* f : fillets)
+      for (const BandExtreme& e : f->extremes)
+        if (e.stat == stat && e.band == b) n.push_back(e.n), t.push_back(e.t);
+    u.fraction.push_back(fillets.empty() ? 0.0 : double(n.size()) / double(fillets.size()));
+    u.pixels.push_back(median_of(n));
+    u.thickness.push_back(median_of(t));
+  }
+  return u;
+}
+
+std::vector<ExtremeSample> samples_of(const std::vector<const LearningFillet*>& fillets, int stat) {
+  std::vector<ExtremeSample> s;
+  for (const LearningFillet* f : fillets)
+    for (const BandExtreme& e : f->extremes)
+      if (e.stat == stat) s.push_back({e.x, e.n, e.t});
+  return s;
+}
+
+// Per band the quantile that spends `budget` over the bands in proportion to their expected
+// pixels (a pixel anywhere is as likely to raise a false detection); absent bands take
+// their nearest present neighbour's threshold.
+std::vector<double> thresholds_for(const GevModel& g, const BandUse& u, double budget) {
+  const size_t bands = u.fraction.size();
+  double w = 0;
+  for (size_t b = 0; b < bands; ++b) w += u.fraction[b] * u.pixels[b];
+  std::vector<double> t(bands, NAN);
+  for (size_t b = 0; b < bands; ++b) {
+    if (u.fraction[b] <= 0 || w <= 0) continue;
+    const double q = std::clamp(budget * u.pixels[b] / w, 1e-12, 0.5);
+    t[b] = std::max(1.0, g.quantile(1 - q, u.pixels[b], u.thickness[b]));
+  }
+  for (size_t b = 0; b < bands; ++b) {
+    if (std::isfinite(t[b])) continue;
+    for (size_t d = 1; d < bands && !std::isfinite(t[b]); ++d) {
+      if (b >= d && std::isfinite(t[b - d]) && u.fraction[b - d] > 0)
+        t[b] = t[b - d];
+      else if (b + d < bands && std::isfinite(t[b + d]) && u.fraction[b + d] > 0)
+        t[b] = t[b + d];
+    }
+    if (!std::isfinite(t[b])) t[b] = 5.0;  // no band present at all: the fixed default
+  }
+  return t;
+}
+
+double implied(const GevModel& g, const BandUse& u, const std::vector<double>& t, double shift) {
+  double frr = 0;
+  for (size_t b = 0; b < t.size(); ++b)
+    if (u.fraction[b] > 0)
+      frr += u.fraction[b] * std::exp(g.log_survival(t[b] - shift, u.pixels[b], u.thickness[b]));
+  return frr;
+}
+
+// Kolmogorov's asymptotic p-value for D over n samples.
+double ks_pvalue(double d, size_t n) {
+  const double sn = std::sqrt(double(n)), l = (sn + 0.12 + 0.11 / sn) * d;
+  double p = 0;
+  for (int k = 1; k <= 100; ++k) p += 2 * ((k & 1) ? 1 : -1) * std::exp(-2.0 * k * k * l * l);
+  return std::clamp(p, 0.0, 1.0);
+}
+
+void qq_and_ks(const GevModel& g, const std::vector<ExtremeSample>& s, StatisticLearning& out) {
+  std::vector<double> u;
+  for (const auto& e : s) u.push_back(std::clamp(g.cdf(e.x, e.n, e.t), 1e-300, 1 - 1e-16));
+  std::sort(u.begin(), u.end());
+  const size_t n = u.size();
+  double d = 0;
+  for (size_t i = 0; i < n; ++i) {
+    d = std::max({d, std::abs(u[i] - double(i) / n), std::abs(u[i] - double(i + 1) / n)});
+    const double p = (double(i) + 0.5) / double(n);
+    out.qq.push_back({-std::log(-std::log(p)), -std::log(-std::log(u[i]))});
+  }
+  out.ks_d = d;
+  out.ks_p = ks_pvalue(d, n);
+}
+
+// The most improbable extreme of the rejecting statistics of fillet `f` under models fitted
+// without it (only for the few most extreme candidates: each costs a fit per statistic).
+FlaggedFillet worst_of(const LearningFillet& f, const std::array<GevModel, kStatistics>& without) {
+  FlaggedFillet w{f.lane, f.id, f.y0_mm, 0, 0, 0, 0};
+  for (const BandExtreme& e : f.extremes) {
+    if (!rejecting(e.stat)) continue;
+    const double ls =
+        std::max(-300.0, without[size_t(e.stat)].log_survival(e.x, e.n, e.t) / std::log(10.0));
+    if (ls < w.log10_survival) w.stat = e.stat, w.band = e.band, w.x = e.x, w.log10_survival = ls;
+  }
+  return w;
+}
+
+}  // namespace
+
+ProductLearning learn_product(const std::vector<LearningFillet>& all, const LearnOptions& opt) {
+  ProductLearning r;
+  const int bands = int(opt.band_edges_mm.size()) - 1;
+  std::vector<const LearningFillet*> use;
+  for (const auto& f : all)
+    if (!f.extremes.empty()) use.push_back(&f);
+  auto fit_stat = [&](const std::vector<const LearningFillet*>& fs, int s) -> GevFit {
+    const auto smp = samples_of(fs, s);
+    if (smp.size() < 10) return {};
+    return fit_gev(smp);
+  };
+  // Suspected bone: the fillets whose most extreme band stands out most, each judged by a
+  // model fitted without it; removed one at a time, so that one bone cannot mask another.
+  for (int round = 0; round < 8 && int(use.size()) >= 10; ++round) {
+    std::array<GevModel, kStatistics> model;
+    for (int s = 0; s < kStatistics; ++s)
+      if (rejecting(s)) model[size_t(s)] = fit_stat(use, s).model;
+    std::vector<std::pair<double, size_t>> order;
+    for (size_t i = 0; i < use.size(); ++i)
+      order.push_back({worst_of(*use[i], model).log10_survival, i});
+    std::sort(order.begin(), order.end());
+    // Bonferroni over every band extreme of the rejecting statistics that could have stood out.
+    size_t tested = 0;
+    for (const LearningFillet* f : use)
+      for (const BandExtreme& e : f->extremes) tested += rejecting(e.stat);
+    const double limit = std::log10(opt.outlier_alpha / double(std::max<size_t>(1, tested)));
+    bool removed = false;
+    for (size_t c = 0; c < std::min<size_t>(3, order.size()) && !removed; ++c) {
+      const size_t i = order[c].second;
+      std::vector<const LearningFillet*> rest;
+      for (size_t j = 0; j < use.size(); ++j)
+        if (j != i) rest.push_back(use[j]);
+      std::array<GevModel, kStatistics> without;
+      for (int s = 0; s < kStatistics; ++s)
+        if (rejecting(s)) without[size_t(s)] = fit_stat(rest, s).model;
+      const FlaggedFillet w = worst_of(*use[i], without);
+      if (w.log10_survival < limit) {
+        r.flagged.push_back(w);
+        use = rest;
+        removed = true;
+      }
+    }
+    if (!removed) break;
+  }
+  r.fillets = int(use.size());
+  if (r.fillets < opt.min_fillets)
+    r.problems.push_back("too few clean fillets: " + std::to_string(r.fillets) + " of the " +
+                         std::to_string(opt.min_fillets) + " needed");
+  for (const FlaggedFillet& f : r.flagged) {
+    char b[256];
+    std::snprintf(b, sizeof b,
+                  "lane %d fillet %lld (belt %.0f mm) holds something like bone: %s extreme %.1f "
+                  "in band %d, probability 1e%.1f under the others' model",
+                  f.lane, (long long)f.id, f.y0_mm, statistic_name(f.stat), f.x, f.band,
+                  f.log10_survival);
+    r.problems.push_back(b);
+  }
+  LearnedDetection& L = r.learned;
+  L.target_frr = opt.target_frr;
+  L.confidence = opt.confidence;
+  L.fillets = r.fillets;
+  L.band_edges_mm = opt.band_edges_mm;
+  const bool has_needle = !samples_of(use, kStatNeedle).empty();
+  std::mt19937_64 rng(opt.seed);
+  for (int s = 0; s < kStatistics; ++s) {
+    StatisticLearning& st = r.stats[size_t(s)];
+    LearnedStatistic& ls = L.stats[size_t(s)];
+    st.budget = !rejecting(s) ? opt.target_frr : has_needle ? opt.target_frr / 2 : opt.target_frr;
+    const auto smp = samples_of(use, s);
+    st.samples = int(smp.size());
+    const BandUse u = band_use(use, s, bands);
+    ls.band_fraction = u.fraction, ls.band_pixels = u.pixels, ls.band_thickness_mm = u.thickness;
+    if (smp.size() < 10) {
+      if (s == kStatNeedle && !has_needle) {
+        ls.thresholds.assign(size_t(bands), 5.0);  // needle kernels off
+        continue;
+      }
+      r.problems.push_back(std::string(statistic_name(s)) + ": only " + std::to_string(smp.size()) +
+                           " band extremes to fit");
+      ls.thresholds.assign(size_t(bands), 5.0);
+      continue;
+    }
+    st.fit = fit_gev(smp);
+    // Air pockets are reported, never rejected: their fit is information, not a gate.
+    if (!st.fit.converged && rejecting(s))
+      r.problems.push_back(std::string(statistic_name(s)) +
+                           ": the extreme-value fit did not converge");
+    ls.model = st.fit.model;
+    st.point_thresholds = thresholds_for(st.fit.model, u, st.budget);
+    // The bootstrap over fillets: each resample's model and thresholds; the thresholds used
+    // are each band's `confidence` quantile of them.
+    std::vector<std::vector<double>> boot(static_cast<size_t>(bands));
+    std::uniform_int_distribution<size_t> pick(0, use.size() - 1);
+    for (int k = 0; k < opt.bootstrap; ++k) {
+      std::vector<const LearningFillet*> re;
+      for (size_t i = 0; i < use.size(); ++i) re.push_back(use[pick(rng)]);
+      const auto rs = samples_of(re, s);
+      if (rs.size() < 10) continue;
+      const GevFit f = fit_gev(rs);
+      if (!f.converged) continue;
+      const auto t = thresholds_for(f.model, band_use(re, s, bands), st.budget);
+      for (int b = 0; b < bands; ++b) boot[size_t(b)].push_back(t[size_t(b)]);
+    }
+    st.thresholds = st.point_thresholds;
+    for (int b = 0; b < bands; ++b) {
+      auto& v = boot[size_t(b)];
+      if (v.size() < 10 || u.fraction[size_t(b)] <= 0) continue;
+      std::sort(v.begin(), v.end());
+      const double q = v[std::min(v.size() - 1, size_t(opt.confidence * double(v.size())))];
+      st.thresholds[size_t(b)] = std::max(st.point_thresholds[size_t(b)], q);
+    }
+    ls.thresholds = st.thresholds;
+    st.implied_frr = implied(st.fit.model, u, st.thresholds, 0);
+    qq_and_ks(st.fit.model, smp, st);
+  }
+  r.ok = r.problems.empty();
+  return r;
+}
+
+double implied_false_reject_rate(const LearnedDetection& L,
+                                 const std::array<double, kStatistics>& shift) {
+  double frr = 0;
+  for (int s = 0; s < kStatistics; ++s) {
+    if (!rejecting(s)) continue;
+    const LearnedStatistic& ls = L.stats[size_t(s)];
+    const size_t bands = ls.thresholds.size();
+    if (ls.band_fraction.size() != bands || ls.band_pixels.size() != bands ||
+        ls.band_thickness_mm.size() != bands)
+      continue;
+    const BandUse u{ls.band_fraction, ls.band_pixels, ls.band_thickness_mm};
+    frr += implied(ls.model, u, ls.thresholds, shift[size_t(s)]);
+  }
+  return std::min(1.0, frr);
+}
+
+DriftEstimate estimate_drift(const LearnedDetection& L,
+                             const std::vector<std::vector<BandExtreme>>& recent) {
+  DriftEstimate d;
+  d.fillets = int(recent.size());
+  for (int s = 0; s < kStatistics; ++s) {
+    std::vector<ExtremeSample> smp;
+    for (const auto& f : recent)
+      for (const BandExtreme& e : f)
+        if (e.stat == s) smp.push_back({e.x, e.n, e.t});
+    if (smp.size() >= 10) d.shift[size_t(s)] = fit_location_shift(L.stats[size_t(s)].model, smp);
+  }
+  d.implied_frr = implied_false_reject_rate(L, d.shift);
+  return d;
+}
+
+}  // namespace rangex

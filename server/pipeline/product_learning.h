@@ -1,0 +1,90 @@
+// Product learning (issue 23): thresholds from a plant's own clean fillets. Each detection
+// statistic's per-fillet extreme in each thickness band (FilletResult::extremes) is fitted
+// with a GEV regression (gev_fit.h); the threshold per band is the model's quantile that
+// spends the lane's per-fillet false-reject budget, raised to the `confidence` quantile of
+// a bootstrap over the learning fillets (an empirical maximum of 40 fillets cannot promise
+// 0.3 %, a fitted tail with its uncertainty can). A learning run whose fillets hold
+// something the model cannot explain (bone) fails, naming them.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/learned_detection.h"
+#include "pipeline/gev_fit.h"
+#include "pipeline/inspection.h"
+
+namespace rangex {
+
+struct LearningFillet {
+  int lane = 0;
+  int64_t id = 0;
+  double y0_mm = 0;  // belt position of its first row (to find it on the recording)
+  std::vector<BandExtreme> extremes;
+};
+
+struct LearnOptions {
+  double target_frr = 0.003;  // per fillet, for the rejecting statistics together
+  double confidence = 0.9;    // of the bootstrap: the thresholds meet the budget this sure
+  int bootstrap = 100;
+  int min_fillets = 30;
+  uint64_t seed = 1;
+  std::vector<double> band_edges_mm = default_band_edges_mm();
+  // A learning fillet is suspected of holding bone when its extreme is this improbable
+  // under the model fitted without it, after a Bonferroni correction over every band
+  // extreme tested.
+  double outlier_alpha = 0.01;
+};
+
+struct FlaggedFillet {
+  int lane = 0;
+  int64_t id = 0;
+  double y0_mm = 0;
+  int stat = 0, band = 0;
+  double x = 0;               // its extreme
+  double log10_survival = 0;  // of that extreme under the model fitted without it
+};
+
+struct QQPoint {
+  double expected = 0, observed = 0;  // Gumbel reduced variates
+};
+
+struct StatisticLearning {
+  int samples = 0;
+  GevFit fit;
+  std::vector<double> point_thresholds;  // the point model's, per band
+  std::vector<double> thresholds;        // raised to the confidence level (the ones used)
+  double budget = 0;                     // its share of the per-fillet false-reject target
+  double implied_frr = 0;                // at `thresholds` under the point model
+  std::vector<QQPoint> qq;               // the learning extremes against the fitted model
+  double ks_d = 0, ks_p = 1;             // Kolmogorov-Smirnov of the probability transforms
+};
+
+struct ProductLearning {
+  bool ok = false;
+  std::vector<std::string> problems;  // why it cannot be activated (empty when ok)
+  int fillets = 0;                    // clean fillets used
+  std::vector<FlaggedFillet> flagged;
+  std::array<StatisticLearning, kStatistics> stats;
+  LearnedDetection learned;  // version and learned_on are the caller's
+};
+
+ProductLearning learn_product(const std::vector<LearningFillet>& fillets, const LearnOptions& opt);
+
+// The per-fillet false-reject rate of the rejecting statistics at `learned`'s thresholds
+// when each statistic's extremes sit `shift[s]` above the learned model.
+double implied_false_reject_rate(const LearnedDetection& learned,
+                                 const std::array<double, kStatistics>& shift);
+
+// Drift: each statistic's location shift fitted to recent fillets' extremes (held against
+// the learned model), and the false-reject rate it implies.
+struct DriftEstimate {
+  int fillets = 0;
+  std::array<double, kStatistics> shift{};
+  double implied_frr = 0;
+};
+DriftEstimate estimate_drift(const LearnedDetection& learned,
+                             const std::vector<std::vector<BandExtreme>>& recent);
+
+}  // namespace rangex

@@ -1,0 +1,173 @@
+#include "pipeline/sensitivity.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+
+#include "pipeline/inspection.h"
+
+namespace rangex {
+
+const char* piece_shape_name(int shape) {
+  return shape == TestPiece::kNeedle ? "needle" : "sphere";
+}
+
+double SensitivityFillet::meat_mu(double t) const {
+  return std::clamp(-(beta1 + 2 * beta2 * t), 0.005, 0.3);
+}
+
+namespace {
+
+// Pixels at least `margin` px inside the mask (a square neighbourhood), where the meat can
+// hold a piece of `size` mm.
+std::vector<size_t> candidates(const FilletImage& img, int margin_r, int margin_c, double min_t) {
+  std::vector<size_t> out;
+  for (int r = margin_r; r < img.rows - margin_r; ++r)
+    for (int c = margin_c; c < img.cols - margin_c; ++c) {
+      const size_t i = size_t(r) * img.cols + c;
+      if (!img.mask[i] || !(img.thickness[i] >= min_t)) continue;
+      bool inside = true;
+      for (int dr : {-margin_r, margin_r})
+        for (int dc : {-margin_c, 0, margin_c})
+          inside = inside && img.mask[size_t(r + dr) * img.cols + c + dc];
+      for (int dc : {-margin_c, margin_c})
+        inside = inside && img.mask[size_t(r) * img.cols + c + dc];
+      if (inside) out.push_back(i);
+    }
+  return out;
+}
+
+}  // namespace
+
+SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fillets,
+                                      const InspectionParams& p, const SensitivityOptions& opt,
+                                      const std::function<void(int, int)>& progress) {
+  SensitivityResult res;
+  res.band_edges_mm = !opt.band_edges_mm.empty() ? opt.band_edges_mm
+                      : p.learned.active()       ? p.learned.band_edges_mm
+                                                 : default_band_edges_mm();
+  std::map<std::tuple<int, double, int>, SensitivityCell> cells;
+  std::mt19937_64 rng(opt.seed);
+  const int total = int(fillets.size() * 2 * opt.sizes_mm.size());
+  int done = 0;
+  for (const SensitivityFillet& f : fillets) {
+    const FilletImage& base = *f.image;
+    const int mr = std::max(1, int(std::ceil(opt.edge_margin_mm / base.step_mm)));
+    const int mc = std::max(1, int(std::ceil(opt.edge_margin_mm / base.pitch_mm)));
+    for (int shape = 0; shape < 2; ++shape)
+      for (double size : opt.sizes_mm) {
+        if (progress) progress(++done, total);
+        // A sphere needs the meat to hold it; a needle lies flat.
+        const double need = shape == TestPiece::kSphere ? size + 1.0 : 2.0;
+        auto cand = candidates(base, mr, mc, need);
+        std::shuffle(cand.begin(), cand.end(), rng);
+        std::vector<TestPiece> placed;
+        std::uniform_real_distribution<double> angle(0, M_PI);
+        for (size_t i : cand) {
+          if (int(placed.size()) >= opt.pieces_per_fillet) break;
+          const int r = int(i / size_t(base.cols)), c = int(i % size_t(base.cols));
+          bool far = true;
+          for (const TestPiece& q : placed)
+            far = far && std::hypot((r - q.row) * base.step_mm, (c - q.col) * base.pitch_mm) >=
+                             opt.spacing_mm;
+          if (!far) continue;
+          TestPiece piece;
+          piece.shape = TestPiece::Shape(shape);
+          piece.size_mm = size;
+          piece.row = r, piece.col = c;
+          const double t = base.thickness[i];
+          const double rad =
+              shape == TestPiece::kSphere ? 0.5 * size : 0.5 * opt.material.needle_diameter_mm;
+          const double depth = opt.depths[placed.size() % opt.depths.size()];
+          piece.height_mm = std::clamp(depth * t, rad, std::max(rad, t - rad));
+          piece.angle_rad = angle(rng);
+          placed.push_back(piece);
+        }
+        if (placed.empty()) continue;
+        FilletImage img = base;
+        for (const TestPiece& q : placed)
+          inject_test_piece(img, q, f.meat_mu(base.thickness[size_t(q.row) * base.cols + q.col]),
+                            opt.material);
+        const FilletResult r = inspect_fillet(img, p, false);
+        ++res.inspections;
+        for (const TestPiece& q : placed) {
+          const double t = base.thickness[size_t(q.row) * base.cols + q.col];
+          const int band = band_index(res.band_edges_mm, t);
+          SensitivityCell& cell = cells[{shape, size, band}];
+          cell.shape = shape, cell.size_mm = size, cell.band = band;
+          ++cell.injected;
+          // Found: a fragment's box, grown by the evaluation's distance, holds its centre.
+          const double tol = std::max(2.0, 0.5 * size + 1);
+          const int gr = int(std::ceil(tol / base.step_mm)),
+                    gc = int(std::ceil(tol / base.pitch_mm));
+          for (const Blob& b : r.fragments)
+            if (q.row >= b.row0 - gr && q.row <= b.row1 + gr && q.col >= b.col0 - gc &&
+                q.col <= b.col1 + gc) {
+              ++cell.found;
+              break;
+            }
+        }
+      }
+  }
+  for (auto& [k, c] : cells) res.cells.push_back(c);
+  // Claims: per shape and band, the smallest size found at >= rate at it and every larger size.
+  const int bands = int(res.band_edges_mm.size()) - 1;
+  for (int shape = 0; shape < 2; ++shape)
+    for (int band = 0; band < bands; ++band) {
+      double claim = NAN;
+      for (auto it = opt.sizes_mm.rbegin(); it != opt.sizes_mm.rend(); ++it) {
+        const auto c = cells.find({shape, *it, band});
+        if (c == cells.end() || c->second.injected < opt.min_pieces ||
+            double(c->second.found) < opt.rate * c->second.injected)
+          break;
+        claim = *it;
+      }
+      if (std::isfinite(claim))
+        res.claims.push_back({shape, band, res.band_edges_mm[size_t(band)],
+                              res.band_edges_mm[size_t(band) + 1], claim});
+    }
+  // The summary a plant reads: per shape and size, the thickness up to which every band
+  // from the thinnest claims it.
+  for (int shape = 0; shape < 2; ++shape)
+    for (double size : opt.sizes_mm) {
+      double up_to = -1;
+      for (int band = 0; band < bands; ++band) {
+        const auto it = std::find_if(res.claims.begin(), res.claims.end(), [&](const auto& c) {
+          return c.shape == shape && c.band == band;
+        });
+        const bool seen = std::any_of(res.cells.begin(), res.cells.end(), [&](const auto& c) {
+          return c.shape == shape && c.band == band && c.injected >= opt.min_pieces;
+        });
+        if (!seen) continue;  // no meat that thick among the fillets: no claim either way
+        if (it == res.claims.end() || it->size_mm > size) break;
+        up_to = res.band_edges_mm[size_t(band) + 1];
+      }
+      if (up_to > 0) {
+        char b[160];
+        std::snprintf(b, sizeof b, "%.1f mm calcified %s at %.0f %% %s %.0f mm of meat", size,
+                      piece_shape_name(shape), 100 * opt.rate,
+                      up_to > 100 ? "at any thickness seen, up to" : "up to",
+                      up_to > 100 ? res.band_edges_mm[size_t(bands) - 1] + 5 : up_to);
+        res.summary.push_back(b);
+        break;  // the smallest size that holds from the thinnest band up
+      }
+    }
+  return res;
+}
+
+std::vector<ClaimCheck> check_claims(const std::vector<SensitivityClaim>& claims,
+                                     const SensitivityResult& measured, double rate) {
+  std::vector<ClaimCheck> out;
+  for (const SensitivityClaim& c : claims) {
+    ClaimCheck k{c, 0, 0, false};
+    for (const SensitivityCell& m : measured.cells)
+      if (m.shape == c.shape && m.band == c.band && std::abs(m.size_mm - c.size_mm) < 1e-9)
+        k.injected += m.injected, k.found += m.found;
+    k.held = k.injected > 0 && double(k.found) >= rate * k.injected;
+    out.push_back(k);
+  }
+  return out;
+}
+
+}  // namespace rangex

@@ -1,0 +1,76 @@
+// The sensitivity that a lane's thresholds buy: test pieces (test_pieces.h) of several sizes,
+// both shapes, at several depths, injected into clean fillets, each fillet inspected with
+// the lane's inspection settings; per shape, size and thickness band, how many were found.
+// From it the claim a plant can check: per band the smallest size found at >= 95 %.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/lane_config.h"
+#include "pipeline/fillet_image.h"
+#include "pipeline/test_pieces.h"
+
+namespace rangex {
+
+struct SensitivityOptions {
+  std::vector<double> sizes_mm = {1, 1.5, 2, 2.5, 3, 4, 5};
+  std::vector<double> depths = {0.25, 0.5, 0.75};  // centre height as a fraction of the meat
+  int pieces_per_fillet = 4;                       // per fillet, shape and size
+  double spacing_mm = 12;                          // between pieces in one fillet
+  double edge_margin_mm = 3;                       // from the meat's edge
+  TestPieceMaterial material;
+  uint64_t seed = 7;
+  std::vector<double> band_edges_mm;  // empty: the learned bands, else the default ones
+  double rate = 0.95;                 // the detection rate a claim stands for
+  int min_pieces = 10;                // per cell, to claim anything
+};
+
+struct SensitivityCell {
+  int shape = 0;  // TestPiece::Shape
+  double size_mm = 0;
+  int band = 0;
+  int injected = 0, found = 0;
+};
+
+// Per shape and band: the smallest size found at >= rate there and at every larger size
+// (NaN: none).
+struct SensitivityClaim {
+  int shape = 0, band = 0;
+  double band_lo_mm = 0, band_hi_mm = 0;
+  double size_mm = 0;
+};
+
+struct SensitivityResult {
+  std::vector<double> band_edges_mm;
+  std::vector<SensitivityCell> cells;
+  std::vector<SensitivityClaim> claims;
+  std::vector<std::string> summary;  // "2.0 mm sphere at 95 % up to 20 mm of meat"
+  int inspections = 0;
+};
+
+struct SensitivityFillet {
+  const FilletImage* image = nullptr;  // a clean fillet with its pixels
+  // Its meat's attenuation per mm at thickness t: -(beta1 + 2 beta2 t), the fit's slope.
+  double beta1 = -0.03, beta2 = 0;
+  double meat_mu(double t) const;
+};
+
+SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fillets,
+                                      const InspectionParams& p, const SensitivityOptions& opt,
+                                      const std::function<void(int, int)>& progress = {});
+
+// Each of `claims` checked on `measured` (e.g. fillets not used for learning): the found
+// rate at the claimed size and band; held when >= rate.
+struct ClaimCheck {
+  SensitivityClaim claim;
+  int injected = 0, found = 0;
+  bool held = false;
+};
+std::vector<ClaimCheck> check_claims(const std::vector<SensitivityClaim>& claims,
+                                     const SensitivityResult& measured, double rate);
+
+const char* piece_shape_name(int shape);
+
+}  // namespace rangex

@@ -1,0 +1,79 @@
+#include "pipeline/thickness_spread.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "pipeline/robust_fit.h"
+
+namespace rangex {
+
+namespace {
+constexpr double kMadNormal = 0.6744897501960817;
+
+// Linear between bin centres, constant beyond the first and last.
+double interpolate(const std::vector<double>& x, const std::vector<double>& y, double t) {
+  if (x.size() == 1 || t <= x.front()) return y.front();
+  if (t >= x.back()) return y.back();
+  const size_t k = size_t(std::upper_bound(x.begin(), x.end(), t) - x.begin());
+  const double w = (x[k] - x[k - 1]) > 0 ? (t - x[k - 1]) / (x[k] - x[k - 1]) : 0.0;
+  return y[k - 1] + w * (y[k] - y[k - 1]);
+}
+}  // namespace
+
+ThicknessBins thickness_bins(const float* thickness, const uint8_t* use, size_t n, int max_bins,
+                             size_t min_per_bin) {
+  std::vector<size_t> px;
+  for (size_t i = 0; i < n; ++i)
+    if (use[i] && std::isfinite(thickness[i])) px.push_back(i);
+  std::sort(px.begin(), px.end(), [&](size_t a, size_t b) { return thickness[a] < thickness[b]; });
+  ThicknessBins b;
+  if (px.empty()) return b;
+  const size_t bins = std::clamp<size_t>(px.size() / std::max<size_t>(1, min_per_bin), 1,
+                                         size_t(std::max(1, max_bins)));
+  for (size_t k = 0; k < bins; ++k) {
+    const size_t lo = px.size() * k / bins, hi = px.size() * (k + 1) / bins;
+    b.members.emplace_back(px.begin() + long(lo), px.begin() + long(hi));
+    b.centre_mm.push_back(thickness[px[(lo + hi) / 2]]);
+  }
+  return b;
+}
+
+double SpreadProfile::median_at(double t) const {
+  return interpolate(centre_mm, median, t);
+}
+double SpreadProfile::scale_at(double t) const {
+  return interpolate(centre_mm, scale, t);
+}
+
+SpreadProfile spread_profile(const std::vector<float>& v, const ThicknessBins& bins, double floor) {
+  SpreadProfile s;
+  std::vector<double> tmp;
+  for (size_t k = 0; k < bins.members.size(); ++k) {
+    tmp.clear();
+    for (size_t i : bins.members[k])
+      if (std::isfinite(v[i])) tmp.push_back(v[i]);
+    if (tmp.empty()) continue;
+    const double med = median_inplace(tmp.data(), tmp.size());
+    for (double& x : tmp) x = std::abs(x - med);
+    const double sd = median_inplace(tmp.data(), tmp.size()) / kMadNormal;
+    s.centre_mm.push_back(bins.centre_mm[k]);
+    s.median.push_back(med);
+    s.scale.push_back(std::max(sd, floor));
+  }
+  return s;
+}
+
+SpreadProfile unit_spread_by_thickness(std::vector<float>& v, const float* thickness,
+                                       const uint8_t* use, const ThicknessBins& bins,
+                                       double floor) {
+  SpreadProfile s = spread_profile(v, bins, floor);
+  if (s.centre_mm.empty()) return s;
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (!use[i] || !std::isfinite(v[i])) continue;
+    const double t = std::isfinite(thickness[i]) ? thickness[i] : s.centre_mm.front();
+    v[i] = float((v[i] - s.median_at(t)) / s.scale_at(t));
+  }
+  return s;
+}
+
+}  // namespace rangex

@@ -1,0 +1,273 @@
+// Product learning (issue 23): the GEV model and its fit against known parameters, the
+// component extreme against a threshold sweep, the per-thickness spread against its
+// definition, learning from clean extremes (thresholds meet the budget on fillets it never
+// saw), refusal of a learning run with bone, drift, and the learned section's round trip.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "core/error.h"
+#include "core/plant_config.h"
+#include "pipeline/component_extreme.h"
+#include "pipeline/connected_components.h"
+#include "pipeline/gev_fit.h"
+#include "pipeline/product_learning.h"
+#include "pipeline/thickness_spread.h"
+
+namespace rangex {
+namespace {
+
+GevModel truth_model() {
+  GevModel g;
+  g.m0 = 4.0, g.m_logn = 0.45, g.m_t = 0.04, g.s0 = std::log(0.5), g.s_t = 0.02, g.xi = 0.12;
+  g.log_n_ref = std::log(8000.0), g.t_ref = 12;
+  return g;
+}
+
+ExtremeSample draw(const GevModel& g, std::mt19937_64& rng, double n, double t) {
+  std::uniform_real_distribution<double> u(1e-12, 1 - 1e-12);
+  return {g.quantile(u(rng), n, t), n, t};
+}
+
+TEST(GevModel, QuantileInvertsCdfAndSurvivalHoldsInTheTail) {
+  const GevModel g = truth_model();
+  for (double p : {0.01, 0.3, 0.9, 0.999, 1 - 1e-7}) {
+    const double x = g.quantile(p, 5000, 8);
+    EXPECT_NEAR(g.cdf(x, 5000, 8), p, 1e-9 * std::max(1.0, 1 / (1 - p)));
+    EXPECT_NEAR(std::exp(g.log_survival(x, 5000, 8)), 1 - p, 1e-6 * (1 - p));
+  }
+  GevModel gumbel = g;
+  gumbel.xi = 0;
+  EXPECT_NEAR(gumbel.cdf(gumbel.quantile(0.7, 100, 3), 100, 3), 0.7, 1e-12);
+}
+
+TEST(GevFit, RecoversKnownParametersWithCovariates) {
+  const GevModel g = truth_model();
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> n(1000, 20000), t(2, 26);
+  std::vector<ExtremeSample> s;
+  for (int i = 0; i < 3000; ++i) s.push_back(draw(g, rng, n(rng), t(rng)));
+  const GevFit f = fit_gev(s);
+  ASSERT_TRUE(f.converged);
+  // The fit centres its covariates on the sample; compare where it matters: quantiles.
+  for (double p : {0.5, 0.99, 0.999})
+    for (double tt : {4.0, 12.0, 22.0})
+      EXPECT_NEAR(f.model.quantile(p, 8000, tt), g.quantile(p, 8000, tt),
+                  0.05 * g.quantile(p, 8000, tt))
+          << "p " << p << " t " << tt;
+  EXPECT_NEAR(f.model.xi, g.xi, 0.05);
+  EXPECT_NEAR(f.model.m_logn, g.m_logn, 0.1);
+}
+
+TEST(GevFit, LocationShiftIsFound) {
+  const GevModel g = truth_model();
+  std::mt19937_64 rng(5);
+  std::vector<ExtremeSample> s;
+  GevModel moved = g;
+  moved.m0 += 0.8;
+  for (int i = 0; i < 600; ++i) s.push_back(draw(moved, rng, 8000, 12));
+  EXPECT_NEAR(fit_location_shift(g, s), 0.8, 0.08);
+}
+
+TEST(ComponentExtreme, EqualsTheHighestThresholdWithALargeEnoughComponent) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<float> nd;
+  const int R = 40, C = 50;
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<float> v(size_t(R) * C);
+    std::vector<uint8_t> use(v.size());
+    for (size_t i = 0; i < v.size(); ++i) v[i] = nd(rng), use[i] = (i % 7) != 0;
+    for (int min_px : {1, 2, 4}) {
+      const double x = component_extreme(v.data(), use.data(), R, C, min_px);
+      // Brute force: above x - eps a large enough component exists, above x + eps none.
+      auto exists = [&](double t) {
+        std::vector<uint8_t> on(v.size());
+        for (size_t i = 0; i < v.size(); ++i) on[i] = use[i] && v[i] > t;
+        std::vector<int> labels;
+        for (const Component& c : label_components(on.data(), R, C, labels))
+          if (c.pixels >= min_px) return true;
+        return false;
+      };
+      EXPECT_TRUE(exists(x - 1e-6)) << "trial " << trial << " min " << min_px;
+      EXPECT_FALSE(exists(x)) << "trial " << trial << " min " << min_px;
+    }
+  }
+}
+
+TEST(ThicknessSpread, UnitSpreadInEveryThicknessRangeDespiteHeavyTails) {
+  // Noise whose spread grows with thickness (sigma = 0.5 + 0.1 T), 2 % gross outliers.
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> nd;
+  std::uniform_real_distribution<double> ut(1, 25), uo(0, 1);
+  const size_t n = 60000;
+  std::vector<float> t(n), v(n);
+  std::vector<uint8_t> use(n, 1);
+  for (size_t i = 0; i < n; ++i) {
+    t[i] = float(ut(rng));
+    v[i] = float(0.3 + (0.5 + 0.1 * t[i]) * nd(rng) + (uo(rng) < 0.02 ? 30 : 0));
+  }
+  const ThicknessBins bins = thickness_bins(t.data(), use.data(), n);
+  EXPECT_EQ(bins.members.size(), 8u);
+  unit_spread_by_thickness(v, t.data(), use.data(), bins, 0.0);
+  for (double lo : {2.0, 8.0, 14.0, 20.0}) {
+    std::vector<double> in;
+    for (size_t i = 0; i < n; ++i)
+      if (t[i] >= lo && t[i] < lo + 3) in.push_back(v[i]);
+    std::sort(in.begin(), in.end());
+    const double med = in[in.size() / 2];
+    for (double& x : in) x = std::abs(x - med);
+    std::sort(in.begin(), in.end());
+    EXPECT_NEAR(in[in.size() / 2] / 0.6745, 1.0, 0.08) << "thickness " << lo;
+    EXPECT_NEAR(med, 0.0, 0.08) << "thickness " << lo;
+  }
+}
+
+// Learning fillets whose band extremes follow `g` (bands of 5 mm, 3-5 bands per fillet).
+std::vector<LearningFillet> clean_fillets(const GevModel& g, int count, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> n(2000, 14000);
+  std::uniform_int_distribution<int> top(3, 5);
+  std::vector<LearningFillet> out;
+  for (int i = 0; i < count; ++i) {
+    LearningFillet f;
+    f.id = i;
+    f.y0_mm = 300.0 * i;
+    const int bands = top(rng);
+    for (int b = 0; b < bands; ++b)
+      for (int s = 0; s < kStatistics; ++s) {
+        GevModel gs = g;
+        gs.m0 += 0.3 * s;
+        const ExtremeSample e = draw(gs, rng, n(rng), 5.0 * b + 2.5);
+        f.extremes.push_back({s, b, e.x, e.n, e.t});
+      }
+    out.push_back(f);
+  }
+  return out;
+}
+
+// The per-fillet rate of fillets with a rejecting statistic above its band's threshold.
+double false_reject_rate(const LearnedDetection& L, const std::vector<LearningFillet>& fs) {
+  int rejected = 0;
+  for (const auto& f : fs) {
+    bool rej = false;
+    for (const BandExtreme& e : f.extremes)
+      rej = rej || (e.stat != kStatAir && e.x > L.stats[size_t(e.stat)].thresholds[size_t(e.band)]);
+    rejected += rej;
+  }
+  return double(rejected) / double(fs.size());
+}
+
+TEST(ProductLearning, ThresholdsMeetTheBudgetOnFilletsItNeverSaw) {
+  const GevModel g = truth_model();
+  LearnOptions o;
+  o.target_frr = 0.01;
+  o.bootstrap = 60;
+  const ProductLearning L = learn_product(clean_fillets(g, 60, 1), o);
+  ASSERT_TRUE(L.ok) << (L.problems.empty() ? "" : L.problems[0]);
+  EXPECT_EQ(L.fillets, 60);
+  EXPECT_TRUE(L.flagged.empty());
+  // 20 000 new fillets of the same product.
+  const double frr = false_reject_rate(L.learned, clean_fillets(g, 20000, 99));
+  EXPECT_LE(frr, o.target_frr * 1.2);
+  EXPECT_GE(frr, o.target_frr * 0.05);  // not bought with blindness
+  // The learned extremes follow their model (the QQ plot's test).
+  EXPECT_GT(L.stats[kStatRound].ks_p, 0.01);
+  // Exact with fixed seeds.
+  const ProductLearning again = learn_product(clean_fillets(g, 60, 1), o);
+  EXPECT_EQ(again.learned.stats[kStatRound].thresholds, L.learned.stats[kStatRound].thresholds);
+}
+
+TEST(ProductLearning, ALearningRunWithBoneFailsNamingTheFillets) {
+  auto fs = clean_fillets(truth_model(), 40, 2);
+  // Bones stand out by 10-50 (smoothed z); a heavy-tailed product hides weaker ones.
+  fs[7].extremes[0].x = 30;   // round statistic, band 0
+  fs[23].extremes[4].x = 25;  // needle, band 1
+  LearnOptions o;
+  o.bootstrap = 20;
+  const ProductLearning L = learn_product(fs, o);
+  EXPECT_FALSE(L.ok);
+  ASSERT_EQ(L.flagged.size(), 2u);
+  std::vector<int64_t> ids = {L.flagged[0].id, L.flagged[1].id};
+  std::sort(ids.begin(), ids.end());
+  EXPECT_EQ(ids, (std::vector<int64_t>{7, 23}));
+  bool named = false;
+  for (const auto& p : L.problems) named = named || p.find("fillet 7 ") != std::string::npos;
+  EXPECT_TRUE(named);
+  EXPECT_EQ(L.fillets, 38);
+}
+
+TEST(ProductLearning, TooFewFilletsFails) {
+  LearnOptions o;
+  o.bootstrap = 20;
+  const ProductLearning L = learn_product(clean_fillets(truth_model(), 20, 4), o);
+  EXPECT_FALSE(L.ok);
+  ASSERT_FALSE(L.problems.empty());
+  EXPECT_NE(L.problems[0].find("too few clean fillets: 20 of the 30"), std::string::npos);
+}
+
+TEST(ProductLearning, DriftOfARougherProductIsSeenAndTheSameProductIsNot) {
+  const GevModel g = truth_model();
+  LearnOptions o;
+  o.bootstrap = 40;
+  const ProductLearning L = learn_product(clean_fillets(g, 60, 5), o);
+  ASSERT_TRUE(L.ok);
+  auto recent = [&](const GevModel& m, uint64_t seed) {
+    std::vector<std::vector<BandExtreme>> r;
+    for (const auto& f : clean_fillets(m, 200, seed)) r.push_back(f.extremes);
+    return r;
+  };
+  const DriftEstimate same = estimate_drift(L.learned, recent(g, 6));
+  EXPECT_LT(same.implied_frr, 2 * o.target_frr);
+  GevModel rough = g;
+  rough.m0 += 3.5;
+  const DriftEstimate drift = estimate_drift(L.learned, recent(rough, 7));
+  EXPECT_NEAR(drift.shift[kStatRound], 3.5, 0.3);
+  EXPECT_NEAR(drift.shift[kStatNeedle], 3.5, 0.3);
+  // What 200 fillets imply is what the rougher product really does (20 000 of them).
+  const double real = false_reject_rate(L.learned, clean_fillets(rough, 20000, 8));
+  EXPECT_NEAR(drift.implied_frr, real, 0.35 * real);
+  EXPECT_GT(real, 2 * o.target_frr);
+  EXPECT_GT(drift.implied_frr, 2 * o.target_frr);
+}
+
+TEST(LearnedDetection, RoundTripsThroughItsYamlAndRefusesBadValues) {
+  LearnOptions o;
+  o.bootstrap = 20;
+  ProductLearning L = learn_product(clean_fillets(truth_model(), 40, 8), o);
+  L.learned.version = "v \"quoted\"";
+  L.learned.learned_on = "rec lane 0";
+  const std::string y = learned_detection_yaml(L.learned);
+  const LearnedDetection back = parse_learned_detection(y, "test");
+  EXPECT_EQ(back.version, L.learned.version);
+  EXPECT_EQ(back.band_edges_mm, L.learned.band_edges_mm);
+  for (int s = 0; s < kStatistics; ++s) {
+    for (size_t b = 0; b < back.stats[s].thresholds.size(); ++b)
+      EXPECT_NEAR(back.stats[s].thresholds[b], L.learned.stats[s].thresholds[b], 1e-9);
+    EXPECT_NEAR(back.stats[s].model.xi, L.learned.stats[s].model.xi, 1e-9);
+  }
+  std::string bad = y;
+  bad.replace(bad.find("thresholds: [") + 13, 0, "-1, ");
+  try {
+    parse_learned_detection(bad, "x.yaml");
+    FAIL() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("round.thresholds"), std::string::npos) << e.what();
+  }
+  const std::string plant =
+      "lanes:\n  - id: 0\n    inspection:\n      false_reject_target: 0.01\n"
+      "      learned:\n" +
+      [&] {
+        std::string ind;
+        std::istringstream in(y);
+        std::string line;
+        while (std::getline(in, line)) ind += "        " + line + "\n";
+        return ind;
+      }();
+  const PlantConfig p = parse_plant_config(plant, "plant.yaml");
+  EXPECT_TRUE(p.lanes[0].inspection.learned.active());
+  EXPECT_DOUBLE_EQ(p.lanes[0].inspection.false_reject_target, 0.01);
+}
+
+}  // namespace
+}  // namespace rangex
