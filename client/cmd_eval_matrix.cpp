@@ -10,9 +10,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -58,6 +60,7 @@ void run_step(const std::string& log, std::vector<std::string> args) {
     const int argc = int(argv.size());
     rc = cmd == "simulate"  ? cmd_simulate(argc, argv.data())
          : cmd == "process" ? cmd_process(argc, argv.data())
+         : cmd == "learn"   ? cmd_learn(argc, argv.data())
                             : cmd_calib(argc, argv.data());
   } catch (const std::exception& e) {
     what = e.what();
@@ -85,11 +88,29 @@ struct Row {
   bool held_out = false;
   ErrorStats thickness;
   DetectionEval ours, base;
+  // With thresholds learned from the variant's own clean fillets (another seed), and what
+  // the learning reported: ok, fillets it flagged as bone-like, its sensitivity claims
+  // checked on a third set of clean fillets.
+  DetectionEval learned;
+  int learn_fillets = 0;
+  bool learned_run = false, learn_ok = false;
+  int learn_flagged = 0, claims = 0, claims_held = 0;
+  std::vector<std::string> sensitivity;
   double minutes = 0;
 };
 
+struct MatrixOptions {
+  int fillets = 60;
+  long seed = 11;
+  bool keep = false;
+  int learn_fillets = 40;  // 0: no learning
+  int check_fillets = 20;
+};
+
 Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& plant,
-                const std::string& config, int fillets, long seed, bool keep) {
+                const std::string& config, const MatrixOptions& mo) {
+  const int fillets = mo.fillets;
+  const long seed = mo.seed;
   Row r;
   const sim::PlantPhysics ph = sim::load_plant_physics(file.string());
   r.name = ph.name, r.held_out = ph.held_out;
@@ -113,6 +134,22 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
         "--seed", std::to_string(seed), "--physics", V});
   step({"calib", "scatter", at("rec"), "--calibration", cal});
   step({"process", at("rec"), "--out", at("out"), "--images", "none", "--calibration", cal});
+  // The plant's own product learned from clean fillets of another seed (cartilage and all,
+  // bone left out), its claims checked on a third seed, then the plant inspected with it.
+  if (mo.learn_fillets > 0) {
+    step({"simulate", "--out", at("learn_rec"), "--lanes", "1", "--fillets",
+          std::to_string(mo.learn_fillets), "--seed", std::to_string(seed + 1000), "--physics", V,
+          "--clean"});
+    step({"simulate", "--out", at("check_rec"), "--lanes", "1", "--fillets",
+          std::to_string(mo.check_fillets), "--seed", std::to_string(seed + 2000), "--physics", V,
+          "--clean"});
+    step({"learn", at("learn_rec"), "--out", at("learned.yaml"), "--calibration", cal, "--check",
+          at("check_rec"), "--force", "--version", "matrix-" + r.name});
+    // The learned configuration in place of the plant's (run_step adds no --config here).
+    run_step(log, {"process", at("rec"), "--out", at("out_learned"), "--images", "none",
+                   "--calibration", cal, "--config", at("learned.yaml")});
+    r.learned_run = true;
+  }
   // Evaluation against the recording's truth.
   const RecordingReader rec(at("rec"));
   const RecordingInfo& info = rec.info();
@@ -137,10 +174,27 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
   add_lane(r.base, frags, truth, read_records(ld.string(), "baseline_"), &edges);
   finish(r.ours);
   finish(r.base);
+  if (r.learned_run) {
+    const fs::path ll = dir / "out_learned" / ("lane" + std::to_string(lane));
+    add_lane(r.learned, frags, truth, read_records(ll.string(), ""), &edges);
+    finish(r.learned);
+    const auto j =
+        nlohmann::json::parse(read_text_file((dir / "learned.report" / "learn.json").string()));
+    for (const auto& l : j.at("lanes")) {
+      r.learn_ok = l.at("ok").get<bool>();
+      r.learn_fillets = l.at("fillets").get<int>();
+      if (l.contains("flagged_fillets")) r.learn_flagged = int(l.at("flagged_fillets").size());
+      for (const auto& s : l.at("sensitivity").at("summary")) r.sensitivity.push_back(s);
+      if (l.contains("held_out_check"))
+        r.claims = l["held_out_check"]["claims"].get<int>(),
+        r.claims_held = l["held_out_check"]["held"].get<int>();
+    }
+  }
   // The scans are large (256 kB of camera frames per line); the results, the calibration
   // and its reports stay.
-  if (!keep)
-    for (const char* d : {"rec", "pins", "blocks"}) fs::remove_all(dir / d);
+  if (!mo.keep)
+    for (const char* d : {"rec", "pins", "blocks", "learn_rec", "check_rec"})
+      fs::remove_all(dir / d);
   return r;
 }
 
@@ -175,6 +229,46 @@ std::string table(const std::vector<Row>& rows, bool held_out) {
   return os.str();
 }
 
+// Wilson's 95 % interval of k in n, as "lo-hi".
+std::string interval(int k, int n) {
+  if (n == 0) return "-";
+  const double z = 1.959964, p = double(k) / n, d = 1 + z * z / n;
+  const double c = (p + z * z / (2 * n)) / d,
+               h = z * std::sqrt(p * (1 - p) / n + z * z / (4.0 * n * n)) / d;
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f-%.1f", 100 * std::max(0.0, c - h), 100 * std::min(1.0, c + h));
+  return b;
+}
+
+void calcified_2mm(const DetectionEval& e, int& found, int& total) {
+  found = total = 0;
+  for (int s = 1; s < kSizeBins; ++s) found += e.found[s][1], total += e.total[s][1];
+}
+
+std::string learned_table(const std::vector<Row>& rows, bool held_out) {
+  std::ostringstream os;
+  char b[512];
+  std::snprintf(b, sizeof b, "%-19s %5s %4s | %13s %7s | %11s %9s %9s | %6s %s\n", "variant",
+                "learn", "flag", "recall [95%]", "needle", "f.rej", "[95%]", "f.frag/f", "claims",
+                "sensitivity (learning fillets)");
+  os << b;
+  for (const Row& r : rows) {
+    if (r.held_out != held_out || !r.learned_run) continue;
+    const DetectionEval& e = r.learned;
+    int k = 0, n = 0;
+    calcified_2mm(e, k, n);
+    std::snprintf(
+        b, sizeof b, "%-19s %5s %4d | %5.1f%% %6s %7s | %4d/%-4d %10s %9.3f | %2d/%-3d %s\n",
+        r.name.c_str(), r.learn_ok ? "ok" : "FAIL", r.learn_flagged, n ? 100.0 * k / n : 0.0,
+        interval(k, n).c_str(), shape_recall(e, "needle").c_str(), e.clean_rejected,
+        e.clean_fillets, interval(e.clean_rejected, e.clean_fillets).c_str(),
+        e.fillets ? double(e.false_fragments) / e.fillets : 0.0, r.claims_held, r.claims,
+        r.sensitivity.empty() ? "-" : r.sensitivity.front().c_str());
+    os << b;
+  }
+  return os.str();
+}
+
 std::string json(const std::vector<Row>& rows) {
   std::ostringstream os;
   os << "{\"variants\": [";
@@ -200,7 +294,27 @@ std::string json(const std::vector<Row>& rows) {
        << ", \"position_mean_mm\": " << e.position.stats().mean_abs
        << ", \"baseline_recall_calcified_ge_2mm\": " << r.base.recall_calcified_2mm()
        << ", \"baseline_false_reject_rate\": " << r.base.false_reject_rate()
-       << ", \"minutes\": " << r.minutes << "}";
+       << ", \"minutes\": " << r.minutes;
+    if (r.learned_run) {
+      const DetectionEval& l = r.learned;
+      int k = 0, n = 0;
+      calcified_2mm(l, k, n);
+      os << ", \"learned\": {\"ok\": " << (r.learn_ok ? "true" : "false")
+         << ", \"learning_fillets\": " << r.learn_fillets << ", \"flagged\": " << r.learn_flagged
+         << ", \"recall_calcified_ge_2mm\": [" << k << ", " << n << "], \"recall_by_shape\": {";
+      for (size_t q = 0; q < l.by_shape.size(); ++q)
+        os << (q ? ", " : "") << "\"" << l.by_shape[q].first << "\": ["
+           << l.by_shape[q].second.first << ", " << l.by_shape[q].second.second << "]";
+      os << "}, \"false_rejects\": [" << l.clean_rejected << ", " << l.clean_fillets
+         << "], \"not_inspected\": " << l.not_inspected
+         << ", \"false_fragments\": " << l.false_fragments << ", \"fillets\": " << l.fillets
+         << ", \"claims\": " << r.claims << ", \"claims_held\": " << r.claims_held
+         << ", \"sensitivity\": [";
+      for (size_t q = 0; q < r.sensitivity.size(); ++q)
+        os << (q ? ", " : "") << "\"" << r.sensitivity[q] << "\"";
+      os << "]}";
+    }
+    os << "}";
   }
   os << "\n]}\n";
   return os.str();
@@ -210,10 +324,10 @@ std::string json(const std::vector<Row>& rows) {
 
 int cmd_eval_matrix(int argc, char** argv) {
   const Args a(argc, argv, 2, {"keep-scans"},
-               {"variants", "only", "fillets", "seed", "out", "config"});
+               {"variants", "only", "fillets", "seed", "out", "config", "learn", "check"});
   a.expect_positionals(0,
                        "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] "
-                       "[--seed S] [--keep-scans]");
+                       "[--seed S] [--learn N (0: none)] [--check N] [--keep-scans]");
   const PlantConfig plant = load_config(a.get("config", ""));
   const fs::path vdir = a.get(
       "variants", (fs::path(config_path(a.get("config", ""))).parent_path() / "variants").string());
@@ -235,8 +349,15 @@ int cmd_eval_matrix(int argc, char** argv) {
     files = keep;
   }
   if (files.empty()) fail(vdir.string(), " holds no variant (*.yaml)");
-  const int fillets = int(a.integer("fillets", 60));
-  const long seed = a.integer("seed", 11);
+  MatrixOptions mo;
+  mo.fillets = int(a.integer("fillets", 60));
+  mo.seed = a.integer("seed", 11);
+  mo.keep = a.flag("keep-scans");
+  mo.learn_fillets = int(a.integer("learn", 40));
+  mo.check_fillets = int(a.integer("check", 20));
+  if (mo.learn_fillets < 0 || mo.check_fillets < 1) fail("--learn must be >= 0 and --check >= 1");
+  const int fillets = mo.fillets;
+  const long seed = mo.seed;
   const fs::path out = a.require("out");
   fs::create_directories(out);
   std::vector<Row> rows;
@@ -246,9 +367,8 @@ int cmd_eval_matrix(int argc, char** argv) {
                 files.size(), files[k].stem().c_str(), fillets);
     std::fflush(stdout);
     const auto t0 = std::chrono::steady_clock::now();
-    rows.push_back(run_variant(files[k], out / files[k].stem(), plant,
-                               config_path(a.get("config", "")), fillets, seed,
-                               a.flag("keep-scans")));
+    rows.push_back(
+        run_variant(files[k], out / files[k].stem(), plant, config_path(a.get("config", "")), mo));
     rows.back().minutes =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / 60;
     // Written after every variant, so that a long run's results are there as they come.
@@ -263,6 +383,16 @@ int cmd_eval_matrix(int argc, char** argv) {
        << table(rows, false);
     if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
       os << "\nheld out (never tuned on):\n" << table(rows, true);
+    if (mo.learn_fillets > 0) {
+      os << "\nwith thresholds learned from " << mo.learn_fillets
+         << " clean fillets of each variant (another seed; claims checked on " << mo.check_fillets
+         << " more): recall of calcified >= 2 mm with its 95 % interval; f.rej: clean fillets "
+            "rejected with the 95 % interval in %; claims: sensitivity claims held on the check "
+            "fillets\n\n"
+         << learned_table(rows, false);
+      if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
+        os << "\nheld out (never tuned on):\n" << learned_table(rows, true);
+    }
     text = os.str();
     std::ofstream(out / "matrix.txt") << text;
     std::ofstream(out / "matrix.json") << json(rows);

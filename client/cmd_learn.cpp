@@ -12,6 +12,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -105,7 +106,7 @@ int cmd_learn(int argc, char** argv) {
       1,
       "learn RECORDING --out PLANT.yaml [--config plant.yaml] [--target-frr 0.003] "
       "[--confidence 0.9] [--lanes 0,1] [--calibration F] [--report DIR] "
-      "[--version NAME] [--excess-ratio 2] [--force]");
+      "[--version NAME] [--excess-ratio 2] [--check RECORDING] [--force]");
   const std::string config = config_path(a.get("config", ""));
   PlantConfig plant = load_plant_config(config);
   if (a.has("calibration")) apply_calibration_option(plant, a.get("calibration", ""));
@@ -129,9 +130,20 @@ int cmd_learn(int argc, char** argv) {
   if (a.has("lanes")) opt.lanes = lane_list(a.get("lanes", ""));
   // Learned afresh: the extremes are taken in the default bands, whatever was learned before.
   for (auto& l : plant.lanes) l.inspection.learned = LearnedDetection{};
-  ProgressBar bar("replay");
-  const auto lanes =
-      replay_recording(rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
+  const auto lanes = [&] {
+    ProgressBar bar("replay");
+    return replay_recording(rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
+  }();
+  // Held-out fillets (another recording of the same product) on which the sensitivity
+  // claims are checked with the learned thresholds.
+  std::vector<LaneReplay> check;
+  std::unique_ptr<RecordingReader> check_rec;
+  if (a.has("check")) {
+    check_rec = std::make_unique<RecordingReader>(a.get("check", ""));
+    ProgressBar bar("replay (check)");
+    check =
+        replay_recording(*check_rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
+  }
   fs::create_directories(report_dir);
   nlohmann::json report = {{"recording", rec.dir()}, {"config", config}, {"version", version}};
   std::vector<std::pair<int, LearnedDetection>> learned;
@@ -164,7 +176,24 @@ int cmd_learn(int argc, char** argv) {
     ProgressBar sbar("sensitivity");
     const SensitivityResult sens =
         measure_sensitivity(images, p, so, [&](int d, int t) { sbar.update(d, t); });
-    report["lanes"].push_back(learn_report_json(r.lane, L, sens));
+    nlohmann::json lane_json = learn_report_json(r.lane, L, sens);
+    for (const LaneReplay& c : check) {
+      if (c.lane != r.lane) continue;
+      std::vector<SensitivityFillet> held;
+      for (const InspectedFillet& f : c.fillets)
+        if (f.result.decision != Decision::kNotInspected && f.result.fitted)
+          held.push_back({&f.image, f.result.fit.beta1, f.result.fit.beta2});
+      ProgressBar cbar("sensitivity (check)");
+      const SensitivityResult on_held =
+          measure_sensitivity(held, p, so, [&](int d, int t) { cbar.update(d, t); });
+      const auto checks = check_claims(sens.claims, on_held, so.rate);
+      lane_json["held_out_check"] = claim_checks_json(check_rec->dir(), int(held.size()), checks);
+      int ok = 0;
+      for (const ClaimCheck& k : checks) ok += k.held;
+      std::printf("  held-out check on %zu fillets of %s: %d of %zu claims held\n", held.size(),
+                  check_rec->dir().c_str(), ok, checks.size());
+    }
+    report["lanes"].push_back(lane_json);
     write_learn_plots(report_dir, r.lane, L, sens);
     std::printf("%s", learn_summary_text(r.lane, L, sens).c_str());
     all_ok = all_ok && L.ok;

@@ -79,6 +79,26 @@ nlohmann::json learn_report_json(int lane, const ProductLearning& L, const Sensi
   return j;
 }
 
+nlohmann::json claim_checks_json(const std::string& recording, int fillets,
+                                 const std::vector<ClaimCheck>& checks) {
+  nlohmann::json list = nlohmann::json::array();
+  int held = 0;
+  for (const ClaimCheck& k : checks) {
+    held += k.held;
+    list.push_back({{"shape", piece_shape_name(k.claim.shape)},
+                    {"band", k.claim.band},
+                    {"size_mm", k.claim.size_mm},
+                    {"injected", k.injected},
+                    {"found", k.found},
+                    {"held", k.held}});
+  }
+  return {{"recording", recording},
+          {"fillets", fillets},
+          {"claims", checks.size()},
+          {"held", held},
+          {"checks", list}};
+}
+
 void write_learn_plots(const std::filesystem::path& dir, int lane, const ProductLearning& L,
                        const SensitivityResult& s) {
   const auto& e = L.learned.band_edges_mm;

@@ -13,6 +13,9 @@ namespace rangex::cli {
 
 nlohmann::json learn_report_json(int lane, const ProductLearning& learning,
                                  const SensitivityResult& sensitivity);
+// The sensitivity claims checked on held-out fillets.
+nlohmann::json claim_checks_json(const std::string& recording, int fillets,
+                                 const std::vector<ClaimCheck>& checks);
 void write_learn_plots(const std::filesystem::path& dir, int lane, const ProductLearning& learning,
                        const SensitivityResult& sensitivity);
 std::string learn_summary_text(int lane, const ProductLearning& learning,

@@ -26,7 +26,7 @@ commands:
       each plant variant (config/variants) calibrated from its own scenes, simulated,
       inspected and evaluated beside the X-ray-only baseline (a benchmark: minutes each)
   learn RECORDING --out PLANT.yaml [--target-frr 0.003] [--confidence 0.9] [--lanes L,..]
-        [--calibration F] [--report DIR] [--version NAME] [--excess-ratio 2] [--force]
+        [--calibration F] [--report DIR] [--version NAME] [--excess-ratio 2] [--check REC] [--force]
       learn each lane's detection thresholds from a recording of clean product: an
       extreme-value model per thickness band, the sensitivity it buys (test pieces), a
       report (JSON, PNG); writes a copy of the plant configuration that uses them

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# rangexctl learn (issue 23) through its command line: a lane learned from a recording of
+# clean product writes a plant configuration that process uses as is, with its report;
+# the same run learns the same thresholds again (fixed seeds); a learning run that holds
+# bone is refused and names the fillets; bad options name themselves.
+set -u
+ctl="$1"
+source "$(dirname "$0")/script_checks.sh"
+
+"$ctl" simulate --clean --lanes 1 --fillets 14 --seed 31 --out clean >/dev/null 2>&1 \
+  || { echo "FAIL simulate clean"; exit 1; }
+learn() { "$ctl" learn clean --min-fillets 10 --bootstrap 30 --version t1 "$@"; }
+learn --out learned.yaml >learn.txt 2>&1
+rc=$?
+cat learn.txt
+check "learning on clean product succeeds" test $rc -eq 0
+check "the plant configuration is written" grep -q "learned:" learned.yaml
+check "with its version" grep -q 'version: "\?t1' learned.yaml
+check "and the budget" grep -q "false_reject_target: 0.003" learned.yaml
+check "the report" test -s learned.report/learn.json
+for p in thresholds sensitivity qq; do check "the $p plot" test -s learned.report/lane0_$p.png; done
+py() { python3 -c "import json,sys; j=json.load(open('learned.report/learn.json')); l=j['lanes'][0]; sys.exit(0 if ($1) else 1)"; }
+check "report ok with 14 fillets" py "j['ok'] and l['fillets'] == 14"
+check "round thresholds per band, all finite and positive" py "len(l['statistics']['round']['thresholds']) == len(l['band_edges_mm']) - 1 and all(0 < t < 100 for t in l['statistics']['round']['thresholds'])"
+check "the thresholds spend at most the budget" py "l['statistics']['round']['implied_frr'] + l['statistics']['needle']['implied_frr'] <= 0.003"
+check "test pieces were injected and some found" py "sum(c['injected'] for c in l['sensitivity']['cells']) > 100 and sum(c['found'] for c in l['sensitivity']['cells']) > 0"
+check "large spheres are found in every band they were put in" py "all(c['found'] >= 0.9 * c['injected'] for c in l['sensitivity']['cells'] if c['shape'] == 'sphere' and c['size_mm'] >= 4)"
+learn --out again.yaml >/dev/null 2>&1
+check "learning is exact with fixed seeds" diff -q learned.yaml again.yaml
+"$ctl" process clean --config learned.yaml --out out --images none >process.txt 2>&1
+check "process uses the learned configuration as is" test $? -eq 0
+
+# Bone in the learning run: refused, naming the fillets.
+"$ctl" simulate --lanes 1 --fillets 14 --seed 32 --out boned >/dev/null 2>&1
+"$ctl" learn boned --min-fillets 10 --bootstrap 20 --out boned.yaml >boned.txt 2>&1
+rc=$?
+cat boned.txt
+check "a learning run with bone fails (exit 2)" test $rc -eq 2
+check "it names the fillets" grep -q "fillet [0-9]* (belt [0-9]* mm) holds something like bone" boned.txt
+check "and writes no configuration" test ! -e boned.yaml
+
+out=$("$ctl" learn clean --out x.yaml --target-frr 2 2>&1); rc=$?
+check "a budget beyond range is refused naming it" bash -c "[ $rc -eq 1 ] && grep -q -- '--target-frr must be' <<<'$out'"
+out=$("$ctl" learn clean --out x.yaml --lanes 7 2>&1); rc=$?
+check "an unknown lane is refused" bash -c "[ $rc -eq 1 ]"
+echo "$fails failed"
+exit $((fails > 0))
