@@ -95,6 +95,9 @@ struct Row {
   int learn_fillets = 0;
   bool learned_run = false, learn_ok = false;
   int learn_flagged = 0, claims = 0, claims_held = 0;
+  // A large run of clean product alone with the learned thresholds: the false-reject rate
+  // with an interval narrow enough to mean something.
+  int frr_fillets = 0, frr_rejected = 0, frr_not_inspected = 0, frr_fragments = 0;
   std::vector<std::string> sensitivity;
   double minutes = 0;
 };
@@ -105,6 +108,7 @@ struct MatrixOptions {
   bool keep = false;
   int learn_fillets = 40;  // 0: no learning
   int check_fillets = 20;
+  int frr_fillets = 0;  // clean fillets inspected with the learned thresholds (0: none)
 };
 
 Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& plant,
@@ -149,6 +153,13 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
     run_step(log, {"process", at("rec"), "--out", at("out_learned"), "--images", "none",
                    "--calibration", cal, "--config", at("learned.yaml")});
     r.learned_run = true;
+    if (mo.frr_fillets > 0) {
+      step({"simulate", "--out", at("frr_rec"), "--lanes", "1", "--fillets",
+            std::to_string(mo.frr_fillets), "--seed", std::to_string(seed + 3000), "--physics", V,
+            "--clean"});
+      run_step(log, {"process", at("frr_rec"), "--out", at("out_frr"), "--images", "none",
+                     "--calibration", cal, "--config", at("learned.yaml")});
+    }
   }
   // Evaluation against the recording's truth.
   const RecordingReader rec(at("rec"));
@@ -185,6 +196,15 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
       r.learn_fillets = l.at("fillets").get<int>();
       if (l.contains("flagged_fillets")) r.learn_flagged = int(l.at("flagged_fillets").size());
       for (const auto& s : l.at("sensitivity").at("summary")) r.sensitivity.push_back(s);
+      if (mo.frr_fillets > 0) {
+        const RecordSet clean =
+            read_records((dir / "out_frr" / ("lane" + std::to_string(lane))).string(), "");
+        r.frr_fillets = int(clean.fillets.size());
+        for (const auto& f : clean.fillets)
+          r.frr_rejected += f.decision != "pass",
+              r.frr_not_inspected += f.decision == "not_inspected";
+        r.frr_fragments = int(clean.fragments.size());
+      }
       if (l.contains("held_out_check"))
         r.claims = l["held_out_check"]["claims"].get<int>(),
         r.claims_held = l["held_out_check"]["held"].get<int>();
@@ -193,7 +213,7 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
   // The scans are large (256 kB of camera frames per line); the results, the calibration
   // and its reports stay.
   if (!mo.keep)
-    for (const char* d : {"rec", "pins", "blocks", "learn_rec", "check_rec"})
+    for (const char* d : {"rec", "pins", "blocks", "learn_rec", "check_rec", "frr_rec"})
       fs::remove_all(dir / d);
   return r;
 }
@@ -248,21 +268,27 @@ void calcified_2mm(const DetectionEval& e, int& found, int& total) {
 std::string learned_table(const std::vector<Row>& rows, bool held_out) {
   std::ostringstream os;
   char b[512];
-  std::snprintf(b, sizeof b, "%-19s %5s %4s | %13s %7s | %11s %9s %9s | %6s %s\n", "variant",
-                "learn", "flag", "recall [95%]", "needle", "f.rej", "[95%]", "f.frag/f", "claims",
-                "sensitivity (learning fillets)");
+  std::snprintf(b, sizeof b, "%-19s %5s %4s | %13s %7s | %11s %9s %9s | %15s %8s | %6s %s\n",
+                "variant", "learn", "flag", "recall [95%]", "needle", "f.rej", "[95%]", "f.frag/f",
+                "clean: f.rej", "[95%]", "claims", "sensitivity (learning fillets)");
   os << b;
   for (const Row& r : rows) {
     if (r.held_out != held_out || !r.learned_run) continue;
     const DetectionEval& e = r.learned;
     int k = 0, n = 0;
     calcified_2mm(e, k, n);
+    const std::string clean = r.frr_fillets ? std::to_string(r.frr_rejected) + "/" +
+                                                  std::to_string(r.frr_fillets) + " (" +
+                                                  std::to_string(r.frr_fragments) + " fr)"
+                                            : "-";
     std::snprintf(
-        b, sizeof b, "%-19s %5s %4d | %5.1f%% %6s %7s | %4d/%-4d %10s %9.3f | %2d/%-3d %s\n",
+        b, sizeof b,
+        "%-19s %5s %4d | %5.1f%% %6s %7s | %4d/%-4d %10s %9.3f | %15s %8s | %2d/%-3d %s\n",
         r.name.c_str(), r.learn_ok ? "ok" : "FAIL", r.learn_flagged, n ? 100.0 * k / n : 0.0,
         interval(k, n).c_str(), shape_recall(e, "needle").c_str(), e.clean_rejected,
         e.clean_fillets, interval(e.clean_rejected, e.clean_fillets).c_str(),
-        e.fillets ? double(e.false_fragments) / e.fillets : 0.0, r.claims_held, r.claims,
+        e.fillets ? double(e.false_fragments) / e.fillets : 0.0, clean.c_str(),
+        interval(r.frr_rejected, r.frr_fillets).c_str(), r.claims_held, r.claims,
         r.sensitivity.empty() ? "-" : r.sensitivity.front().c_str());
     os << b;
   }
@@ -309,6 +335,9 @@ std::string json(const std::vector<Row>& rows) {
          << "], \"not_inspected\": " << l.not_inspected
          << ", \"false_fragments\": " << l.false_fragments << ", \"fillets\": " << l.fillets
          << ", \"claims\": " << r.claims << ", \"claims_held\": " << r.claims_held
+         << ", \"clean_run\": {\"fillets\": " << r.frr_fillets
+         << ", \"rejected\": " << r.frr_rejected << ", \"not_inspected\": " << r.frr_not_inspected
+         << ", \"fragments\": " << r.frr_fragments << "}"
          << ", \"sensitivity\": [";
       for (size_t q = 0; q < r.sensitivity.size(); ++q)
         os << (q ? ", " : "") << "\"" << r.sensitivity[q] << "\"";
@@ -324,10 +353,10 @@ std::string json(const std::vector<Row>& rows) {
 
 int cmd_eval_matrix(int argc, char** argv) {
   const Args a(argc, argv, 2, {"keep-scans"},
-               {"variants", "only", "fillets", "seed", "out", "config", "learn", "check"});
+               {"variants", "only", "fillets", "seed", "out", "config", "learn", "check", "frr"});
   a.expect_positionals(0,
                        "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] "
-                       "[--seed S] [--learn N (0: none)] [--check N] [--keep-scans]");
+                       "[--seed S] [--learn N (0: none)] [--check N] [--frr N] [--keep-scans]");
   const PlantConfig plant = load_config(a.get("config", ""));
   const fs::path vdir = a.get(
       "variants", (fs::path(config_path(a.get("config", ""))).parent_path() / "variants").string());
@@ -355,6 +384,7 @@ int cmd_eval_matrix(int argc, char** argv) {
   mo.keep = a.flag("keep-scans");
   mo.learn_fillets = int(a.integer("learn", 40));
   mo.check_fillets = int(a.integer("check", 20));
+  mo.frr_fillets = int(a.integer("frr", 0));
   if (mo.learn_fillets < 0 || mo.check_fillets < 1) fail("--learn must be >= 0 and --check >= 1");
   const int fillets = mo.fillets;
   const long seed = mo.seed;

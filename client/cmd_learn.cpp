@@ -101,7 +101,7 @@ int cmd_learn(int argc, char** argv) {
   const Args a(
       argc, argv, 2, {"force"},
       {"out", "config", "target-frr", "confidence", "lanes", "calibration", "report", "version",
-       "bootstrap", "excess-ratio", "excess-per-mm", "min-fillets", "backend", "device"});
+       "bootstrap", "excess-ratio", "excess-per-mm", "min-fillets", "backend", "device", "check"});
   a.expect_positionals(
       1,
       "learn RECORDING --out PLANT.yaml [--config plant.yaml] [--target-frr 0.003] "
@@ -170,7 +170,7 @@ int cmd_learn(int argc, char** argv) {
     L.learned.version = version;
     L.learned.learned_on = rec.dir() + " lane " + std::to_string(r.lane);
     // The sensitivity those thresholds buy, on the same fillets (the report says so; a
-    // held-out check is `rangexctl learn-check`, or the matrix's).
+    // held-out check is --check, on fillets it did not learn from).
     InspectionParams p = lane.inspection;
     p.learned = L.learned;
     ProgressBar sbar("sensitivity");

@@ -22,7 +22,7 @@ commands:
       (both: [--backend auto|cpu|opencl|vulkan] [--device D] for the line stages)
   eval DIR OUT [--json]   |   eval OUT [--json]
       compare processed output with the truth of its recording (or of its simulation)
-  eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] [--seed S]
+  eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] [--seed S] [--learn N] [--frr N]
       each plant variant (config/variants) calibrated from its own scenes, simulated,
       inspected and evaluated beside the X-ray-only baseline (a benchmark: minutes each)
   learn RECORDING --out PLANT.yaml [--target-frr 0.003] [--confidence 0.9] [--lanes L,..]
