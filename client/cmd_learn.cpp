@@ -26,6 +26,7 @@
 #include "pipeline/sensitivity.h"
 #include "progress_bar.h"
 #include "replay.h"
+#include "service/learned_report.h"
 
 namespace fs = std::filesystem;
 
@@ -176,7 +177,8 @@ int cmd_learn(int argc, char** argv) {
     ProgressBar sbar("sensitivity");
     const SensitivityResult sens =
         measure_sensitivity(images, p, so, [&](int d, int t) { sbar.update(d, t); });
-    nlohmann::json lane_json = learn_report_json(r.lane, L, sens);
+    L.learned.sensitivity = sens.summary;
+    nlohmann::json lane_json = nlohmann::json::parse(learned_report_json(r.lane, L, sens));
     for (const LaneReplay& c : check) {
       if (c.lane != r.lane) continue;
       std::vector<SensitivityFillet> held;
@@ -187,7 +189,8 @@ int cmd_learn(int argc, char** argv) {
       const SensitivityResult on_held =
           measure_sensitivity(held, p, so, [&](int d, int t) { cbar.update(d, t); });
       const auto checks = check_claims(sens.claims, on_held, so.rate);
-      lane_json["held_out_check"] = claim_checks_json(check_rec->dir(), int(held.size()), checks);
+      lane_json["held_out_check"] =
+          nlohmann::json::parse(claim_checks_json(check_rec->dir(), int(held.size()), checks));
       int ok = 0;
       for (const ClaimCheck& k : checks) ok += k.held;
       std::printf("  held-out check on %zu fillets of %s: %d of %zu claims held\n", held.size(),

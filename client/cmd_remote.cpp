@@ -1,10 +1,12 @@
 // rangexctl as a gRPC client of rangexd: feed, watch, status, fillets, image, calib
 // upload|list|activate, lanes.
 #include <grpcpp/grpcpp.h>
+#include <yaml-cpp/yaml.h>
 
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <sstream>
@@ -337,6 +339,110 @@ int cmd_calib_remote(int argc, char** argv) {
     fail("calib: unknown verb '", verb,
          "' (simulate, camera, staircase, xray, registration, validate, scatter, upload, list, "
          "show, activate)");
+  }
+  return 0;
+}
+
+// `rangexctl learned upload|list|activate|learn`: learned inspection settings on rangexd.
+int cmd_learned(int argc, char** argv) {
+  if (argc < 3) fail("usage: learned upload|list|activate|learn ...");
+  const std::string verb = argv[2];
+  const Args a(
+      argc, argv, 3, {"force", "full"},
+      remote({"lane", "id", "file", "report", "fillets", "target-frr", "min-fillets", "timeout"}));
+  auto stub = pb::ControlService::NewStub(channel(a));
+  Call ctx;
+  auto show = [](const pb::LearnedSettingsInfo& s) {
+    std::printf("lane %d  %-26s %-7s %4d fillets, target %.2f %%; report: %s\n", s.lane(),
+                s.id().c_str(), s.active() ? "active" : "", s.fillets(),
+                100 * s.false_reject_target(), s.report_status().c_str());
+    for (const auto& line : s.sensitivity()) std::printf("    %s\n", line.c_str());
+  };
+  if (verb == "upload") {
+    // The lane's inspection.learned section of a plant configuration rangexctl learn wrote,
+    // with the report it wrote beside it (--report, else PLANT.report/learn.json).
+    const std::string file = a.require("file");
+    const int lane = int(a.integer("lane", 0));
+    YAML::Node root;
+    try {
+      root = YAML::LoadFile(file);
+    } catch (const YAML::Exception& e) {
+      fail(file, ": not valid YAML: ", e.what());
+    }
+    std::string section;
+    for (const YAML::Node& ln : root["lanes"])
+      if (ln["id"] && ln["id"].as<int>() == lane && ln["inspection"] &&
+          ln["inspection"]["learned"]) {
+        YAML::Emitter e;
+        e << ln["inspection"]["learned"];
+        section = e.c_str();
+      }
+    if (section.empty()) fail(file, ": lane ", lane, " has no inspection.learned section");
+    const std::string report_file =
+        a.get("report", (std::filesystem::path(file).parent_path() /
+                         (std::filesystem::path(file).stem().string() + ".report") / "learn.json")
+                            .string());
+    std::string report;
+    if (std::ifstream r(report_file); r) {
+      std::stringstream rs;
+      rs << r.rdbuf();
+      report = rs.str();
+    } else if (a.has("report")) {
+      fail(report_file, ": cannot open");
+    }
+    pb::UploadLearnedSettingsRequest req;
+    req.set_lane(lane);
+    req.set_id(a.require("id"));
+    req.set_yaml(section);
+    req.set_report_json(report);
+    pb::UploadLearnedSettingsResponse resp;
+    check(stub->UploadLearnedSettings(&ctx, req, &resp), "upload");
+    std::printf("uploaded learned settings '%s' for lane %d; report: %s\n",
+                resp.settings().id().c_str(), resp.settings().lane(),
+                resp.settings().report_status().c_str());
+  } else if (verb == "list") {
+    pb::ListLearnedSettingsRequest req;
+    req.set_lane(int(a.integer("lane", -1)));
+    req.set_full(a.flag("full"));
+    pb::ListLearnedSettingsResponse resp;
+    check(stub->ListLearnedSettings(&ctx, req, &resp), "list");
+    for (const auto& s : resp.settings()) {
+      show(s);
+      if (a.flag("full")) std::printf("%s\n", s.yaml().c_str());
+    }
+  } else if (verb == "activate") {
+    pb::ActivateLearnedSettingsRequest req;
+    req.set_lane(int(a.integer("lane", 0)));
+    req.set_id(a.require("id"));
+    req.set_force(a.flag("force"));
+    pb::ActivateLearnedSettingsResponse resp;
+    check(stub->ActivateLearnedSettings(&ctx, req, &resp), "activate");
+    std::printf(
+        "learned settings '%s' of lane %d activated; they take over at the next batch without "
+        "a fillet in progress\n",
+        req.id().c_str(), req.lane());
+  } else if (verb == "learn") {
+    pb::LearnProductRequest req;
+    req.set_lane(int(a.integer("lane", 0)));
+    req.set_fillets(int(a.integer("fillets", 40)));
+    req.set_min_fillets(int(a.integer("min-fillets", 0)));
+    req.set_id(a.get("id", ""));
+    if (a.has("target-frr")) req.set_target_frr(std::stod(a.get("target-frr", "0")));
+    const long timeout = a.integer("timeout", 3600);
+    if (timeout < 1 || timeout > 86400) fail("--timeout must be within 1..86400 s");
+    req.set_timeout_s(double(timeout));
+    grpc::ClientContext long_ctx;  // the fillets take as long as the line takes
+    long_ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(timeout + 120));
+    std::printf("lane %d: learning from its next %d fillets ...\n", req.lane(), req.fillets());
+    std::fflush(stdout);
+    pb::LearnProductResponse resp;
+    check(stub->LearnProduct(&long_ctx, req, &resp), "learn");
+    show(resp.settings());
+    std::printf(
+        "stored as a new version, not active: rangexctl learned activate --lane %d --id %s\n",
+        resp.settings().lane(), resp.settings().id().c_str());
+  } else {
+    fail("learned: unknown verb '", verb, "' (upload, list, activate, learn)");
   }
   return 0;
 }

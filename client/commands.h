@@ -23,6 +23,7 @@ int cmd_calib_remote(int argc, char** argv);
 // calib simulate|camera|staircase|xray|registration|validate; -1 for another verb.
 int cmd_calib_solve(int argc, char** argv);
 int cmd_lanes(int argc, char** argv);
+int cmd_learned(int argc, char** argv);
 int cmd_bench(int argc, char** argv);
 int cmd_bench_server(int argc, char** argv);
 int cmd_audit(int argc, char** argv);

@@ -90,6 +90,11 @@ server commands (--server HOST:PORT, default: plant.yaml's listen address; over 
   calib list [--lane L]  |  calib show --lane L --id ID  |  calib activate --lane L --id ID [--force]
       activation refuses a set whose report is missing or failed unless --force (admin role)
   lanes  |  lanes set --lane L [--z-threshold Z] [--min-area-mm2 A] [--floor-mm F]
+  learned upload --lane L --id ID --file PLANT.yaml [--report R.json]  (learn's output)
+  learned list [--lane L] [--full]  |  learned activate --lane L --id ID [--force]
+  learned learn --lane L [--fillets 40] [--id ID] [--target-frr F] [--timeout S]
+      learned thresholds as versions: learn from the lane's next fillets live, upload what
+      rangexctl learn wrote; activation refuses a failed report unless --force (admin role)
 
 stripe methods: centroid, squared, binary, gaussian3, parabola, shifted, modified
 )";
@@ -117,6 +122,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "fillets")) return cmd_fillets(argc, argv);
     if (!std::strcmp(cmd, "image")) return cmd_image(argc, argv);
     if (!std::strcmp(cmd, "lanes")) return cmd_lanes(argc, argv);
+    if (!std::strcmp(cmd, "learned")) return cmd_learned(argc, argv);
     if (!std::strcmp(cmd, "bench")) return cmd_bench(argc, argv);
     if (!std::strcmp(cmd, "bench-server")) return cmd_bench_server(argc, argv);
     if (!std::strcmp(cmd, "audit")) return cmd_audit(argc, argv);

@@ -212,9 +212,16 @@ TEST(ProductLearning, DriftOfARougherProductIsSeenAndTheSameProductIsNot) {
   o.bootstrap = 40;
   const ProductLearning L = learn_product(clean_fillets(g, 60, 5), o);
   ASSERT_TRUE(L.ok);
+  // What a lane tracks: the fillets it passed (no rejecting extreme above its threshold).
   auto recent = [&](const GevModel& m, uint64_t seed) {
     std::vector<std::vector<BandExtreme>> r;
-    for (const auto& f : clean_fillets(m, 200, seed)) r.push_back(f.extremes);
+    for (const auto& f : clean_fillets(m, 400, seed)) {
+      bool passed = true;
+      for (const BandExtreme& e : f.extremes)
+        passed = passed && (e.stat == kStatAir ||
+                            e.x <= L.learned.stats[size_t(e.stat)].thresholds[size_t(e.band)]);
+      if (passed && r.size() < 200) r.push_back(f.extremes);
+    }
     return r;
   };
   const DriftEstimate same = estimate_drift(L.learned, recent(g, 6));

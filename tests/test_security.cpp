@@ -177,6 +177,31 @@ grpc::Status call(const std::shared_ptr<grpc::Channel>& ch, const std::string& m
     pb::GetServerInfoResponse r;
     return control->GetServerInfo(&ctx, pb::GetServerInfoRequest(), &r);
   }
+  if (method == "UploadLearnedSettings") {
+    pb::UploadLearnedSettingsRequest q;
+    q.set_id("probe");
+    q.set_yaml("not: [valid");
+    pb::UploadLearnedSettingsResponse r;
+    return control->UploadLearnedSettings(&ctx, q, &r);
+  }
+  if (method == "ListLearnedSettings") {
+    pb::ListLearnedSettingsRequest q;
+    q.set_lane(-1);
+    pb::ListLearnedSettingsResponse r;
+    return control->ListLearnedSettings(&ctx, q, &r);
+  }
+  if (method == "ActivateLearnedSettings") {
+    pb::ActivateLearnedSettingsRequest q;
+    q.set_id("no-such-set");
+    pb::ActivateLearnedSettingsResponse r;
+    return control->ActivateLearnedSettings(&ctx, q, &r);
+  }
+  if (method == "LearnProduct") {
+    pb::LearnProductRequest q;
+    q.set_lane(99);  // no such lane: answered at once, never waiting for fillets
+    pb::LearnProductResponse r;
+    return control->LearnProduct(&ctx, q, &r);
+  }
   ADD_FAILURE() << "the test cannot call " << method;
   return grpc::Status(Code::INTERNAL, "not called");
 }
@@ -197,6 +222,10 @@ const std::map<std::string, Role> kNeeded = {
     {"ResetLane", Role::operator_},
     {"GetStatistics", Role::viewer},
     {"GetServerInfo", Role::viewer},
+    {"UploadLearnedSettings", Role::engineer},
+    {"ListLearnedSettings", Role::viewer},
+    {"ActivateLearnedSettings", Role::engineer},
+    {"LearnProduct", Role::engineer},
 };
 
 TEST(Access, TheRoleTableNamesEveryMethodOfEveryService) {

@@ -60,6 +60,12 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
   o << "\ntarget_frr: " << L.target_frr << "\nconfidence: " << L.confidence
     << "\nfillets: " << L.fillets << "\nband_edges_mm: ";
   list(L.band_edges_mm);
+  o << "\nsensitivity: [";
+  for (size_t i = 0; i < L.sensitivity.size(); ++i) {
+    o << (i ? ", " : "");
+    quoted(L.sensitivity[i]);
+  }
+  o << "]";
   for (int s = 0; s < kStatistics; ++s) {
     const LearnedStatistic& ls = L.stats[size_t(s)];
     const GevModel& g = ls.model;

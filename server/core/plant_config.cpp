@@ -185,7 +185,12 @@ std::vector<double> number_list(const Node& n, size_t expect) {
 // thresholds are finite and the model's scale is a scale.
 void read_learned(const Node& n, LearnedDetection& L) {
   n.only_keys({"version", "learned_on", "target_frr", "confidence", "fillets", "band_edges_mm",
-               "round", "needle", "air"});
+               "round", "needle", "air", "sensitivity"});
+  if (n.has("sensitivity")) {
+    const Node s = n.at("sensitivity");
+    if (!s.node.IsSequence()) s.bad("expected a list of strings");
+    for (size_t i = 0; i < s.node.size(); ++i) L.sensitivity.push_back(s.item(i).str());
+  }
   n.get("version", L.version);
   n.get("learned_on", L.learned_on);
   n.get("target_frr", L.target_frr);

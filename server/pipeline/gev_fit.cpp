@@ -59,12 +59,40 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
   return f;
 }
 
+namespace {
+double truncated_nll(const GevModel& g, const std::vector<ExtremeSample>& s) {
+  double sum = nll(g, s);
+  for (const ExtremeSample& e : s)
+    if (std::isfinite(e.upper)) sum += std::log(std::max(1e-300, g.cdf(e.upper, e.n, e.t)));
+  return sum;
+}
+}  // namespace
+
+GevModel refit_drifted(const GevModel& model, const std::vector<ExtremeSample>& s,
+                       const GevFitOptions& opt) {
+  if (s.size() < 10) return model;
+  auto with = [&](const std::vector<double>& p) {
+    GevModel g = model;
+    g.m0 = p[0], g.s0 = p[1], g.xi = shape(p[2], opt);
+    return g;
+  };
+  // The shape's start: the model's, inside the logistic's range.
+  const double u = std::clamp((model.xi - opt.xi_min) / (opt.xi_max - opt.xi_min), 0.02, 0.98);
+  GevModel shifted = model;
+  shifted.m0 += fit_location_shift(model, s);
+  const NelderMeadResult r =
+      nelder_mead([&](const std::vector<double>& p) { return truncated_nll(with(p), s); },
+                  {shifted.m0, model.s0, std::log(u / (1 - u))}, {0.3, 0.2, 1.0}, 1e-8, 6000);
+  constexpr double kChi2_2dof_99 = 9.21;
+  return 2 * (truncated_nll(shifted, s) - r.value) > kChi2_2dof_99 ? with(r.x) : shifted;
+}
+
 double fit_location_shift(const GevModel& model, const std::vector<ExtremeSample>& s) {
   if (s.empty()) return 0;
   auto at = [&](double d) {
     GevModel g = model;
     g.m0 += d;
-    return nll(g, s);
+    return truncated_nll(g, s);
   };
   // Golden-section search over a generous bracket (in units of the model's scale).
   const double w = 10 * model.scale(model.t_ref);

@@ -1,5 +1,6 @@
 // Maximum-likelihood fit of the GEV regression of core/gev_model.h to per-fillet extremes.
 #pragma once
+#include <cmath>
 #include <vector>
 
 #include "core/gev_model.h"
@@ -10,6 +11,9 @@ struct ExtremeSample {
   double x = 0;  // the extreme (component_extreme of a statistic in one thickness band)
   double n = 0;  // pixels it was taken over
   double t = 0;  // their median thickness, mm
+  // Seen only because it stayed below this (a passed fillet's extreme under a threshold):
+  // the likelihood is truncated there. Infinity: not truncated.
+  double upper = HUGE_VAL;
 };
 
 struct GevFitOptions {
@@ -30,7 +34,19 @@ struct GevFit {
 GevFit fit_gev(const std::vector<ExtremeSample>& samples, const GevFitOptions& opt = {});
 
 // The MLE of a location shift d of `model` (x ~ model moved by d) on `samples`, the other
-// parameters held: how far a product's extremes have drifted from what was learned.
+// parameters held: how far a product's extremes have drifted from what was learned. Samples
+// with a finite `upper` count with the truncated density f(x) / F(upper): a lane sees the
+// extremes of the fillets it passed, and a rougher product's come close to its thresholds.
 double fit_location_shift(const GevModel& model, const std::vector<ExtremeSample>& samples);
+
+// The same model refitted to recent samples in its location, scale and shape (the
+// covariates' slopes held): a product whose tail grew heavier, not only higher (specks of
+// gristle the median does not see), shows in scale and shape. Truncated like
+// fit_location_shift.
+// The location shift alone stands unless the scale and shape improve the likelihood beyond
+// chance (a likelihood-ratio test, 2 degrees of freedom, 1 %): the free refit over-reads a
+// tail that truncation hides.
+GevModel refit_drifted(const GevModel& model, const std::vector<ExtremeSample>& samples,
+                       const GevFitOptions& opt = {});
 
 }  // namespace rangex

@@ -259,13 +259,24 @@ DriftEstimate estimate_drift(const LearnedDetection& L,
   DriftEstimate d;
   d.fillets = int(recent.size());
   for (int s = 0; s < kStatistics; ++s) {
+    // Passed fillets: each rejecting statistic's extreme stayed below its band's threshold.
+    const LearnedStatistic& ls = L.stats[size_t(s)];
     std::vector<ExtremeSample> smp;
     for (const auto& f : recent)
       for (const BandExtreme& e : f)
-        if (e.stat == s) smp.push_back({e.x, e.n, e.t});
-    if (smp.size() >= 10) d.shift[size_t(s)] = fit_location_shift(L.stats[size_t(s)].model, smp);
+        if (e.stat == s)
+          smp.push_back({e.x, e.n, e.t,
+                         rejecting(s) && size_t(e.band) < ls.thresholds.size()
+                             ? ls.thresholds[size_t(e.band)]
+                             : HUGE_VAL});
+    d.models[size_t(s)] = smp.size() >= 10 ? refit_drifted(ls.model, smp) : ls.model;
+    const double n_ref = std::exp(ls.model.log_n_ref);
+    d.shift[size_t(s)] = d.models[size_t(s)].quantile(0.5, n_ref, ls.model.t_ref) -
+                         ls.model.quantile(0.5, n_ref, ls.model.t_ref);
   }
-  d.implied_frr = implied_false_reject_rate(L, d.shift);
+  LearnedDetection drifted = L;
+  for (int s = 0; s < kStatistics; ++s) drifted.stats[size_t(s)].model = d.models[size_t(s)];
+  d.implied_frr = implied_false_reject_rate(drifted, {});
   return d;
 }
 

@@ -77,11 +77,15 @@ ProductLearning learn_product(const std::vector<LearningFillet>& fillets, const 
 double implied_false_reject_rate(const LearnedDetection& learned,
                                  const std::array<double, kStatistics>& shift);
 
-// Drift: each statistic's location shift fitted to recent fillets' extremes (held against
-// the learned model), and the false-reject rate it implies.
+// Drift: each statistic's model refitted to recent passed fillets' extremes in location,
+// scale and shape (truncated at the thresholds they stayed below; the covariates' slopes
+// held), and the false-reject rate the refitted models imply at the learned thresholds.
+// `shift`: how far the median extreme moved (at the learning's reference pixels and
+// thickness).
 struct DriftEstimate {
   int fillets = 0;
   std::array<double, kStatistics> shift{};
+  std::array<GevModel, kStatistics> models{};
   double implied_frr = 0;
 };
 DriftEstimate estimate_drift(const LearnedDetection& learned,

@@ -153,6 +153,14 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
         break;  // the smallest size that holds from the thinnest band up
       }
     }
+  if (res.summary.empty()) {
+    char b[160];
+    std::snprintf(b, sizeof b,
+                  "no claim: no size found at %.0f %% from the thinnest band up (at least %d "
+                  "test pieces a band; more fillets give more)",
+                  100 * opt.rate, opt.min_pieces);
+    res.summary.push_back(b);
+  }
   return res;
 }
 

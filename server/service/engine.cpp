@@ -50,6 +50,14 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
         l->config = apply_lane_calibration(lc, c.yaml, "calibration " + c.id);
         l->calibration_id = c.id;
       }
+    // So are learned settings.
+    for (const StoredSetting& s : store_.settings(SettingKind::kLearned, lc.id))
+      if (s.active) {
+        LearnedDetection L = parse_learned_detection(s.yaml, "learned settings " + s.id);
+        L.version = s.id;
+        l->config.inspection.learned = L;
+        l->config.inspection.false_reject_target = L.target_frr;
+      }
     l->admit_calibration = l->running_calibration = l->calibration_id;
     l->xray.resize(size_t(l->pixels));
     Lane* raw = l.get();
@@ -403,6 +411,7 @@ void Engine::close_idle_lanes() {
 
 void Engine::on_image(Lane& l, FilletImage&& img) {
   if (!fillet_cut(l, img)) return;
+  collect_image(l, img);  // a live learning run keeps a copy
   InspectJob job{&l, std::move(img), l.config.inspection, l.running_calibration, 0, steady_ns()};
   // Decision latency runs from the arrival of the fillet's last line.
   const int64_t last = job.image.first_encoder + job.image.rows - 1;
@@ -508,6 +517,22 @@ void Engine::on_fillet(const InspectJob& job, InspectedFillet&& f) {
                              b.peak_z, b.attenuation_mm2, b.meat_mm, b.row0, b.row1, b.col0,
                              b.col1});
   u.last_arrival_ns = job.last_arrival_ns;
+  collect_result(*job.lane, r);
+  // Drift: the passed fillets' extremes against the lane's learned model (the inspector
+  // holds the lane, so the tracker is this thread's).
+  if (r.decision == Decision::kPass && job.params.learned.active() &&
+      job.lane->drift.add(job.params.learned, r.extremes)) {
+    const DriftEstimate& d = job.lane->drift.estimate();
+    job.lane->implied_frr = d.implied_frr;
+    job.lane->drift_fillets = d.fillets;
+    const bool was = job.lane->product_drift.exchange(job.lane->drift.drifting(job.params.learned));
+    if (job.lane->product_drift && !was)
+      std::fprintf(stderr,
+                   "rangexd: lane %d: product rougher than learned: the last %d passed fillets "
+                   "imply %.2f %% false rejects against a target of %.2f %%: re-learn\n",
+                   job.lane->id, d.fillets, 100 * d.implied_frr,
+                   100 * job.params.learned.target_frr);
+  }
   ++fillets_;
   rejects_ += r.decision == Decision::kReject;
   not_inspected_ += r.decision == Decision::kNotInspected;
@@ -642,6 +667,9 @@ LaneState Engine::lane_state(int id) {
   s.fillets = l.fillets;
   s.rejects = l.rejects;
   s.not_inspected = l.not_inspected;
+  s.implied_frr = l.implied_frr;
+  s.drift_fillets = l.drift_fillets;
+  s.product_drift = l.product_drift;
   for (size_t i = 0; i < kRefusals; ++i)
     if (const uint64_t n = l.refused[i]) s.refused[std::string(refusal_name(Refusal(i)))] = n;
   for (size_t i = 0; i < kDropReasons; ++i)
@@ -807,6 +835,15 @@ EngineStats Engine::stats() {
         s.warnings.push_back(join("lane ", l->id, " stopped being fed: no line for ",
                                   (now - l->last_line_ns) / 1'000'000'000, " s"));
   }
+  for (auto& l : lanes_)
+    if (l->product_drift) {
+      char b[200];
+      std::snprintf(b, sizeof b,
+                    "lane %d: product rougher than learned: re-learn (the last %d passed fillets "
+                    "imply %.2f %% false rejects)",
+                    l->id, l->drift_fillets.load(), 100 * l->implied_frr.load());
+      s.warnings.push_back(b);
+    }
   {
     std::lock_guard<std::mutex> lock(rate_mu_);
     if (rate_.size() >= 2) {

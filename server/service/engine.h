@@ -14,6 +14,7 @@
 //   mu_      admission: the queue, every lane's LaneAdmission, stopping/paused flags
 //   ctl_mu_  control: lanes' configurations, pending changes, calibration ids
 //   inspect_mu_  the fillets waiting for an inspector, which lanes an inspector holds
+//   learn_mu_  which lane has a live learning run (its collector has a lock of its own)
 //   save_mu_ storing and publishing decisions; held while calling the store and the hub
 //            (neither calls back into the engine), and around health_mu_
 //   leaf locks inside LatencyStats, rate_mu_, health_mu_
@@ -36,6 +37,7 @@
 
 #include "core/plant_config.h"
 #include "pipeline/lane_processor.h"
+#include "pipeline/product_drift.h"
 #include "service/incoming_line.h"
 #include "service/lane_admission.h"
 #include "service/lane_queues.h"
@@ -96,6 +98,11 @@ struct LaneState {
   // processed, refused by code, dropped by reason; fillets decided, by decision.
   uint64_t received = 0, processed = 0, fillets = 0, rejects = 0, not_inspected = 0;
   std::map<std::string, uint64_t> refused, dropped;
+  // With learned thresholds: the false-reject rate the lane's recently passed fillets imply
+  // (-1: not estimated yet), over how many, and whether that is more than twice the target.
+  double implied_frr = -1;
+  int drift_fillets = 0;
+  bool product_drift = false;
 };
 
 class Engine {
@@ -136,6 +143,28 @@ class Engine {
                             bool force = false);
   LaneConfig update_thresholds(int lane, std::optional<double> z, std::optional<double> area,
                                std::optional<double> floor, const std::string& who);
+  // Learned inspection settings (engine_learning.cpp), versioned and audited like
+  // calibrations: `yaml` is an inspection.learned section, `report` its learning's report.
+  // Activation is refused when the report is missing or failed unless forced (audited as
+  // learned.activate.forced); it takes over at a batch boundary like thresholds.
+  StoredSetting upload_learned(int lane, const std::string& id, const std::string& yaml,
+                               const std::string& report, const std::string& who);
+  bool activate_learned(int lane, const std::string& id, const std::string& who,
+                        bool force = false);
+  std::vector<StoredSetting> learned_settings(int lane);  // lane -1: all
+  struct LearnRequest {
+    int fillets = 40;       // the lane's next inspected fillets
+    double target_frr = 0;  // 0: the lane's false_reject_target
+    double confidence = 0.9;
+    int min_fillets = 30;     // fewer clean fillets fail the learning
+    std::string id;           // the version's name ("" : learn-<time>)
+    double timeout_s = 3600;  // give up when the fillets have not come by then
+  };
+  // Learns the lane's product from its next fillets as they are inspected (the lane keeps
+  // running on its active settings), measures the sensitivity with test pieces, and stores
+  // the result as a new version with its report (not activated). Blocks until done; throws
+  // Error when the fillets do not come within the timeout or the server stops.
+  StoredSetting learn_product(int lane, const LearnRequest& req, const std::string& who);
   // The lane's next line starts it afresh whatever its count (an encoder reset); its open
   // fillets end as not inspected.
   LaneState reset_lane(int lane, const std::string& who, const std::string& reason);
@@ -180,6 +209,15 @@ class Engine {
     std::array<std::atomic<uint64_t>, kDropReasons> dropped{};
     // Inspection (inspect_mu_): an inspector holds one of the lane's fillets.
     bool inspecting = false;
+    // The inspector holding the lane: its passed fillets' extremes against the learned model;
+    // what they imply, for anyone to read.
+    DriftTracker drift;
+    // A live learning run collecting the lane's next fillets (learn_mu): their images when
+    // cut, their extremes when decided.
+    std::shared_ptr<struct ProductCollector> collector;
+    std::atomic<double> implied_frr{-1};
+    std::atomic<int> drift_fillets{0};
+    std::atomic<bool> product_drift{false};
     // Durability (engine_progress.cpp): the count up to which the lane's lines are settled in
     // the assembly (worker), the same for each fillet cut and not yet stored (pending_mu),
     // both less the lines needed to rebuild what follows; what was last made durable.
@@ -232,6 +270,11 @@ class Engine {
   bool save(Unsaved& u);  // save_mu_
   void retry_unsaved();   // save_mu_
   Lane& lane(int id);
+  // Live learning (engine_learning.cpp): the lane's collector, if any (learn_mu_).
+  std::shared_ptr<ProductCollector> collector_of(Lane& l);
+  void collect_image(Lane& l, const FilletImage& img);
+  void collect_result(Lane& l, const FilletResult& r);
+  std::mutex learn_mu_;
 
   PlantConfig plant_;
   Store& store_;

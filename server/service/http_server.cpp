@@ -102,27 +102,42 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
                   100 * ni_rate);
     light = "amber", why = buf;
   }
-  return {{"lane", l.config.id},
-          {"fed", l.fed},
-          {"idle_ms", l.idle_ms},
-          {"calibration", l.calibration_id},
-          {"fillet_in_progress", l.fillet_in_progress},
-          {"restarts", l.restarts},
-          {"last_restart", l.last_restart},
-          {"received", l.received},
-          {"processed", l.processed},
-          {"fillets", l.fillets},
-          {"rejects", l.rejects},
-          {"not_inspected", l.not_inspected},
-          {"refused", l.refused},
-          {"dropped", l.dropped},
-          {"line_rate", line_rate},
-          {"fillets_per_min", fillets_per_min},
-          {"reject_rate", reject_rate},
-          {"not_inspected_rate", ni_rate},
-          {"light", light},
-          {"light_reason", why},
-          {"backend", backend}};
+  if (l.product_drift && light == "green") {
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  "product rougher than learned: re-learn (%.2f %% false rejects implied)",
+                  100 * l.implied_frr);
+    light = "amber", why = buf;
+  }
+  const LearnedDetection& learned = l.config.inspection.learned;
+  return {
+      {"lane", l.config.id},
+      {"learned_version", learned.active() ? learned.version : ""},
+      {"learned_sensitivity", learned.active() ? learned.sensitivity : std::vector<std::string>{}},
+      {"false_reject_target", l.config.inspection.false_reject_target},
+      {"implied_false_reject_rate", l.implied_frr},
+      {"drift_fillets", l.drift_fillets},
+      {"product_drift", l.product_drift},
+      {"fed", l.fed},
+      {"idle_ms", l.idle_ms},
+      {"calibration", l.calibration_id},
+      {"fillet_in_progress", l.fillet_in_progress},
+      {"restarts", l.restarts},
+      {"last_restart", l.last_restart},
+      {"received", l.received},
+      {"processed", l.processed},
+      {"fillets", l.fillets},
+      {"rejects", l.rejects},
+      {"not_inspected", l.not_inspected},
+      {"refused", l.refused},
+      {"dropped", l.dropped},
+      {"line_rate", line_rate},
+      {"fillets_per_min", fillets_per_min},
+      {"reject_rate", reject_rate},
+      {"not_inspected_rate", ni_rate},
+      {"light", light},
+      {"light_reason", why},
+      {"backend", backend}};
 }
 
 // The images the store keeps of a fillet (rejects and fillets not inspected have them).

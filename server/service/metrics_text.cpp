@@ -128,6 +128,22 @@ std::string prometheus_text(const MetricsInput& m) {
   for (const LaneState& l : m.lanes)
     w.sample("rangex_lane_restarts_total", lane_label(l.config.id), l.restarts);
 
+  // Learned thresholds and drift: what the lane's recently passed fillets imply (issue 23).
+  w.family("rangex_lane_implied_false_reject_rate", "gauge",
+           "With learned thresholds: the per-fillet false-reject rate the lane's recently passed "
+           "fillets imply under its learned model (-1: not estimated yet), by lane and version.");
+  for (const LaneState& l : m.lanes)
+    if (l.config.inspection.learned.active())
+      w.sample("rangex_lane_implied_false_reject_rate",
+               lane_label(l.config.id) + ",version=" + quoted(l.config.inspection.learned.version),
+               l.implied_frr);
+  w.family("rangex_lane_product_drift", "gauge",
+           "1 when a lane's product is rougher than learned (implied false rejects above twice "
+           "the target): re-learn.");
+  for (const LaneState& l : m.lanes)
+    if (l.config.inspection.learned.active())
+      w.sample("rangex_lane_product_drift", lane_label(l.config.id), l.product_drift ? 1.0 : 0.0);
+
   w.family("rangex_batches_total", "counter", "Line batches computed by the backend.");
   w.sample("rangex_batches_total", "", s.batches.batches);
   w.family("rangex_batches_verified_total", "counter",

@@ -4,6 +4,8 @@
 
 #include "core/calibration_report.h"
 #include "core/error.h"
+#include "core/plant_config.h"
+#include "service/learned_report.h"
 
 namespace rangex {
 
@@ -71,6 +73,24 @@ void fill(pb::CalibrationInfo* o, const StoredCalibration& c, bool with_yaml) {
   o->set_report_status(rs.passed ? "passed" : rs.why);
 }
 
+void fill(pb::LearnedSettingsInfo* o, const StoredSetting& c, bool full) {
+  o->set_lane(c.lane);
+  o->set_id(c.id);
+  o->set_uploaded_ns(c.uploaded_ns);
+  o->set_active(c.active);
+  if (full) o->set_yaml(c.yaml), o->set_report_json(c.report);
+  const LearnedReportStatus rs = check_learned_report(c.report, c.lane);
+  o->set_report_status(rs.passed ? "passed" : rs.why);
+  try {
+    const LearnedDetection L = parse_learned_detection(c.yaml, "learned settings " + c.id);
+    o->set_fillets(L.fillets);
+    o->set_false_reject_target(L.target_frr);
+    for (const std::string& line : L.sensitivity) o->add_sensitivity(line);
+  } catch (const Error&) {
+    // Checked at upload; a stored version that no longer reads shows without them.
+  }
+}
+
 void fill(pb::LaneInfo* o, const LaneState& s) {
   const LaneConfig& l = s.config;
   o->set_id(l.id);
@@ -89,6 +109,15 @@ void fill(pb::LaneInfo* o, const LaneState& s) {
   o->set_fillet_in_progress(s.fillet_in_progress);
   o->set_restarts(s.restarts);
   o->set_last_restart(s.last_restart);
+  const LearnedDetection& L = l.inspection.learned;
+  if (L.active()) {
+    o->set_learned_version(L.version);
+    for (const std::string& line : L.sensitivity) o->add_learned_sensitivity(line);
+  }
+  o->set_false_reject_target(l.inspection.false_reject_target);
+  o->set_implied_false_reject_rate(s.implied_frr);
+  o->set_drift_fillets(s.drift_fillets);
+  o->set_product_drift(s.product_drift);
 }
 
 void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {

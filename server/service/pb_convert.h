@@ -12,6 +12,7 @@ v1::Decision to_pb(const std::string& decision);
 std::string from_pb(v1::Decision d);
 void fill(v1::FilletResult* o, const StoredFillet& f);
 void fill(v1::CalibrationInfo* o, const StoredCalibration& c, bool with_yaml);
+void fill(v1::LearnedSettingsInfo* o, const StoredSetting& s, bool full);
 void fill(v1::LaneInfo* o, const LaneState& l);
 void fill(v1::GetStatisticsResponse* o, const EngineStats& s);
 // A message in protobuf's JSON mapping, with the .proto's field names and every field

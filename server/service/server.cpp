@@ -235,6 +235,53 @@ class ControlImpl final : public pb::ControlService::Service {
       return Status::OK;
     });
   }
+  Status UploadLearnedSettings(ServerContext* ctx, const pb::UploadLearnedSettingsRequest* req,
+                               pb::UploadLearnedSettingsResponse* resp) override {
+    return guarded(access_, ctx, Role::engineer, "UploadLearnedSettings", [&](const Identity& who) {
+      fill(
+          resp->mutable_settings(),
+          engine_.upload_learned(req->lane(), req->id(), req->yaml(), req->report_json(), who.name),
+          false);
+      return Status::OK;
+    });
+  }
+  Status ListLearnedSettings(ServerContext* ctx, const pb::ListLearnedSettingsRequest* req,
+                             pb::ListLearnedSettingsResponse* resp) override {
+    return guarded(access_, ctx, Role::viewer, "ListLearnedSettings", [&](const Identity&) {
+      for (const auto& s : engine_.learned_settings(req->lane()))
+        fill(resp->add_settings(), s, req->full());
+      return Status::OK;
+    });
+  }
+  Status ActivateLearnedSettings(ServerContext* ctx, const pb::ActivateLearnedSettingsRequest* req,
+                                 pb::ActivateLearnedSettingsResponse* resp) override {
+    return guarded(access_, ctx, Role::engineer, "ActivateLearnedSettings",
+                   [&](const Identity& who) {
+                     // Forcing overrides the learning's quality gate.
+                     if (req->force())
+                       AccessControl::require(who, Role::admin, "a forced ActivateLearnedSettings");
+                     resp->set_pending(
+                         engine_.activate_learned(req->lane(), req->id(), who.name, req->force()));
+                     return Status::OK;
+                   });
+  }
+  Status LearnProduct(ServerContext* ctx, const pb::LearnProductRequest* req,
+                      pb::LearnProductResponse* resp) override {
+    return guarded(access_, ctx, Role::engineer, "LearnProduct", [&](const Identity& who) {
+      Engine::LearnRequest r;
+      if (req->fillets() != 0) r.fillets = req->fillets();
+      r.target_frr = req->target_frr();
+      r.id = req->id();
+      if (req->min_fillets() != 0) r.min_fillets = req->min_fillets();
+      if (req->timeout_s() != 0) r.timeout_s = req->timeout_s();
+      // The caller's deadline bounds the wait too.
+      const auto left =
+          std::chrono::duration<double>(ctx->deadline() - std::chrono::system_clock::now());
+      if (left.count() > 0 && left.count() < r.timeout_s) r.timeout_s = left.count();
+      fill(resp->mutable_settings(), engine_.learn_product(req->lane(), r, who.name), false);
+      return Status::OK;
+    });
+  }
   Status GetStatistics(ServerContext* ctx, const pb::GetStatisticsRequest*,
                        pb::GetStatisticsResponse* resp) override {
     return guarded(access_, ctx, Role::viewer, "GetStatistics", [&](const Identity&) {

@@ -84,6 +84,9 @@ Store::Store(const std::string& dir) : dir_(dir) {
   exec(
       "CREATE TABLE IF NOT EXISTS calibrations (lane INTEGER, id TEXT, yaml TEXT, "
       "uploaded_ns INTEGER, active INTEGER, PRIMARY KEY(lane, id))");
+  exec(
+      "CREATE TABLE IF NOT EXISTS learned_settings (lane INTEGER, id TEXT, yaml TEXT, "
+      "uploaded_ns INTEGER, active INTEGER, report TEXT DEFAULT '', PRIMARY KEY(lane, id))");
   // Stores made by earlier versions: add the columns they lack (their rows take the default).
   add_column("calibrations", "report", "TEXT DEFAULT ''");
   add_column("fillets", "beta2", "REAL DEFAULT 0");
@@ -302,18 +305,28 @@ int64_t Store::count_fillets() {
   return q.i64(0);
 }
 
-void Store::add_calibration(const StoredCalibration& c) {
+namespace {
+const char* table_of(SettingKind k) {
+  return k == SettingKind::kCalibration ? "calibrations" : "learned_settings";
+}
+const char* noun_of(SettingKind k) {
+  return k == SettingKind::kCalibration ? "a calibration" : "learned settings";
+}
+}  // namespace
+
+void Store::add_setting(SettingKind kind, const StoredSetting& c) {
   std::lock_guard<std::mutex> lock(mu_);
+  const std::string table = table_of(kind);
   {
-    Stmt e(db_, "SELECT 1 FROM calibrations WHERE lane = ? AND id = ?");
+    Stmt e(db_, ("SELECT 1 FROM " + table + " WHERE lane = ? AND id = ?").c_str());
     e.bind(1, int64_t(c.lane)).bind(2, c.id);
     if (e.step())
-      fail_exists("lane ", c.lane, " already has a calibration '", c.id,
+      fail_exists("lane ", c.lane, " already has ", noun_of(kind), " '", c.id,
                   "' (versions are immutable)");
   }
-  Stmt q(db_,
-         "INSERT INTO calibrations (lane, id, yaml, uploaded_ns, active, report) "
-         "VALUES (?,?,?,?,?,?)");
+  Stmt q(db_, ("INSERT INTO " + table +
+               " (lane, id, yaml, uploaded_ns, active, report) VALUES (?,?,?,?,?,?)")
+                  .c_str());
   q.bind(1, int64_t(c.lane))
       .bind(2, c.id)
       .bind(3, c.yaml)
@@ -323,33 +336,48 @@ void Store::add_calibration(const StoredCalibration& c) {
   q.step();
 }
 
-std::vector<StoredCalibration> Store::calibrations(int lane) {
+std::vector<StoredSetting> Store::settings(SettingKind kind, int lane) {
   std::lock_guard<std::mutex> lock(mu_);
-  Stmt q(db_,
-         "SELECT lane, id, yaml, uploaded_ns, active, report FROM calibrations "
-         "WHERE (? < 0 OR lane = ?) ORDER BY lane, uploaded_ns");
+  Stmt q(db_, (std::string("SELECT lane, id, yaml, uploaded_ns, active, report FROM ") +
+               table_of(kind) + " WHERE (? < 0 OR lane = ?) ORDER BY lane, uploaded_ns")
+                  .c_str());
   q.bind(1, int64_t(lane)).bind(2, int64_t(lane));
-  std::vector<StoredCalibration> out;
+  std::vector<StoredSetting> out;
   while (q.step())
     out.push_back({int(q.i64(0)), q.str(1), q.str(2), q.i64(3), q.i64(4) != 0, q.str(5)});
   return out;
 }
 
-std::optional<StoredCalibration> Store::calibration(int lane, const std::string& id) {
+std::optional<StoredSetting> Store::setting(SettingKind kind, int lane, const std::string& id) {
   std::lock_guard<std::mutex> lock(mu_);
-  Stmt q(db_,
-         "SELECT lane, id, yaml, uploaded_ns, active, report FROM calibrations "
-         "WHERE lane = ? AND id = ?");
+  Stmt q(db_, (std::string("SELECT lane, id, yaml, uploaded_ns, active, report FROM ") +
+               table_of(kind) + " WHERE lane = ? AND id = ?")
+                  .c_str());
   q.bind(1, int64_t(lane)).bind(2, id);
   if (!q.step()) return std::nullopt;
-  return StoredCalibration{int(q.i64(0)), q.str(1), q.str(2), q.i64(3), q.i64(4) != 0, q.str(5)};
+  return StoredSetting{int(q.i64(0)), q.str(1), q.str(2), q.i64(3), q.i64(4) != 0, q.str(5)};
 }
 
-void Store::set_active_calibration(int lane, const std::string& id) {
+void Store::set_active_setting(SettingKind kind, int lane, const std::string& id) {
   std::lock_guard<std::mutex> lock(mu_);
-  Stmt a(db_, "UPDATE calibrations SET active = (id = ?) WHERE lane = ?");
+  Stmt a(
+      db_,
+      (std::string("UPDATE ") + table_of(kind) + " SET active = (id = ?) WHERE lane = ?").c_str());
   a.bind(1, id).bind(2, int64_t(lane));
   a.step();
+}
+
+void Store::add_calibration(const StoredCalibration& c) {
+  add_setting(SettingKind::kCalibration, c);
+}
+std::vector<StoredCalibration> Store::calibrations(int lane) {
+  return settings(SettingKind::kCalibration, lane);
+}
+std::optional<StoredCalibration> Store::calibration(int lane, const std::string& id) {
+  return setting(SettingKind::kCalibration, lane, id);
+}
+void Store::set_active_calibration(int lane, const std::string& id) {
+  set_active_setting(SettingKind::kCalibration, lane, id);
 }
 
 void Store::audit(const std::string& who, const std::string& what, const std::string& detail) {

@@ -33,13 +33,17 @@ struct StoredFillet {
   std::vector<StoredFragment> fragments;
 };
 
+// A versioned lane setting: a calibration set, or learned inspection settings. Versions are
+// immutable; one per lane and kind is active.
 struct StoredCalibration {
   int lane = 0;
   std::string id, yaml;
   int64_t uploaded_ns = 0;
   bool active = false;
-  std::string report;  // the solvers' JSON report; empty when none came with it
+  std::string report;  // the solvers' (or the learning's) JSON report; empty when none came
 };
+using StoredSetting = StoredCalibration;
+enum class SettingKind { kCalibration, kLearned };
 
 // Fillets decided in [from_ns, to_ns) (to_ns 0: no bound), on `lane` (-1: all), with
 // `decision` ("": any), uid > after, oldest first, at most `limit`.
@@ -109,6 +113,11 @@ class Store {
   std::vector<StoredCalibration> calibrations(int lane);  // lane -1: all
   std::optional<StoredCalibration> calibration(int lane, const std::string& id);
   void set_active_calibration(int lane, const std::string& id);
+  // The same for either kind of versioned lane setting (calibrations, learned settings).
+  void add_setting(SettingKind kind, const StoredSetting& c);
+  std::vector<StoredSetting> settings(SettingKind kind, int lane);
+  std::optional<StoredSetting> setting(SettingKind kind, int lane, const std::string& id);
+  void set_active_setting(SettingKind kind, int lane, const std::string& id);
 
   void audit(const std::string& who, const std::string& what, const std::string& detail);
   std::vector<std::string> audit_log(int limit);     // "ts who what detail", newest last

@@ -119,7 +119,13 @@ async function refreshTiles() {
          <dt>not inspected</dt><dd>${pct(l.not_inspected_rate)}</dd>
          <dt>backend</dt><dd>${esc(l.backend)}</dd>
          <dt>calibration</dt><dd title="${esc(l.calibration)}">${esc(l.calibration)}</dd>
+         <dt>thresholds</dt><dd title="${esc((l.learned_sensitivity || []).join("; "))}">${
+           l.learned_version ? esc(l.learned_version) : "fixed"}</dd>
+         ${l.learned_version && l.implied_false_reject_rate >= 0
+           ? `<dt>implied false rejects</dt><dd>${pct(l.implied_false_reject_rate)}</dd>` : ""}
        </dl>
+       ${(l.learned_sensitivity || []).length
+         ? `<div class="sens">${esc(l.learned_sensitivity[0])}</div>` : ""}
        <div class="why">${esc(l.light_reason)}</div>
      </div>`).join("");
 }

@@ -1,0 +1,21 @@
+#include "pipeline/product_drift.h"
+
+namespace rangex {
+
+bool DriftTracker::add(const LearnedDetection& L, const std::vector<BandExtreme>& extremes) {
+  if (!L.active()) return false;
+  if (L.version != version_) {
+    version_ = L.version;
+    recent_.clear();
+    since_ = 0;
+    est_ = {};
+  }
+  recent_.push_back(extremes);
+  while (int(recent_.size()) > window_) recent_.pop_front();
+  if (++since_ < every_) return false;
+  since_ = 0;
+  est_ = estimate_drift(L, std::vector<std::vector<BandExtreme>>(recent_.begin(), recent_.end()));
+  return true;
+}
+
+}  // namespace rangex

@@ -1,0 +1,36 @@
+// Drift while running (issue 23): a lane tracks the detection extremes of the fillets it
+// passes against its active learned model. Every `every` fillets the last `window` are
+// fitted for a location shift per statistic (product_learning.h: estimate_drift); the
+// false-reject rate that shift implies is what statistics, /metrics and the dashboard show.
+// Nothing changes a threshold by itself: a plant re-learns and activates, audited.
+#pragma once
+#include <deque>
+#include <vector>
+
+#include "pipeline/product_learning.h"
+
+namespace rangex {
+
+class DriftTracker {
+ public:
+  explicit DriftTracker(int window = 200, int every = 10, int min_fillets = 50)
+      : window_(window), every_(every), min_(min_fillets) {}
+
+  // A passed fillet's extremes under `learned`; returns true when the estimate was refreshed.
+  // A different learned version starts the window afresh.
+  bool add(const LearnedDetection& learned, const std::vector<BandExtreme>& extremes);
+  const DriftEstimate& estimate() const { return est_; }
+  // The last window implies more than twice the target (and holds enough fillets to say).
+  bool drifting(const LearnedDetection& learned) const {
+    return est_.fillets >= min_ && est_.implied_frr > 2 * learned.target_frr;
+  }
+
+ private:
+  int window_, every_, min_;
+  std::string version_;
+  std::deque<std::vector<BandExtreme>> recent_;
+  int since_ = 0;
+  DriftEstimate est_;
+};
+
+}  // namespace rangex

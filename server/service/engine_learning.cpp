@@ -1,0 +1,199 @@
+// Learned inspection settings in the engine (issue 23): versions uploaded, listed and
+// activated like calibrations, and live learning from a lane's next fillets
+// (ControlService.LearnProduct). The learning itself is pipeline/product_learning.h; its
+// report and gate are service/learned_report.h.
+#include <chrono>
+#include <ctime>
+#include <map>
+
+#include "core/error.h"
+#include "core/plant_config.h"
+#include "pipeline/sensitivity.h"
+#include "service/engine.h"
+#include "service/learned_report.h"
+
+namespace rangex {
+
+// What a live learning run has of a lane's next fillets: their images when the worker cuts
+// them (a copy; the inspection takes the original), their extremes once inspected.
+struct ProductCollector {
+  int want = 40;
+  std::mutex mu;
+  std::condition_variable cv;
+  std::map<int64_t, FilletImage> cut;  // by the lane's fillet id, waiting for a decision
+  std::vector<LearningFillet> fillets;
+  std::vector<FilletImage> images;              // of `fillets`, in the same order
+  std::vector<std::pair<double, double>> fits;  // their fits' b1, b2 (the meat's attenuation)
+  int not_inspected = 0;
+  bool done() const { return int(fillets.size()) >= want; }
+};
+
+namespace {
+
+std::string new_version_name() {
+  const std::time_t now = std::time(nullptr);
+  char b[40];
+  std::strftime(b, sizeof b, "learn-%Y%m%d-%H%M%S", std::gmtime(&now));
+  return b;
+}
+
+}  // namespace
+
+std::shared_ptr<ProductCollector> Engine::collector_of(Lane& l) {
+  std::lock_guard<std::mutex> lock(learn_mu_);
+  return l.collector;
+}
+
+void Engine::collect_image(Lane& l, const FilletImage& img) {
+  const auto c = collector_of(l);
+  if (!c) return;
+  std::lock_guard<std::mutex> lock(c->mu);
+  if (int(c->fillets.size() + c->cut.size()) < c->want) c->cut.emplace(img.id, img);
+}
+
+void Engine::collect_result(Lane& l, const FilletResult& r) {
+  const auto c = collector_of(l);
+  if (!c) return;
+  std::lock_guard<std::mutex> lock(c->mu);
+  const auto it = c->cut.find(r.id);
+  if (it == c->cut.end()) return;
+  // A fillet that was not inspected says nothing about the product's texture.
+  if (r.decision == Decision::kNotInspected || !r.fitted) {
+    ++c->not_inspected;
+  } else if (!c->done()) {
+    c->fillets.push_back({r.lane, r.id, r.y0_mm, r.extremes});
+    c->images.push_back(std::move(it->second));
+    c->fits.push_back({r.fit.beta1, r.fit.beta2});
+  }
+  c->cut.erase(it);
+  if (c->done()) c->cv.notify_all();
+}
+
+StoredSetting Engine::upload_learned(int id, const std::string& vid, const std::string& yaml,
+                                     const std::string& report, const std::string& who) {
+  lane(id);  // NOT_FOUND for an unknown lane
+  if (vid.empty()) fail("learned settings need an id");
+  // Parsed now: a malformed section is refused at upload, naming the key.
+  const LearnedDetection L = parse_learned_detection(yaml, "learned settings '" + vid + "'");
+  const LearnedReportStatus rs = check_learned_report(report, id);
+  if (rs.present && !rs.passed && rs.why.rfind("the report cannot be read", 0) == 0)
+    fail("learned settings '", vid, "': ", rs.why);
+  StoredSetting s{id, vid, yaml, now_ns(), false, report};
+  store_.add_setting(SettingKind::kLearned, s);
+  store_.audit(who, "learned.upload",
+               "lane " + std::to_string(id) + " id " + vid + " learned from " +
+                   std::to_string(L.fillets) + " fillets, report " +
+                   (rs.passed    ? "passed"
+                    : rs.present ? "failed"
+                                 : "missing"));
+  return s;
+}
+
+bool Engine::activate_learned(int id, const std::string& vid, const std::string& who, bool force) {
+  Lane& l = lane(id);
+  const auto s = store_.setting(SettingKind::kLearned, id, vid);
+  if (!s) fail_not_found("lane ", id, " has no learned settings '", vid, "'");
+  const LearnedReportStatus rs = check_learned_report(s->report, id);
+  if (!rs.passed && !force)
+    throw FailedPrecondition(join("learned settings '", vid, "' of lane ", id,
+                                  " are not activated: ", rs.why,
+                                  " (force the activation to override; it is audited)"));
+  LearnedDetection L = parse_learned_detection(s->yaml, "learned settings " + vid);
+  L.version = vid;  // the name it is stored under is the one the lane shows
+  {
+    std::lock_guard<std::mutex> lock(ctl_mu_);
+    LaneConfig next = l.pending ? *l.pending : l.config;
+    next.inspection.learned = L;
+    next.inspection.false_reject_target = L.target_frr;
+    l.pending = std::move(next);
+  }
+  store_.set_active_setting(SettingKind::kLearned, id, vid);
+  if (rs.passed)
+    store_.audit(who, "learned.activate", "lane " + std::to_string(id) + " id " + vid);
+  else
+    store_.audit(who, "learned.activate.forced",
+                 "lane " + std::to_string(id) + " id " + vid + ": " + rs.why);
+  return true;
+}
+
+std::vector<StoredSetting> Engine::learned_settings(int id) {
+  if (id >= 0) lane(id);  // NOT_FOUND for an unknown lane
+  return store_.settings(SettingKind::kLearned, id);
+}
+
+StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::string& who) {
+  Lane& l = lane(id);
+  if (req.fillets < 1 || req.fillets > 10000)
+    fail("fillets must be within 1..10000 (got ", req.fillets, ")");
+  if (!(req.target_frr >= 0 && req.target_frr < 0.5))
+    fail("target_frr must be in (0, 0.5) (0: the lane's false_reject_target)");
+  if (!(req.confidence >= 0.5 && req.confidence < 1)) fail("confidence must be in [0.5, 1)");
+  if (!(req.timeout_s > 0 && req.timeout_s <= 86400)) fail("timeout_s must be within (0, 86400]");
+  const std::string vid = req.id.empty() ? new_version_name() : req.id;
+  if (store_.setting(SettingKind::kLearned, id, vid))
+    fail_exists("lane ", id, " already has learned settings '", vid, "' (versions are immutable)");
+  auto c = std::make_shared<ProductCollector>();
+  c->want = req.fillets;
+  {
+    std::lock_guard<std::mutex> lock(learn_mu_);
+    if (l.collector) throw FailedPrecondition(join("lane ", id, " is already learning"));
+    l.collector = c;
+  }
+  store_.audit(who, "learned.learn.start",
+               "lane " + std::to_string(id) + " id " + vid + " over the next " +
+                   std::to_string(req.fillets) + " fillets");
+  // Waits a fifth of a second at a time: the stop flag is mu_'s, which is not taken under
+  // the collector's lock (engine locks never nest).
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::duration<double>(req.timeout_s);
+  bool stop = false;
+  while (!stop && std::chrono::steady_clock::now() < deadline) {
+    {
+      std::unique_lock<std::mutex> lock(c->mu);
+      if (c->cv.wait_for(lock, std::chrono::milliseconds(200), [&] { return c->done(); })) break;
+    }
+    std::lock_guard<std::mutex> lock(mu_);
+    stop = stopping_;
+  }
+  {
+    std::lock_guard<std::mutex> lock(learn_mu_);
+    l.collector.reset();
+  }
+  // The collector is this thread's alone now.
+  if (!c->done())
+    fail("lane ", id, ": only ", c->fillets.size(), " of ", req.fillets,
+         " fillets were inspected within ", req.timeout_s, " s",
+         stop ? " (the server is stopping)" : "", "; nothing was learned");
+  LaneConfig lc;
+  {
+    std::lock_guard<std::mutex> lock(ctl_mu_);
+    lc = l.config;
+  }
+  LearnOptions lo;
+  lo.target_frr = req.target_frr > 0 ? req.target_frr : lc.inspection.false_reject_target;
+  lo.confidence = req.confidence;
+  lo.min_fillets = req.min_fillets;
+  // The lane ran with its own settings; extremes come in its bands.
+  if (lc.inspection.learned.active()) lo.band_edges_mm = lc.inspection.learned.band_edges_mm;
+  ProductLearning L = rangex::learn_product(c->fillets, lo);
+  L.learned.version = vid;
+  L.learned.learned_on = "lane " + std::to_string(id) + " live, " +
+                         std::to_string(c->fillets.size()) + " fillets (" +
+                         std::to_string(c->not_inspected) + " not inspected left out)";
+  InspectionParams p = lc.inspection;
+  p.learned = L.learned;
+  std::vector<SensitivityFillet> sf;
+  for (size_t i = 0; i < c->images.size(); ++i)
+    sf.push_back({&c->images[i], c->fits[i].first, c->fits[i].second});
+  const SensitivityResult sens = measure_sensitivity(sf, p, SensitivityOptions{});
+  L.learned.sensitivity = sens.summary;
+  const std::string report = learned_report_json(id, L, sens);
+  StoredSetting s{id, vid, learned_detection_yaml(L.learned), now_ns(), false, report};
+  store_.add_setting(SettingKind::kLearned, s);
+  store_.audit(who, "learned.learn",
+               "lane " + std::to_string(id) + " id " + vid + " from " + std::to_string(L.fillets) +
+                   " fillets, report " + (L.ok ? "passed" : "failed"));
+  return s;
+}
+
+}  // namespace rangex

@@ -1,0 +1,133 @@
+#include "service/learned_report.h"
+
+#include <nlohmann/json.hpp>
+
+namespace rangex {
+
+namespace {
+
+nlohmann::json model_json(const GevModel& g) {
+  return {{"m0", g.m0}, {"m_logn", g.m_logn},       {"m_t", g.m_t},    {"s0", g.s0}, {"s_t", g.s_t},
+          {"xi", g.xi}, {"log_n_ref", g.log_n_ref}, {"t_ref", g.t_ref}};
+}
+
+}  // namespace
+
+std::string learned_report_json(int lane, const ProductLearning& L, const SensitivityResult& s) {
+  nlohmann::json j = {{"lane", lane},
+                      {"ok", L.ok},
+                      {"problems", L.problems},
+                      {"fillets", L.fillets},
+                      {"version", L.learned.version},
+                      {"target_frr", L.learned.target_frr},
+                      {"confidence", L.learned.confidence},
+                      {"band_edges_mm", L.learned.band_edges_mm}};
+  for (const FlaggedFillet& f : L.flagged)
+    j["flagged_fillets"].push_back({{"lane", f.lane},
+                                    {"fillet", f.id},
+                                    {"belt_mm", f.y0_mm},
+                                    {"statistic", statistic_name(f.stat)},
+                                    {"band", f.band},
+                                    {"extreme", f.x},
+                                    {"log10_probability", f.log10_survival}});
+  for (int k = 0; k < kStatistics; ++k) {
+    const StatisticLearning& st = L.stats[size_t(k)];
+    const LearnedStatistic& ls = L.learned.stats[size_t(k)];
+    nlohmann::json qq = nlohmann::json::array();
+    for (const QQPoint& q : st.qq) qq.push_back({q.expected, q.observed});
+    j["statistics"][statistic_name(k)] = {{"samples", st.samples},
+                                          {"budget", st.budget},
+                                          {"point_thresholds", st.point_thresholds},
+                                          {"thresholds", ls.thresholds},
+                                          {"implied_frr", st.implied_frr},
+                                          {"band_fraction", ls.band_fraction},
+                                          {"band_pixels", ls.band_pixels},
+                                          {"band_thickness_mm", ls.band_thickness_mm},
+                                          {"model", model_json(ls.model)},
+                                          {"converged", st.fit.converged},
+                                          {"ks_d", st.ks_d},
+                                          {"ks_p", st.ks_p},
+                                          {"qq_gumbel", qq}};
+  }
+  nlohmann::json cells = nlohmann::json::array();
+  for (const SensitivityCell& c : s.cells)
+    cells.push_back({{"shape", piece_shape_name(c.shape)},
+                     {"size_mm", c.size_mm},
+                     {"band", c.band},
+                     {"injected", c.injected},
+                     {"found", c.found}});
+  nlohmann::json claims = nlohmann::json::array();
+  for (const SensitivityClaim& c : s.claims)
+    claims.push_back({{"shape", piece_shape_name(c.shape)},
+                      {"band", c.band},
+                      {"band_mm", {c.band_lo_mm, c.band_hi_mm}},
+                      {"size_mm", c.size_mm}});
+  j["sensitivity"] = {{"cells", cells},
+                      {"claims_95", claims},
+                      {"summary", s.summary},
+                      {"inspections", s.inspections},
+                      {"measured_on", "the learning fillets, with the learned thresholds"}};
+  return j.dump();
+}
+
+std::string claim_checks_json(const std::string& recording, int fillets,
+                              const std::vector<ClaimCheck>& checks) {
+  nlohmann::json list = nlohmann::json::array();
+  int held = 0;
+  for (const ClaimCheck& k : checks) {
+    held += k.held;
+    list.push_back({{"shape", piece_shape_name(k.claim.shape)},
+                    {"band", k.claim.band},
+                    {"size_mm", k.claim.size_mm},
+                    {"injected", k.injected},
+                    {"found", k.found},
+                    {"held", k.held}});
+  }
+  const nlohmann::json j = {{"recording", recording},
+                            {"fillets", fillets},
+                            {"claims", checks.size()},
+                            {"held", held},
+                            {"checks", list}};
+  return j.dump();
+}
+
+LearnedReportStatus check_learned_report(const std::string& report, int lane) {
+  LearnedReportStatus s;
+  if (report.empty()) {
+    s.why = "the learned settings have no report";
+    return s;
+  }
+  s.present = true;
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(report);
+  } catch (const std::exception& e) {
+    s.why = std::string("the report cannot be read: ") + e.what();
+    return s;
+  }
+  const nlohmann::json* entry = nullptr;
+  if (j.is_object() && j.contains("lanes") && j["lanes"].is_array()) {
+    for (const auto& l : j["lanes"])
+      if (l.is_object() && l.value("lane", -1) == lane) entry = &l;
+  } else if (j.is_object() && j.contains("ok")) {
+    entry = &j;
+  }
+  if (!entry) {
+    s.why = "the report holds nothing for lane " + std::to_string(lane);
+    return s;
+  }
+  if (!entry->contains("ok") || !(*entry)["ok"].is_boolean()) {
+    s.why = "the report cannot be read: no \"ok\"";
+    return s;
+  }
+  s.passed = (*entry)["ok"].get<bool>();
+  if (!s.passed) {
+    s.why = "the learning failed";
+    if (entry->contains("problems") && (*entry)["problems"].is_array())
+      for (const auto& p : (*entry)["problems"])
+        if (p.is_string()) s.why += "; " + p.get<std::string>();
+  }
+  return s;
+}
+
+}  // namespace rangex

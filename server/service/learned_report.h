@@ -1,0 +1,28 @@
+// The report of a product learning (rangexctl learn, ControlService.LearnProduct) as JSON,
+// and the gate it sets for activation: learned settings whose report failed (too few
+// fillets, a learning run that held bone) are not activated unless forced.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "pipeline/product_learning.h"
+#include "pipeline/sensitivity.h"
+
+namespace rangex {
+
+// One lane's report: the learning (thresholds, models, flagged fillets, QQ) and the
+// sensitivity it buys.
+std::string learned_report_json(int lane, const ProductLearning& learning,
+                                const SensitivityResult& sensitivity);
+// The sensitivity claims checked on held-out fillets.
+std::string claim_checks_json(const std::string& recording, int fillets,
+                              const std::vector<ClaimCheck>& checks);
+
+struct LearnedReportStatus {
+  bool present = false, passed = false;
+  std::string why;  // what is missing or failed; empty when passed
+};
+// `report`: a lane's report, or rangexctl learn's {"lanes": [...]} (the lane's entry).
+LearnedReportStatus check_learned_report(const std::string& report, int lane);
+
+}  // namespace rangex

@@ -1,0 +1,164 @@
+// Learned settings on rangexd (issue 23): LearnProduct on a live lane fed clean product
+// stores a version with its report and sensitivity; activation shows on the lane; a version
+// whose report failed is refused unless forced (audited); a restart keeps the active one.
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "core/plant_config.h"
+#include "feeder.h"
+#include "line_source.h"
+#include "rangex/v1/rangex.grpc.pb.h"
+#include "server_client.h"
+#include "service/server.h"
+#include "sim/plant_simulator.h"
+#include "temp_dir.h"
+
+using namespace rangex;
+using namespace rangex::test;
+namespace pb = rangex::v1;
+
+namespace {
+
+ServerOptions options(const test::TempDir& t) {
+  ServerOptions o;
+  o.listen = "127.0.0.1:0";
+  o.data_dir = t.str("data");
+  o.engine.backend = cpu_request(2);
+  return o;
+}
+
+pb::LaneInfo lane0(pb::ControlService::Stub& control) {
+  grpc::ClientContext c;
+  pb::ListLanesResponse r;
+  EXPECT_TRUE(control.ListLanes(&c, pb::ListLanesRequest(), &r).ok());
+  for (const auto& l : r.lanes())
+    if (l.id() == 0) return l;
+  ADD_FAILURE() << "no lane 0";
+  return {};
+}
+
+grpc::Status activate(pb::ControlService::Stub& control, const std::string& id, bool force) {
+  grpc::ClientContext c;
+  pb::ActivateLearnedSettingsRequest q;
+  q.set_lane(0);
+  q.set_id(id);
+  q.set_force(force);
+  pb::ActivateLearnedSettingsResponse r;
+  return control.ActivateLearnedSettings(&c, q, &r);
+}
+
+}  // namespace
+
+TEST(ServerLearning, LearnsALiveLaneAndGatesActivationByItsReport) {
+  test::TempDir t;
+  const PlantConfig p = load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml");
+  std::string learned_yaml;
+  {
+    RangexServer server(p, options(t));
+    auto ch = connect(server);
+    auto control = pb::ControlService::NewStub(ch);
+    // An unknown lane, a bad count: answered at once.
+    {
+      grpc::ClientContext c;
+      pb::LearnProductRequest q;
+      q.set_lane(0);
+      q.set_fillets(-3);
+      pb::LearnProductResponse r;
+      EXPECT_EQ(control->LearnProduct(&c, q, &r).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    }
+    // LearnProduct waits for the lane's next 12 inspected fillets.
+    pb::LearnProductResponse learned;
+    grpc::Status status;
+    std::thread learner([&] {
+      grpc::ClientContext c;
+      c.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(600));
+      pb::LearnProductRequest q;
+      q.set_lane(0);
+      q.set_fillets(12);
+      q.set_min_fillets(10);
+      q.set_id("live-1");
+      status = control->LearnProduct(&c, q, &learned);
+    });
+    std::this_thread::sleep_for(std::chrono::seconds(1));  // the run is registered first
+    sim::SimulationParams sp;
+    sp.lanes = 1;
+    sp.scene.fillets = 15;
+    sp.seed = 41;
+    sp.physics.bones.probability = 0;  // clean product
+    SimulatedSource source(p, sp);
+    FeedOptions fo;
+    const FeedReport fed = Feeder(ch, fo).run(source);
+    EXPECT_TRUE(fed.status.ok()) << fed.status.error_message();
+    learner.join();
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    const pb::LearnedSettingsInfo& s = learned.settings();
+    EXPECT_EQ(s.id(), "live-1");
+    EXPECT_EQ(s.report_status(), "passed");
+    EXPECT_EQ(s.fillets(), 12);
+    EXPECT_FALSE(s.active());
+    EXPECT_FALSE(s.sensitivity().empty());
+    // Stored, not active: the lane still runs its fixed thresholds.
+    EXPECT_EQ(lane0(*control).learned_version(), "");
+    {
+      grpc::ClientContext c;
+      pb::ListLearnedSettingsRequest q;
+      q.set_lane(0);
+      q.set_full(true);
+      pb::ListLearnedSettingsResponse r;
+      ASSERT_TRUE(control->ListLearnedSettings(&c, q, &r).ok());
+      ASSERT_EQ(r.settings_size(), 1);
+      learned_yaml = r.settings(0).yaml();
+      EXPECT_NE(r.settings(0).report_json().find("\"sensitivity\""), std::string::npos);
+    }
+    ASSERT_TRUE(activate(*control, "live-1", false).ok());
+    const pb::LaneInfo l = lane0(*control);
+    EXPECT_EQ(l.learned_version(), "live-1");
+    EXPECT_FALSE(l.learned_sensitivity().empty());
+    EXPECT_DOUBLE_EQ(l.false_reject_target(), 0.003);
+
+    // A version whose learning failed: refused, then forced (admin on loopback), audited.
+    {
+      grpc::ClientContext c;
+      pb::UploadLearnedSettingsRequest q;
+      q.set_lane(0);
+      q.set_id("too-few");
+      q.set_yaml(learned_yaml);
+      q.set_report_json(
+          R"({"lanes": [{"lane": 0, "ok": false, "problems": ["too few clean fillets: 5 of the 30 needed"]}]})");
+      pb::UploadLearnedSettingsResponse r;
+      ASSERT_TRUE(control->UploadLearnedSettings(&c, q, &r).ok());
+      EXPECT_NE(r.settings().report_status().find("too few clean fillets"), std::string::npos);
+    }
+    const grpc::Status refused = activate(*control, "too-few", false);
+    EXPECT_EQ(refused.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+    EXPECT_NE(refused.error_message().find("too few clean fillets"), std::string::npos)
+        << refused.error_message();
+    EXPECT_EQ(activate(*control, "no-such", false).error_code(), grpc::StatusCode::NOT_FOUND);
+    {
+      grpc::ClientContext c;
+      pb::UploadLearnedSettingsRequest q;
+      q.set_lane(0);
+      q.set_id("garbled");
+      q.set_yaml("band_edges_mm: [0, 5]\nround: {thresholds: [nan]}\n");
+      pb::UploadLearnedSettingsResponse r;
+      const grpc::Status bad = control->UploadLearnedSettings(&c, q, &r);
+      EXPECT_EQ(bad.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << bad.error_message();
+    }
+    EXPECT_TRUE(activate(*control, "too-few", true).ok());
+    EXPECT_EQ(lane0(*control).learned_version(), "too-few");
+    bool forced = false, learnt = false;
+    for (const std::string& e : server.store().audit_log(100)) {
+      forced = forced || e.find("learned.activate.forced") != std::string::npos;
+      learnt = learnt || e.find("learned.learn lane 0 id live-1") != std::string::npos;
+    }
+    EXPECT_TRUE(forced);
+    EXPECT_TRUE(learnt);
+  }
+  // A restart keeps the active version.
+  RangexServer again(p, options(t));
+  auto control = pb::ControlService::NewStub(connect(again));
+  EXPECT_EQ(lane0(*control).learned_version(), "too-few");
+}
