@@ -153,6 +153,7 @@ int cmd_learn(int argc, char** argv) {
     const LaneConfig& lane = plant.lane(r.lane);
     lo.target_frr = number(a, "target-frr", lane.inspection.false_reject_target, 1e-5, 0.2);
     lo.confidence = number(a, "confidence", lo.confidence, 0.5, 0.999);
+    lo.spread_by_thickness = lane.inspection.spread_by_thickness;
     std::vector<LearningFillet> fillets;
     std::vector<SensitivityFillet> images;
     int skipped = 0;

@@ -5,7 +5,7 @@
 set -u
 ctl="$1"
 source "$(dirname "$0")/script_checks.sh"
-"$ctl" eval-matrix --out m --only strong_blur,steep_edges --fillets 8 --seed 3 >run.txt 2>&1 \
+"$ctl" eval-matrix --out m --only strong_blur,steep_edges --fillets 8 --seed 3 --learn 0 >run.txt 2>&1 \
   || { echo "FAIL eval-matrix"; cat run.txt; exit 1; }
 cat m/matrix.txt
 py() { python3 -c "import json,sys; m=json.load(open('m/matrix.json')); v={x['name']: x for x in m['variants']}; sys.exit(0 if ($1) else 1)"; }
@@ -16,6 +16,18 @@ check "rangex recalls at least what the X-ray alone does" py "all(x['recall_calc
 check "the variant's own calibration says where K1/K2 come from" grep -q "fitted_on: \"calib scatter on" m/strong_blur/lane0.yaml
 check "the blur measured on the variant's pins" grep -q "detector_sigma_px: 0.9" m/strong_blur/lane0.yaml
 check "the scans are gone once evaluated" test ! -e m/strong_blur/rec
+# With learning (issue 23): the variant's own clean fillets learned, its claims checked on
+# others, a clean run inspected with what was learned (too few fillets to pass the learning's
+# gate: the matrix forces it, and says so).
+"$ctl" eval-matrix --out l --only rough_meat --fillets 4 --seed 5 --learn 12 --check 3 --frr 3 \
+  >learn.txt 2>&1 || { echo "FAIL eval-matrix --learn"; cat learn.txt; exit 1; }
+cat l/matrix.txt
+pl() { python3 -c "import json,sys; m=json.load(open('l/matrix.json')); v=m['variants'][0]; L=v['learned']; sys.exit(0 if ($1) else 1)"; }
+check "the learned run is reported" pl "L['learning_fillets'] == 12 and not L['ok']"
+check "its clean run counted" pl "L['clean_run']['fillets'] == 3"
+check "recall and false rejects as counts" pl "len(L['recall_calcified_ge_2mm']) == 2 and len(L['false_rejects']) == 2"
+check "the learned configuration was written and used" grep -q "learned:" l/rough_meat/learned.yaml
+check "the learning's report beside it" test -s l/rough_meat/learned.report/learn.json
 # A lane on the shipped constants is warned about; the plant's own calibration silences it.
 "$ctl" simulate --out rec --lanes 1 --fillets 1 --seed 4 >/dev/null 2>&1
 "$ctl" process rec --out p1 --images none >p1.txt 2>&1

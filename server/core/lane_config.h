@@ -48,6 +48,9 @@ struct InspectionParams {
   // Elongated kernels for needles (0: off): along and across, pixels.
   double line_sigma_along_px = 3.0, line_sigma_across_px = 0.7;
   double z_threshold = 5.0;  // smoothed z below -threshold is bone (unless learned)
+  // Each detection statistic's spread measured by thickness across the fillet (true), or
+  // one spread per fillet (false; rangex before issue 23).
+  bool spread_by_thickness = true;
   // The per-fillet false-reject budget product learning sets thresholds for.
   double false_reject_target = 0.003;
   // Thresholds learned from the plant's own clean product (rangexctl learn); when active

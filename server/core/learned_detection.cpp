@@ -58,7 +58,8 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
   o << "\nlearned_on: ";
   quoted(L.learned_on);
   o << "\ntarget_frr: " << L.target_frr << "\nconfidence: " << L.confidence
-    << "\nfillets: " << L.fillets << "\nband_edges_mm: ";
+    << "\nfillets: " << L.fillets
+    << "\nspread: " << (L.spread_by_thickness ? "thickness" : "fillet") << "\nband_edges_mm: ";
   list(L.band_edges_mm);
   o << "\nsensitivity: [";
   for (size_t i = 0; i < L.sensitivity.size(); ++i) {

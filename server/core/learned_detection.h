@@ -27,11 +27,13 @@ struct LearnedStatistic {
 };
 
 struct LearnedDetection {
-  std::string version;                // e.g. "learn-20261125-1" (rangexctl learn names it)
-  std::string learned_on;             // the learning run: recording or live lane
-  double target_frr = 0.003;          // per-fillet false-reject budget it was learned for
-  double confidence = 0.9;            // the thresholds meet the budget with this confidence
-  int fillets = 0;                    // clean fillets it was learned from
+  std::string version;        // e.g. "learn-20261125-1" (rangexctl learn names it)
+  std::string learned_on;     // the learning run: recording or live lane
+  double target_frr = 0.003;  // per-fillet false-reject budget it was learned for
+  double confidence = 0.9;    // the thresholds meet the budget with this confidence
+  int fillets = 0;            // clean fillets it was learned from
+  // The statistics' spread it was learned with (inspection.spread); inspection follows it.
+  bool spread_by_thickness = true;
   std::vector<double> band_edges_mm;  // bands [e0, e1), [e1, e2), ...; the last open-ended
   std::array<LearnedStatistic, kStatistics> stats;
   // What the thresholds buy, as the learning measured it ("2.0 mm calcified sphere at 95 %

@@ -185,7 +185,12 @@ std::vector<double> number_list(const Node& n, size_t expect) {
 // thresholds are finite and the model's scale is a scale.
 void read_learned(const Node& n, LearnedDetection& L) {
   n.only_keys({"version", "learned_on", "target_frr", "confidence", "fillets", "band_edges_mm",
-               "round", "needle", "air", "sensitivity"});
+               "round", "needle", "air", "sensitivity", "spread"});
+  if (n.has("spread")) {
+    const std::string v = n.at("spread").str();
+    if (v != "thickness" && v != "fillet") n.at("spread").bad("must be thickness or fillet");
+    L.spread_by_thickness = v == "thickness";
+  }
   if (n.has("sensitivity")) {
     const Node s = n.at("sensitivity");
     if (!s.node.IsSequence()) s.bad("expected a list of strings");
@@ -365,7 +370,8 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
                   "attenuation_degree",
                   "min_fragment_meat_mm",
                   "false_reject_target",
-                  "learned"});
+                  "learned",
+                  "spread"});
     n->positive("floor_mm", q.floor_mm);
     n->positive("min_fillet_area_mm2", q.min_fillet_area_mm2);
     n->positive("gap_lines", q.gap_lines);
@@ -386,6 +392,14 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     if (!(q.min_fragment_meat_mm >= 0 && q.min_fragment_meat_mm <= 20))
       n->at("min_fragment_meat_mm").bad("must be within 0..20 mm (0: off)");
     n->positive("air_z_threshold", q.air_z_threshold);
+    if (n->has("spread")) {
+      const std::string v = n->at("spread").str();
+      if (v != "thickness" && v != "fillet")
+        n->at("spread").bad(
+            "must be thickness (by thickness across the fillet) or fillet (one "
+            "per fillet)");
+      q.spread_by_thickness = v == "thickness";
+    }
     n->get("false_reject_target", q.false_reject_target);
     if (!(q.false_reject_target > 0 && q.false_reject_target < 0.5))
       n->at("false_reject_target").bad("must be in (0, 0.5), a fraction of fillets");

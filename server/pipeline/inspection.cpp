@@ -227,7 +227,12 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
   // thickness, robustly (thickness_spread.h). What compensation leaves is not white (meat
   // texture, thickness error), smoothing shrinks white noise far more than that, and thick
   // meat is rougher than thin; the white-noise factor is the floor.
-  const ThicknessBins bins = thickness_bins(img.thickness.data(), use.data(), n);
+  // One bin is the whole fillet: one spread per fillet (inspection.spread: fillet).
+  // Learned thresholds hold for the spread they were learned with.
+  const bool by_thickness =
+      p.learned.active() ? p.learned.spread_by_thickness : p.spread_by_thickness;
+  const ThicknessBins bins =
+      thickness_bins(img.thickness.data(), use.data(), n, by_thickness ? 8 : 1);
   masked_gaussian(z.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, zs);
   const SpreadProfile round_spread = unit_spread_by_thickness(
       zs, img.thickness.data(), use.data(), bins, gaussian_noise_gain(p.smooth_sigma_px));

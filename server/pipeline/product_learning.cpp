@@ -181,6 +181,7 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
   L.confidence = opt.confidence;
   L.fillets = r.fillets;
   L.band_edges_mm = opt.band_edges_mm;
+  L.spread_by_thickness = opt.spread_by_thickness;
   const bool has_needle = !samples_of(use, kStatNeedle).empty();
   std::mt19937_64 rng(opt.seed);
   for (int s = 0; s < kStatistics; ++s) {

@@ -174,7 +174,12 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
   lo.confidence = req.confidence;
   lo.min_fillets = req.min_fillets;
   // The lane ran with its own settings; extremes come in its bands.
-  if (lc.inspection.learned.active()) lo.band_edges_mm = lc.inspection.learned.band_edges_mm;
+  if (lc.inspection.learned.active()) {
+    lo.band_edges_mm = lc.inspection.learned.band_edges_mm;
+    lo.spread_by_thickness = lc.inspection.learned.spread_by_thickness;
+  } else {
+    lo.spread_by_thickness = lc.inspection.spread_by_thickness;
+  }
   ProductLearning L = rangex::learn_product(c->fillets, lo);
   L.learned.version = vid;
   L.learned.learned_on = "lane " + std::to_string(id) + " live, " +
