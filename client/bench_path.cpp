@@ -11,6 +11,8 @@
 #include "core/error.h"
 #include "pipeline/lane_processor.h"
 #include "pipeline/line_pipeline.h"
+#include "pipeline/product_learning.h"
+#include "pipeline/product_learning.h"
 #include "sim/plant_simulator.h"
 
 namespace rangex::cli {
@@ -103,8 +105,9 @@ struct PathTimes {
 
 // Lanes first_lane .. first_lane + lanes - 1 through the whole path on the calling thread,
 // in batches that mix the lanes line by line, as the server's batches do.
-PathTimes run_lanes(const LaneConfig& lc, const Recorded& rec, int first_lane, int lanes,
-                    int batch) {
+// With `images`, the fillets cut are handed to it uninspected.
+PathTimes run_lanes(const LaneConfig& lc, const Recorded& rec, int first_lane, int lanes, int batch,
+                    LaneProcessor::ImageSink images = {}) {
   std::vector<LaneConfig> cfgs;
   for (int q = 0; q < lanes; ++q) {
     LaneConfig c = lc;
@@ -117,7 +120,8 @@ PathTimes run_lanes(const LaneConfig& lc, const Recorded& rec, int first_lane, i
   std::vector<std::unique_ptr<LaneProcessor>> procs;
   for (int q = 0; q < lanes; ++q)
     procs.push_back(std::make_unique<LaneProcessor>(
-        cfgs[q], LaneProcessorOptions{false, false}, [&](InspectedFillet&& f) {
+        cfgs[q], LaneProcessorOptions{false, false},
+        [&](InspectedFillet&& f) {
           double staged = 0;
           for (int s = 0; s < kStages; ++s) {
             t.seconds[kInspect0 + s] += f.result.stage_seconds[s];
@@ -127,7 +131,8 @@ PathTimes run_lanes(const LaneConfig& lc, const Recorded& rec, int first_lane, i
           inspected += f.inspect_ms / 1e3;
           ++t.fillets;
           t.fillet_pixels += f.result.pixels;
-        }));
+        },
+        images));
   const int per = std::max(1, batch / lanes);  // line indices per batch
   const size_t frame = rec.frame();
   const int W = rec.width, G = pipe.grid_samples(), P = rec.pixels;
@@ -245,6 +250,55 @@ void report(const char* title, const PathTimes& t, const Recorded& rec, int grid
               t.bytes_copied / double(t.lines) / (2.0 * double(rec.frame())));
 }
 
+// Compensation and detection of the same fillets before issue 23 (one spread per fillet,
+// fixed thresholds, no band extremes) and after it (spread by thickness, band extremes;
+// fixed, then learned thresholds), in alternating rounds; medians of the rounds.
+void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
+  std::vector<FilletImage> imgs;
+  run_lanes(lc, rec, 0, 1, batch, [&](FilletImage&& im) { imgs.push_back(std::move(im)); });
+  if (imgs.empty()) return;
+  InspectionParams before = lc.inspection, after = lc.inspection;
+  before.spread_by_thickness = false, before.band_extremes = false;
+  before.learned = after.learned = LearnedDetection{};
+  after.spread_by_thickness = true, after.band_extremes = true;
+  std::vector<LearningFillet> fs;
+  for (const FilletImage& im : imgs)
+    fs.push_back({0, im.id, 0, inspect_fillet(im, after, false).extremes});
+  LearnOptions lo;
+  lo.min_fillets = 1;
+  lo.bootstrap = 20;
+  InspectionParams learned = after;
+  // Learned on these few fillets: thresholds for the timing, not for a decision.
+  try {
+    learned.learned = learn_product(fs, lo).learned;
+  } catch (const Error&) {
+  }
+  const InspectionParams* settings[3] = {&before, &after, &learned};
+  const char* names[3] = {"before issue 23 (one spread, fixed)", "spread by thickness, fixed",
+                          "spread by thickness, learned"};
+  std::vector<double> ms[3];
+  constexpr int kRounds = 5;
+  for (int round = 0; round < kRounds; ++round)
+    for (int k = 0; k < 3; ++k) {
+      if (k == 2 && !learned.learned.active()) continue;
+      const auto t0 = clk::now();
+      for (const FilletImage& im : imgs) inspect_fillet(im, *settings[k], false);
+      ms[k].push_back(1e3 * std::chrono::duration<double>(clk::now() - t0).count() /
+                      double(imgs.size()));
+    }
+  std::printf(
+      "\ninspection of the same %zu fillets, ms per fillet (median of %d alternating rounds):\n",
+      imgs.size(), kRounds);
+  double base = 0;
+  for (int k = 0; k < 3; ++k) {
+    if (ms[k].empty()) continue;
+    std::sort(ms[k].begin(), ms[k].end());
+    const double m = ms[k][ms[k].size() / 2];
+    if (k == 0) base = m;
+    std::printf("  %-38s %8.2f  (%.2fx)\n", names[k], m, base > 0 ? m / base : 0.0);
+  }
+}
+
 }  // namespace
 
 int bench_path(const PlantConfig& plant, const PathBenchOptions& opt) {
@@ -269,6 +323,7 @@ int bench_path(const PlantConfig& plant, const PathBenchOptions& opt) {
     report(title, t, rec, grid, gbs);
     one_core.push_back(double(t.lines) / t.wall);
   }
+  bench_inspection(lc, rec, opt.batch);
   if (opt.threads > 1) {
     std::printf("\nscaling: the lanes split over %d threads, wall-clock lines/s against one\n",
                 opt.threads);

@@ -12,9 +12,12 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 
 #include "args.h"
 #include "backend_args.h"
@@ -24,6 +27,7 @@
 #include "learn_report.h"
 #include "pipeline/product_learning.h"
 #include "pipeline/sensitivity.h"
+#include "plant_run.h"
 #include "progress_bar.h"
 #include "replay.h"
 #include "service/learned_report.h"
@@ -96,22 +100,61 @@ std::string learned_plant_yaml(const std::string& config,
          out.c_str() + "\n";
 }
 
+// One lane's learning fillets, from a replay or an in-memory simulation: each inspected
+// fillet's extremes and a copy of its image (for the test pieces).
+struct LaneFillets {
+  int lane = 0;
+  std::vector<LearningFillet> fillets;
+  std::vector<FilletImage> images;
+  std::vector<std::pair<double, double>> fits;  // b1, b2: the meat's attenuation
+  int skipped = 0;
+  void add(const InspectedFillet& f) {
+    if (f.result.decision == Decision::kNotInspected || !f.result.fitted) {
+      ++skipped;  // fail-safe fillets say nothing about the product's texture
+      return;
+    }
+    fillets.push_back({f.result.lane, f.result.id, f.result.y0_mm, f.result.extremes});
+    images.push_back(f.image);
+    fits.push_back({f.result.fit.beta1, f.result.fit.beta2});
+  }
+  std::vector<SensitivityFillet> sensitivity_fillets() const {
+    std::vector<SensitivityFillet> v;
+    for (size_t i = 0; i < images.size(); ++i)
+      v.push_back({&images[i], fits[i].first, fits[i].second});
+    return v;
+  }
+};
+
+std::vector<LaneFillets> from_replay(const std::vector<LaneReplay>& lanes) {
+  std::vector<LaneFillets> out;
+  for (const LaneReplay& r : lanes) {
+    out.push_back({r.lane, {}, {}, {}, 0});
+    for (const InspectedFillet& f : r.fillets) out.back().add(f);
+  }
+  return out;
+}
+
 }  // namespace
 
 int cmd_learn(int argc, char** argv) {
-  const Args a(
-      argc, argv, 2, {"force"},
-      {"out", "config", "target-frr", "confidence", "lanes", "calibration", "report", "version",
-       "bootstrap", "excess-ratio", "excess-per-mm", "min-fillets", "backend", "device", "check"});
-  a.expect_positionals(
-      1,
+  const Args a(argc, argv, 2, {"force", "simulate"},
+               {"out", "config", "target-frr", "confidence", "lanes", "calibration", "report",
+                "version", "bootstrap", "excess-ratio", "excess-per-mm", "min-fillets", "backend",
+                "device", "check", "fillets", "seed", "physics"});
+  const char* usage =
       "learn RECORDING --out PLANT.yaml [--config plant.yaml] [--target-frr 0.003] "
-      "[--confidence 0.9] [--lanes 0,1] [--calibration F] [--report DIR] "
-      "[--version NAME] [--excess-ratio 2] [--check RECORDING] [--force]");
+      "[--confidence 0.9] [--lanes 0,1] [--calibration F] [--report DIR] [--version NAME] "
+      "[--excess-ratio 2] [--check RECORDING] [--force]\n"
+      "   or: learn --simulate --out PLANT.yaml [--lanes N] [--fillets M] [--seed S] "
+      "[--physics F] (a clean simulated plant, in memory)";
+  const bool simulate = a.flag("simulate");
+  a.expect_positionals(simulate ? 0 : 1, usage);
   const std::string config = config_path(a.get("config", ""));
   PlantConfig plant = load_plant_config(config);
   if (a.has("calibration")) apply_calibration_option(plant, a.get("calibration", ""));
-  const RecordingReader rec(a.positional(0, "recording folder"));
+  std::unique_ptr<RecordingReader> rec;
+  if (!simulate) rec = std::make_unique<RecordingReader>(a.positional(0, "recording folder"));
+  const std::string source = simulate ? "a clean simulated plant" : rec->dir();
   const std::string out = a.require("out");
   const fs::path report_dir =
       a.get("report",
@@ -128,13 +171,38 @@ int cmd_learn(int argc, char** argv) {
   opt.baseline = false;
   opt.recalibrated = a.has("calibration");
   opt.backend = backend_request(a, plant.backend);
-  if (a.has("lanes")) opt.lanes = lane_list(a.get("lanes", ""));
+  if (a.has("lanes") && !simulate) opt.lanes = lane_list(a.get("lanes", ""));
   // Learned afresh: the extremes are taken in the default bands, whatever was learned before.
   for (auto& l : plant.lanes) l.inspection.learned = LearnedDetection{};
-  const auto lanes = [&] {
+  std::vector<LaneFillets> lanes;
+  if (simulate) {
+    // A learning run in memory: the plant's lanes simulated with no bone, each fillet
+    // inspected as a recording's would be (no frames written).
+    sim::SimulationParams sp;
+    sp.lanes = int(a.integer("lanes", long(plant.lanes.size())));
+    sp.scene.fillets = int(a.integer("fillets", 40));
+    sp.seed = uint64_t(a.integer("seed", 1));
+    if (a.has("physics")) sp.physics = sim::load_plant_physics(a.require("physics"));
+    sp.physics.bones.probability = 0;
+    std::map<int, LaneFillets> by_lane;
+    std::mutex mu;
+    PlantRunOptions po;
+    po.backend = opt.backend;
+    po.threads = int(std::max(1u, std::thread::hardware_concurrency()));
+    po.on_fillet = [&](const InspectedFillet& f) {
+      std::lock_guard<std::mutex> lock(mu);
+      LaneFillets& l = by_lane[f.result.lane];
+      l.lane = f.result.lane;
+      l.add(f);
+    };
+    ProgressBar bar("simulate");
+    run_simulated_plant(plant, sp, po, [&](int64_t d, int64_t t) { bar.update(d, t); });
+    for (auto& [id, l] : by_lane) lanes.push_back(std::move(l));
+  } else {
     ProgressBar bar("replay");
-    return replay_recording(rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
-  }();
+    lanes = from_replay(
+        replay_recording(*rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); }));
+  }
   // Held-out fillets (another recording of the same product) on which the sensitivity
   // claims are checked with the learned thresholds.
   std::vector<LaneReplay> check;
@@ -146,31 +214,21 @@ int cmd_learn(int argc, char** argv) {
         replay_recording(*check_rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
   }
   fs::create_directories(report_dir);
-  nlohmann::json report = {{"recording", rec.dir()}, {"config", config}, {"version", version}};
+  nlohmann::json report = {{"recording", source}, {"config", config}, {"version", version}};
   std::vector<std::pair<int, LearnedDetection>> learned;
   bool all_ok = true;
-  for (const LaneReplay& r : lanes) {
+  for (const LaneFillets& r : lanes) {
     const LaneConfig& lane = plant.lane(r.lane);
     lo.target_frr = number(a, "target-frr", lane.inspection.false_reject_target, 1e-5, 0.2);
     lo.confidence = number(a, "confidence", lo.confidence, 0.5, 0.999);
     lo.spread_by_thickness = lane.inspection.spread_by_thickness;
-    std::vector<LearningFillet> fillets;
-    std::vector<SensitivityFillet> images;
-    int skipped = 0;
-    for (const InspectedFillet& f : r.fillets) {
-      if (f.result.decision == Decision::kNotInspected || !f.result.fitted) {
-        ++skipped;  // fail-safe fillets say nothing about the product's texture
-        continue;
-      }
-      fillets.push_back({f.result.lane, f.result.id, f.result.y0_mm, f.result.extremes});
-      images.push_back({&f.image, f.result.fit.beta1, f.result.fit.beta2});
-    }
+    const std::vector<SensitivityFillet> images = r.sensitivity_fillets();
     std::printf("lane %d: %zu fillets inspected (%d not inspected, left out); fitting ...\n",
-                r.lane, fillets.size(), skipped);
+                r.lane, r.fillets.size(), r.skipped);
     std::fflush(stdout);
-    ProductLearning L = learn_product(fillets, lo);
+    ProductLearning L = learn_product(r.fillets, lo);
     L.learned.version = version;
-    L.learned.learned_on = rec.dir() + " lane " + std::to_string(r.lane);
+    L.learned.learned_on = source + " lane " + std::to_string(r.lane);
     // The sensitivity those thresholds buy, on the same fillets (the report says so; a
     // held-out check is --check, on fillets it did not learn from).
     InspectionParams p = lane.inspection;

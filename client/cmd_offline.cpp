@@ -197,6 +197,7 @@ int process_simulated(const Args& a, const PlantConfig& plant) {
   p.lanes = int(a.integer("lanes", long(plant.lanes.size())));
   p.scene.fillets = int(a.integer("fillets", 125));
   p.seed = uint64_t(a.integer("seed", 1));
+  if (a.has("physics")) p.physics = sim::load_plant_physics(a.require("physics"));
   const fs::path out = a.require("out");
   const Images images = parse_images(a.get("images", "rejects"));
   fs::create_directories(out);
@@ -246,7 +247,7 @@ int process_simulated(const Args& a, const PlantConfig& plant) {
 int cmd_process(int argc, char** argv) {
   const Args a(argc, argv, 2, {"simulate"},
                {"out", "method", "batch", "config", "threads", "images", "lanes", "fillets", "seed",
-                "backend", "device", "calibration"});
+                "backend", "device", "calibration", "physics"});
   PlantConfig plant = load_config(a.get("config", ""));
   // Replay with new calibrations: --calibration FILE (every lane) or L:FILE,L:FILE.
   if (a.has("calibration")) {
@@ -258,7 +259,8 @@ int cmd_process(int argc, char** argv) {
                 plant.calibration_id.c_str());
   }
   if (a.flag("simulate")) {
-    a.expect_positionals(0, "process --simulate --out OUT [--lanes N] [--fillets M] [--seed S]");
+    a.expect_positionals(
+        0, "process --simulate --out OUT [--lanes N] [--fillets M] [--seed S] [--physics F]");
     if (a.has("method"))
       for (auto& l : plant.lanes) l.stripe.method = parse_stripe_method(a.get("method", ""));
     return process_simulated(a, plant);

@@ -17,7 +17,7 @@ commands:
       stripe rows of one camera as CSV (frame,column,row; row empty where invalid)
   process DIR --out OUT [--method NAME] [--images all|rejects|none] [--config ...]
       replay a recording through the pipeline and inspect every fillet
-  process --simulate --out OUT [--lanes N] [--fillets M] [--seed S] [--images ...]
+  process --simulate --out OUT [--lanes N] [--fillets M] [--seed S] [--physics F] [--images ...]
       simulate a plant in memory (no recording) and inspect it; prints the evaluation
       (both: [--backend auto|cpu|opencl|vulkan] [--device D] for the line stages)
   eval DIR OUT [--json]   |   eval OUT [--json]

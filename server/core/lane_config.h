@@ -51,6 +51,9 @@ struct InspectionParams {
   // Each detection statistic's spread measured by thickness across the fillet (true), or
   // one spread per fillet (false; rangex before issue 23).
   bool spread_by_thickness = true;
+  // Each fillet's detection extremes per thickness band (FilletResult::extremes), for
+  // product learning and drift; off only to time the inspection without them (bench).
+  bool band_extremes = true;
   // The per-fillet false-reject budget product learning sets thresholds for.
   double false_reject_target = 0.003;
   // Thresholds learned from the plant's own clean product (rangexctl learn); when active

@@ -26,8 +26,8 @@ std::string_view decision_name(Decision d) {
 }
 
 const char* inspect_stage_name(int stage) {
-  static const char* kNames[kStages] = {"fit", "detector match", "noise model", "smooth",
-                                        "components"};
+  static const char* kNames[kStages] = {"fit",    "detector match", "noise model",
+                                        "smooth", "components",     "band extremes"};
   return stage >= 0 && stage < kStages ? kNames[stage] : "?";
 }
 
@@ -177,6 +177,36 @@ class StageLap {
   std::chrono::steady_clock::time_point t_;
 };
 
+// Each statistic's extreme per thickness band (component_extreme.h): what product learning
+// fits and drift tracking follows.
+void band_extremes(const FilletImage& img, const std::vector<uint8_t>& use,
+                   const std::vector<float> (&stat)[kStatistics], const InspectionParams& p,
+                   FilletResult& res) {
+  const size_t n = img.size();
+  const std::vector<double>& edges =
+      p.learned.active() ? p.learned.band_edges_mm : default_band_edges_mm();
+  const double px_area = img.pitch_mm * img.step_mm;
+  std::vector<uint8_t> in_band(n);
+  for (int band = 0; band + 1 < int(edges.size()); ++band) {
+    int count = 0;
+    std::vector<double> ts;
+    for (size_t i = 0; i < n; ++i) {
+      in_band[i] = use[i] && band_index(edges, img.thickness[i]) == band;
+      if (in_band[i]) ++count, ts.push_back(img.thickness[i]);
+    }
+    if (count < kMinBandPixels) continue;
+    const double t_mid = median_inplace(ts.data(), ts.size());
+    for (int s = 0; s < kStatistics; ++s) {
+      if (s == kStatNeedle && p.line_sigma_along_px <= 0) continue;
+      const double area = s == kStatAir ? p.min_air_area_mm2 : p.min_fragment_area_mm2;
+      const int min_px = std::max(1, int(std::ceil(area / px_area - 1e-9)));
+      const double x =
+          component_extreme(stat[s].data(), in_band.data(), img.rows, img.cols, min_px);
+      if (std::isfinite(x)) res.extremes.push_back({s, band, x, double(count), t_mid});
+    }
+  }
+}
+
 // Everything after the model of ln I: noise model, z, detection, decision, statistics.
 void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
                        const std::vector<float>& predicted_ln, const RobustFit* fit,
@@ -280,30 +310,13 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
   if (fit && p.min_fragment_meat_mm > 0)
     std::erase_if(res.fragments, [&](const Blob& b) { return b.meat_mm < p.min_fragment_meat_mm; });
   res.air_pockets = blobs(stat[kStatAir], air_on, resid, use, img, +1, p.min_air_area_mm2, fit, p);
+  lap(kStageComponents);
   // Each statistic's extreme per thickness band: what product learning fits and drift
   // tracking follows.
-  const std::vector<double>& edges = L.active() ? L.band_edges_mm : default_band_edges_mm();
-  const double px_area = img.pitch_mm * img.step_mm;
-  std::vector<uint8_t> in_band(n);
-  for (int band = 0; band + 1 < int(edges.size()); ++band) {
-    int count = 0;
-    std::vector<double> ts;
-    for (size_t i = 0; i < n; ++i) {
-      in_band[i] = use[i] && band_index(edges, img.thickness[i]) == band;
-      if (in_band[i]) ++count, ts.push_back(img.thickness[i]);
-    }
-    if (count < kMinBandPixels) continue;
-    const double t_mid = median_inplace(ts.data(), ts.size());
-    for (int s = 0; s < kStatistics; ++s) {
-      if (s == kStatNeedle && p.line_sigma_along_px <= 0) continue;
-      const double area = s == kStatAir ? p.min_air_area_mm2 : p.min_fragment_area_mm2;
-      const int min_px = std::max(1, int(std::ceil(area / px_area - 1e-9)));
-      const double x =
-          component_extreme(stat[s].data(), in_band.data(), img.rows, img.cols, min_px);
-      if (std::isfinite(x)) res.extremes.push_back({s, band, x, double(count), t_mid});
-    }
+  if (p.band_extremes) {
+    band_extremes(img, use, stat, p, res);
+    lap(kStageExtremes);
   }
-  lap(kStageComponents);
   if (res.fragments.empty()) {
     res.decision = Decision::kPass;
   } else {

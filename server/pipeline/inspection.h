@@ -36,7 +36,15 @@ struct Blob {
 };
 
 // The inspection's stages, timed per fillet (benchmarks, latency statistics).
-enum InspectStage { kStageFit, kStageMatch, kStageNoise, kStageSmooth, kStageComponents, kStages };
+enum InspectStage {
+  kStageFit,
+  kStageMatch,
+  kStageNoise,
+  kStageSmooth,
+  kStageComponents,
+  kStageExtremes,
+  kStages
+};
 const char* inspect_stage_name(int stage);
 
 // One detection statistic's extreme over one thickness band of a fillet
