@@ -47,10 +47,22 @@ kill -TERM $server
 wait $server || true
 trap - EXIT
 echo
-# Part 2: the plant at scale, 4 lanes x 125 fillets simulated in memory through the same
-# pipeline and inspection: bone recall, false rejects and the X-ray-only baseline beside
-# rangex, against the simulator's truth.
-"$ctl" process --simulate --lanes 4 --fillets 125 --seed 1 --out "$demo/plant"
+# Part 2: the plant teaches rangex its own product: 40 clean fillets a lane (simulated in
+# memory, another seed), thresholds learned per lane for 0.3 % false rejects, with the
+# sensitivity they buy (build/demo/learned.yaml and learned.report/). A learning that fails
+# its own checks leaves the shipped thresholds in place, and says so.
+config=config/plant.yaml
+if "$ctl" learn --simulate --lanes 4 --fillets 40 --seed 101 --out "$demo/learned.yaml"; then
+  config="$demo/learned.yaml"
+else
+  echo "rangex demo: the learning failed its checks; inspecting with the shipped thresholds"
+fi
 echo
+# Part 3: the plant at scale, 4 lanes x 125 fillets simulated in memory through the same
+# pipeline and inspection with those thresholds: bone recall, false rejects and the
+# X-ray-only baseline beside rangex, against the simulator's truth.
+"$ctl" process --simulate --config "$config" --lanes 4 --fillets 125 --seed 1 --out "$demo/plant"
+echo
+echo "learned thresholds: $config (report: $demo/learned.report/)"
 echo "server store: $demo/data (rangex.sqlite, images/ of every reject);"
 echo "plant images: $demo/plant/lane*/fillet_*/ (overlay.png, xray.png, thickness.png, pseudo_xray.png, residual.png)"

@@ -45,10 +45,16 @@ class Forest {
 }  // namespace
 
 double component_extreme(const float* v, const uint8_t* use, int rows, int cols, int min_pixels) {
-  constexpr double kNone = -std::numeric_limits<double>::infinity();
   std::vector<size_t> px;
   for (size_t i = 0, n = size_t(rows) * cols; i < n; ++i)
-    if (use[i] && std::isfinite(v[i])) px.push_back(i);
+    if (use[i]) px.push_back(i);
+  return component_extreme(v, px, rows, cols, min_pixels);
+}
+
+double component_extreme(const float* v, std::vector<size_t>& px, int rows, int cols,
+                         int min_pixels) {
+  constexpr double kNone = -std::numeric_limits<double>::infinity();
+  std::erase_if(px, [&](size_t i) { return !std::isfinite(v[i]); });
   if (px.empty()) return kNone;
   if (min_pixels <= 1) {
     double m = kNone;

@@ -186,22 +186,26 @@ void band_extremes(const FilletImage& img, const std::vector<uint8_t>& use,
   const std::vector<double>& edges =
       p.learned.active() ? p.learned.band_edges_mm : default_band_edges_mm();
   const double px_area = img.pitch_mm * img.step_mm;
-  std::vector<uint8_t> in_band(n);
-  for (int band = 0; band + 1 < int(edges.size()); ++band) {
-    int count = 0;
-    std::vector<double> ts;
-    for (size_t i = 0; i < n; ++i) {
-      in_band[i] = use[i] && band_index(edges, img.thickness[i]) == band;
-      if (in_band[i]) ++count, ts.push_back(img.thickness[i]);
-    }
+  // Each usable pixel's band, gathered once; every statistic runs over the same lists.
+  const int bands = int(edges.size()) - 1;
+  std::vector<std::vector<size_t>> members(size_t(std::max(0, bands)));
+  for (size_t i = 0; i < n; ++i)
+    if (use[i]) members[size_t(band_index(edges, img.thickness[i]))].push_back(i);
+  std::vector<size_t> px;
+  std::vector<double> ts;
+  for (int band = 0; band < bands; ++band) {
+    const std::vector<size_t>& in = members[size_t(band)];
+    const int count = int(in.size());
     if (count < kMinBandPixels) continue;
+    ts.clear();
+    for (size_t i : in) ts.push_back(img.thickness[i]);
     const double t_mid = median_inplace(ts.data(), ts.size());
     for (int s = 0; s < kStatistics; ++s) {
       if (s == kStatNeedle && p.line_sigma_along_px <= 0) continue;
       const double area = s == kStatAir ? p.min_air_area_mm2 : p.min_fragment_area_mm2;
       const int min_px = std::max(1, int(std::ceil(area / px_area - 1e-9)));
-      const double x =
-          component_extreme(stat[s].data(), in_band.data(), img.rows, img.cols, min_px);
+      px = in;
+      const double x = component_extreme(stat[s].data(), px, img.rows, img.cols, min_px);
       if (std::isfinite(x)) res.extremes.push_back({s, band, x, double(count), t_mid});
     }
   }

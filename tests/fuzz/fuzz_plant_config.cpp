@@ -44,6 +44,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       const std::string yaml = lane_calibration_yaml(l);
       const LaneConfig again = apply_lane_calibration(l, yaml, "round trip");
       if (!same_but_rounding(lane_calibration_yaml(again), yaml)) std::abort();
+      // Learned settings, as the server stores a version, read back to the same.
+      if (l.inspection.learned.active()) {
+        const std::string learned = learned_detection_yaml(l.inspection.learned);
+        const LearnedDetection back = parse_learned_detection(learned, "round trip");
+        if (!same_but_rounding(learned_detection_yaml(back), learned)) std::abort();
+      }
     }
   } catch (const Error&) {
   }

@@ -53,6 +53,37 @@ def request(seq, lane, encoder, w, h, px, cal=b""):
 root = os.path.join(here, "..", "..")
 put("plant_config", "shipped.yaml", open(os.path.join(root, "config", "plant.yaml")).read())
 put("plant_config", "minimal.yaml", "lanes: [{id: 0}]\n")
+# A lane with thresholds learned from its product (rangexctl learn writes such a section).
+put("plant_config", "learned.yaml", """lanes:
+  - id: 0
+    inspection:
+      false_reject_target: 0.003
+      spread: fillet
+      learned:
+        version: "learn-1"
+        learned_on: "clean lane 0"
+        target_frr: 0.003
+        confidence: 0.9
+        fillets: 40
+        spread: fillet
+        band_edges_mm: [0, 5, 10, 1000]
+        sensitivity: ["1.5 mm calcified sphere at 95 % up to 25 mm of meat"]
+        round:
+          thresholds: [5.67, 5.72, 5.96]
+          band_fraction: [1, 1, 0.9]
+          band_pixels: [8000, 12000, 9000]
+          band_thickness_mm: [2.5, 7.4, 12.1]
+          model: {m0: 3.1, m_logn: 0.1, m_t: 0.02, s0: -0.9, s_t: 0.01, xi: 0.05, log_n_ref: 9.1, t_ref: 12}
+        needle:
+          thresholds: [6.1, 6.09, 6.33]
+          band_fraction: [1, 1, 0.9]
+          band_pixels: [8000, 12000, 9000]
+          band_thickness_mm: [2.5, 7.4, 12.1]
+          model: {m0: 3.3, m_logn: 0.1, m_t: 0.02, s0: -0.8, s_t: 0.01, xi: 0, log_n_ref: 9.1, t_ref: 12}
+        air:
+          thresholds: [80.6, 76.5, 96.1]
+          model: {m0: 2.4, m_logn: 0.4, m_t: 0.01, s0: -0.7, s_t: 0.04, xi: 0.6, log_n_ref: 9.1, t_ref: 12}
+""")
 put("plant_config", "sections.yaml", """plant: {name: p, listen: 127.0.0.1:1, http: off}
 server: {queue_lines: 64, batch_lines: 8}
 retention: {days: 30, images_days: 7, every_h: 0.5}
