@@ -12,7 +12,6 @@
 #include "pipeline/lane_processor.h"
 #include "pipeline/line_pipeline.h"
 #include "pipeline/product_learning.h"
-#include "pipeline/product_learning.h"
 #include "sim/plant_simulator.h"
 
 namespace rangex::cli {
@@ -251,38 +250,44 @@ void report(const char* title, const PathTimes& t, const Recorded& rec, int grid
 }
 
 // Compensation and detection of the same fillets before issue 23 (one spread per fillet,
-// fixed thresholds, no band extremes) and after it (spread by thickness, band extremes;
-// fixed, then learned thresholds), in alternating rounds; medians of the rounds.
+// fixed thresholds, no band extremes) and after it (band extremes; fixed and learned
+// thresholds; one spread per fillet and spread by thickness), in alternating rounds;
+// medians of the rounds, as ratios to the first.
 void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   std::vector<FilletImage> imgs;
   run_lanes(lc, rec, 0, 1, batch, [&](FilletImage&& im) { imgs.push_back(std::move(im)); });
   if (imgs.empty()) return;
-  InspectionParams before = lc.inspection, after = lc.inspection;
-  before.spread_by_thickness = false, before.band_extremes = false;
-  before.learned = after.learned = LearnedDetection{};
-  after.spread_by_thickness = true, after.band_extremes = true;
-  std::vector<LearningFillet> fs;
-  for (const FilletImage& im : imgs)
-    fs.push_back({0, im.id, 0, inspect_fillet(im, after, false).extremes});
-  LearnOptions lo;
-  lo.min_fillets = 1;
-  lo.bootstrap = 20;
-  InspectionParams learned = after;
-  // Learned on these few fillets: thresholds for the timing, not for a decision.
-  try {
-    learned.learned = learn_product(fs, lo).learned;
-  } catch (const Error&) {
+  constexpr int kVariants = 4;
+  InspectionParams v[kVariants];
+  const char* names[kVariants] = {"before issue 23 (fixed, no extremes)", "fixed, band extremes",
+                                  "learned", "learned, spread by thickness"};
+  for (int k = 0; k < kVariants; ++k) {
+    v[k] = lc.inspection;
+    v[k].learned = LearnedDetection{};
+    v[k].band_extremes = k > 0;
+    v[k].spread_by_thickness = k == 3;
   }
-  const InspectionParams* settings[3] = {&before, &after, &learned};
-  const char* names[3] = {"before issue 23 (one spread, fixed)", "spread by thickness, fixed",
-                          "spread by thickness, learned"};
-  std::vector<double> ms[3];
+  // Thresholds learned on these few fillets: for the timing, not for a decision.
+  for (int k : {2, 3}) {
+    std::vector<LearningFillet> fs;
+    for (const FilletImage& im : imgs)
+      fs.push_back({0, im.id, 0, inspect_fillet(im, v[k], false).extremes});
+    LearnOptions lo;
+    lo.min_fillets = 1;
+    lo.bootstrap = 20;
+    lo.spread_by_thickness = v[k].spread_by_thickness;
+    try {
+      v[k].learned = learn_product(fs, lo).learned;
+    } catch (const Error&) {
+      // Too few band extremes: timed with fixed thresholds.
+    }
+  }
+  std::vector<double> ms[kVariants];
   constexpr int kRounds = 5;
   for (int round = 0; round < kRounds; ++round)
-    for (int k = 0; k < 3; ++k) {
-      if (k == 2 && !learned.learned.active()) continue;
+    for (int k = 0; k < kVariants; ++k) {
       const auto t0 = clk::now();
-      for (const FilletImage& im : imgs) inspect_fillet(im, *settings[k], false);
+      for (const FilletImage& im : imgs) inspect_fillet(im, v[k], false);
       ms[k].push_back(1e3 * std::chrono::duration<double>(clk::now() - t0).count() /
                       double(imgs.size()));
     }
@@ -290,8 +295,7 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
       "\ninspection of the same %zu fillets, ms per fillet (median of %d alternating rounds):\n",
       imgs.size(), kRounds);
   double base = 0;
-  for (int k = 0; k < 3; ++k) {
-    if (ms[k].empty()) continue;
+  for (int k = 0; k < kVariants; ++k) {
     std::sort(ms[k].begin(), ms[k].end());
     const double m = ms[k][ms[k].size() / 2];
     if (k == 0) base = m;

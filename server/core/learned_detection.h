@@ -33,7 +33,7 @@ struct LearnedDetection {
   double confidence = 0.9;    // the thresholds meet the budget with this confidence
   int fillets = 0;            // clean fillets it was learned from
   // The statistics' spread it was learned with (inspection.spread); inspection follows it.
-  bool spread_by_thickness = true;
+  bool spread_by_thickness = false;
   std::vector<double> band_edges_mm;  // bands [e0, e1), [e1, e2), ...; the last open-ended
   std::array<LearnedStatistic, kStatistics> stats;
   // What the thresholds buy, as the learning measured it ("2.0 mm calcified sphere at 95 %

@@ -31,7 +31,7 @@ struct LearnOptions {
   int min_fillets = 30;
   uint64_t seed = 1;
   std::vector<double> band_edges_mm = default_band_edges_mm();
-  bool spread_by_thickness = true;  // how the fillets' statistics were normalised
+  bool spread_by_thickness = false;  // how the fillets' statistics were normalised
   // A learning fillet is suspected of holding bone when its extreme is this improbable
   // under the model fitted without it, after a Bonferroni correction over every band
   // extreme tested.
