@@ -59,7 +59,8 @@ TEST(ProductDrift, QuietOnTheLearnedProductAndRaisedWhenTheTextureStepsUp) {
   std::vector<LearningFillet> learn;
   for (int i = 0; i < 40; ++i) {
     const FilletResult r = inspect_fillet(textured_fillet(100 + i, 0.01), p, false);
-    ASSERT_EQ(r.decision, Decision::kPass) << r.reason;
+    // Inspected (the fixed thresholds' decision does not matter to learning).
+    ASSERT_NE(r.decision, Decision::kNotInspected) << r.reason;
     learn.push_back({0, i, 0.0, r.extremes});
   }
   LearnOptions o;

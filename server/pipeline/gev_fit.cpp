@@ -30,6 +30,13 @@ double nll(const GevModel& g, const std::vector<ExtremeSample>& s) {
   return sum;
 }
 
+double truncated_nll(const GevModel& g, const std::vector<ExtremeSample>& s) {
+  double sum = nll(g, s);
+  for (const ExtremeSample& e : s)
+    if (std::isfinite(e.upper)) sum += std::log(std::max(1e-300, g.cdf(e.upper, e.n, e.t)));
+  return sum;
+}
+
 }  // namespace
 
 GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
@@ -49,7 +56,7 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
   std::vector<double> step = {0.5 * sigma, 0.2 * sigma, 0.3, 1.0};
   if (opt.thickness) x0.insert(x0.end(), {0.0, 0.0}), step.insert(step.end(), {0.02, 0.02});
   auto objective = [&](const std::vector<double>& p) {
-    return nll(from_params(p, centre, opt.thickness, opt), s);
+    return truncated_nll(from_params(p, centre, opt.thickness, opt), s);
   };
   const NelderMeadResult r = nelder_mead(objective, x0, step, 1e-8, 40000);
   GevFit f;
@@ -58,15 +65,6 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
   f.converged = r.converged && std::isfinite(r.value);
   return f;
 }
-
-namespace {
-double truncated_nll(const GevModel& g, const std::vector<ExtremeSample>& s) {
-  double sum = nll(g, s);
-  for (const ExtremeSample& e : s)
-    if (std::isfinite(e.upper)) sum += std::log(std::max(1e-300, g.cdf(e.upper, e.n, e.t)));
-  return sum;
-}
-}  // namespace
 
 GevModel refit_drifted(const GevModel& model, const std::vector<ExtremeSample>& s,
                        const GevFitOptions& opt) {

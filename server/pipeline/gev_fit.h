@@ -30,7 +30,8 @@ struct GevFit {
   bool converged = false;
 };
 
-// Throws Error with fewer than 10 samples.
+// Throws Error with fewer than 10 samples. Samples with a finite `upper` count truncated
+// there (a fit to the extremes below a level, robust to what lies above it).
 GevFit fit_gev(const std::vector<ExtremeSample>& samples, const GevFitOptions& opt = {});
 
 // The MLE of a location shift d of `model` (x ~ model moved by d) on `samples`, the other

@@ -130,8 +130,45 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
     if (smp.size() < 10) return {};
     return fit_gev(smp);
   };
-  // Suspected bone: the fillets whose most extreme band stands out most, each judged by a
-  // model fitted without it; removed one at a time, so that one bone cannot mask another.
+  // Bone in the learning run, in two steps. First a gross-error screen that several bony
+  // fillets cannot mask: per statistic and band, a fillet whose extreme stands more than
+  // `gross_mads` robust deviations (median and MAD across the fillets) above the others'.
+  // Then, one at a time, the fillets that stand out most, each judged by the model fitted
+  // without it.
+  {
+    std::vector<const LearningFillet*> rest;
+    std::map<std::pair<int, int>, std::pair<double, double>> centre;  // (stat, band): median, sd
+    for (int s = 0; s < kStatistics; ++s) {
+      if (!rejecting(s)) continue;
+      for (int b = 0; b < bands; ++b) {
+        std::vector<double> xs;
+        for (const LearningFillet* f : use)
+          for (const BandExtreme& e : f->extremes)
+            if (e.stat == s && e.band == b) xs.push_back(e.x);
+        if (xs.size() < 5) continue;
+        const double med = median_of(xs);
+        for (double& x : xs) x = std::abs(x - med);
+        centre[{s, b}] = {med, std::max(0.1, median_of(xs) / 0.6744897501960817)};
+      }
+    }
+    for (const LearningFillet* f : use) {
+      FlaggedFillet worst{f->lane, f->id, f->y0_mm, 0, 0, 0, 0};
+      double worst_z = 0;
+      for (const BandExtreme& e : f->extremes) {
+        const auto it = centre.find({e.stat, e.band});
+        if (it == centre.end()) continue;
+        const double z = (e.x - it->second.first) / it->second.second;
+        if (z > worst_z) worst_z = z, worst.stat = e.stat, worst.band = e.band, worst.x = e.x;
+      }
+      if (worst_z > opt.gross_mads) {
+        worst.robust_z = worst_z;
+        r.flagged.push_back(worst);
+      } else {
+        rest.push_back(f);
+      }
+    }
+    use = rest;
+  }
   for (int round = 0; round < 8 && int(use.size()) >= 10; ++round) {
     std::array<GevModel, kStatistics> model;
     for (int s = 0; s < kStatistics; ++s)
@@ -169,11 +206,18 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
                          std::to_string(opt.min_fillets) + " needed");
   for (const FlaggedFillet& f : r.flagged) {
     char b[256];
-    std::snprintf(b, sizeof b,
-                  "lane %d fillet %lld (belt %.0f mm) holds something like bone: %s extreme %.1f "
-                  "in band %d, probability 1e%.1f under the others' model",
-                  f.lane, (long long)f.id, f.y0_mm, statistic_name(f.stat), f.x, f.band,
-                  f.log10_survival);
+    if (f.robust_z > 0)
+      std::snprintf(b, sizeof b,
+                    "lane %d fillet %lld (belt %.0f mm) holds something like bone: %s extreme "
+                    "%.1f in band %d, %.0f robust deviations above the other fillets'",
+                    f.lane, (long long)f.id, f.y0_mm, statistic_name(f.stat), f.x, f.band,
+                    f.robust_z);
+    else
+      std::snprintf(b, sizeof b,
+                    "lane %d fillet %lld (belt %.0f mm) holds something like bone: %s extreme "
+                    "%.1f in band %d, probability 1e%.1f under the others' model",
+                    f.lane, (long long)f.id, f.y0_mm, statistic_name(f.stat), f.x, f.band,
+                    f.log10_survival);
     r.problems.push_back(b);
   }
   LearnedDetection& L = r.learned;

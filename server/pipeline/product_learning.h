@@ -36,6 +36,9 @@ struct LearnOptions {
   // under the model fitted without it, after a Bonferroni correction over every band
   // extreme tested.
   double outlier_alpha = 0.01;
+  // Before that, a gross-error screen: an extreme this many robust deviations above the
+  // other fillets' in its band (bone stands 30-100 above clean meat's 3-10).
+  double gross_mads = 20;
 };
 
 struct FlaggedFillet {
@@ -45,6 +48,7 @@ struct FlaggedFillet {
   int stat = 0, band = 0;
   double x = 0;               // its extreme
   double log10_survival = 0;  // of that extreme under the model fitted without it
+  double robust_z = 0;        // or: robust deviations above the other fillets' (the screen)
 };
 
 struct QQPoint {

@@ -29,7 +29,8 @@ std::string learned_report_json(int lane, const ProductLearning& L, const Sensit
                                     {"statistic", statistic_name(f.stat)},
                                     {"band", f.band},
                                     {"extreme", f.x},
-                                    {"log10_probability", f.log10_survival}});
+                                    {"log10_probability", f.log10_survival},
+                                    {"robust_deviations", f.robust_z}});
   for (int k = 0; k < kStatistics; ++k) {
     const StatisticLearning& st = L.stats[size_t(k)];
     const LearnedStatistic& ls = L.learned.stats[size_t(k)];
