@@ -46,10 +46,6 @@ struct LearnedDetection {
   double threshold(int stat, double thickness_mm) const;
 };
 
-// The section as plant.yaml's inspection.learned holds it (full precision), without the
-// `learned:` key; parse_learned_detection (core/plant_config.h) reads it back.
-std::string learned_detection_yaml(const LearnedDetection& learned);
-
 // Band index of `t` in `edges` (clamped), shared by learning and inspection.
 int band_index(const std::vector<double>& edges, double t);
 

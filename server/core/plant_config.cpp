@@ -174,11 +174,18 @@ void read_camera(const Node& n, LaneCamera& cam, int w, int h) {
   cam.model = CameraModel(k, d, R, (R * c) * -1.0, w, h);
 }
 
-// Reads one lane from its own node over `c`, falling back section by section to
-// lane_defaults.
 std::vector<double> number_list(const Node& n, size_t expect) {
   if (!n.node.IsSequence()) n.bad("expected a list of numbers");
   return n.numbers(expect ? expect : n.node.size());
+}
+
+// `spread: thickness | fillet` (inspection.spread, and what learned settings were learned
+// with): whether the statistics' spread is measured by thickness.
+bool read_spread(const Node& n) {
+  const std::string v = n.str();
+  if (v != "thickness" && v != "fillet")
+    n.bad("must be thickness (by thickness across the fillet) or fillet (one per fillet)");
+  return v == "thickness";
 }
 
 // inspection.learned (rangexctl learn writes it): every list matches the bands, the
@@ -186,11 +193,7 @@ std::vector<double> number_list(const Node& n, size_t expect) {
 void read_learned(const Node& n, LearnedDetection& L) {
   n.only_keys({"version", "learned_on", "target_frr", "confidence", "fillets", "band_edges_mm",
                "round", "needle", "air", "sensitivity", "spread"});
-  if (n.has("spread")) {
-    const std::string v = n.at("spread").str();
-    if (v != "thickness" && v != "fillet") n.at("spread").bad("must be thickness or fillet");
-    L.spread_by_thickness = v == "thickness";
-  }
+  if (n.has("spread")) L.spread_by_thickness = read_spread(n.at("spread"));
   if (n.has("sensitivity")) {
     const Node s = n.at("sensitivity");
     if (!s.node.IsSequence()) s.bad("expected a list of strings");
@@ -237,6 +240,8 @@ void read_learned(const Node& n, LearnedDetection& L) {
   }
 }
 
+// Reads one lane from its own node over `c`, falling back section by section to
+// lane_defaults.
 LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
   auto section = [&](const char* key) -> std::optional<Node> {
     if (lane.has(key)) return lane.at(key);
@@ -392,14 +397,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     if (!(q.min_fragment_meat_mm >= 0 && q.min_fragment_meat_mm <= 20))
       n->at("min_fragment_meat_mm").bad("must be within 0..20 mm (0: off)");
     n->positive("air_z_threshold", q.air_z_threshold);
-    if (n->has("spread")) {
-      const std::string v = n->at("spread").str();
-      if (v != "thickness" && v != "fillet")
-        n->at("spread").bad(
-            "must be thickness (by thickness across the fillet) or fillet (one "
-            "per fillet)");
-      q.spread_by_thickness = v == "thickness";
-    }
+    if (n->has("spread")) q.spread_by_thickness = read_spread(n->at("spread"));
     n->get("false_reject_target", q.false_reject_target);
     if (!(q.false_reject_target > 0 && q.false_reject_target < 0.5))
       n->at("false_reject_target").bad("must be in (0, 0.5), a fraction of fillets");
@@ -627,6 +625,42 @@ std::string yaml_string(const std::string& s) {
   return e.c_str();
 }
 }  // namespace
+
+std::string learned_detection_yaml(const LearnedDetection& L) {
+  std::ostringstream o;
+  o.precision(12);
+  auto list = [&o](const std::vector<double>& v) {
+    o << "[";
+    for (size_t i = 0; i < v.size(); ++i) o << (i ? ", " : "") << v[i];
+    o << "]";
+  };
+  o << "version: " << yaml_string(L.version) << "\nlearned_on: " << yaml_string(L.learned_on)
+    << "\ntarget_frr: " << L.target_frr << "\nconfidence: " << L.confidence
+    << "\nfillets: " << L.fillets
+    << "\nspread: " << (L.spread_by_thickness ? "thickness" : "fillet") << "\nband_edges_mm: ";
+  list(L.band_edges_mm);
+  o << "\nsensitivity: [";
+  for (size_t i = 0; i < L.sensitivity.size(); ++i)
+    o << (i ? ", " : "") << yaml_string(L.sensitivity[i]);
+  o << "]";
+  for (int s = 0; s < kStatistics; ++s) {
+    const LearnedStatistic& ls = L.stats[size_t(s)];
+    const GevModel& g = ls.model;
+    o << "\n" << statistic_name(s) << ":\n  thresholds: ";
+    list(ls.thresholds);
+    o << "\n  band_fraction: ";
+    list(ls.band_fraction);
+    o << "\n  band_pixels: ";
+    list(ls.band_pixels);
+    o << "\n  band_thickness_mm: ";
+    list(ls.band_thickness_mm);
+    o << "\n  model: {m0: " << g.m0 << ", m_logn: " << g.m_logn << ", m_t: " << g.m_t
+      << ", s0: " << g.s0 << ", s_t: " << g.s_t << ", xi: " << g.xi
+      << ", log_n_ref: " << g.log_n_ref << ", t_ref: " << g.t_ref << "}";
+  }
+  o << "\n";
+  return o.str();
+}
 
 std::string lane_calibration_yaml(const LaneConfig& l) {
   std::ostringstream o;

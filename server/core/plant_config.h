@@ -45,6 +45,9 @@ LaneConfig apply_lane_calibration(const LaneConfig& base, const std::string& yam
 // An inspection.learned section on its own (a learned-settings version), refused like
 // plant.yaml, naming the key.
 LearnedDetection parse_learned_detection(const std::string& yaml, const std::string& origin);
+// The section as plant.yaml's inspection.learned holds it (full precision), without the
+// `learned:` key; parse_learned_detection reads it back.
+std::string learned_detection_yaml(const LearnedDetection& learned);
 
 // The calibration sections of one lane as apply_lane_calibration reads them (full precision).
 std::string lane_calibration_yaml(const LaneConfig& lane);

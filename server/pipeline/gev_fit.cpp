@@ -16,11 +16,10 @@ double shape(double p, const GevFitOptions& o) {
   return o.xi_min + (o.xi_max - o.xi_min) / (1 + std::exp(-p));
 }
 
-GevModel from_params(const std::vector<double>& p, const GevModel& centre, bool thickness,
-                     const GevFitOptions& o) {
+GevModel from_params(const std::vector<double>& p, const GevModel& centre, const GevFitOptions& o) {
   GevModel g = centre;
   g.m0 = p[0], g.m_logn = p[1], g.s0 = p[2], g.xi = shape(p[3], o);
-  if (thickness) g.m_t = p[4], g.s_t = p[5];
+  g.m_t = p[4], g.s_t = p[5];
   return g;
 }
 
@@ -52,16 +51,15 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
   // Gumbel moments as the start.
   const double sigma = std::max(1e-3, std::sqrt(6 * var) / M_PI);
   // The shape starts a tenth into its range (near Gumbel for the default range).
-  std::vector<double> x0 = {mean - 0.5772 * sigma, 0.0, std::log(sigma), std::log(0.1 / 0.9)};
-  std::vector<double> step = {0.5 * sigma, 0.2 * sigma, 0.3, 1.0};
-  if (opt.thickness) x0.insert(x0.end(), {0.0, 0.0}), step.insert(step.end(), {0.02, 0.02});
+  const std::vector<double> x0 = {mean - 0.5772 * sigma, 0.0, std::log(sigma),
+                                  std::log(0.1 / 0.9),   0.0, 0.0};
+  const std::vector<double> step = {0.5 * sigma, 0.2 * sigma, 0.3, 1.0, 0.02, 0.02};
   auto objective = [&](const std::vector<double>& p) {
-    return truncated_nll(from_params(p, centre, opt.thickness, opt), s);
+    return truncated_nll(from_params(p, centre, opt), s);
   };
   const NelderMeadResult r = nelder_mead(objective, x0, step, 1e-8, 40000);
   GevFit f;
-  f.model = from_params(r.x, centre, opt.thickness, opt);
-  f.neg_log_likelihood = r.value;
+  f.model = from_params(r.x, centre, opt);
   f.converged = r.converged && std::isfinite(r.value);
   return f;
 }

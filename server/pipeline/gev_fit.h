@@ -17,7 +17,6 @@ struct ExtremeSample {
 };
 
 struct GevFitOptions {
-  bool thickness = true;  // location and scale vary with the thickness
   // The shape, held where 40 maxima can say something. Never below 0: a bounded (Weibull)
   // tail fitted to a few dozen maxima claims that nothing lies beyond its end point, and
   // a false reject there would be "impossible"; Gumbel or heavier errs on the safe side.
@@ -26,7 +25,6 @@ struct GevFitOptions {
 
 struct GevFit {
   GevModel model;
-  double neg_log_likelihood = 0;
   bool converged = false;
 };
 
@@ -43,10 +41,9 @@ double fit_location_shift(const GevModel& model, const std::vector<ExtremeSample
 // The same model refitted to recent samples in its location, scale and shape (the
 // covariates' slopes held): a product whose tail grew heavier, not only higher (specks of
 // gristle the median does not see), shows in scale and shape. Truncated like
-// fit_location_shift.
-// The location shift alone stands unless the scale and shape improve the likelihood beyond
-// chance (a likelihood-ratio test, 2 degrees of freedom, 1 %): the free refit over-reads a
-// tail that truncation hides.
+// fit_location_shift. The location shift alone stands unless the scale and shape improve the
+// likelihood beyond chance (a likelihood-ratio test, 2 degrees of freedom, 1 %): the free refit
+// over-reads a tail that truncation hides.
 GevModel refit_drifted(const GevModel& model, const std::vector<ExtremeSample>& samples,
                        const GevFitOptions& opt = {});
 

@@ -1,5 +1,7 @@
 #include "pipeline/product_drift.h"
 
+#include <cstdio>
+
 namespace rangex {
 
 bool DriftTracker::add(const LearnedDetection& L, const std::vector<BandExtreme>& extremes) {
@@ -16,6 +18,15 @@ bool DriftTracker::add(const LearnedDetection& L, const std::vector<BandExtreme>
   since_ = 0;
   est_ = estimate_drift(L, std::vector<std::vector<BandExtreme>>(recent_.begin(), recent_.end()));
   return true;
+}
+
+std::string product_drift_warning(int lane, int fillets, double implied_frr) {
+  char b[200];
+  std::snprintf(b, sizeof b,
+                "lane %d: product rougher than learned: re-learn (the last %d passed fillets "
+                "imply %.2f %% false rejects)",
+                lane, fillets, 100 * implied_frr);
+  return b;
 }
 
 }  // namespace rangex

@@ -5,6 +5,7 @@
 // Nothing changes a threshold by itself: a plant re-learns and activates, audited.
 #pragma once
 #include <deque>
+#include <string>
 #include <vector>
 
 #include "pipeline/product_learning.h"
@@ -32,5 +33,9 @@ class DriftTracker {
   int since_ = 0;
   DriftEstimate est_;
 };
+
+// "lane 2: product rougher than learned: re-learn (the last 200 passed fillets imply 0.91 %
+// false rejects)": one wording for the log, statistics and the dashboard.
+std::string product_drift_warning(int lane, int fillets, double implied_frr);
 
 }  // namespace rangex

@@ -73,11 +73,12 @@ std::vector<double> thresholds_for(const GevModel& g, const BandUse& u, double b
   return t;
 }
 
-double implied(const GevModel& g, const BandUse& u, const std::vector<double>& t, double shift) {
+// The per-fillet rate at which `g`'s extremes exceed the thresholds `t` in some band.
+double implied(const GevModel& g, const BandUse& u, const std::vector<double>& t) {
   double frr = 0;
   for (size_t b = 0; b < t.size(); ++b)
     if (u.fraction[b] > 0)
-      frr += u.fraction[b] * std::exp(g.log_survival(t[b] - shift, u.pixels[b], u.thickness[b]));
+      frr += u.fraction[b] * std::exp(g.log_survival(t[b], u.pixels[b], u.thickness[b]));
   return frr;
 }
 
@@ -276,15 +277,14 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
       st.thresholds[size_t(b)] = std::max(st.point_thresholds[size_t(b)], q);
     }
     ls.thresholds = st.thresholds;
-    st.implied_frr = implied(st.fit.model, u, st.thresholds, 0);
+    st.implied_frr = implied(st.fit.model, u, st.thresholds);
     qq_and_ks(st.fit.model, smp, st);
   }
   r.ok = r.problems.empty();
   return r;
 }
 
-double implied_false_reject_rate(const LearnedDetection& L,
-                                 const std::array<double, kStatistics>& shift) {
+double implied_false_reject_rate(const LearnedDetection& L) {
   double frr = 0;
   for (int s = 0; s < kStatistics; ++s) {
     if (!rejecting(s)) continue;
@@ -294,7 +294,7 @@ double implied_false_reject_rate(const LearnedDetection& L,
         ls.band_thickness_mm.size() != bands)
       continue;
     const BandUse u{ls.band_fraction, ls.band_pixels, ls.band_thickness_mm};
-    frr += implied(ls.model, u, ls.thresholds, shift[size_t(s)]);
+    frr += implied(ls.model, u, ls.thresholds);
   }
   return std::min(1.0, frr);
 }
@@ -321,7 +321,7 @@ DriftEstimate estimate_drift(const LearnedDetection& L,
   }
   LearnedDetection drifted = L;
   for (int s = 0; s < kStatistics; ++s) drifted.stats[size_t(s)].model = d.models[size_t(s)];
-  d.implied_frr = implied_false_reject_rate(drifted, {});
+  d.implied_frr = implied_false_reject_rate(drifted);
   return d;
 }
 

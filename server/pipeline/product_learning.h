@@ -78,9 +78,8 @@ struct ProductLearning {
 ProductLearning learn_product(const std::vector<LearningFillet>& fillets, const LearnOptions& opt);
 
 // The per-fillet false-reject rate of the rejecting statistics at `learned`'s thresholds
-// when each statistic's extremes sit `shift[s]` above the learned model.
-double implied_false_reject_rate(const LearnedDetection& learned,
-                                 const std::array<double, kStatistics>& shift);
+// under its models (estimate_drift passes the models refitted to a lane's recent fillets).
+double implied_false_reject_rate(const LearnedDetection& learned);
 
 // Drift: each statistic's model refitted to recent passed fillets' extremes in location,
 // scale and shape (truncated at the thresholds they stayed below; the covariates' slopes

@@ -19,14 +19,13 @@ double SensitivityFillet::meat_mu(double t) const {
 
 namespace {
 
-// Pixels at least `margin` px inside the mask (a square neighbourhood), where the meat can
-// hold a piece of `size` mm.
-std::vector<size_t> candidates(const FilletImage& img, int margin_r, int margin_c, double min_t) {
+// Pixels at least `margin` px inside the mask (a square neighbourhood), with a thickness.
+std::vector<size_t> inside_pixels(const FilletImage& img, int margin_r, int margin_c) {
   std::vector<size_t> out;
   for (int r = margin_r; r < img.rows - margin_r; ++r)
     for (int c = margin_c; c < img.cols - margin_c; ++c) {
       const size_t i = size_t(r) * img.cols + c;
-      if (!img.mask[i] || !(img.thickness[i] >= min_t)) continue;
+      if (!img.mask[i] || !std::isfinite(img.thickness[i])) continue;
       bool inside = true;
       for (int dr : {-margin_r, margin_r})
         for (int dc : {-margin_c, 0, margin_c})
@@ -55,12 +54,15 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
     const FilletImage& base = *f.image;
     const int mr = std::max(1, int(std::ceil(opt.edge_margin_mm / base.step_mm)));
     const int mc = std::max(1, int(std::ceil(opt.edge_margin_mm / base.pitch_mm)));
+    const std::vector<size_t> inside = inside_pixels(base, mr, mc);
     for (int shape = 0; shape < 2; ++shape)
       for (double size : opt.sizes_mm) {
         if (progress) progress(++done, total);
         // A sphere needs the meat to hold it; a needle lies flat.
         const double need = shape == TestPiece::kSphere ? size + 1.0 : 2.0;
-        auto cand = candidates(base, mr, mc, need);
+        std::vector<size_t> cand;
+        for (size_t i : inside)
+          if (base.thickness[i] >= need) cand.push_back(i);
         std::shuffle(cand.begin(), cand.end(), rng);
         std::vector<TestPiece> placed;
         std::uniform_real_distribution<double> angle(0, M_PI);

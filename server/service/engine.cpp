@@ -52,12 +52,7 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
       }
     // So are learned settings.
     for (const StoredSetting& s : store_.settings(SettingKind::kLearned, lc.id))
-      if (s.active) {
-        LearnedDetection L = parse_learned_detection(s.yaml, "learned settings " + s.id);
-        L.version = s.id;
-        l->config.inspection.learned = L;
-        l->config.inspection.false_reject_target = L.target_frr;
-      }
+      if (s.active) apply_learned(l->config, s);
     l->admit_calibration = l->running_calibration = l->calibration_id;
     l->xray.resize(size_t(l->pixels));
     Lane* raw = l.get();
@@ -518,21 +513,9 @@ void Engine::on_fillet(const InspectJob& job, InspectedFillet&& f) {
                              b.col1});
   u.last_arrival_ns = job.last_arrival_ns;
   collect_result(*job.lane, r);
-  // Drift: the passed fillets' extremes against the lane's learned model (the inspector
-  // holds the lane, so the tracker is this thread's).
-  if (r.decision == Decision::kPass && job.params.learned.active() &&
-      job.lane->drift.add(job.params.learned, r.extremes)) {
-    const DriftEstimate& d = job.lane->drift.estimate();
-    job.lane->implied_frr = d.implied_frr;
-    job.lane->drift_fillets = d.fillets;
-    const bool was = job.lane->product_drift.exchange(job.lane->drift.drifting(job.params.learned));
-    if (job.lane->product_drift && !was)
-      std::fprintf(stderr,
-                   "rangexd: lane %d: product rougher than learned: the last %d passed fillets "
-                   "imply %.2f %% false rejects against a target of %.2f %%: re-learn\n",
-                   job.lane->id, d.fillets, 100 * d.implied_frr,
-                   100 * job.params.learned.target_frr);
-  }
+  // Drift is followed once the decision is out (below): its refit is not the decision's.
+  const bool passed = r.decision == Decision::kPass;
+  std::vector<BandExtreme> extremes = passed ? r.extremes : std::vector<BandExtreme>{};
   ++fillets_;
   rejects_ += r.decision == Decision::kReject;
   not_inspected_ += r.decision == Decision::kNotInspected;
@@ -555,8 +538,25 @@ void Engine::on_fillet(const InspectJob& job, InspectedFillet&& f) {
     }
     unsaved_.push_back(std::move(u));
   }
-  std::lock_guard<std::mutex> lock(health_mu_);
-  unsaved_count_ = unsaved_.size();
+  {
+    std::lock_guard<std::mutex> lock(health_mu_);
+    unsaved_count_ = unsaved_.size();
+  }
+  if (passed) track_drift(*job.lane, job.params.learned, extremes);
+}
+
+void Engine::track_drift(Lane& l, const LearnedDetection& learned,
+                         const std::vector<BandExtreme>& extremes) {
+  // The inspector holds the lane, so the tracker is this thread's.
+  if (!learned.active() || !l.drift.add(learned, extremes)) return;
+  const DriftEstimate& d = l.drift.estimate();
+  l.implied_frr = d.implied_frr;
+  l.drift_fillets = d.fillets;
+  const bool was = l.product_drift.exchange(l.drift.drifting(learned));
+  if (l.product_drift && !was)
+    std::fprintf(stderr, "rangexd: %s against a target of %.2f %%\n",
+                 product_drift_warning(l.id, d.fillets, d.implied_frr).c_str(),
+                 100 * learned.target_frr);
 }
 
 bool Engine::save(Unsaved& u) {
@@ -836,14 +836,8 @@ EngineStats Engine::stats() {
                                   (now - l->last_line_ns) / 1'000'000'000, " s"));
   }
   for (auto& l : lanes_)
-    if (l->product_drift) {
-      char b[200];
-      std::snprintf(b, sizeof b,
-                    "lane %d: product rougher than learned: re-learn (the last %d passed fillets "
-                    "imply %.2f %% false rejects)",
-                    l->id, l->drift_fillets.load(), 100 * l->implied_frr.load());
-      s.warnings.push_back(b);
-    }
+    if (l->product_drift)
+      s.warnings.push_back(product_drift_warning(l->id, l->drift_fillets, l->implied_frr));
   {
     std::lock_guard<std::mutex> lock(rate_mu_);
     if (rate_.size() >= 2) {

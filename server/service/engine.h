@@ -152,6 +152,9 @@ class Engine {
   bool activate_learned(int lane, const std::string& id, const std::string& who,
                         bool force = false);
   std::vector<StoredSetting> learned_settings(int lane);  // lane -1: all
+  // A stored learned version into a lane's inspection (its thresholds and budget, under the
+  // name it is stored as).
+  static void apply_learned(LaneConfig& lane, const StoredSetting& version);
   struct LearnRequest {
     int fillets = 40;       // the lane's next inspected fillets
     double target_frr = 0;  // 0: the lane's false_reject_target
@@ -270,6 +273,9 @@ class Engine {
   bool save(Unsaved& u);  // save_mu_
   void retry_unsaved();   // save_mu_
   Lane& lane(int id);
+  // A passed fillet's extremes into the lane's drift tracker (the inspector holding the lane).
+  void track_drift(Lane& l, const LearnedDetection& learned,
+                   const std::vector<BandExtreme>& extremes);
   // Live learning (engine_learning.cpp): the lane's collector, if any (learn_mu_).
   std::shared_ptr<ProductCollector> collector_of(Lane& l);
   void collect_image(Lane& l, const FilletImage& img);

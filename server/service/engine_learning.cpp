@@ -98,13 +98,10 @@ bool Engine::activate_learned(int id, const std::string& vid, const std::string&
     throw FailedPrecondition(join("learned settings '", vid, "' of lane ", id,
                                   " are not activated: ", rs.why,
                                   " (force the activation to override; it is audited)"));
-  LearnedDetection L = parse_learned_detection(s->yaml, "learned settings " + vid);
-  L.version = vid;  // the name it is stored under is the one the lane shows
   {
     std::lock_guard<std::mutex> lock(ctl_mu_);
     LaneConfig next = l.pending ? *l.pending : l.config;
-    next.inspection.learned = L;
-    next.inspection.false_reject_target = L.target_frr;
+    apply_learned(next, *s);
     l.pending = std::move(next);
   }
   store_.set_active_setting(SettingKind::kLearned, id, vid);
@@ -114,6 +111,13 @@ bool Engine::activate_learned(int id, const std::string& vid, const std::string&
     store_.audit(who, "learned.activate.forced",
                  "lane " + std::to_string(id) + " id " + vid + ": " + rs.why);
   return true;
+}
+
+void Engine::apply_learned(LaneConfig& lane, const StoredSetting& s) {
+  LearnedDetection L = parse_learned_detection(s.yaml, "learned settings " + s.id);
+  L.version = s.id;  // the name it is stored under is the one the lane shows
+  lane.inspection.false_reject_target = L.target_frr;
+  lane.inspection.learned = std::move(L);
 }
 
 std::vector<StoredSetting> Engine::learned_settings(int id) {

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "pipeline/product_drift.h"
 #include "service/fillet_csv.h"
 #include "service/http_params.h"
 #include "service/image_view.h"
@@ -102,13 +103,8 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
                   100 * ni_rate);
     light = "amber", why = buf;
   }
-  if (l.product_drift && light == "green") {
-    char buf[160];
-    std::snprintf(buf, sizeof buf,
-                  "product rougher than learned: re-learn (%.2f %% false rejects implied)",
-                  100 * l.implied_frr);
-    light = "amber", why = buf;
-  }
+  if (l.product_drift && light == "green")
+    light = "amber", why = product_drift_warning(l.config.id, l.drift_fillets, l.implied_frr);
   const LearnedDetection& learned = l.config.inspection.learned;
   return {
       {"lane", l.config.id},
