@@ -220,9 +220,14 @@ class Stream {
       pb::StreamLinesResponse r;
       while (stream_->Read(&r)) {
         std::lock_guard<std::mutex> lock(mu_);
-        Ack& a = acks_[r.sequence()];
-        a.accepted = r.accepted();
-        a.code = r.error().code();
+        if (queries_.count(r.sequence())) {
+          query_pending_ = false;
+        } else {
+          Ack& a = acks_[r.sequence()];
+          a.accepted = r.accepted();
+          a.code = r.error().code();
+          ++lines_acked_;
+        }
         ++acked_;
         credit_ = r.credit();
         cv_.notify_all();
@@ -237,11 +242,28 @@ class Stream {
   bool send(const pb::LineScan* line) {
     pb::StreamLinesRequest req;
     {
+      // Like a plant's feeder: never more in flight than the window and the last credit
+      // (this stream's share of the queue); with no credit and nothing in flight, ask for
+      // the credit again after a while, never with a line, which a full queue would drop.
       std::unique_lock<std::mutex> lock(mu_);
-      cv_.wait(lock, [&] {
-        return closed_ || (sent_ - acked_ < window_ && (credit_ > window_ || sent_ == acked_));
-      });
-      if (closed_) return false;
+      while (true) {
+        cv_.wait(lock, [&] {
+          return closed_ || (!query_pending_ &&
+                             (sent_ - acked_ < std::min(window_, credit_) || sent_ == acked_));
+        });
+        if (closed_) return false;
+        if (sent_ - acked_ < std::min(window_, credit_)) break;
+        pb::StreamLinesRequest query;
+        query.set_sequence(sent_++);
+        query.set_credit_query(true);
+        queries_.insert(query.sequence());
+        query_pending_ = true;
+        lock.unlock();
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        const bool open = stream_->Write(query);
+        lock.lock();
+        if (!open) return false;
+      }
       req.set_sequence(sent_++);
       Ack& a = acks_[req.sequence()];
       if (line) {
@@ -259,9 +281,10 @@ class Stream {
     reader_.join();
     status_ = stream_->Finish();
   }
+  // Lines acknowledged (credit queries not counted).
   int64_t acked() {
     std::lock_guard<std::mutex> lock(mu_);
-    return acked_;
+    return lines_acked_;
   }
   // The last line n of a contiguous prefix that was acknowledged.
   std::map<uint64_t, Ack> acks() {
@@ -279,7 +302,9 @@ class Stream {
   std::mutex mu_;
   std::condition_variable cv_;
   std::map<uint64_t, Ack> acks_;
-  int64_t sent_ = 0, acked_ = 0;
+  std::set<uint64_t> queries_;  // sequences that asked for credit, not lines
+  bool query_pending_ = false;
+  int64_t sent_ = 0, acked_ = 0, lines_acked_ = 0;
   int window_;
   int credit_ = 1 << 20;
   bool closed_ = false, finished_ = false;

@@ -141,12 +141,15 @@ class IngestStream final
     // The queue is shared: each stream's credit is its quota (an equal share of the queue
     // among the open streams, and at least as many as the plant has lanes, so that the
     // first streams to connect do not take it all) less its own lines still queued, and
-    // never more than the free places. A feeder that keeps its lines in flight within its
-    // credit keeps queued + in flight within its quota: feeders that all follow their credit
-    // cannot overrun the queue together.
+    // never more than its equal share of the free places. A feeder that keeps its lines in
+    // flight within its credit keeps queued + in flight within its quota; and since the
+    // lines of streams that have closed stay queued after them, the share of the free
+    // places keeps the streams still open from overrunning the queue together when they
+    // all answer at once.
     const int streams = std::max(counters_.ingest.load(), int(engine_.plant().lanes.size()));
     const int quota = int(engine_.options().queue_lines) / std::max(1, streams);
-    return std::max(0, std::min(v.credit, quota - queued_->load()));
+    const int share = v.credit / std::max(1, streams);
+    return std::max(0, std::min(share, quota - queued_->load()));
   }
   void read_more() {
     if (!reading_ && !reads_done_ && !broken_ && acks_.size() < kMaxPendingAcks) {
