@@ -265,6 +265,19 @@ void calcified_2mm(const DetectionEval& e, int& found, int& total) {
   for (int s = 1; s < kSizeBins; ++s) found += e.found[s][1], total += e.total[s][1];
 }
 
+// Each line of `text` indented by two spaces.
+std::string indented(const std::string& text) {
+  std::string out;
+  size_t at = 0;
+  while (at < text.size()) {
+    const size_t end = text.find('\n', at);
+    const size_t stop = end == std::string::npos ? text.size() : end + 1;
+    out += "  " + text.substr(at, stop - at);
+    at = stop;
+  }
+  return out;
+}
+
 std::string learned_table(const std::vector<Row>& rows, bool held_out) {
   std::ostringstream os;
   char b[512];
@@ -341,6 +354,13 @@ std::string json(const std::vector<Row>& rows) {
          << ", \"sensitivity\": [";
       for (size_t q = 0; q < r.sensitivity.size(); ++q)
         os << (q ? ", " : "") << "\"" << r.sensitivity[q] << "\"";
+      os << "], \"missed\": [";
+      for (size_t q = 0; q < l.missed.size(); ++q) {
+        const MissedFragment& m = l.missed[q];
+        os << (q ? ", " : "") << "{\"fillet\": " << m.fillet << ", \"shape\": \"" << m.shape
+           << "\", \"size_mm\": " << m.size_mm << ", \"calcification\": " << m.calcification
+           << ", \"meat_mm\": " << m.meat_mm << ", \"edge_mm\": " << m.edge_mm << "}";
+      }
       os << "]}";
     }
     os << "}";
@@ -422,6 +442,11 @@ int cmd_eval_matrix(int argc, char** argv) {
          << learned_table(rows, false);
       if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
         os << "\nheld out (never tuned on):\n" << learned_table(rows, true);
+      os << "\nwhere the learned thresholds missed calcified fragments >= 2 mm:\n";
+      for (const Row& r : rows)
+        if (r.learned_run)
+          os << r.name << ": " << missed_summary(r.learned) << "\n"
+             << indented(missed_lines(r.learned));
     }
     text = os.str();
     std::ofstream(out / "matrix.txt") << text;

@@ -32,6 +32,15 @@ struct EdgeMap {
   double thickness_mm(double x_mm, double xray_line) const;  // the path there (0 outside)
 };
 
+// A calcified fragment >= 2 mm that no detection matched, with what explains a miss: its
+// size and calcification, and (with an EdgeMap) the true meat over it and its distance from
+// the meat's edge (-1: unknown).
+struct MissedFragment {
+  int lane = 0, fillet = 0;
+  std::string shape;
+  double size_mm = 0, calcification = 0, meat_mm = -1, edge_mm = -1;
+};
+
 struct TruthFillet {
   int lane = 0, fillet = 0;
   double b_start = 0, b_end = 0;
@@ -64,6 +73,7 @@ struct DetectionEval {
   int found_edge = 0, total_edge = 0, found_inner = 0, total_inner = 0;
   // Calcified fragments >= 2 mm by shape: found / present.
   std::vector<std::pair<std::string, std::pair<int, int>>> by_shape;
+  std::vector<MissedFragment> missed;  // calcified fragments >= 2 mm not found
 
   double recall_calcified_2mm() const;  // calcified fragments >= 2 mm
   double false_reject_rate() const;     // clean fillets rejected for any reason
@@ -74,6 +84,12 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
               const std::vector<TruthFillet>& fillets, const RecordSet& results,
               const EdgeMap* edges = nullptr);
 void finish(DetectionEval& e);
+
+// The misses, one line each ("lane 2 fillet 25: 2.2 mm compact, calcification 0.90, under
+// 20.8 mm of meat, 5.0 mm from the edge"), and a summary by where they lie ("3 under 25 mm of
+// meat or more, 1 within 3 mm of the edge, 0 elsewhere").
+std::string missed_lines(const DetectionEval& e);
+std::string missed_summary(const DetectionEval& e);
 
 std::string detection_table(const DetectionEval& ours, const DetectionEval& baseline, int bits);
 std::string detection_json(const DetectionEval& ours, const DetectionEval& baseline, int bits);
