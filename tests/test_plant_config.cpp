@@ -1,8 +1,12 @@
 // plant.yaml loading: the shipped default parses; bad values are refused naming the key.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <fstream>
+
 #include "core/error.h"
 #include "core/plant_config.h"
+#include "core/size_limits.h"
 
 using namespace rangex;
 
@@ -16,6 +20,36 @@ std::string error_of(const std::string& yaml) {
   return "";
 }
 }  // namespace
+
+TEST(PlantConfig, HugeDocumentsAreRefusedBeforeParsing) {
+  // A 50 MB plant.yaml aborted rangexd with bad_alloc after 35 s at 7.9 GB: now its size is
+  // read first, and YAML text of any origin is bounded before it is parsed.
+  const std::string path = ::testing::TempDir() + "/huge_plant.yaml";
+  {
+    std::ofstream out(path);
+    const std::string line = "lanes: [{id: 0}, {id: 1}, {id: 2}, {id: 3}, {id: 4}, {id: 5}]\n";
+    for (size_t n = 0; n < (size_t(50) << 20); n += line.size()) out << line;
+  }
+  try {
+    load_plant_config(path);
+    ADD_FAILURE() << "a 50 MB plant configuration was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("is 50.0 MiB, more than the 2.0 MiB allowed"),
+              std::string::npos)
+        << e.what();
+  }
+  std::remove(path.c_str());
+  const std::string big(kMaxYamlBytes + 1, '#');
+  EXPECT_NE(error_of(big).find("test.yaml is 2.0 MiB, more than the 2.0 MiB allowed"),
+            std::string::npos)
+      << error_of(big);
+  try {
+    parse_learned_detection(big, "learned settings 'x'");
+    ADD_FAILURE() << "learned settings of 2 MiB were parsed";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("learned settings 'x' is"), std::string::npos);
+  }
+}
 
 TEST(PlantConfig, ShippedDefaultLoads) {
   const PlantConfig p = load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml");

@@ -235,6 +235,23 @@ TEST(Server, CalibrationActivatesBetweenFillets) {
     EXPECT_EQ(cal->UploadCalibration(&c2, bad, &r).error_code(),
               grpc::StatusCode::INVALID_ARGUMENT);
   }
+  {  // a 50 MB calibration is refused by its size before it is parsed (it once took minutes
+     // and 6.4 GB): the answer comes within the deadline, and the server goes on
+    grpc::ClientContext c;
+    c.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+    pb::UploadCalibrationRequest huge;
+    huge.set_lane(0);
+    huge.set_id("huge");
+    std::string yaml;
+    while (yaml.size() < (size_t(50) << 20)) yaml += "laser_plane: {normal: [0, 1, 0]}\n";
+    huge.set_yaml(std::move(yaml));
+    pb::UploadCalibrationResponse r;
+    const grpc::Status s = cal->UploadCalibration(&c, huge, &r);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_NE(s.error_message().find("calibration 'huge' is 50.0 MiB, more than the 1.0 MiB"),
+              std::string::npos)
+        << s.error_message();
+  }
   {
     grpc::ClientContext c;
     pb::UploadCalibrationRequest up;

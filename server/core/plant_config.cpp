@@ -3,12 +3,14 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <optional>
 #include <set>
 #include <sstream>
 
 #include "core/error.h"
+#include "core/size_limits.h"
 
 namespace rangex {
 
@@ -514,6 +516,7 @@ void read_security(const Node& n, SecurityConfig& s) {
 }  // namespace
 
 static YAML::Node load_yaml(const std::string& text, const std::string& origin) {
+  check_size(origin, text.size(), kMaxYamlBytes);
   try {
     return YAML::Load(text);
   } catch (const YAML::Exception& e) {
@@ -604,6 +607,10 @@ LearnedDetection parse_learned_detection(const std::string& text, const std::str
 PlantConfig load_plant_config(const std::string& path) {
   std::ifstream in(path);
   if (!in) fail(path, ": cannot open plant configuration");
+  // Sized before it is read: a huge file is refused without taking its memory.
+  std::error_code ec;
+  const auto bytes = std::filesystem::file_size(path, ec);
+  if (!ec) check_size(path + " (the plant configuration)", size_t(bytes), kMaxPlantConfigBytes);
   std::stringstream ss;
   ss << in.rdbuf();
   return parse_plant_config(ss.str(), path);

@@ -10,6 +10,7 @@
 
 #include "core/calibration_report.h"
 #include "core/error.h"
+#include "core/size_limits.h"
 #include "pipeline/fillet_images.h"
 #include "service/line_shape.h"
 
@@ -688,6 +689,8 @@ StoredCalibration Engine::upload_calibration(int id, const std::string& cid,
                                              const std::string& report) {
   Lane& l = lane(id);
   if (cid.empty()) fail("a calibration needs an id");
+  check_size("calibration '" + cid + "'", yaml.size(), kMaxCalibrationBytes);
+  check_size("calibration '" + cid + "' report", report.size(), kMaxReportBytes);
   LaneConfig base;
   {
     std::lock_guard<std::mutex> lock(ctl_mu_);

@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "core/plant_config.h"
+#include "core/size_limits.h"
 #include "pipeline/sensitivity.h"
 #include "service/engine.h"
 #include "service/learned_report.h"
@@ -73,6 +74,8 @@ StoredSetting Engine::upload_learned(int id, const std::string& vid, const std::
                                      const std::string& report, const std::string& who) {
   lane(id);  // NOT_FOUND for an unknown lane
   if (vid.empty()) fail("learned settings need an id");
+  check_size("learned settings '" + vid + "'", yaml.size(), kMaxLearnedBytes);
+  check_size("learned settings '" + vid + "' report", report.size(), kMaxReportBytes);
   // Parsed now: a malformed section is refused at upload, naming the key.
   const LearnedDetection L = parse_learned_detection(yaml, "learned settings '" + vid + "'");
   const LearnedReportStatus rs = check_learned_report(report, id);

@@ -31,7 +31,9 @@
 
 namespace httplib {
 class Server;
-}
+struct Request;
+struct Response;
+}  // namespace httplib
 
 namespace rangex {
 
@@ -63,6 +65,10 @@ class HttpServer {
  private:
   void routes();
   void authorise(httplib::Server& s);
+  // Answers (and returns true for) a request too big to serve: too many headers, or more
+  // than one range.
+  static bool refuse_hostile(const httplib::Request& req, httplib::Response& res);
+  static constexpr size_t kMaxHeaders = 100;
   void sampler();
 
   Engine& engine_;
