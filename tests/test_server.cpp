@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <map>
+#include <set>
 #include <thread>
 
 #include "core/plant_config.h"
@@ -414,6 +415,42 @@ TEST(Server, RestartKeepsResultsAndCalibrations) {
   ASSERT_TRUE(results->ListFillets(&c, req, &resp).ok());
   EXPECT_EQ(resp.fillets_size(), 1);
   EXPECT_FALSE(resp.next_page_token().empty());
+}
+
+TEST(Server, RestartContinuesFilletNumbersAndIdleCountsLinesReceived) {
+  test::TempDir t;
+  const PlantConfig p = plant();
+  Lines lines(p, 2, 9);
+  std::set<int64_t> before;
+  {
+    RangexServer server(p, options(t));
+    stream(connect(server), lines.lines);
+    server.shutdown();
+    for (const auto& f : all_fillets(server.store())) before.insert(f.lane_fillet);
+    ASSERT_GE(before.size(), 2u);
+  }
+  RangexServer again(p, options(t));
+  auto ch = connect(again);
+  // The feeder resends what it had: the first half, long durable, is all duplicates, yet the
+  // lane is being fed (idle counted from lines received: once "no line for 662 s" 90 s after
+  // the last line).
+  const std::vector<pb::LineScan> first_half(lines.lines.begin(),
+                                             lines.lines.begin() + long(lines.lines.size() / 2));
+  for (const auto& a : stream(ch, first_half)) EXPECT_EQ(a.error().code(), "DUPLICATE_LINE");
+  const LaneState s = again.engine().lane_state(0);
+  EXPECT_GE(s.idle_ms, 0);
+  EXPECT_LT(s.idle_ms, 60'000);
+  // The line goes on: the same product again at the counts after the last.
+  const int64_t shift = lines.lines.back().encoder() - lines.lines.front().encoder() + 1;
+  for (auto& l : lines.lines) l.set_encoder(l.encoder() + shift);
+  stream(ch, lines.lines);
+  again.shutdown();
+  std::set<int64_t> numbers;
+  for (const auto& f : all_fillets(again.store())) {
+    EXPECT_TRUE(numbers.insert(f.lane_fillet).second) << "two fillets " << f.lane_fillet;
+    if (!before.count(f.lane_fillet)) EXPECT_GT(f.lane_fillet, *before.rbegin());
+  }
+  EXPECT_GT(numbers.size(), before.size());
 }
 
 TEST(Server, HealthAndReflectionAnswer) {

@@ -52,6 +52,9 @@ class LaneAssembler {
 
   const AssemblyStats& stats() const { return stats_; }
   const std::string& last_restart() const { return last_restart_; }
+  // The number the next fillet gets (a server continues its lanes' numbering after a restart).
+  void set_next_id(int64_t id) { next_id_ = id; }
+  int64_t next_id() const { return next_id_; }
   // No fillet in progress and no waiting thickness line with fillet in it: a new
   // configuration can take over without any fillet seeing two.
   bool quiet() const;

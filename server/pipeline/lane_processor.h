@@ -61,6 +61,8 @@ class LaneProcessor {
   void finish();  // closes the open fillets
 
   const AssemblyStats& assembly() const { return assembler_.stats(); }
+  void set_next_fillet_id(int64_t id) { assembler_.set_next_id(id); }
+  int64_t next_fillet_id() const { return assembler_.next_id(); }
   const std::string& last_restart() const { return assembler_.last_restart(); }
   bool quiet() const { return assembler_.quiet(); }
   int64_t pending_from() const { return assembler_.pending_from(); }

@@ -129,6 +129,9 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
   Verdict v;
   {
     std::lock_guard<std::mutex> lock(mu_);
+    // Idle counts from the last line received, refused ones too: a feeder that resends after
+    // a restart is feeding the lane even while every line is a duplicate.
+    l->last_line_ns = now;
     if (stopping_)
       return refuse(l, Refusal::kShuttingDown, "the server is shutting down", queue_.size());
     if (!line.calibration_id.empty() && line.calibration_id != l->admit_calibration)
@@ -151,7 +154,6 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
     l->admission.commit(line.encoder, !a.restart.empty());
     if (line.queued_by) ++*line.queued_by;
     ++l->accepted;
-    l->last_line_ns = now;
     queue_.push(l->slot, {std::move(line), now, std::move(a.restart)});
     queued_ = queue_.size();
     ++accepted_;
@@ -382,9 +384,11 @@ void Engine::recover(Lane& l, const std::string& why) {
     std::fprintf(stderr, "rangexd: lane %d: restart after an error failed too: %s\n", l.id,
                  e2.what());
     Lane* raw = &l;
+    const int64_t next = l.proc->next_fillet_id();  // the numbering goes on
     l.proc = std::make_unique<LaneProcessor>(
         l.config, LaneProcessorOptions{false, opt_.images}, LaneProcessor::FilletSink{},
         [this, raw](FilletImage&& img) { on_image(*raw, std::move(img)); });
+    l.proc->set_next_fillet_id(next);
     l.assembly_restarts = 0;
   }
 }

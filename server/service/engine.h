@@ -90,7 +90,7 @@ struct LaneState {
   bool fed = false;          // a line accepted since start or reset
   int64_t last_encoder = 0;  // the last accepted count (when fed)
   uint64_t accepted = 0;
-  int64_t idle_ms = -1;  // since the last accepted line; -1: none yet
+  int64_t idle_ms = -1;  // since the last line received (accepted or not); -1: none yet
   bool fillet_in_progress = false;
   uint64_t restarts = 0;
   std::string last_restart;
@@ -190,7 +190,7 @@ class Engine {
     LaneAdmission admission;
     std::string admit_calibration;  // lines naming another calibration are refused
     uint64_t accepted = 0;
-    int64_t last_line_ns = 0;
+    int64_t last_line_ns = 0;  // the last line received for the lane, accepted or refused
     // Control (ctl_mu_):
     LaneConfig config;
     std::string calibration_id;

@@ -19,6 +19,9 @@ int64_t Engine::durable_margin(const Lane& l) const {
 }
 
 void Engine::resume_from_store() {
+  // Fillet numbers go on from the store's: two "fillet 0" records on one lane confuse anyone
+  // reading the record.
+  for (auto& l : lanes_) l->proc->set_next_fillet_id(store_.next_lane_fillet(l->id));
   for (const auto& [id, durable] : store_.progress()) {
     const auto it = by_id_.find(id);
     if (it == by_id_.end()) continue;  // a lane the plant no longer has

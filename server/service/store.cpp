@@ -420,6 +420,13 @@ std::vector<std::pair<int, int64_t>> Store::progress() {
   return out;
 }
 
+int64_t Store::next_lane_fillet(int lane) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt q(db_, "SELECT COALESCE(MAX(lane_fillet) + 1, 0) FROM fillets WHERE lane = ?");
+  q.bind(1, int64_t(lane));
+  return q.step() ? q.i64(0) : 0;
+}
+
 std::optional<int64_t> Store::last_fillet_end(int lane) {
   std::lock_guard<std::mutex> lock(mu_);
   Stmt q(db_,

@@ -135,6 +135,8 @@ class Store {
   std::vector<std::pair<int, int64_t>> progress();
   // The last X-ray count of the lane's latest stored fillet (nullopt: none).
   std::optional<int64_t> last_fillet_end(int lane);
+  // The lane's next fillet number: one past the highest stored (0 for a lane with none).
+  int64_t next_lane_fillet(int lane);
 
   // Retention (store_retention.cpp). Images first: the image files of fillets decided before
   // images_before_ns go (passed, then not inspected, then rejected; the records stay). Then
