@@ -45,8 +45,11 @@ int cmd_audit(int argc, char** argv) {
     const std::string dir = store_dir(a);
     const ChainReport r = Store::verify_chain(dir);
     if (!r.ok) {
-      std::printf("chain BROKEN in %s after %lld good links: %s\n", dir.c_str(), (long long)r.links,
-                  r.problem.c_str());
+      if (r.problem.rfind("the database is damaged", 0) == 0)
+        std::printf("store DAMAGED in %s: %s\n", dir.c_str(), r.problem.c_str());
+      else
+        std::printf("chain BROKEN in %s after %lld good links: %s\n", dir.c_str(),
+                    (long long)r.links, r.problem.c_str());
       return 1;
     }
     std::printf("chain verified: %lld links (every fillet decision and audit entry), head %s\n",

@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <cstdio>
+
+#include "core/error.h"
 #include "service/store.h"
 #include "temp_dir.h"
 
@@ -71,4 +74,62 @@ TEST(Store, OpensAStoreFromBeforeTheParabola) {
   ASSERT_TRUE(f);
   EXPECT_DOUBLE_EQ(f->beta2, 1.5e-4);
   EXPECT_DOUBLE_EQ(f->fragments[0].meat_mm, 3.7);
+}
+
+namespace {
+// Overwrites the page type of `table`'s root page with a value no page has, as a torn write or
+// a bad sector would leave it.
+void break_root_page(const test::TempDir& t, const std::string& table) {
+  const std::string path = t.str() + "/rangex.sqlite";
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* q = nullptr;
+  ASSERT_EQ(
+      sqlite3_prepare_v2(db, "SELECT rootpage FROM sqlite_master WHERE name = ?", -1, &q, nullptr),
+      SQLITE_OK);
+  sqlite3_bind_text(q, 1, table.c_str(), -1, SQLITE_TRANSIENT);
+  ASSERT_EQ(sqlite3_step(q), SQLITE_ROW);
+  const int64_t root = sqlite3_column_int64(q, 0);
+  sqlite3_finalize(q);
+  ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA page_size", -1, &q, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(q), SQLITE_ROW);
+  const int64_t page = sqlite3_column_int64(q, 0);
+  sqlite3_finalize(q);
+  sqlite3_close(db);
+  ASSERT_GT(root, 1);
+  std::FILE* f = std::fopen(path.c_str(), "r+b");
+  ASSERT_NE(f, nullptr);
+  std::fseek(f, long((root - 1) * page), SEEK_SET);
+  const unsigned char bad[4] = {0x7f, 0x7f, 0x7f, 0x7f};
+  std::fwrite(bad, 1, sizeof bad, f);
+  std::fclose(f);
+}
+}  // namespace
+
+TEST(Store, ADamagedTableIsRefusedAtStartAndByTheAuditNamingIt) {
+  for (const char* table : {"fillets", "fragments", "images", "calibrations", "audit"}) {
+    SCOPED_TRACE(table);
+    test::TempDir t;
+    {
+      Store s(t.str());
+      const int64_t uid = s.add_fillet(sample());
+      s.add_image(uid, "overlay", "images/1.png");
+      s.add_calibration({2, "cal-1", "laser_plane: {offset_mm: 0}\n", 1, false, ""});
+      s.audit("test", "store.test", "a row in every table");
+    }
+    EXPECT_TRUE(Store::verify_chain(t.str()).ok);
+    break_root_page(t, table);
+    try {
+      Store s(t.str());
+      ADD_FAILURE() << "a store with a damaged " << table << " table opened";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("the store is damaged (table " + std::string(table) + ":"),
+                std::string::npos)
+          << what;
+    }
+    const ChainReport r = Store::verify_chain(t.str());
+    EXPECT_FALSE(r.ok);
+    EXPECT_NE(r.problem.find("table " + std::string(table) + ":"), std::string::npos) << r.problem;
+  }
 }

@@ -52,6 +52,32 @@ StoredFragment fragment_row(const Stmt& g) {
 }
 }  // namespace
 
+std::string Store::damage(sqlite3* db) {
+  // Table by table (PRAGMA quick_check(TABLE), SQLite 3.33 and later, covers the table and
+  // its indexes), so that what is refused is named: a malformed page in the fragments or
+  // images table once let rangexd start SERVING and fail only on reads.
+  std::vector<std::string> tables;
+  try {
+    Stmt t(db, "SELECT name FROM sqlite_master WHERE type = 'table'");
+    while (t.step()) tables.push_back(t.str(0));
+  } catch (const std::exception& e) {
+    return std::string("its schema cannot be read: ") + e.what();
+  }
+  std::string out;
+  for (const std::string& name : tables) {
+    std::string first;
+    try {
+      Stmt q(db, ("PRAGMA quick_check(\"" + name + "\")").c_str());
+      while (q.step() && first.empty())
+        if (q.str(0) != "ok") first = q.str(0);
+    } catch (const std::exception& e) {
+      first = e.what();
+    }
+    if (!first.empty()) out += (out.empty() ? "table " : "; table ") + name + ": " + first;
+  }
+  return out;
+}
+
 Store::Store(const std::string& dir) : dir_(dir) {
   fs::create_directories(fs::path(dir) / "images");
   const std::string path = (fs::path(dir) / "rangex.sqlite").string();
@@ -63,6 +89,15 @@ Store::Store(const std::string& dir) : dir_(dir) {
   // Another process holding the database (a backup, an audit query) is waited for briefly;
   // longer, and the write fails, the engine keeps the decision and retries.
   sqlite3_busy_timeout(db_, 250);
+  // Checked before anything is written: a damaged store is refused at start, not found out
+  // by the first read of a plant's records.
+  if (const std::string d = damage(db_); !d.empty()) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    fail(path, ": the store is damaged (", d,
+         "); rangexd will not run on it: restore it from a backup, or move it aside to start "
+         "a new one");
+  }
   exec("PRAGMA journal_mode=WAL");
   // The durability rule: a decision is committed (to the WAL, fsync'd) before it is
   // published, so a decision any subscriber saw survives a crash of rangexd or of the
@@ -485,6 +520,13 @@ ChainReport Store::verify_chain(const std::string& dir) {
   const std::unique_ptr<Store> view = read_only(dir);
   sqlite3* db = view->db_;
   ChainReport r;
+  // The whole database first: a chain that verifies over a corrupt images table is not a
+  // record to trust.
+  if (const std::string d = damage(db); !d.empty()) {
+    r.ok = false;
+    r.problem = "the database is damaged: " + d;
+    return r;
+  }
   auto broken = [&](int64_t seq, std::string why) {
     r.ok = false;
     r.first_broken_seq = seq;

@@ -156,6 +156,9 @@ class Store {
   void exec(const std::string& sql);
   Store() = default;  // a view of a read-only connection (verify_chain, chain_links)
   static std::unique_ptr<Store> read_only(const std::string& dir);
+  // The tables whose pages or indexes are damaged, with SQLite's first complaint for each
+  // ("" when all check out).
+  static std::string damage(sqlite3* db);
   std::string row_content(const std::string& kind, int64_t ref);  // throws NotFound
   void add_column(const std::string& table, const std::string& column, const std::string& decl);
   void chain_existing();
