@@ -453,6 +453,34 @@ TEST(Server, RestartContinuesFilletNumbersAndIdleCountsLinesReceived) {
   EXPECT_GT(numbers.size(), before.size());
 }
 
+TEST(Server, StreamsThatSendNothingTakeNoCredit) {
+  test::TempDir t;
+  const PlantConfig p = plant();
+  RangexServer server(p, options(t));
+  auto ch = connect(server);
+  // 500 StreamLines calls that never send a line: once they cut a real feeder's credit from
+  // 512 to 4.
+  auto stub = pb::IngestService::NewStub(ch);
+  std::vector<std::unique_ptr<grpc::ClientContext>> contexts;
+  std::vector<
+      std::unique_ptr<grpc::ClientReaderWriter<pb::StreamLinesRequest, pb::StreamLinesResponse>>>
+      idle;
+  for (int k = 0; k < 500; ++k) {
+    contexts.push_back(std::make_unique<grpc::ClientContext>());
+    idle.push_back(stub->StreamLines(contexts.back().get()));
+  }
+  while (server.ingest_streams() < 500) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  const Lines lines(p, 1, 3);
+  int max_credit = 0;
+  for (const auto& a : stream(ch, lines.lines)) max_credit = std::max(max_credit, a.credit());
+  // A quota among the plant's lanes at least (the queue divided by them), as without the
+  // idle streams.
+  const int quota = int(options(t).engine.queue_lines / p.lanes.size());
+  EXPECT_GE(max_credit, quota / 2) << "the quota is " << quota;
+  for (auto& c : contexts) c->TryCancel();
+  for (auto& s : idle) s->Finish();
+}
+
 TEST(Server, HealthAndReflectionAnswer) {
   test::TempDir t;
   RangexServer server(plant(), options(t));

@@ -107,6 +107,7 @@ class IngestStream final
     RANGEX_HAPPENS_AFTER(this);  // every reaction has returned
     { std::lock_guard<std::mutex> lock(mu_); }
     --counters_.ingest;
+    if (fed_) --counters_.feeding;
     delete this;
   }
 
@@ -124,6 +125,7 @@ class IngestStream final
     if (!req.has_line()) {
       v = engine_.refuse_empty(req.sequence());
     } else {
+      if (!fed_) ++counters_.feeding, fed_ = true;
       IncomingLine in = take_line(*req.mutable_line());
       in.queued_by = queued_;
       v = engine_.submit(std::move(in));
@@ -139,14 +141,18 @@ class IngestStream final
   }
   int credit(const Engine::Verdict& v) const {
     // The queue is shared: each stream's credit is its quota (an equal share of the queue
-    // among the open streams, and at least as many as the plant has lanes, so that the
-    // first streams to connect do not take it all) less its own lines still queued, and
+    // among the streams that feed, this one included, and at least as many as the plant has
+    // lanes, so that the first streams to connect do not take it all) less its own lines
+    // still queued, and
     // never more than its equal share of the free places. A feeder that keeps its lines in
     // flight within its credit keeps queued + in flight within its quota; and since the
     // lines of streams that have closed stay queued after them, the share of the free
     // places keeps the streams still open from overrunning the queue together when they
     // all answer at once.
-    const int streams = std::max(counters_.ingest.load(), int(engine_.plant().lanes.size()));
+    // Streams that have sent no line take no share: 500 that sent nothing once cut a real
+    // feeder's credit from 512 to 4.
+    const int streams =
+        std::max(counters_.feeding.load() + (fed_ ? 0 : 1), int(engine_.plant().lanes.size()));
     const int quota = int(engine_.options().queue_lines) / std::max(1, streams);
     const int share = v.credit / std::max(1, streams);
     return std::max(0, std::min(share, quota - queued_->load()));
@@ -171,6 +177,7 @@ class IngestStream final
   std::deque<pb::StreamLinesResponse> acks_;  // front: being written
   bool reading_ = false, writing_ = false, reads_done_ = false, broken_ = false;
   bool finished_ = false;
+  bool fed_ = false;  // a line came (the reading reaction's alone: reads are one at a time)
 };
 
 // Owned by itself (self_) until OnDone; the hub's wake holds only a weak reference, so a

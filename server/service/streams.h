@@ -20,6 +20,7 @@ class ResultsHub;
 
 struct StreamCounters {
   std::atomic<int> ingest{0}, subscribers{0};
+  std::atomic<int> feeding{0};  // ingest streams that have sent a line
 };
 
 grpc::ServerBidiReactor<v1::StreamLinesRequest, v1::StreamLinesResponse>* new_ingest_stream(
