@@ -481,6 +481,39 @@ TEST(Server, StreamsThatSendNothingTakeNoCredit) {
   for (auto& s : idle) s->Finish();
 }
 
+TEST(Server, AnIdleIngestStreamIsClosedAndABusyOneIsNot) {
+  test::TempDir t;
+  ServerOptions o = options(t);
+  o.engine.stream_idle_s = 1.0;
+  RangexServer server(plant(), o);
+  auto stub = pb::IngestService::NewStub(connect(server));
+  grpc::ClientContext idle_ctx, busy_ctx;
+  auto idle = stub->StreamLines(&idle_ctx);
+  auto busy = stub->StreamLines(&busy_ctx);
+  // The busy stream asks for its credit every 0.1 s for 2 s: never idle that long.
+  pb::StreamLinesResponse r;
+  for (int k = 0; k < 20; ++k) {
+    pb::StreamLinesRequest q;
+    q.set_sequence(uint64_t(k));
+    q.set_credit_query(true);
+    ASSERT_TRUE(busy->Write(q)) << "the busy stream was closed after " << k * 100 << " ms";
+    ASSERT_TRUE(busy->Read(&r));
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  busy->WritesDone();
+  EXPECT_TRUE(busy->Finish().ok());
+  // The idle one was ended long before, naming why (Read returns at once: it is over).
+  EXPECT_FALSE(idle->Read(&r));
+  const grpc::Status s = idle->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_NE(s.error_message().find("idle ingest stream closed"), std::string::npos)
+      << s.error_message();
+  // The server's side ends just after the client's (bounded wait).
+  for (int k = 0; k < 500 && server.ingest_streams() > 0; ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_EQ(server.ingest_streams(), 0);
+}
+
 TEST(Server, HealthAndReflectionAnswer) {
   test::TempDir t;
   RangexServer server(plant(), options(t));

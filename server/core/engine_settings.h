@@ -24,6 +24,10 @@ struct EngineSettings {
   double stall_s = 5;
   // NOT_SERVING this long: rangexd exits non-zero so that its supervisor restarts it (0: never).
   double exit_after_s = 60;
+  // An ingest stream with no request this long is closed (UNAVAILABLE, naming why); a feeder
+  // reconnects when it has lines again. Streams that never send would otherwise be held
+  // for ever.
+  double stream_idle_s = 300;
   // A graceful stop that cannot decide the queued lines in this long exits non-zero.
   double drain_timeout_s = 30;
   // Of the batches a device backend computes, the fraction recomputed on the CPU reference

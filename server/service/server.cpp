@@ -416,6 +416,11 @@ void RangexServer::watchdog() {
   std::unique_lock<std::mutex> lock(wd_mu_);
   while (!wd_cv_.wait_for(lock, std::chrono::duration<double>(opt_.watchdog_period_s),
                           [&] { return wd_stop_; })) {
+    lock.unlock();
+    if (const int closed = close_idle_ingest_streams(*counters_, opt_.engine.stream_idle_s))
+      std::fprintf(stderr, "rangexd: closed %d idle ingest stream%s (no request for %.0f s)\n",
+                   closed, closed > 1 ? "s" : "", opt_.engine.stream_idle_s);
+    lock.lock();
     const Health h = engine_->health();
     if (h.serving != serving || h.store_ok != store_ok) {
       for (const std::string& r : h.reasons)

@@ -1,6 +1,7 @@
 #include "service/streams.h"
 
 #include <algorithm>
+#include <chrono>
 #include <deque>
 #include <memory>
 #include <mutex>
@@ -34,15 +35,45 @@ class Reaction {
   const void* r_;
 };
 
+int64_t steady_now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// Owned by itself (self_) until OnDone; the idle sweep holds only a weak reference, so a
+// sweep that races OnDone keeps the reactor alive until it returns.
 class IngestStream final
-    : public grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse> {
+    : public grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>,
+      public IdleClosable {
  public:
-  IngestStream(Engine& engine, StreamCounters& counters) : engine_(engine), counters_(counters) {
-    ++counters_.ingest;
-    std::lock_guard<std::mutex> lock(mu_);
-    reading_ = true;
-    StartRead(&req_);
-    RANGEX_HAPPENS_BEFORE(this);  // gRPC runs the reactions after the handler returns
+  static IngestStream* start(Engine& engine, StreamCounters& counters) {
+    std::shared_ptr<IngestStream> s(new IngestStream(engine, counters));
+    {
+      std::lock_guard<std::mutex> lock(counters.live_mu);
+      counters.live.push_back(s);
+    }
+    std::lock_guard<std::mutex> lock(s->mu_);
+    s->self_ = s;
+    s->reading_ = true;
+    s->StartRead(&s->req_);
+    RANGEX_HAPPENS_BEFORE(s.get());  // gRPC runs the reactions after the handler returns
+    return s.get();
+  }
+
+  bool close_if_idle(int64_t now_ns, int64_t idle_ns) override {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      // A stream writing acks is not idle; one already ending is left to end.
+      if (finished_ || broken_ || writing_ || now_ns - last_ns_ < idle_ns) return false;
+      broken_ = expired_ = finished_ = true;
+    }
+    // The pending read then completes with ok = false; nothing else is started.
+    Finish(grpc::Status(grpc::StatusCode::UNAVAILABLE,
+                        "no request for " + std::to_string(idle_ns / 1'000'000'000) +
+                            " s (server.stream_idle_s): idle ingest stream closed; reconnect "
+                            "to feed"));
+    return true;
   }
 
   void OnReadDone(bool ok) override {
@@ -50,9 +81,16 @@ class IngestStream final
     // overwrites req_ and lines of one stream reach the engine in the order they came. The
     // empty critical section orders this reaction after the one that started the read.
     Reaction reaction(this);
-    { std::lock_guard<std::mutex> lock(mu_); }
+    bool expired;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      last_ns_ = steady_now_ns();
+      expired = expired_;
+    }
     pb::StreamLinesResponse ack;
-    if (ok) ack = handle(req_);  // no lock held: the engine is another module
+    // No lock held: the engine is another module. A line that came as the stream was closed
+    // for idleness is not submitted: unacknowledged, its feeder resends it.
+    if (ok && !expired) ack = handle(req_);
     bool finish;
     {
       std::lock_guard<std::mutex> lock(mu_);
@@ -105,13 +143,19 @@ class IngestStream final
 
   void OnDone() override {
     RANGEX_HAPPENS_AFTER(this);  // every reaction has returned
-    { std::lock_guard<std::mutex> lock(mu_); }
+    std::shared_ptr<IngestStream> last;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      last = std::move(self_);  // freed when this returns, or when a sweep lets go of it
+    }
     --counters_.ingest;
     if (fed_) --counters_.feeding;
-    delete this;
   }
 
  private:
+  IngestStream(Engine& engine, StreamCounters& counters) : engine_(engine), counters_(counters) {
+    ++counters_.ingest;
+  }
   pb::StreamLinesResponse handle(pb::StreamLinesRequest& req) {
     pb::StreamLinesResponse resp;
     resp.set_sequence(req.sequence());
@@ -177,7 +221,10 @@ class IngestStream final
   std::deque<pb::StreamLinesResponse> acks_;  // front: being written
   bool reading_ = false, writing_ = false, reads_done_ = false, broken_ = false;
   bool finished_ = false;
-  bool fed_ = false;  // a line came (the reading reaction's alone: reads are one at a time)
+  bool fed_ = false;      // a line came (the reading reaction's alone: reads are one at a time)
+  bool expired_ = false;  // closed by the idle sweep
+  int64_t last_ns_ = steady_now_ns();  // the last request (or the start)
+  std::shared_ptr<IngestStream> self_;
 };
 
 // Owned by itself (self_) until OnDone; the hub's wake holds only a weak reference, so a
@@ -297,7 +344,22 @@ grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>* refused_subscription(
 
 grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>* new_ingest_stream(
     Engine& engine, StreamCounters& counters) {
-  return new IngestStream(engine, counters);
+  return IngestStream::start(engine, counters);
+}
+
+int close_idle_ingest_streams(StreamCounters& counters, double idle_s) {
+  std::vector<std::shared_ptr<IdleClosable>> open;
+  {
+    std::lock_guard<std::mutex> lock(counters.live_mu);
+    std::erase_if(counters.live, [](const auto& w) { return w.expired(); });
+    for (const auto& w : counters.live)
+      if (auto s = w.lock()) open.push_back(std::move(s));
+  }
+  // Closed outside the registry's lock: Finish may run reactions of its own.
+  const int64_t now = steady_now_ns(), idle = int64_t(idle_s * 1e9);
+  int closed = 0;
+  for (const auto& s : open) closed += s->close_if_idle(now, idle);
+  return closed;
 }
 
 grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>* new_subscription(

@@ -10,6 +10,10 @@
 #include <grpcpp/support/server_callback.h>
 
 #include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <vector>
 
 #include "rangex/v1/rangex.pb.h"
 
@@ -18,10 +22,23 @@ namespace rangex {
 class Engine;
 class ResultsHub;
 
+// An ingest stream as the idle sweep sees it.
+class IdleClosable {
+ public:
+  virtual ~IdleClosable() = default;
+  // Finishes the stream (UNAVAILABLE) when no request came for idle_ns; false when it was not.
+  virtual bool close_if_idle(int64_t now_ns, int64_t idle_ns) = 0;
+};
+
 struct StreamCounters {
   std::atomic<int> ingest{0}, subscribers{0};
   std::atomic<int> feeding{0};  // ingest streams that have sent a line
+  std::mutex live_mu;
+  std::vector<std::weak_ptr<IdleClosable>> live;  // open ingest streams (expired: gone)
 };
+
+// Closes the ingest streams that have had no request for idle_s; returns how many.
+int close_idle_ingest_streams(StreamCounters& counters, double idle_s);
 
 grpc::ServerBidiReactor<v1::StreamLinesRequest, v1::StreamLinesResponse>* new_ingest_stream(
     Engine& engine, StreamCounters& counters);
