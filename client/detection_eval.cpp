@@ -226,9 +226,12 @@ std::string missed_lines(const DetectionEval& e) {
   for (const MissedFragment& m : e.missed) {
     int k = std::snprintf(b, sizeof b, "lane %d fillet %d: %.1f mm %s, calcification %.2f", m.lane,
                           m.fillet, m.size_mm, m.shape.c_str(), m.calcification);
+    // The edge is looked for within 5 mm (EdgeMap::distance_mm).
+    char edge[16] = ">= 5";
+    if (m.edge_mm < 5) std::snprintf(edge, sizeof edge, "%.1f", m.edge_mm);
     if (m.meat_mm >= 0)
-      std::snprintf(b + k, sizeof b - size_t(k), ", under %.1f mm of meat, %.1f mm from the edge",
-                    m.meat_mm, m.edge_mm);
+      std::snprintf(b + k, sizeof b - size_t(k), ", under %.1f mm of meat, %s mm from the edge",
+                    m.meat_mm, edge);
     out += std::string(b) + "\n";
   }
   return out;
