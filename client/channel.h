@@ -21,6 +21,12 @@ struct ClientSecurity {
   static std::string read_token(const std::string& path, const char* what);
 };
 
+// How often a rangex client pings an idle connection (gRPC keepalive), without calls too, so
+// that a dead server is noticed. Twice the least interval rangexd accepts
+// (ServerOptions::min_ping_interval_ms): a client that pings faster is cut off with GOAWAY
+// "too_many_pings", a quiet subscription with it.
+constexpr int kClientKeepaliveMs = 10000;
+
 // Throws Error when the security options are inconsistent or a file cannot be read.
 std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address,
                                               const ClientSecurity& security = {});

@@ -8,6 +8,7 @@
 #include <set>
 #include <thread>
 
+#include "channel.h"
 #include "core/plant_config.h"
 #include "core/recording.h"
 #include "grpc_raw.h"
@@ -512,6 +513,16 @@ TEST(Server, AnIdleIngestStreamIsClosedAndABusyOneIsNot) {
   for (int k = 0; k < 500 && server.ingest_streams() > 0; ++k)
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_EQ(server.ingest_streams(), 0);
+}
+
+TEST(Server, ClientsPingNoFasterThanTheServerAccepts) {
+  // A client pinging faster than the server's least accepted interval is cut off with GOAWAY
+  // "too_many_pings" (gRPC's default interval is 5 minutes), a quiet subscription with it.
+  // rangexd accepts pings every 5 s, with or without calls; rangex's clients ping every 10 s.
+  // (gRPC 1.51 in process did not cut a subscription pinged every 200 ms even under its
+  // default policy, so the cut itself is not reproduced here.)
+  EXPECT_GE(kClientKeepaliveMs, 2 * ServerOptions{}.min_ping_interval_ms);
+  EXPECT_LE(ServerOptions{}.min_ping_interval_ms, 10000);
 }
 
 TEST(Server, HealthAndReflectionAnswer) {

@@ -368,6 +368,12 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
   grpc::ServerBuilder b;
   b.AddListeningPort(opt_.listen, server_credentials(plant_.security), &port_);
   b.SetMaxReceiveMessageSize(opt_.max_message_bytes);
+  b.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
+                       opt_.min_ping_interval_ms);
+  b.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  b.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, opt_.keepalive_ms);
+  b.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 20000);
+  b.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
   if (opt_.max_connection_age_ms > 0) {
     b.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS, opt_.max_connection_age_ms);
     b.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_GRACE_MS, opt_.max_connection_age_ms);

@@ -32,6 +32,13 @@ struct ServerOptions {
   // Connections older than this are closed (GOAWAY) after a grace period; feeders reconnect.
   // 0: never. Useful behind load balancers, and how tests drop connections.
   int max_connection_age_ms = 0;
+  // Keepalive. The least interval between a client's pings that is accepted, with or without
+  // calls (gRPC's default is 5 minutes, and a client pinging faster is cut off with GOAWAY
+  // "too_many_pings", a dashboard's quiet subscription with it); rangex clients ping every
+  // 10 s (client/channel.h). And how often the server pings a quiet client, to notice one
+  // that is gone.
+  int min_ping_interval_ms = 5000;
+  int keepalive_ms = 60000;
   double watchdog_period_s = 0.1;
   std::function<void(const Health&)> on_fatal;  // NOT_SERVING for exit_after_s
 };
