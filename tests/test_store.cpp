@@ -133,3 +133,27 @@ TEST(Store, ADamagedTableIsRefusedAtStartAndByTheAuditNamingIt) {
     EXPECT_NE(r.problem.find("table " + std::string(table) + ":"), std::string::npos) << r.problem;
   }
 }
+
+TEST(Store, AFullDiskIsNamedAsOneAndTheStoreWritesAgainOnceThereIsRoom) {
+  test::TempDir t;
+  Store s(t.str());
+  s.add_fillet(sample());
+  // No room left (SQLITE_FULL, as on a full disk): the error names it, not the ROLLBACK
+  // that SQLite made itself ("cannot rollback - no transaction is active").
+  s.cap_pages_for_tests(1);
+  StoredFillet big = sample();
+  big.reason.assign(64 << 10, 'x');  // more than the pages the store has free
+  try {
+    s.add_fillet(big);
+    ADD_FAILURE() << "a fillet was stored with no room left";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("disk full"), std::string::npos) << what;
+    EXPECT_EQ(what.find("cannot rollback"), std::string::npos) << what;
+  }
+  s.cap_pages_for_tests(1 << 20);
+  const int64_t uid = s.add_fillet(big);
+  EXPECT_EQ(s.fillet(uid)->reason.size(), size_t(64 << 10));
+  EXPECT_EQ(s.list_fillets(0, 0, -1, 0, 10).size(), 2u);
+  EXPECT_TRUE(Store::verify_chain(t.str()).ok);
+}

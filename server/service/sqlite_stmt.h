@@ -10,6 +10,13 @@
 
 namespace rangex {
 
+// SQLite's complaint, with a full disk named as one: that is what a plant's operator must
+// act on (SQLITE_FULL reads "database or disk is full").
+inline std::string store_error(sqlite3* db, int rc) {
+  const std::string what = sqlite3_errmsg(db);
+  return (rc & 0xff) == SQLITE_FULL ? "disk full: " + what : what;
+}
+
 class Stmt {
  public:
   Stmt(sqlite3* db, const char* sql) : db_(db) {
@@ -33,7 +40,7 @@ class Stmt {
     const int rc = sqlite3_step(s_);
     if (rc == SQLITE_ROW) return true;
     if (rc == SQLITE_DONE) return false;
-    fail("store: ", sqlite3_errmsg(db_));
+    fail("store: ", store_error(db_, rc));
   }
   int64_t i64(int c) const { return sqlite3_column_int64(s_, c); }
   bool null(int c) const { return sqlite3_column_type(s_, c) == SQLITE_NULL; }

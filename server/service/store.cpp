@@ -177,7 +177,7 @@ void Store::chain_existing() {
     exec("COMMIT");
     head_ = head;
   } catch (...) {
-    exec("ROLLBACK");
+    rollback();
     throw;
   }
 }
@@ -218,11 +218,24 @@ void Store::add_column(const std::string& table, const std::string& column,
 
 void Store::exec(const std::string& sql) {
   char* err = nullptr;
-  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
-    const std::string why = err ? err : "?";
+  const int rc = sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err);
+  if (rc != SQLITE_OK) {
+    std::string why = err ? err : "?";
     sqlite3_free(err);
+    if ((rc & 0xff) == SQLITE_FULL) why = "disk full: " + why;
     fail("store: ", why, " (", sql, ")");
   }
+}
+
+void Store::rollback() noexcept {
+  // SQLite rolls a transaction back by itself on some errors (a full disk among them); a
+  // ROLLBACK then would fail and its "no transaction is active" hide the error that counts.
+  if (!sqlite3_get_autocommit(db_)) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+}
+
+void Store::cap_pages_for_tests(int64_t pages) {
+  std::lock_guard<std::mutex> lock(mu_);
+  exec("PRAGMA max_page_count = " + std::to_string(pages));
 }
 
 int64_t Store::add_fillet(const StoredFillet& f) {
@@ -261,7 +274,7 @@ int64_t Store::add_fillet(const StoredFillet& f) {
     head_ = head;
     return uid;
   } catch (...) {
-    exec("ROLLBACK");
+    rollback();
     throw;
   }
 }
@@ -424,7 +437,7 @@ void Store::audit(const std::string& who, const std::string& what, const std::st
     exec("COMMIT");
     head_ = head;
   } catch (...) {
-    exec("ROLLBACK");
+    rollback();
     throw;
   }
 }
@@ -442,7 +455,7 @@ void Store::save_progress(const std::vector<std::pair<int, int64_t>>& lane_durab
     }
     exec("COMMIT");
   } catch (...) {
-    exec("ROLLBACK");
+    rollback();
     throw;
   }
 }

@@ -135,6 +135,9 @@ class Store {
   std::vector<std::pair<int, int64_t>> progress();
   // The last X-ray count of the lane's latest stored fillet (nullopt: none).
   std::optional<int64_t> last_fillet_end(int lane);
+  // Fault injection for tests: the database can grow no further than `pages` (its writes
+  // then fail with SQLITE_FULL, as on a full disk).
+  void cap_pages_for_tests(int64_t pages);
   // The lane's next fillet number: one past the highest stored (0 for a lane with none).
   int64_t next_lane_fillet(int lane);
 
@@ -154,7 +157,8 @@ class Store {
 
  private:
   void exec(const std::string& sql);
-  Store() = default;  // a view of a read-only connection (verify_chain, chain_links)
+  void rollback() noexcept;  // the open transaction, if SQLite has not rolled it back itself
+  Store() = default;         // a view of a read-only connection (verify_chain, chain_links)
   static std::unique_ptr<Store> read_only(const std::string& dir);
   // The tables whose pages or indexes are damaged, with SQLite's first complaint for each
   // ("" when all check out).

@@ -117,7 +117,7 @@ PruneReport Store::prune(int64_t records_before_ns, int64_t images_before_ns, in
       exec("COMMIT");
       head_ = head;
     } catch (...) {
-      exec("ROLLBACK");
+      rollback();
       throw;
     }
   }
