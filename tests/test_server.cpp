@@ -3,6 +3,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <map>
 #include <set>
@@ -513,6 +514,24 @@ TEST(Server, AnIdleIngestStreamIsClosedAndABusyOneIsNot) {
   for (int k = 0; k < 500 && server.ingest_streams() > 0; ++k)
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_EQ(server.ingest_streams(), 0);
+}
+
+TEST(Server, StatisticsWarnBeforeTheStoreVolumeFills) {
+  test::TempDir t;
+  ServerOptions o = options(t);
+  o.engine.store_reserve_mb = 1e12;  // more than any disk: the warning must show
+  RangexServer server(plant(), o);
+  const EngineStats s = server.engine().stats();
+  const bool warned = std::any_of(s.warnings.begin(), s.warnings.end(), [](const std::string& w) {
+    return w.find("store volume:") == 0 && w.find("below the reserve") != std::string::npos;
+  });
+  EXPECT_TRUE(warned) << ::testing::PrintToString(s.warnings);
+  o.engine.store_reserve_mb = 0;  // off
+  test::TempDir t2;
+  o.data_dir = t2.str("data");
+  RangexServer quiet(plant(), o);
+  for (const std::string& w : quiet.engine().stats().warnings)
+    EXPECT_EQ(w.find("store volume:"), std::string::npos) << w;
 }
 
 TEST(Server, ClientsPingNoFasterThanTheServerAccepts) {

@@ -28,6 +28,9 @@ struct EngineSettings {
   // reconnects when it has lines again. Streams that never send would otherwise be held
   // for ever.
   double stream_idle_s = 300;
+  // Statistics warn when the store's volume has less free than this, before a full disk
+  // stops the store (0: never).
+  double store_reserve_mb = 1024;
   // A graceful stop that cannot decide the queued lines in this long exits non-zero.
   double drain_timeout_s = 30;
   // Of the batches a device backend computes, the fraction recomputed on the CPU reference

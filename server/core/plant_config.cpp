@@ -421,7 +421,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
 void read_engine(const Node& n, EngineSettings& e) {
   n.only_keys({"queue_lines", "batch_lines", "batch_wait_ms", "inspectors", "dedup_window",
                "auto_reset", "idle_close_s", "stall_s", "exit_after_s", "drain_timeout_s",
-               "verify_fraction", "stream_idle_s"});
+               "verify_fraction", "stream_idle_s", "store_reserve_mb"});
   int queue = int(e.queue_lines);
   n.positive("queue_lines", queue);
   if (queue > 1 << 20) n.at("queue_lines").bad("must be <= 1048576");
@@ -439,6 +439,8 @@ void read_engine(const Node& n, EngineSettings& e) {
   if (e.exit_after_s < 0) n.at("exit_after_s").bad("must be >= 0 (0: never)");
   n.positive("drain_timeout_s", e.drain_timeout_s);
   n.positive("stream_idle_s", e.stream_idle_s);
+  n.get("store_reserve_mb", e.store_reserve_mb);
+  if (!(e.store_reserve_mb >= 0)) n.at("store_reserve_mb").bad("must be >= 0 (0: no warning)");
   n.get("verify_fraction", e.verify_fraction);
   if (!(e.verify_fraction >= 0 && e.verify_fraction <= 1))
     n.at("verify_fraction").bad("must be between 0 and 1");

@@ -845,6 +845,14 @@ EngineStats Engine::stats() {
   for (auto& l : lanes_)
     if (l->product_drift)
       s.warnings.push_back(product_drift_warning(l->id, l->drift_fillets, l->implied_frr));
+  if (opt_.store_reserve_mb > 0) {
+    std::error_code ec;
+    const auto space = std::filesystem::space(store_.dir(), ec);
+    if (!ec && double(space.available) < opt_.store_reserve_mb * 1048576.0)
+      s.warnings.push_back(join("store volume: ", space.available >> 20,
+                                " MB free, below the reserve of ", opt_.store_reserve_mb,
+                                " MB: free space before the disk fills"));
+  }
   {
     std::lock_guard<std::mutex> lock(rate_mu_);
     if (rate_.size() >= 2) {

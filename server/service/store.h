@@ -135,6 +135,7 @@ class Store {
   std::vector<std::pair<int, int64_t>> progress();
   // The last X-ray count of the lane's latest stored fillet (nullopt: none).
   std::optional<int64_t> last_fillet_end(int lane);
+  const std::string& dir() const { return dir_; }
   // Fault injection for tests: the database can grow no further than `pages` (its writes
   // then fail with SQLITE_FULL, as on a full disk).
   void cap_pages_for_tests(int64_t pages);
