@@ -473,6 +473,9 @@ void HttpServer::routes() {
     if (++event_streams_ > opt_.max_event_streams) {
       --event_streams_;
       res.status = 503;
+      // The client closes the connection: kept alive, each refusal held one of the few
+      // threads for the keep-alive timeout (168 of them once blocked /api/statistics).
+      res.set_header("Connection", "close");
       res.set_content(
           json{{"error", "too many event streams (" + std::to_string(opt_.max_event_streams) + ")"}}
               .dump(),
