@@ -90,7 +90,10 @@ try:
     check(len(first) >= 1, "a reject appeared in the live feed")
     # Lights while fed: green on every lane that has lines.
     time.sleep(2.5)
-    lights = [t.get_attribute("data-light") for t in driver.find_elements(By.CSS_SELECTOR, ".tile")]
+    # Read in one script: the tiles are drawn anew on every refresh, and an element found
+    # before a refresh is stale after it (StaleElementReferenceException once in CI).
+    lights = driver.execute_script(
+        "return Array.from(document.querySelectorAll('.tile'), t => t.getAttribute('data-light'))")
     check(all(l == "green" for l in lights), "every fed lane's light is green (%s)" % lights)
     driver.save_screenshot(os.path.join(out_dir, "dashboard-lanes.png"))
     check(feeder.wait(timeout=300) == 0, "the simulated plant was fed: " + feeder.stderr.read())
