@@ -45,7 +45,7 @@ int cmd_audit(int argc, char** argv) {
     const std::string dir = store_dir(a);
     const ChainReport r = Store::verify_chain(dir);
     if (!r.ok) {
-      if (r.problem.rfind("the database is damaged", 0) == 0)
+      if (r.damaged)
         std::printf("store DAMAGED in %s: %s\n", dir.c_str(), r.problem.c_str());
       else
         std::printf("chain BROKEN in %s after %lld good links: %s\n", dir.c_str(),

@@ -212,11 +212,12 @@ namespace {
 // Where a miss lies, as the matrix's edge column counts it: at the edge (within 3 mm, or on
 // meat under 6 mm: flaps), under thick meat (25 mm or more), or elsewhere; unknown without
 // an EdgeMap.
-const char* miss_place(const MissedFragment& m) {
-  if (m.meat_mm < 0) return "unknown";
-  if (m.edge_mm < 3 || m.meat_mm < 6) return "edge";
-  if (m.meat_mm >= 25) return "thick";
-  return "elsewhere";
+enum MissPlace { kThick, kEdge, kElsewhere, kUnknown };
+MissPlace miss_place(const MissedFragment& m) {
+  if (m.meat_mm < 0) return kUnknown;
+  if (m.edge_mm < 3 || m.meat_mm < 6) return kEdge;
+  if (m.meat_mm >= 25) return kThick;
+  return kElsewhere;
 }
 }  // namespace
 
@@ -238,18 +239,15 @@ std::string missed_lines(const DetectionEval& e) {
 }
 
 std::string missed_summary(const DetectionEval& e) {
-  int thick = 0, edge = 0, elsewhere = 0, unknown = 0;
-  for (const MissedFragment& m : e.missed) {
-    const std::string p = miss_place(m);
-    (p == "thick" ? thick : p == "edge" ? edge : p == "elsewhere" ? elsewhere : unknown) += 1;
-  }
+  int n[4] = {0, 0, 0, 0};
+  for (const MissedFragment& m : e.missed) ++n[miss_place(m)];
   char b[160];
-  if (unknown) {
-    std::snprintf(b, sizeof b, "%d missed", unknown);
+  if (n[kUnknown]) {
+    std::snprintf(b, sizeof b, "%d missed", n[kUnknown]);
     return b;
   }
-  std::snprintf(b, sizeof b, "%d under >= 25 mm of meat, %d at the edge, %d elsewhere", thick, edge,
-                elsewhere);
+  std::snprintf(b, sizeof b, "%d under >= 25 mm of meat, %d at the edge, %d elsewhere", n[kThick],
+                n[kEdge], n[kElsewhere]);
   return b;
 }
 

@@ -130,6 +130,7 @@ TEST(Store, ADamagedTableIsRefusedAtStartAndByTheAuditNamingIt) {
     }
     const ChainReport r = Store::verify_chain(t.str());
     EXPECT_FALSE(r.ok);
+    EXPECT_TRUE(r.damaged);
     EXPECT_NE(r.problem.find("table " + std::string(table) + ":"), std::string::npos) << r.problem;
   }
 }

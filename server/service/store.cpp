@@ -537,6 +537,7 @@ ChainReport Store::verify_chain(const std::string& dir) {
   // record to trust.
   if (const std::string d = damage(db); !d.empty()) {
     r.ok = false;
+    r.damaged = true;
     r.problem = "the database is damaged: " + d;
     return r;
   }

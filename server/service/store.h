@@ -71,6 +71,7 @@ struct ChainReport {
   int64_t checkpoint_seq = 0;
   std::string head;  // the last link's hash: a record of it elsewhere anchors the chain
   int64_t first_broken_seq = 0;
+  bool damaged = false;  // the database itself failed its check (problem names the table)
   std::string problem;
 };
 
