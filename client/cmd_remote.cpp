@@ -98,9 +98,9 @@ void print_fillet(const pb::FilletResult& f) {
 }  // namespace
 
 int cmd_feed(int argc, char** argv) {
-  const Args a(
-      argc, argv, 2, {"simulate"},
-      remote({"recording", "lanes", "fillets", "seed", "rate", "window", "reconnect-for"}));
+  const Args a(argc, argv, 2, {"simulate"},
+               remote({"recording", "lanes", "fillets", "seed", "rate", "window", "reconnect-for",
+                       "settle-for"}));
   a.expect_positionals(
       0,
       "feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]");
@@ -123,6 +123,7 @@ int cmd_feed(int argc, char** argv) {
   fo.rate = std::stod(a.get("rate", "0"));  // per lane; 0: as fast as possible
   fo.window = int(a.integer("window", 256));
   fo.reconnect_for_s = std::stod(a.get("reconnect-for", "60"));
+  fo.settle_for_s = std::stod(a.get("settle-for", "90"));
   if (fo.window < 1) fail("--window must be >= 1");
   fo.log = [](const std::string& m) { std::fprintf(stderr, "feed: %s\n", m.c_str()); };
   Feeder feeder(channel(a), fo);
@@ -135,11 +136,30 @@ int cmd_feed(int argc, char** argv) {
     std::printf("  %llu reconnects, %llu lines resent (%llu the server already had)\n",
                 (unsigned long long)r.reconnects, (unsigned long long)r.resent,
                 (unsigned long long)r.duplicates);
+  if (r.handed_back)
+    std::printf(
+        "  %llu refusals handed lines back (shutting down, store unavailable); sent "
+        "again\n",
+        (unsigned long long)r.handed_back);
   for (const auto& [code, n] : r.refused)
     std::printf("  %s: %llu\n", code.c_str(), (unsigned long long)n);
-  check(r.status, "feed");
-  if (r.accepted + r.refused_total() < r.sent) fail("feed: not every line was acknowledged");
-  return r.refused_total() ? 5 : 0;
+  if (r.settled && fo.settle_for_s > 0) std::printf("  every lane settled: all outcomes stored\n");
+  for (const auto& [lane, span] : r.unsettled)
+    std::printf(
+        "  NOT SETTLED: lane %d counts %lld..%lld (their outcomes are not known to be "
+        "stored)\n",
+        lane, (long long)span.first, (long long)span.second);
+  if (r.accepted + r.refused_total() < r.sent) {
+    std::fflush(stdout);
+    fail("feed: not every line was acknowledged (", r.status.error_message(), ")");
+  }
+  if (r.refused_total()) return 5;
+  if (!r.settled) {
+    std::fprintf(stderr, "feed: not every lane settled within --settle-for %.0f s%s%s\n",
+                 fo.settle_for_s, r.status.ok() ? "" : ": ", r.status.error_message().c_str());
+    return 6;
+  }
+  return 0;
 }
 
 int cmd_watch(int argc, char** argv) {

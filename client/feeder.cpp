@@ -57,7 +57,11 @@ struct Shared {
   // order: resent after a reconnect with the unacknowledged ones, so that a server that
   // crashed rebuilds what it had not stored.
   std::map<int, std::deque<InFlight>> retained;
-  uint64_t epoch = 0;  // the server's, from its last answer
+  // Lines the server handed back (not taken): sent again after a reconnect, in order.
+  std::deque<InFlight> handed_back;
+  bool holding = false;            // a line was handed back: this stream sends no more
+  std::map<int, int64_t> settled;  // by lane, from the last credit query's answer
+  uint64_t epoch = 0;              // the server's, from its last answer
   int credit = 1 << 20;
   bool broken = false;         // the current stream ended
   bool query_pending = false;  // a credit query awaits its answer
@@ -75,6 +79,41 @@ void retain(std::map<int, std::deque<InFlight>>& retained, InFlight&& line, int6
   if (!kept.empty() && encoder < kept.back().req->line().encoder()) kept.clear();
   if (encoder > durable) kept.push_back(std::move(line));
   while (!kept.empty() && kept.front().req->line().encoder() <= durable) kept.pop_front();
+}
+
+// After the last line: credit queries until every lane fed is settled past its last line
+// (true), the stream ends or hands lines back, or settle_for_s has passed since the first
+// call (false). The answers' lane progress is taken by the reader.
+template <class Stream>
+bool wait_settled_on(Stream& stream, Shared& sh, uint64_t& seq,
+                     const std::map<int, int64_t>& last_sent, Clock::time_point& start,
+                     double settle_for_s) {
+  if (start == Clock::time_point::max()) start = Clock::now();
+  std::unique_lock<std::mutex> lock(sh.mu);
+  sh.cv.wait(lock, [&] { return sh.broken || sh.holding || sh.unacked.empty(); });
+  while (!sh.broken && !sh.holding) {
+    bool all = true;
+    for (const auto& [lane, last] : last_sent) {
+      const auto it = sh.settled.find(lane);
+      all = all && it != sh.settled.end() && it->second >= last;
+    }
+    if (all) return true;
+    if (Clock::now() - start > std::chrono::duration<double>(settle_for_s)) return false;
+    pb::StreamLinesRequest query;
+    query.set_sequence(seq++);
+    query.set_credit_query(true);
+    sh.query_pending = true;
+    sh.query_sequence = query.sequence();
+    lock.unlock();
+    const bool open = stream.Write(query);
+    lock.lock();
+    if (!open) return false;
+    sh.cv.wait(lock, [&] { return !sh.query_pending || sh.broken; });
+    lock.unlock();
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    lock.lock();
+  }
+  return false;
 }
 
 }  // namespace
@@ -95,8 +134,11 @@ FeedReport Feeder::run(LineSource& source) {
   auto backoff = std::chrono::milliseconds(100);
   auto probe_wait = std::chrono::milliseconds(50);
   std::minstd_rand jitter(uint32_t(reinterpret_cast<uintptr_t>(&sh)));
-  std::deque<InFlight> again;  // to resend on this stream, in first-sent order
-  uint64_t known_epoch = 0;    // of the server that acknowledged what is retained
+  std::deque<InFlight> again;        // to resend on this stream, in first-sent order
+  uint64_t known_epoch = 0;          // of the server that acknowledged what is retained
+  std::map<int, int64_t> last_sent;  // by lane
+  bool settled_all = false;
+  Clock::time_point settle_start = Clock::time_point::max();
 
   while (true) {
     grpc::ClientContext ctx;
@@ -105,6 +147,7 @@ FeedReport Feeder::run(LineSource& source) {
     {
       std::lock_guard<std::mutex> lock(sh.mu);
       sh.broken = false;
+      sh.holding = false;
       sh.query_pending = false;
     }
     std::thread reader([&] {
@@ -116,6 +159,8 @@ FeedReport Feeder::run(LineSource& source) {
         sh.progress = Clock::now();
         if (sh.query_pending && r.sequence() == sh.query_sequence) {
           sh.query_pending = false;
+          for (const pb::LaneProgress& p : r.lanes())
+            if (p.has_settled_encoder()) sh.settled[p.lane()] = p.settled_encoder();
           sh.cv.notify_all();
           continue;
         }
@@ -127,8 +172,19 @@ FeedReport Feeder::run(LineSource& source) {
           if (!line.acked) ++rep.accepted;
           if (line.resent && code == "DUPLICATE_LINE") ++rep.duplicates;
           line.acked = true;
-          if (opt_.keep_until_durable && r.has_durable_encoder())
-            retain(sh.retained, std::move(line), r.durable_encoder());
+          // Before the lane has a durable count nothing of it is durable: all kept.
+          if (opt_.keep_until_durable)
+            retain(sh.retained, std::move(line),
+                   r.has_durable_encoder() ? r.durable_encoder() : INT64_MIN);
+        } else if (code == "SHUTTING_DOWN" || code == "STORE_UNAVAILABLE") {
+          // Not taken, not lost: kept, and sent again in order once a server can take it.
+          ++rep.handed_back;
+          if (told[code]++ < 1)
+            say("lines handed back (" + code + ": " + r.error().message() +
+                "); they are sent again");
+          line.resent = true;
+          sh.handed_back.push_back(std::move(line));
+          sh.holding = true;
         } else {
           ++rep.refused[code];
           if (told[code]++ < 3)
@@ -166,6 +222,8 @@ FeedReport Feeder::run(LineSource& source) {
       if (!sh.broken) known_epoch = sh.epoch;
       for (InFlight& f : sh.unacked) again.push_back(std::move(f));
       sh.unacked.clear();
+      for (InFlight& f : sh.handed_back) again.push_back(std::move(f));
+      sh.handed_back.clear();
       std::sort(again.begin(), again.end(), [](const InFlight& a, const InFlight& b) {
         return a.req->sequence() < b.req->sequence();
       });
@@ -186,10 +244,11 @@ FeedReport Feeder::run(LineSource& source) {
         while (true) {
           sh.cv.wait(lock, [&] {
             const int limit = std::min(opt_.window, std::max(sh.credit, 0));
-            return sh.broken ||
+            return sh.broken || sh.holding ||
                    (!sh.query_pending && (int(sh.unacked.size()) < limit || sh.unacked.empty()));
           });
-          if (sh.broken || int(sh.unacked.size()) < std::min(opt_.window, sh.credit)) break;
+          if (sh.broken || sh.holding || int(sh.unacked.size()) < std::min(opt_.window, sh.credit))
+            break;
           // Spread over half to one and a half times the wait, so that the streams of a
           // plant do not all ask at the same moment.
           lock.unlock();
@@ -206,7 +265,7 @@ FeedReport Feeder::run(LineSource& source) {
           lock.lock();
           if (!open) break;
         }
-        if (sh.broken || !open) break;
+        if (sh.broken || sh.holding || !open) break;
         probe_wait = std::chrono::milliseconds(50);
       }
       if (!again.empty()) {  // a resend, under the same flow control as new lines
@@ -217,18 +276,25 @@ FeedReport Feeder::run(LineSource& source) {
         std::lock_guard<std::mutex> lock(sh.mu);
         sh.unacked.push_back(std::move(f));
         ++rep.resent;
+        settle_start = Clock::time_point::max();  // the wait counts from the last line
       } else {
         auto req = std::make_shared<pb::StreamLinesRequest>();
         req->set_sequence(seq++);
         source.line(li, n, *req->mutable_line());
+        last_sent[req->line().lane()] = req->line().encoder();
         out = req;
         std::lock_guard<std::mutex> lock(sh.mu);
         sh.unacked.push_back({out, false});
         ++next;
         ++rep.sent;
+        settle_start = Clock::time_point::max();
       }
       open = stream->Write(*out);  // no lock held: the reader must keep taking acks
     }
+    // Every line sent: wait for them all to be settled in the store (a server that hands
+    // lines back, or goes, sends this stream round again).
+    if (open && next >= total && again.empty() && opt_.settle_for_s > 0 && !settled_all)
+      settled_all = wait_settled_on(*stream, sh, seq, last_sent, settle_start, opt_.settle_for_s);
     if (open) stream->WritesDone();
     reader.join();
     rep.status = stream->Finish();
@@ -239,9 +305,16 @@ FeedReport Feeder::run(LineSource& source) {
       std::lock_guard<std::mutex> lock(sh.mu);
       for (InFlight& f : again) sh.unacked.push_back(std::move(f));
       again.clear();
-      done = next >= total && sh.unacked.empty();
+      for (InFlight& f : sh.handed_back) sh.unacked.push_back(std::move(f));
+      sh.handed_back.clear();
+      std::sort(sh.unacked.begin(), sh.unacked.end(), [](const InFlight& a, const InFlight& b) {
+        return a.req->sequence() < b.req->sequence();
+      });
+      done = next >= total && sh.unacked.empty() &&
+             (settled_all || opt_.settle_for_s <= 0 ||
+              Clock::now() - settle_start > std::chrono::duration<double>(opt_.settle_for_s));
     }
-    if (done && rep.status.ok()) break;
+    if (done && (rep.status.ok() || settled_all)) break;
     if (!retryable(rep.status) && !rep.status.ok()) break;
     if (Clock::now() - sh.progress > std::chrono::duration<double>(opt_.reconnect_for_s)) {
       say("no progress for " + std::to_string(int(opt_.reconnect_for_s)) + " s; giving up");
@@ -255,6 +328,24 @@ FeedReport Feeder::run(LineSource& source) {
         " unacknowledged lines and " + std::to_string(kept) + " not yet durable");
     std::this_thread::sleep_for(backoff);
     backoff = std::min(backoff * 2, std::chrono::milliseconds(2000));
+  }
+  rep.settled = settled_all || opt_.settle_for_s <= 0;
+  if (!settled_all && opt_.settle_for_s > 0) {
+    // What is not known to be in the store: the kept lines above each lane's last settled
+    // count (or every line of a lane never reported).
+    for (const auto& [lane, last] : last_sent) {
+      const auto it = sh.settled.find(lane);
+      if (it != sh.settled.end() && it->second >= last) continue;
+      int64_t first = last;
+      auto lower = [&](const std::deque<InFlight>& d) {
+        for (const InFlight& f : d)
+          if (f.req->line().lane() == lane) first = std::min(first, f.req->line().encoder());
+      };
+      if (auto k = sh.retained.find(lane); k != sh.retained.end()) lower(k->second);
+      lower(sh.unacked);
+      if (it != sh.settled.end()) first = std::max(first, it->second + 1);
+      rep.unsettled[lane] = {first, last};
+    }
   }
   rep.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return rep;

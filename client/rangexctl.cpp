@@ -80,7 +80,9 @@ server commands (--server HOST:PORT, default: plant.yaml's listen address; over 
   --ca CA.pem [--cert C.pem --key K.pem] [--token-file F] [--tls-name NAME], or
   RANGEX_CA, RANGEX_CERT, RANGEX_KEY, RANGEX_TOKEN / RANGEX_TOKEN_FILE):
   feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]
-      stream line scans into rangexd (rate per lane; default as fast as the server takes them)
+      stream line scans into rangexd (rate per lane; default as fast as the server takes them);
+      [--window N] [--reconnect-for S] [--settle-for S]: at the end, waits until every lane's
+      outcomes are stored; exit 5: lines refused, 6: lanes not settled (their counts named)
   watch [--lane L] [--decision pass|reject|not_inspected] [--count N] [--seconds S]
       live fillet decisions
   status [--json]             statistics: lines/s, latencies, queue, drops by reason

@@ -12,17 +12,26 @@
 namespace rangex {
 
 namespace {
+std::string io_reason(int err) {
+  return err == ENOSPC ? std::string("disk full (") + std::strerror(err) + ")" : std::strerror(err);
+}
+// Written beside its place and renamed into it: a reader, or a store that lost power or
+// space halfway, sees the whole image or none.
 void write_png(const std::string& path, const uint8_t* rows, int width, int height, int depth,
                int color, size_t stride) {
-  FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) fail(path, ": cannot create (", std::strerror(errno), ")");
+  const std::string part = path + ".part";
+  FILE* f = std::fopen(part.c_str(), "wb");
+  if (!f) fail(path, ": cannot create (", io_reason(errno), ")");
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!png || !info || setjmp(png_jmpbuf(png))) {
+    const int err = errno;
     png_destroy_write_struct(&png, &info);
     std::fclose(f);
-    fail(path, ": PNG encoding failed");
+    std::remove(part.c_str());
+    fail(path, ": cannot write (", err ? io_reason(err) : std::string("PNG encoding failed"), ")");
   }
+  errno = 0;
   png_init_io(png, f);
   png_set_IHDR(png, info, width, height, depth, color, PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
@@ -33,7 +42,18 @@ void write_png(const std::string& path, const uint8_t* rows, int width, int heig
     png_write_row(png, const_cast<png_bytep>(rows + stride * size_t(y)));
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
-  if (std::fclose(f) != 0) fail(path, ": write failed");
+  const bool flushed = std::fflush(f) == 0 && !std::ferror(f);
+  const int err = errno;
+  if (std::fclose(f) != 0 || !flushed) {
+    const int e = err ? err : errno;
+    std::remove(part.c_str());
+    fail(path, ": cannot write (", io_reason(e), ")");
+  }
+  if (std::rename(part.c_str(), path.c_str()) != 0) {
+    const int e = errno;
+    std::remove(part.c_str());
+    fail(path, ": cannot rename into place (", io_reason(e), ")");
+  }
 }
 void append_to_string(png_structp png, png_bytep data, png_size_t n) {
   static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<char*>(data), n);

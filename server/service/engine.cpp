@@ -27,8 +27,12 @@ int64_t steady_ns() {
 int64_t seconds_ns(double s) {
   return int64_t(s * 1e9);
 }
-// Unsaved decisions kept while the store fails; beyond this the oldest is lost, loudly.
+// Unsaved decisions kept while the store fails; beyond this the oldest leaves memory, loudly
+// (its lines stay not durable: the feeders still hold them).
 constexpr size_t kMaxUnsaved = 4096;
+// After the store recovers, a lane whose lines were handed back refuses later counts this
+// long at most while it waits for the first handed-back count to come again.
+constexpr double kHandBackHoldS = 10;
 }  // namespace
 
 Engine::Lane::Lane(const LaneConfig& c, const EngineOptions& o, size_t slot)
@@ -133,7 +137,26 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
     // a restart is feeding the lane even while every line is a duplicate.
     l->last_line_ns = now;
     if (stopping_)
-      return refuse(l, Refusal::kShuttingDown, "the server is shutting down", queue_.size());
+      return refuse(l, Refusal::kShuttingDown,
+                    "the server is shutting down: line handed back, send it to the next one",
+                    queue_.size());
+    // While decisions cannot be stored, lines are handed back rather than accepted into
+    // memory that an exit would lose; the lane then takes its counts in order again.
+    if (line.encoder <= l->handback_from) l->handback_from = INT64_MAX;  // the resend is here
+    if (store_failing_) {
+      l->handback_from = std::min(l->handback_from, line.encoder);
+      l->handback_ns = now;
+      return refuse(l, Refusal::kStoreUnavailable,
+                    "the store cannot write: line handed back, send it again when the store "
+                    "recovers (health says why)",
+                    queue_.size());
+    }
+    if (l->handback_from != INT64_MAX && now - l->handback_ns < seconds_ns(kHandBackHoldS))
+      return refuse(l, Refusal::kStoreUnavailable,
+                    join("line handed back: lane ", l->id, " waits for count ", l->handback_from,
+                         ", handed back before it, to be sent again"),
+                    queue_.size());
+    l->handback_from = INT64_MAX;
     if (!line.calibration_id.empty() && line.calibration_id != l->admit_calibration)
       return refuse(l, Refusal::kCalibrationMismatch,
                     join("line made with calibration '", line.calibration_id, "' but lane ", l->id,
@@ -211,7 +234,22 @@ void Engine::worker() {
     if (!runner_->busy()) close_idle_lanes();
   }
   runner_->finish_all();
+  OpenFillets at_stop;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    at_stop = at_stop_;
+  }
   for (auto& l : lanes_) {
+    if (at_stop == OpenFillets::kHandBack) {
+      // Undecided, not durable: the feeders resend its lines to the next server, which
+      // decides it whole.
+      if (!l->proc->quiet())
+        std::fprintf(stderr,
+                     "rangexd: lane %d: the fillet coming in from count %lld is handed back "
+                     "undecided (its lines are not durable; feeders resend them)\n",
+                     l->id, (long long)l->proc->pending_from());
+      continue;
+    }
     try {
       l->proc->finish();
     } catch (const std::exception& e) {
@@ -341,6 +379,7 @@ void Engine::route(std::vector<Queued>& lines, const LineResults& r) {
       const bool blind = G > 0 && LaneProcessor::blind(&r.profile_valid[k * G], G);
       l.proc->push(&r.thickness[k * D], &r.thickness_valid[k * D], l.xray.data(), q.line.encoder,
                    blind);
+      l.last_pushed = q.line.encoder;
       ++done;
       ++l.processed;
     } catch (const std::exception& e) {
@@ -533,12 +572,14 @@ void Engine::on_fillet(const InspectJob& job, InspectedFillet&& f) {
   retry_unsaved();
   if (!unsaved_.empty() || !save(u)) {
     if (unsaved_.size() >= kMaxUnsaved) {
-      std::fprintf(
-          stderr,
-          "rangexd: the store has failed for %zu decisions; lost: lane %d fillet %lld (%s)\n",
-          unsaved_.size(), unsaved_.front().record.lane,
-          (long long)unsaved_.front().record.lane_fillet, unsaved_.front().record.decision.c_str());
-      fillet_stored(unsaved_.front().record.lane, unsaved_.front().record.first_encoder);
+      // Its lines stay not durable (still pending): the feeders resend them to a server that
+      // can store the decision.
+      std::fprintf(stderr,
+                   "rangexd: the store has failed for %zu decisions; no longer held: lane %d "
+                   "fillet %lld (%s), its lines are handed back\n",
+                   unsaved_.size(), unsaved_.front().record.lane,
+                   (long long)unsaved_.front().record.lane_fillet,
+                   unsaved_.front().record.decision.c_str());
       unsaved_.pop_front();
     }
     unsaved_.push_back(std::move(u));
@@ -567,22 +608,26 @@ void Engine::track_drift(Lane& l, const LearnedDetection& learned,
 bool Engine::save(Unsaved& u) {
   const int64_t t0 = steady_ns();
   StoredFillet& s = u.record;
-  try {
-    if (s.uid == 0) {
-      s.uid = store_.add_fillet(s);
-      fillet_stored(s.lane, s.first_encoder);
-    }
-  } catch (const std::exception& e) {
+  const FilletResult& r = u.fillet.result;
+  auto failed = [&](const std::string& what) {
     ++store_errors_;
+    store_failing_ = true;
     std::lock_guard<std::mutex> lock(health_mu_);
     if (store_error_.empty())
       std::fprintf(stderr, "rangexd: the store failed: %s; decisions wait until it recovers\n",
-                   e.what());
-    store_error_ = e.what();
+                   what.c_str());
+    store_error_ = what;
     return false;
+  };
+  try {
+    if (s.uid == 0) s.uid = store_.add_fillet(s);
+  } catch (const std::exception& e) {
+    return failed(e.what());
   }
-  const FilletResult& r = u.fillet.result;
-  if (opt_.images && r.decision != Decision::kPass && !u.fillet.image.mask.empty()) {
+  // The images are part of the decision: written whole (each renamed into place) and
+  // registered, or retried with it. The decision is durable and published after them.
+  if (opt_.images && !u.images_stored && r.decision != Decision::kPass &&
+      !u.fillet.image.mask.empty()) {
     try {
       const std::string dir = store_.image_dir(s.uid);
       write_fillet_images(dir, u.fillet.image, r);
@@ -591,12 +636,11 @@ bool Engine::save(Unsaved& u) {
         if (fs::exists(path)) store_.add_image(s.uid, kind, path);
       }
     } catch (const std::exception& e) {
-      // The record is kept; its images are not. Said, counted, not retried.
-      ++store_errors_;
-      std::fprintf(stderr, "rangexd: images of fillet %lld not stored: %s\n", (long long)s.uid,
-                   e.what());
+      return failed("images of fillet " + std::to_string(s.uid) + ": " + e.what());
     }
   }
+  u.images_stored = true;
+  fillet_stored(s.lane, s.first_encoder);
   const int64_t t1 = steady_ns();
   store_time_.add((t1 - t0) / 1e6);
   if (u.last_arrival_ns) decision_.add((t1 - u.last_arrival_ns) / 1e6);
@@ -608,15 +652,17 @@ void Engine::retry_unsaved() {
   while (!unsaved_.empty() && save(unsaved_.front())) unsaved_.pop_front();
   std::lock_guard<std::mutex> lock(health_mu_);
   unsaved_count_ = unsaved_.size();
+  if (unsaved_.empty()) store_failing_ = false;
   if (unsaved_.empty() && !store_error_.empty()) {
     std::fprintf(stderr, "rangexd: the store recovered\n");
     store_error_.clear();
   }
 }
 
-bool Engine::drain_and_stop(double timeout_s) {
+bool Engine::drain_and_stop(double timeout_s, OpenFillets open) {
   {
     std::lock_guard<std::mutex> lock(mu_);
+    if (!stopping_) at_stop_ = open;
     stopping_ = true;
     paused_ = false;
   }

@@ -84,6 +84,19 @@ struct EngineStats {
   StageRunnerStats batches;           // batches, verified on the CPU, mismatches, failures
 };
 
+// What a stop does with the fillets still coming in: the end of a recording closes them (one
+// cut off is not inspected); a server that another will follow hands them back undecided,
+// their lines not durable, so that the feeders resend them to the next server.
+enum class OpenFillets { kClose, kHandBack };
+
+// How far a lane's lines are safe (StreamLinesResponse.lanes).
+struct LaneProgress {
+  int lane = 0;
+  int64_t durable =
+      INT64_MIN;  // a feeder may forget the lines up to it (a restart resumes after it)
+  int64_t settled = INT64_MIN;  // the outcomes of the lines up to it are in the store
+};
+
 struct LaneState {
   LaneConfig config;  // with a pending change, what it will be
   std::string calibration_id;
@@ -125,9 +138,12 @@ class Engine {
   Verdict refuse_empty(uint64_t sequence);
   // Places free in the queue now.
   int free_places() const;
-  // Graceful stop: refuse new lines, process every queued one, close open fillets. False
-  // when the worker could not finish within `timeout_s` (< 0: wait as long as it takes).
-  bool drain_and_stop(double timeout_s = -1);
+  // Graceful stop: refuse new lines (handed back), process every queued one, then close the
+  // open fillets or hand them back. False when the worker could not finish within
+  // `timeout_s` (< 0: wait as long as it takes).
+  bool drain_and_stop(double timeout_s = -1, OpenFillets open = OpenFillets::kClose);
+  // Every fed lane's durable and settled counts.
+  std::vector<LaneProgress> progress();
   // Holds the worker (tests use it to fill the queue and see overload handled).
   void pause(bool paused);
 
@@ -191,6 +207,11 @@ class Engine {
     std::string admit_calibration;  // lines naming another calibration are refused
     uint64_t accepted = 0;
     int64_t last_line_ns = 0;  // the last line received for the lane, accepted or refused
+    // Lines handed back while the store could not write: later counts are refused the same
+    // way until this one comes again (or for kHandBackHoldS after the last such refusal),
+    // so that the resent lines still enter in count order.
+    int64_t handback_from = INT64_MAX;
+    int64_t handback_ns = 0;
     // Control (ctl_mu_):
     LaneConfig config;
     std::string calibration_id;
@@ -228,6 +249,10 @@ class Engine {
     std::mutex pending_mu;
     std::multimap<int64_t, int64_t> pending_fillets;  // first count -> its durable bound
     std::atomic<int64_t> durable_saved{INT64_MIN};
+    // The same without the lines kept for a rebuild: outcomes stored up to it (worker; less
+    // the fillets pending in pending_fillets when read).
+    std::atomic<int64_t> assembly_settled{INT64_MIN};
+    int64_t last_pushed = INT64_MIN;  // worker: the last count given to the assembly
     // Worker: after a restart of the server, fillets starting at or before this count were
     // decided before it (their lines come again from the resuming feeder): not again.
     int64_t decided_until = INT64_MIN;
@@ -245,6 +270,7 @@ class Engine {
     StoredFillet record;
     InspectedFillet fillet;
     int64_t last_arrival_ns;
+    bool images_stored = false;  // written and registered (retried with the record)
   };
 
   Verdict refuse(Lane* l, Refusal code, std::string message, size_t queued);  // l: when known
@@ -294,6 +320,8 @@ class Engine {
   std::condition_variable cv_;
   LaneQueues queue_;
   bool stopping_ = false, paused_ = false;
+  OpenFillets at_stop_ = OpenFillets::kClose;  // mu_; read by the worker once it stops
+  std::atomic<bool> store_failing_{false};     // decisions cannot be stored: hand lines back
   std::atomic<size_t> queued_{0};
   std::atomic<bool> stopping_flag_{false};
 

@@ -37,6 +37,26 @@ void Engine::resume_from_store() {
 void Engine::note_assembly(Lane& l) {
   const int64_t from = l.proc->pending_from();
   l.assembly_durable = from == INT64_MIN ? INT64_MIN : from - durable_margin(l);
+  // A restarted assembly holds nothing: everything given to it is settled.
+  l.assembly_settled = from == INT64_MIN ? l.last_pushed : from - 1;
+}
+
+std::vector<LaneProgress> Engine::progress() {
+  std::vector<LaneProgress> out;
+  for (auto& lp : lanes_) {
+    Lane& l = *lp;
+    LaneProgress p;
+    p.lane = l.id;
+    p.durable = l.durable_saved;
+    int64_t s = l.assembly_settled;
+    if (s != INT64_MIN) {
+      std::lock_guard<std::mutex> lock(l.pending_mu);
+      for (const auto& [first, bound] : l.pending_fillets) s = std::min(s, first - 1);
+    }
+    p.settled = s;
+    if (p.durable != INT64_MIN || p.settled != INT64_MIN) out.push_back(p);
+  }
+  return out;
 }
 
 bool Engine::fillet_cut(Lane& l, const FilletImage& img) {

@@ -18,7 +18,8 @@ enum class Refusal {
   kDuplicateLine,     // this count of this lane was already accepted
   kEncoderBackwards,  // behind the lane's latest, never accepted: its slot is already missing
   kOverload,          // the queue is full
-  kShuttingDown,
+  kShuttingDown,      // handed back: resend it to the next server
+  kStoreUnavailable,  // handed back: the store cannot write; resend it when it recovers
   kCount
 };
 
@@ -41,8 +42,14 @@ constexpr std::string_view refusal_name(Refusal r) {
                                                              "DUPLICATE_LINE",
                                                              "ENCODER_BACKWARDS",
                                                              "OVERLOAD",
-                                                             "SHUTTING_DOWN"};
+                                                             "SHUTTING_DOWN",
+                                                             "STORE_UNAVAILABLE"};
   return names[size_t(r)];
+}
+
+// A line refused with one of these was not lost: the sender keeps it and sends it again.
+constexpr bool handed_back(Refusal r) {
+  return r == Refusal::kShuttingDown || r == Refusal::kStoreUnavailable;
 }
 
 constexpr std::string_view drop_name(DropReason d) {

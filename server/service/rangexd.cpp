@@ -114,7 +114,11 @@ int main(int argc, char** argv) {
     opt.on_fatal = [](const rangex::Health& h) {
       for (const std::string& r : h.reasons)
         std::fprintf(stderr, "rangexd: cannot inspect: %s\n", r.c_str());
-      std::fprintf(stderr, "rangexd: not serving for longer than exit_after_s; exiting\n");
+      // Nothing accepted is lost by exiting: no durable count has passed a decision the
+      // store did not take, so the feeders still hold those lines and resend them.
+      std::fprintf(stderr,
+                   "rangexd: not serving for longer than exit_after_s; exiting (the lines not "
+                   "yet durable are handed back: feeders resend them to the next server)\n");
       std::fflush(stderr);
       std::_Exit(3);  // nothing can be drained through a stalled worker
     };
@@ -151,11 +155,15 @@ int main(int argc, char** argv) {
                   web->tls() ? "https" : "http", web->address().c_str());
     std::fflush(stdout);
     while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    std::printf("rangexd: stopping: draining queued lines and closing open fillets\n");
+    std::printf(
+        "rangexd: stopping: deciding the queued lines; new lines and the fillets still coming "
+        "in are handed back to the feeders\n");
     std::fflush(stdout);
-    if (!server.shutdown()) {
+    if (!server.shutdown(rangex::OpenFillets::kHandBack)) {
       print_stats(server);
-      std::fprintf(stderr, "rangexd: could not drain within %.0f s; the queued lines are lost\n",
+      std::fprintf(stderr,
+                   "rangexd: could not drain within %.0f s; the lines not decided are not "
+                   "durable: feeders resend them to the next server\n",
                    opt.engine.drain_timeout_s);
       std::fflush(stderr);
       std::_Exit(3);

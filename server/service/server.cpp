@@ -485,7 +485,7 @@ void RangexServer::retention() {
                             [&] { return wd_stop_; }));
 }
 
-bool RangexServer::shutdown() {
+bool RangexServer::shutdown(OpenFillets open) {
   if (down_) return true;
   down_ = true;
   {
@@ -499,7 +499,7 @@ bool RangexServer::shutdown() {
   stopping.serving = false;
   set_health(stopping);
   // Every accepted line decided and stored; lines arriving meanwhile are refused in-band.
-  const bool drained = engine_->drain_and_stop(opt_.engine.drain_timeout_s);
+  const bool drained = engine_->drain_and_stop(opt_.engine.drain_timeout_s, open);
   hub_->close_all();  // subscribers get what is queued for them, then their streams end
   server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   store_->audit("rangexd", "server.stop", drained ? "drained" : "drain timed out");

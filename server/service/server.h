@@ -49,9 +49,11 @@ class RangexServer {
   ~RangexServer();
   int port() const { return port_; }
   std::string address() const;
-  // Graceful: stops taking lines, drains and decides everything queued, flushes the store.
-  // False when the queue could not be drained within the engine's drain_timeout_s.
-  bool shutdown();
+  // Graceful: stops taking lines (handed back), drains and decides everything queued,
+  // flushes the store, and closes the fillets still coming in (the end of a recording) or
+  // hands them back undecided (rangexd's stop: the feeders resend their lines to the next
+  // server). False when the queue could not be drained within the engine's drain_timeout_s.
+  bool shutdown(OpenFillets open = OpenFillets::kClose);
   void wait();
   Engine& engine() { return *engine_; }
   Store& store() { return *store_; }

@@ -164,6 +164,12 @@ class IngestStream final
     if (!req.has_line() && req.credit_query()) {
       v.credit = engine_.free_places();  // a question, not a line: nothing is counted
       resp.set_credit(credit(v));
+      for (const LaneProgress& p : engine_.progress()) {
+        pb::LaneProgress* out = resp.add_lanes();
+        out->set_lane(p.lane);
+        if (p.durable != INT64_MIN) out->set_durable_encoder(p.durable);
+        if (p.settled != INT64_MIN) out->set_settled_encoder(p.settled);
+      }
       return resp;
     }
     if (!req.has_line()) {

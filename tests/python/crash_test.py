@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
-"""Crash consistency: rangexd killed with SIGKILL at random moments while a simulated plant
-streams into it, restarted each time on the same store and port.
+"""Crash and stop consistency: rangexd killed with SIGKILL (or stopped with SIGTERM) at random
+moments while a simulated plant streams into it, restarted each time on the same store and
+port. A stop refuses new lines and hands them back with the fillets still coming in; the
+feeder sends them to the next server, so a stop, like a crash, loses nothing.
 
-First a reference run with no kill, on a store of its own. Then the crash run: a calibration
+First a reference run with no kill, on a store of its own. Then, for each seed, a crash run: a calibration
 is activated on lane 1, the feeder (`rangexctl feed`, which reconnects and resends what the
 server has not made durable) streams the same plant, a subscriber (`rangexctl watch`,
 restarted with the server) records every decision it is sent, and rangexd is killed KILLS
@@ -19,7 +21,7 @@ Checks:
 
 Every wait is bounded.
 
-usage: crash_test.py RANGEXD RANGEXCTL [KILLS] [SEED]
+usage: crash_test.py RANGEXD RANGEXCTL [KILLS] [SEED[,SEED...]] [KILL|TERM]
 """
 import os
 import random
@@ -37,9 +39,11 @@ from checks import check, fail
 
 rangexd, rangexctl = sys.argv[1:3]
 kills = int(sys.argv[3]) if len(sys.argv) > 3 else 3
-seed = int(sys.argv[4]) if len(sys.argv) > 4 else 14
-signal.alarm(420)  # the whole test, whatever hangs
-rng = random.Random(seed)
+seeds = [int(x) for x in sys.argv[4].split(",")] if len(sys.argv) > 4 else [14]
+how = sys.argv[5] if len(sys.argv) > 5 else "KILL"
+if how not in ("KILL", "TERM"):
+    fail("the last argument is KILL or TERM (got %s)" % how)
+signal.alarm(150 + 200 * len(seeds))  # the whole test, whatever hangs
 tmp = tempfile.mkdtemp(prefix="rangex-crash-")
 FEED = ["--simulate", "--lanes", "2", "--fillets", "8", "--seed", "5"]
 
@@ -71,6 +75,15 @@ class Server:
     def kill(self):
         self.proc.send_signal(signal.SIGKILL)
         self.proc.wait(timeout=30)
+
+    def interrupt(self):
+        """SIGKILL or SIGTERM, as the test was asked; a stop must end cleanly."""
+        if how == "KILL":
+            return self.kill()
+        self.proc.send_signal(signal.SIGTERM)
+        rc = self.proc.wait(timeout=90)
+        if rc != 0:
+            fail("rangexd stopped with %d (see %s)" % (rc, os.path.join(tmp, "rangexd.log")))
 
     def stop(self):
         self.proc.send_signal(signal.SIGTERM)
@@ -115,102 +128,110 @@ ref.stop()
 reference = fillets(ref.data)
 check(len(reference) >= 8, "the reference run decided %d fillets" % len(reference))
 
-# --- the crash run ---------------------------------------------------------------------------
-server = Server(os.path.join(tmp, "crash"), free_port())
-server.start()
-cal = os.path.join(tmp, "crash-cal.yaml")
-with open(cal, "w") as f:  # the shipped geometry under a new id: decisions comparable
-    f.write("laser_plane: {normal: [0, 1, 0], offset_mm: 0.0}\n")
-ctl("calib", "upload", "--server", server.addr, "--lane", "1", "--id", "crash-cal", "--file", cal)
-ctl("calib", "activate", "--server", server.addr, "--lane", "1", "--id", "crash-cal", "--force")
-
-seen, stop_watching = [], threading.Event()
-
-
-def watch():
-    while not stop_watching.is_set():
-        p = subprocess.Popen([rangexctl, "watch", "--server", server.addr], stdout=subprocess.PIPE,
-                             stderr=subprocess.DEVNULL, text=True)
-        for line in p.stdout:
-            m = re.match(r"lane (\d+) fillet (\d+)\s+uid (\d+)\s+(PASS|REJECT|NOT INSPECTED)", line)
-            if m:
-                seen.append((int(m.group(3)), int(m.group(1)), m.group(4)))
-            if stop_watching.is_set():
-                break
-        p.kill()
-        p.wait()
-        time.sleep(0.05)
-
-
-watcher = threading.Thread(target=watch, daemon=True)
-watcher.start()
-# Paced (about 13 s of lines), so that the kills fall mid-stream on a fast machine too.
-feeder = subprocess.Popen([rangexctl, "feed", "--server", server.addr, "--reconnect-for", "90",
-                           "--rate", "300"] + FEED,
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-# The kills start once lines are flowing (the feeder renders its plant first).
-end = time.time() + 60
-while time.time() < end:
-    m = re.search(r"lines: (\d+) received", ctl("status", "--server", server.addr).stdout)
-    if m and int(m.group(1)) > 0:
-        break
-    time.sleep(0.1)
-else:
-    fail("no line reached rangexd within 60 s")
-done_kills = 0
-for k in range(kills):
-    time.sleep(rng.uniform(0.8, 2.5))
-    if feeder.poll() is not None:
-        break
-    server.kill()
-    done_kills += 1
-    print("killed rangexd (%d) after %d decisions seen" % (done_kills, len(seen)), flush=True)
-    time.sleep(rng.uniform(0.0, 0.5))
+# --- the crash runs --------------------------------------------------------------------------
+def crash_run(seed):
+    rng = random.Random(seed)
+    server = Server(os.path.join(tmp, "crash-%d" % seed), free_port())
     server.start()
-try:
-    feed_out, feed_err = feeder.communicate(timeout=240)
-except subprocess.TimeoutExpired:
-    feeder.kill()
-    fail("the feeder did not finish within 240 s")
-check(done_kills >= 2, "rangexd was killed %d times while the plant streamed" % done_kills)
-check(feeder.returncode == 0 and " 0 refused" in feed_out,
-      "the feeder delivered every line through the kills (%s)" % feed_out.strip().replace("\n", "; "))
-m = re.search(r"(\d+) reconnects, (\d+) lines resent \((\d+) the server already had\)", feed_out)
-# Lines the server had made durable after the last acknowledgement the feeder read are
-# answered DUPLICATE (the no-second-decision checks below cover them); the rest it rebuilds.
-check(m and int(m.group(1)) >= 1,
-      "the feeder reconnected after the kills and resent what was not durable (%s)"
-      % (m.group(0) if m else feed_out))
-settle(server)
-time.sleep(0.5)
-stop_watching.set()
-server.stop()
-watcher.join(timeout=10)
+    cal = os.path.join(tmp, "crash-cal.yaml")
+    with open(cal, "w") as f:  # the shipped geometry under a new id: decisions comparable
+        f.write("laser_plane: {normal: [0, 1, 0], offset_mm: 0.0}\n")
+    ctl("calib", "upload", "--server", server.addr, "--lane", "1", "--id", "crash-cal", "--file", cal)
+    ctl("calib", "activate", "--server", server.addr, "--lane", "1", "--id", "crash-cal", "--force")
 
-stored = fillets(server.data)
-by_uid = {f[0]: f for f in stored}
-missing = [s for s in seen if s[0] not in by_uid]
-check(len(seen) > 0 and not missing, "every one of the %d decisions subscribers saw is in the store"
-      " (missing: %s)" % (len(seen), missing[:5]))
-names = {"PASS": "pass", "REJECT": "reject", "NOT INSPECTED": "not_inspected"}
-changed = [s for s in seen if by_uid[s[0]][1] != s[1] or by_uid[s[0]][4] != names[s[2]]]
-check(not changed, "each as it was sent (%s)" % changed[:5])
-r = ctl("audit", "verify", "--data", server.data, check=False)
-check(r.returncode == 0, "the record chain verifies (%s)" % r.stdout.strip())
-db = sqlite3.connect(os.path.join(server.data, "rangex.sqlite"))
-active = db.execute("SELECT lane, id FROM calibrations WHERE active = 1").fetchall()
-check(active == [(1, "crash-cal")], "the active calibration is the one activated (%s)" % active)
-overlaps = []
-for lane in (0, 1):
-    spans = sorted((f[2], f[2] + f[3] - 1) for f in stored if f[1] == lane)
-    overlaps += [(lane, a, b) for a, b in zip(spans, spans[1:]) if b[0] <= a[1]]
-check(not overlaps, "no fillet was decided twice (%s)" % overlaps[:5])
-want = sorted((f[1], f[2], f[3], f[4]) for f in reference)
-got = sorted((f[1], f[2], f[3], f[4]) for f in stored)
-lost = [f for f in want if f not in got]
-extra = [f for f in got if f not in want]
-check(not lost and not extra,
-      "the store holds the reference run's %d fillets with their decisions (lost %s, other %s)"
-      % (len(want), lost[:4], extra[:4]))
-print("crash_test: all checks passed (seed %d, %d kills, %d decisions seen)"
-      % (seed, done_kills, len(seen)))
+    seen, stop_watching = [], threading.Event()
+
+    def watch():
+        while not stop_watching.is_set():
+            p = subprocess.Popen([rangexctl, "watch", "--server", server.addr], stdout=subprocess.PIPE,
+                                 stderr=subprocess.DEVNULL, text=True)
+            for line in p.stdout:
+                m = re.match(r"lane (\d+) fillet (\d+)\s+uid (\d+)\s+(PASS|REJECT|NOT INSPECTED)", line)
+                if m:
+                    seen.append((int(m.group(3)), int(m.group(1)), m.group(4)))
+                if stop_watching.is_set():
+                    break
+            p.kill()
+            p.wait()
+            time.sleep(0.05)
+
+    watcher = threading.Thread(target=watch, daemon=True)
+    watcher.start()
+    # Paced (about 13 s of lines), so that the kills fall mid-stream on a fast machine too.
+    feeder = subprocess.Popen([rangexctl, "feed", "--server", server.addr, "--reconnect-for", "90",
+                               "--rate", "300"] + FEED,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # The kills start once lines are flowing (the feeder renders its plant first).
+    end = time.time() + 60
+    while time.time() < end:
+        m = re.search(r"lines: (\d+) received", ctl("status", "--server", server.addr).stdout)
+        if m and int(m.group(1)) > 0:
+            break
+        time.sleep(0.1)
+    else:
+        fail("no line reached rangexd within 60 s")
+    done_kills = 0
+    for k in range(kills):
+        time.sleep(rng.uniform(0.8, 2.5))
+        if feeder.poll() is not None:
+            break
+        server.interrupt()
+        done_kills += 1
+        print("%s rangexd (%d) after %d decisions seen"
+              % ("killed" if how == "KILL" else "stopped", done_kills, len(seen)), flush=True)
+        time.sleep(rng.uniform(0.0, 0.5))
+        server.start()
+    try:
+        feed_out, feed_err = feeder.communicate(timeout=240)
+    except subprocess.TimeoutExpired:
+        feeder.kill()
+        fail("the feeder did not finish within 240 s")
+    check(done_kills >= 2, "rangexd was %s %d times while the plant streamed"
+          % ("killed" if how == "KILL" else "stopped", done_kills))
+    handed = re.search(r"(\d+) refusals handed lines back", feed_out)
+    print("the feeder had %s lines handed back" % (handed.group(1) if handed else "no"))
+    check(feeder.returncode == 0 and " 0 refused" in feed_out,
+          "the feeder delivered every line through the kills (%s)" % feed_out.strip().replace("\n", "; "))
+    m = re.search(r"(\d+) reconnects, (\d+) lines resent \((\d+) the server already had\)", feed_out)
+    # Lines the server had made durable after the last acknowledgement the feeder read are
+    # answered DUPLICATE (the no-second-decision checks below cover them); the rest it rebuilds.
+    check(m and int(m.group(1)) >= 1,
+          "the feeder reconnected after the kills and resent what was not durable (%s)"
+          % (m.group(0) if m else feed_out))
+    settle(server)
+    time.sleep(0.5)
+    stop_watching.set()
+    server.stop()
+    watcher.join(timeout=10)
+
+    stored = fillets(server.data)
+    by_uid = {f[0]: f for f in stored}
+    missing = [s for s in seen if s[0] not in by_uid]
+    check(len(seen) > 0 and not missing, "every one of the %d decisions subscribers saw is in the store"
+          " (missing: %s)" % (len(seen), missing[:5]))
+    names = {"PASS": "pass", "REJECT": "reject", "NOT INSPECTED": "not_inspected"}
+    changed = [s for s in seen if by_uid[s[0]][1] != s[1] or by_uid[s[0]][4] != names[s[2]]]
+    check(not changed, "each as it was sent (%s)" % changed[:5])
+    r = ctl("audit", "verify", "--data", server.data, check=False)
+    check(r.returncode == 0, "the record chain verifies (%s)" % r.stdout.strip())
+    db = sqlite3.connect(os.path.join(server.data, "rangex.sqlite"))
+    active = db.execute("SELECT lane, id FROM calibrations WHERE active = 1").fetchall()
+    check(active == [(1, "crash-cal")], "the active calibration is the one activated (%s)" % active)
+    overlaps = []
+    for lane in (0, 1):
+        spans = sorted((f[2], f[2] + f[3] - 1) for f in stored if f[1] == lane)
+        overlaps += [(lane, a, b) for a, b in zip(spans, spans[1:]) if b[0] <= a[1]]
+    check(not overlaps, "no fillet was decided twice (%s)" % overlaps[:5])
+    want = sorted((f[1], f[2], f[3], f[4]) for f in reference)
+    got = sorted((f[1], f[2], f[3], f[4]) for f in stored)
+    lost = [f for f in want if f not in got]
+    extra = [f for f in got if f not in want]
+    check(not lost and not extra,
+          "the store holds the reference run's %d fillets with their decisions (lost %s, other %s)"
+          % (len(want), lost[:4], extra[:4]))
+    print("crash_test: all checks passed (seed %d, %d %s, %d decisions seen)"
+          % (seed, done_kills, "kills" if how == "KILL" else "stops", len(seen)), flush=True)
+
+
+for seed in seeds:
+    crash_run(seed)

@@ -213,8 +213,8 @@ class Stream:
         return self.acks
 
 
-def start_server(rangexd, config, data, log):
-    proc = subprocess.Popen([rangexd, "--config", config, "--listen", "127.0.0.1:0", "--http",
+def start_server(rangexd, config, data, log, listen="127.0.0.1:0"):
+    proc = subprocess.Popen([rangexd, "--config", config, "--listen", listen, "--http",
                              "127.0.0.1:0", "--data",
                              data], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     start = time.time()
@@ -273,21 +273,41 @@ def supervised(rangexd, rangexctl, config, tmp):
     proc, addr = start_server(rangexd, strict, data, log)
     db = sqlite3.connect(os.path.join(data, "rangex.sqlite"), isolation_level=None, timeout=10)
     db.execute("BEGIN EXCLUSIVE")  # a backup holding the database
-    feed = subprocess.run([rangexctl, "feed", "--config", strict, "--server", addr, "--simulate",
-                           "--lanes", "1", "--fillets", "1", "--seed", "3"],
-                          capture_output=True, text=True, timeout=120)
-    check(feed.returncode == 0, "the feed was accepted while the store is held")
+    feeder = subprocess.Popen([rangexctl, "feed", "--config", strict, "--server", addr,
+                               "--simulate", "--lanes", "1", "--fillets", "1", "--seed", "3",
+                               "--settle-for", "150"],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         rc = proc.wait(60)
     except subprocess.TimeoutExpired:
         proc.kill()
+        feeder.kill()
         print("".join(log[-20:]))
         fail("rangexd kept running for 60 s without being able to store decisions")
-    db.execute("ROLLBACK")
-    db.close()
     text = "".join(log)
     check(rc == 3 and "store failed" in text,
           "rangexd exits 3 when it cannot store decisions for exit_after_s (exit %d)" % rc)
+    # Nothing it accepted was durable: the feeder still holds every line and waits for a
+    # server that can keep them.
+    check(feeder.poll() is None, "the feeder waits for a server that can store its lines")
+    db.execute("ROLLBACK")
+    db.close()
+    log2 = []
+    proc, _ = start_server(rangexd, strict, data, log2, listen=addr)
+    try:
+        out, err = feeder.communicate(timeout=180)
+    except subprocess.TimeoutExpired:
+        feeder.kill()
+        proc.kill()
+        fail("the feeder did not finish within 180 s of the restart")
+    check(feeder.returncode == 0 and "every lane settled" in out,
+          "after the restart the feeder delivers every line and every outcome is stored (exit %d:"
+          " %s %s)" % (feeder.returncode, out.strip().replace("\n", "; "), err.strip()[-300:]))
+    rows = sqlite3.connect(os.path.join(data, "rangex.sqlite")).execute(
+        "SELECT lane, decision FROM fillets").fetchall()
+    check(len(rows) == 1 and rows[0][1] in ("pass", "reject"),
+          "the fillet fed while the store was held is decided and stored once (%s)" % rows)
+    stop(proc)
 
 
 def scenario(addr):
