@@ -1,9 +1,12 @@
 #include "service/http_server.h"
 
 #include <httplib.h>
+#include <linux/sockios.h>
 #include <openssl/err.h>
 #include <openssl/ssl.h>
 #include <openssl/x509.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
 
 #include <chrono>
 #include <condition_variable>
@@ -17,6 +20,7 @@
 #include "core/error.h"
 #include "pipeline/product_drift.h"
 #include "service/fillet_csv.h"
+#include "service/gated_http_server.h"
 #include "service/http_params.h"
 #include "service/image_view.h"
 #include "service/metrics_text.h"
@@ -148,13 +152,19 @@ void send_json(httplib::Response& res, const json& j) {
   res.set_content(j.dump(), "application/json");
 }
 
-// One live event stream: a hub subscription whose wake() rings this bell.
-struct EventClient {
-  std::mutex mu;
-  std::condition_variable cv;
-  bool rung = false;
-  std::shared_ptr<ResultsHub::Subscription> sub;
-};
+// Event streams beat every half second with a padded comment, so that a client that stops
+// reading fills its socket's buffers within seconds (8 kB/s per dashboard) and shows as
+// behind: the kernel would otherwise take a quiet line's few bytes for ever.
+constexpr auto kBeatPeriod = std::chrono::milliseconds(500);
+constexpr size_t kBeatBytes = 4096;
+// An event stream's own send buffer: what it may hold unread on our side.
+constexpr int kEventSendBuffer = 16 * 1024;
+
+// Bytes sent on a connection and not yet taken by its client.
+int unread_bytes(int fd) {
+  int queued = 0;
+  return fd >= 0 && ::ioctl(fd, SIOCOUTQ, &queued) == 0 ? queued : 0;
+}
 
 // The server's certificate and key; with a client CA, client certificates are asked for and
 // verified when presented (a browser without one logs in with a token instead).
@@ -194,6 +204,16 @@ std::string peer_common_name(const httplib::Request& req) {
 
 }  // namespace
 
+// One live event stream: a hub subscription whose wake() rings this bell.
+struct EventClient {
+  std::mutex mu;
+  std::condition_variable cv;
+  bool rung = false;
+  std::shared_ptr<ResultsHub::Subscription> sub;
+  int fd = -1;  // the connection (plain HTTP; -1 over TLS)
+  std::atomic<bool> evicted{false};
+};
+
 HttpServer::HttpServer(Engine& engine, Store& store, ResultsHub& hub, HttpOptions opt)
     : engine_(engine), store_(store), hub_(hub), opt_(std::move(opt)), access_(opt_.security) {
   check_listen_security(opt_.listen, opt_.security, "the dashboard");
@@ -214,13 +234,18 @@ HttpServer::HttpServer(Engine& engine, Store& store, ResultsHub& hub, HttpOption
         [&](SSL_CTX& ctx) { return setup_tls(ctx, opt_.security, why); });
     if (!ssl->is_valid()) fail("plant.http: TLS: ", why.empty() ? "cannot set up" : why);
     http_ = std::move(ssl);
+    // Event streams hold a thread each while open: the pool has room for all of them and
+    // for the ordinary requests beside them. (Over TLS a slow client still holds a thread
+    // while its head comes, up to the read timeout; the gate serves plain HTTP.)
+    const size_t threads = size_t(opt_.max_event_streams) + 8;
+    http_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   } else {
-    http_ = std::make_unique<httplib::Server>();
+    GateOptions g;
+    g.workers = opt_.max_event_streams + 8;
+    auto gated = std::make_unique<GatedHttpServer>(g);
+    gate_ = &gated->gate();
+    http_ = std::move(gated);
   }
-  // Event streams hold a thread each while open: the pool has room for all of them and for
-  // the ordinary requests beside them.
-  const size_t threads = size_t(opt_.max_event_streams) + 8;
-  http_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   http_->set_read_timeout(10, 0);
   http_->set_write_timeout(10, 0);
   authorise(*http_);
@@ -249,6 +274,7 @@ std::string HttpServer::address() const {
 void HttpServer::stop() {
   if (stopping_.exchange(true)) return;
   http_->stop();
+  if (gate_) gate_->stop();
   if (listener_.joinable()) listener_.join();
   if (sampler_.joinable()) sampler_.join();
 }
@@ -470,19 +496,42 @@ void HttpServer::routes() {
   s.Get("/api/events", [this](const httplib::Request& req, httplib::Response& res) {
     const std::set<std::string> decisions = decision_set(req.params, "decisions");
     const std::set<int> lanes = int_set(req.params, "lanes");
-    if (++event_streams_ > opt_.max_event_streams) {
-      --event_streams_;
-      res.status = 503;
-      // The client closes the connection: kept alive, each refusal held one of the few
-      // threads for the keep-alive timeout (168 of them once blocked /api/statistics).
-      res.set_header("Connection", "close");
-      res.set_content(
-          json{{"error", "too many event streams (" + std::to_string(opt_.max_event_streams) + ")"}}
-              .dump(),
-          "application/json");
-      return;
-    }
     auto client = std::make_shared<EventClient>();
+    client->fd = GatedHttpServer::current_fd();
+    {
+      std::lock_guard<std::mutex> lock(events_mu_);
+      if (int(event_clients_.size()) >= opt_.max_event_streams) {
+        // Full: the stream furthest behind gives way, if one is behind at all (a client
+        // that stopped reading); streams that keep up are never cut for a newcomer.
+        auto behind = event_clients_.end();
+        int most = 0;
+        for (auto it = event_clients_.begin(); it != event_clients_.end(); ++it)
+          if (const int q = unread_bytes((*it)->fd); q > most) most = q, behind = it;
+        if (behind == event_clients_.end()) {
+          res.status = 503;
+          // The client closes the connection: kept alive, each refusal held one of the few
+          // threads for the keep-alive timeout (168 of them once blocked /api/statistics).
+          res.set_header("Connection", "close");
+          res.set_content(json{{"error", "too many event streams (" +
+                                             std::to_string(opt_.max_event_streams) + ")"}}
+                              .dump(),
+                          "application/json");
+          return;
+        }
+        (*behind)->evicted = true;
+        {
+          std::lock_guard<std::mutex> ring((*behind)->mu);
+          (*behind)->rung = true;
+        }
+        (*behind)->cv.notify_all();
+        event_clients_.erase(behind);
+        ++events_dropped_;
+      }
+      event_clients_.push_back(client);
+      event_streams_ = int(event_clients_.size());
+    }
+    if (client->fd >= 0)
+      ::setsockopt(client->fd, SOL_SOCKET, SO_SNDBUF, &kEventSendBuffer, sizeof kEventSendBuffer);
     std::weak_ptr<EventClient> weak = client;
     client->sub = hub_.subscribe(lanes, decisions, 256, [weak] {
       if (auto c = weak.lock()) {
@@ -502,7 +551,7 @@ void HttpServer::routes() {
             client->cv.wait_for(lock, std::chrono::milliseconds(500), [&] { return client->rung; });
             client->rung = false;
           }
-          if (stopping_ || !sink.is_writable()) return false;
+          if (stopping_ || client->evicted || !sink.is_writable()) return false;
           StoredFillet f;
           uint64_t lagged = 0;
           std::string out;
@@ -519,8 +568,8 @@ void HttpServer::routes() {
             return true;
           }
           const auto now = std::chrono::steady_clock::now();
-          if (out.empty() && now - last_beat > std::chrono::seconds(10))
-            out = ": keep-alive\n\n";  // a comment: proxies and the client see it alive
+          if (out.empty() && now - last_beat > kBeatPeriod)
+            out = ": " + std::string(kBeatBytes, ' ') + "\n\n";  // a comment: not an event
           if (!out.empty()) {
             last_beat = now;
             if (!sink.write(out.data(), out.size())) return false;
@@ -529,7 +578,10 @@ void HttpServer::routes() {
         },
         [this, client](bool) {
           hub_.unsubscribe(client->sub);
-          --event_streams_;
+          std::lock_guard<std::mutex> lock(events_mu_);
+          const auto it = std::find(event_clients_.begin(), event_clients_.end(), client);
+          if (it != event_clients_.end()) event_clients_.erase(it);
+          event_streams_ = int(event_clients_.size());
         });
   });
 }

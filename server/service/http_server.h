@@ -22,8 +22,10 @@
 #include <atomic>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "service/access_control.h"
 #include "service/engine.h"
@@ -36,6 +38,9 @@ struct Response;
 }  // namespace httplib
 
 namespace rangex {
+
+class HttpGate;
+struct EventClient;
 
 struct HttpOptions {
   std::string listen = "127.0.0.1:8080";  // host:port; port 0 picks a free one
@@ -61,6 +66,8 @@ class HttpServer {
   // Ends every event stream and stops serving (before the engine's drain).
   void stop();
   int event_streams() const { return event_streams_; }
+  // Event streams closed because they fell behind while another client asked for one.
+  uint64_t event_streams_dropped() const { return events_dropped_; }
 
  private:
   void routes();
@@ -83,6 +90,10 @@ class HttpServer {
   std::thread listener_, sampler_;
   std::atomic<bool> stopping_{false};
   std::atomic<int> event_streams_{0};
+  HttpGate* gate_ = nullptr;  // plain HTTP: the gate in front of http_
+  std::mutex events_mu_;
+  std::vector<std::shared_ptr<EventClient>> event_clients_;  // oldest first
+  std::atomic<uint64_t> events_dropped_{0};
 };
 
 }  // namespace rangex

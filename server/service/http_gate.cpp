@@ -1,0 +1,211 @@
+#include "service/http_gate.h"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+
+#include "core/error.h"
+
+namespace rangex {
+
+namespace {
+int64_t steady_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+}  // namespace
+
+HttpGate::HttpGate(GateOptions opt, Serve serve) : opt_(opt), serve_(std::move(serve)) {
+  const std::string body =
+      "{\"error\":\"request head larger than " + std::to_string(opt_.max_head_bytes) + " bytes\"}";
+  too_large_answer_ =
+      "HTTP/1.1 431 Request Header Fields Too Large\r\nConnection: close\r\n"
+      "Content-Type: application/json\r\nContent-Length: " +
+      std::to_string(body.size()) + "\r\n\r\n" + body;
+  if (pipe2(wake_, O_CLOEXEC | O_NONBLOCK) != 0)
+    fail("http: cannot make the gate's wake pipe (", std::strerror(errno), ")");
+  poller_ = std::thread([this] { poll_loop(); });
+  for (int k = 0; k < opt_.workers; ++k) workers_.emplace_back([this] { worker(); });
+}
+
+HttpGate::~HttpGate() {
+  stop();
+  ::close(wake_[0]);
+  ::close(wake_[1]);
+}
+
+void HttpGate::stop() {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (stop_) return;
+    stop_ = true;
+  }
+  const char b = 0;
+  [[maybe_unused]] ssize_t n = ::write(wake_[1], &b, 1);
+  ready_cv_.notify_all();
+  if (poller_.joinable()) poller_.join();
+  for (std::thread& t : workers_)
+    if (t.joinable()) t.join();
+  for (auto& [fd, head] : ready_) ::close(fd);
+  ready_.clear();
+}
+
+void HttpGate::admit(int fd) {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (stop_) {
+      ::close(fd);
+      return;
+    }
+    incoming_.push_back({fd, steady_ns()});
+  }
+  const char b = 0;
+  [[maybe_unused]] ssize_t n = ::write(wake_[1], &b, 1);
+}
+
+GateCounts HttpGate::counts() {
+  std::lock_guard<std::mutex> lock(mu_);
+  return counts_;
+}
+
+size_t HttpGate::waiting() {
+  std::lock_guard<std::mutex> lock(mu_);
+  return waiting_;
+}
+
+void HttpGate::close_now(int fd, const char* answer) {
+  if (answer) {
+    [[maybe_unused]] ssize_t n =
+        ::send(fd, answer, std::strlen(answer), MSG_NOSIGNAL | MSG_DONTWAIT);
+  }
+  ::shutdown(fd, SHUT_RDWR);
+  ::close(fd);
+}
+
+void HttpGate::poll_loop() {
+  std::vector<Waiting> waiting;
+  std::vector<pollfd> fds;
+  std::string peek(opt_.max_head_bytes + 1, '\0');
+  const int64_t timeout_ns = int64_t(opt_.head_timeout_s * 1e9);
+  while (true) {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (stop_) break;
+      for (const Waiting& w : incoming_) {
+        // Full: the connection that has waited longest gives way.
+        if (waiting.size() >= opt_.max_waiting) {
+          close_now(waiting.front().fd, nullptr);
+          waiting.erase(waiting.begin());
+          ++counts_.evicted;
+        }
+        waiting.push_back(w);
+      }
+      incoming_.clear();
+      waiting_ = waiting.size();
+    }
+    fds.assign(1, pollfd{wake_[0], POLLIN, 0});
+    for (const Waiting& w : waiting) fds.push_back({w.fd, POLLIN, 0});
+    ::poll(fds.data(), fds.size(), 200);
+    if (fds[0].revents) {
+      char sink[256];
+      while (::read(wake_[0], sink, sizeof sink) > 0) {
+      }
+    }
+    const int64_t now = steady_ns();
+    std::vector<Waiting> still;
+    std::vector<std::pair<int, std::string>> heads;
+    uint64_t timed_out = 0, too_large = 0;
+    for (size_t k = 0; k < waiting.size(); ++k) {
+      const Waiting& w = waiting[k];
+      if (fds[k + 1].revents) {
+        const ssize_t n = ::recv(w.fd, peek.data(), peek.size(), MSG_PEEK | MSG_DONTWAIT);
+        if (n <= 0 && !(n < 0 && (errno == EAGAIN || errno == EINTR))) {
+          ::close(w.fd);  // gone
+          continue;
+        }
+        if (n > 0) {
+          const std::string_view got(peek.data(), size_t(n));
+          const size_t end = got.find("\r\n\r\n");
+          if (end != std::string_view::npos) {
+            std::string head(end + 4, '\0');
+            // Exactly the head: the body (if any) and the next request stay in the socket.
+            if (::recv(w.fd, head.data(), head.size(), MSG_DONTWAIT) == ssize_t(head.size())) {
+              heads.emplace_back(w.fd, std::move(head));
+            } else {
+              ::close(w.fd);
+            }
+            continue;
+          }
+          if (size_t(n) > opt_.max_head_bytes) {
+            close_now(w.fd, too_large_answer_.c_str());
+            ++too_large;
+            continue;
+          }
+        }
+      }
+      if (now - w.since_ns > timeout_ns) {
+        close_now(w.fd,
+                  "HTTP/1.1 408 Request Timeout\r\nConnection: close\r\n"
+                  "Content-Length: 0\r\n\r\n");
+        ++timed_out;
+        continue;
+      }
+      still.push_back(w);
+    }
+    waiting.swap(still);
+    std::lock_guard<std::mutex> lock(mu_);
+    counts_.timed_out += timed_out;
+    counts_.too_large += too_large;
+    waiting_ = waiting.size();
+    for (auto& h : heads) {
+      // Every worker busy and as many requests waiting for one as may wait for their
+      // heads: this one is answered busy rather than queued without end.
+      if (ready_.size() >= opt_.max_waiting) {
+        close_now(h.first,
+                  "HTTP/1.1 503 Service Unavailable\r\nConnection: close\r\n"
+                  "Content-Length: 0\r\n\r\n");
+        continue;
+      }
+      ready_.push_back(std::move(h));
+    }
+    if (!heads.empty()) ready_cv_.notify_all();
+  }
+  for (const Waiting& w : waiting) ::close(w.fd);
+  std::lock_guard<std::mutex> lock(mu_);
+  for (const Waiting& w : incoming_) ::close(w.fd);
+  incoming_.clear();
+  waiting_ = 0;
+}
+
+void HttpGate::worker() {
+  while (true) {
+    std::pair<int, std::string> job;
+    {
+      std::unique_lock<std::mutex> lock(mu_);
+      ready_cv_.wait(lock, [&] { return stop_ || !ready_.empty(); });
+      if (stop_) return;
+      job = std::move(ready_.front());
+      ready_.pop_front();
+      ++counts_.served;
+    }
+    bool keep = false;
+    try {
+      keep = serve_(job.first, job.second);
+    } catch (...) {
+      keep = false;
+    }
+    if (keep)
+      admit(job.first);
+    else
+      close_now(job.first, nullptr);
+  }
+}
+
+}  // namespace rangex

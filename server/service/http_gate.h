@@ -1,0 +1,71 @@
+// The door of rangexd's plain-HTTP side. cpp-httplib 0.11 gives every connection a pooled
+// thread from accept on, and a thread waits as long as its client takes to send the request
+// head: forty clients sending a byte every 3 s held every thread and blinded the dashboard.
+// The gate waits for request heads itself, all of them on one thread with poll(), and hands
+// a connection to a worker only once its whole head has arrived:
+// - a head must arrive within head_timeout_s (from accept, or from the previous answer on a
+//   kept-alive connection), and be at most max_head_bytes; otherwise the connection is closed;
+// - at most max_waiting connections wait for their heads; a new one closes the oldest, so
+//   slow clients cannot keep a real one out;
+// - the workers only ever serve requests that have arrived.
+#pragma once
+#include <condition_variable>
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace rangex {
+
+struct GateOptions {
+  double head_timeout_s = 10;
+  size_t max_waiting = 512;
+  size_t max_head_bytes = 64 * 1024;
+  int workers = 40;
+};
+
+struct GateCounts {
+  uint64_t served = 0, timed_out = 0, evicted = 0, too_large = 0;
+};
+
+class HttpGate {
+ public:
+  // serve(fd, head) runs on a worker with the connection's request head (read off the
+  // socket); true keeps the connection for the next request (it waits at the gate again).
+  using Serve = std::function<bool(int fd, std::string& head)>;
+  HttpGate(GateOptions opt, Serve serve);
+  ~HttpGate();
+  void admit(int fd);  // a connection accepted (or kept alive) by any thread
+  void stop();         // closes every connection waiting; workers finish what they serve
+  GateCounts counts();
+  size_t waiting();
+
+ private:
+  struct Waiting {
+    int fd;
+    int64_t since_ns;
+  };
+  void poll_loop();
+  void worker();
+  void close_now(int fd, const char* answer);
+
+  GateOptions opt_;
+  Serve serve_;
+  std::string too_large_answer_;
+  int wake_[2] = {-1, -1};
+  std::mutex mu_;
+  std::condition_variable ready_cv_;
+  std::deque<Waiting> incoming_;
+  std::deque<std::pair<int, std::string>> ready_;
+  size_t waiting_ = 0;
+  GateCounts counts_;
+  bool stop_ = false;
+  std::thread poller_;
+  std::vector<std::thread> workers_;
+};
+
+}  // namespace rangex
