@@ -1,6 +1,8 @@
 #include "service/http_gate.h"
 
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -19,6 +21,17 @@ int64_t steady_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(
              std::chrono::steady_clock::now().time_since_epoch())
       .count();
+}
+std::string peer_address(int fd) {
+  sockaddr_storage a{};
+  socklen_t n = sizeof a;
+  char buf[INET6_ADDRSTRLEN] = "";
+  if (::getpeername(fd, reinterpret_cast<sockaddr*>(&a), &n) != 0) return "";
+  if (a.ss_family == AF_INET)
+    inet_ntop(AF_INET, &reinterpret_cast<const sockaddr_in*>(&a)->sin_addr, buf, sizeof buf);
+  else if (a.ss_family == AF_INET6)
+    inet_ntop(AF_INET6, &reinterpret_cast<const sockaddr_in6*>(&a)->sin6_addr, buf, sizeof buf);
+  return buf;
 }
 }  // namespace
 
@@ -64,7 +77,7 @@ void HttpGate::admit(int fd) {
       ::close(fd);
       return;
     }
-    incoming_.push_back({fd, steady_ns()});
+    incoming_.push_back({fd, steady_ns(), peer_address(fd)});
   }
   const char b = 0;
   [[maybe_unused]] ssize_t n = ::write(wake_[1], &b, 1);
@@ -98,14 +111,24 @@ void HttpGate::poll_loop() {
     {
       std::lock_guard<std::mutex> lock(mu_);
       if (stop_) break;
-      for (const Waiting& w : incoming_) {
-        // Full: the connection that has waited longest gives way.
-        if (waiting.size() >= opt_.max_waiting) {
-          close_now(waiting.front().fd, nullptr);
-          waiting.erase(waiting.begin());
+      for (Waiting& w : incoming_) {
+        // Full: the connection that has waited longest gives way; first among those of
+        // the newcomer's address when that address is over its own bound.
+        const size_t same =
+            size_t(std::count_if(waiting.begin(), waiting.end(),
+                                 [&](const Waiting& o) { return o.client == w.client; }));
+        auto oldest = waiting.end();
+        if (same >= opt_.max_waiting_per_client)
+          oldest = std::find_if(waiting.begin(), waiting.end(),
+                                [&](const Waiting& o) { return o.client == w.client; });
+        else if (waiting.size() >= opt_.max_waiting)
+          oldest = waiting.begin();
+        if (oldest != waiting.end()) {
+          close_now(oldest->fd, nullptr);
+          waiting.erase(oldest);
           ++counts_.evicted;
         }
-        waiting.push_back(w);
+        waiting.push_back(std::move(w));
       }
       incoming_.clear();
       waiting_ = waiting.size();

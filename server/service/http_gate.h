@@ -5,8 +5,9 @@
 // a connection to a worker only once its whole head has arrived:
 // - a head must arrive within head_timeout_s (from accept, or from the previous answer on a
 //   kept-alive connection), and be at most max_head_bytes; otherwise the connection is closed;
-// - at most max_waiting connections wait for their heads; a new one closes the oldest, so
-//   slow clients cannot keep a real one out;
+// - at most max_waiting connections wait for their heads, and at most max_waiting_per_client
+//   from one address; a new one closes the oldest (of its address, when that is over its
+//   bound), so slow clients cannot keep a real one out;
 // - the workers only ever serve requests that have arrived.
 #pragma once
 #include <condition_variable>
@@ -24,6 +25,7 @@ namespace rangex {
 struct GateOptions {
   double head_timeout_s = 10;
   size_t max_waiting = 512;
+  size_t max_waiting_per_client = 128;
   size_t max_head_bytes = 64 * 1024;
   int workers = 40;
 };
@@ -48,6 +50,7 @@ class HttpGate {
   struct Waiting {
     int fd;
     int64_t since_ns;
+    std::string client;  // the peer's address
   };
   void poll_loop();
   void worker();
