@@ -46,12 +46,12 @@ std::string ClientSecurity::read_token(const std::string& path, const char* what
   return trimmed(text.substr(0, text.find('\n')));
 }
 
-std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address,
-                                              const ClientSecurity& sec) {
+std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address, const ClientSecurity& sec,
+                                              int keepalive_ms) {
   grpc::ChannelArguments args;
   args.SetMaxSendMessageSize(64 << 20);
   args.SetMaxReceiveMessageSize(64 << 20);
-  args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, kClientKeepaliveMs);
+  args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, keepalive_ms);
   args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 5000);
   args.SetInt(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
   args.SetInt(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);  // keep pinging a quiet connection

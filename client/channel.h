@@ -28,7 +28,9 @@ struct ClientSecurity {
 constexpr int kClientKeepaliveMs = 10000;
 
 // Throws Error when the security options are inconsistent or a file cannot be read.
+// keepalive_ms: other than kClientKeepaliveMs only where a test shortens time.
 std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address,
-                                              const ClientSecurity& security = {});
+                                              const ClientSecurity& security = {},
+                                              int keepalive_ms = kClientKeepaliveMs);
 
 }  // namespace rangex

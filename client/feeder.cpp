@@ -143,9 +143,27 @@ FeedReport Feeder::run(LineSource& source) {
   while (true) {
     grpc::ClientContext ctx;
     ctx.set_wait_for_ready(true);  // a reconnect waits for the server to be back
+    // Without an answer for reconnect_for_s (a server that does not come back: a call that
+    // waits for it would wait for ever, its opening included), the stream is cancelled and
+    // the feed gives up, naming what is not settled.
+    bool stream_over = false, opening = true;
+    std::thread guard([&] {
+      std::unique_lock<std::mutex> lock(sh.mu);
+      while (!stream_over) {
+        sh.cv.wait_for(lock, std::chrono::milliseconds(200));
+        const bool waiting = opening || !sh.unacked.empty() || sh.query_pending;  // an answer
+        if (!stream_over && waiting &&
+            Clock::now() - sh.progress > std::chrono::duration<double>(opt_.reconnect_for_s)) {
+          lock.unlock();
+          ctx.TryCancel();
+          return;
+        }
+      }
+    });
     auto stream = stub->StreamLines(&ctx);
     {
       std::lock_guard<std::mutex> lock(sh.mu);
+      opening = false;
       sh.broken = false;
       sh.holding = false;
       sh.query_pending = false;
@@ -297,6 +315,12 @@ FeedReport Feeder::run(LineSource& source) {
       settled_all = wait_settled_on(*stream, sh, seq, last_sent, settle_start, opt_.settle_for_s);
     if (open) stream->WritesDone();
     reader.join();
+    {
+      std::lock_guard<std::mutex> lock(sh.mu);
+      stream_over = true;
+    }
+    sh.cv.notify_all();
+    guard.join();
     rep.status = stream->Finish();
     bool done;
     {

@@ -544,6 +544,33 @@ TEST(Server, ClientsPingNoFasterThanTheServerAccepts) {
   EXPECT_LE(ServerOptions{}.min_ping_interval_ms, 10000);
 }
 
+TEST(Server, AQuietSubscriptionStaysOpenWithPingsAtTheAgreedRate) {
+  // Half an hour of a quiet line, shortened by the settings: the server accepts pings every
+  // 100 ms and pings every 300 ms itself; the client pings every 200 ms (twice the server's
+  // least, as kClientKeepaliveMs is to min_ping_interval_ms), so the 6 s below carry some 30
+  // client pings, as many as 5 minutes at 10 s. Then a fillet's decision still arrives.
+  test::TempDir t;
+  const PlantConfig p = plant();
+  ServerOptions o = options(t);
+  o.min_ping_interval_ms = 100;
+  o.keepalive_ms = 300;
+  RangexServer server(p, o);
+  auto ch = rangex_channel(server.address(), {}, 2 * o.min_ping_interval_ms);
+  auto results = pb::ResultsService::NewStub(ch);
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));  // a hang bound
+  auto reader = results->SubscribeFillets(&ctx, pb::SubscribeFilletsRequest());
+  std::this_thread::sleep_for(std::chrono::seconds(6));
+  const Lines lines(p, 2, 9);
+  stream(connect(server), lines.lines);
+  pb::SubscribeFilletsResponse r;
+  ASSERT_TRUE(reader->Read(&r)) << "the quiet subscription was cut: "
+                                << reader->Finish().error_message();
+  EXPECT_EQ(r.fillet().lane(), 0);
+  ctx.TryCancel();
+  server.shutdown();
+}
+
 TEST(Server, HealthAndReflectionAnswer) {
   test::TempDir t;
   RangexServer server(plant(), options(t));

@@ -11,6 +11,8 @@ file fails with ENOSPC while a flag file exists). The disk fills mid-feed; then:
   ends with every lane settled;
 - the store then equals a run on a disk that never filled: the same fillets and decisions,
   every reject's images whole and registered, and the record chain verifies.
+Last, a server that never comes back: the feeder gives up after --reconnect-for and names
+the counts whose outcomes are not known to be stored.
 
 Every wait is bounded.
 
@@ -171,4 +173,27 @@ partial = glob.glob(os.path.join(server.data, "**", "*.part"), recursive=True)
 check(not partial, "no partial image is left (%s)" % partial[:3])
 r = ctl("audit", "verify", "--data", server.data, check_rc=False)
 check(r.returncode == 0, "the record chain verifies (%s)" % r.stdout.strip())
+
+# --- a server that does not come back -------------------------------------------------------
+gone = Server(os.path.join(tmp, "gone"))
+gone.start()
+feeder = subprocess.Popen([rangexctl, "feed", "--server", gone.addr, "--rate", "300",
+                           "--reconnect-for", "3", "--settle-for", "5"] + FEED,
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=CTL_ENV)
+end = time.time() + 90
+while time.time() < end:
+    m = re.search(r"lines: (\d+) received", ctl("status", "--server", gone.addr).stdout)
+    if m and int(m.group(1)) > 0:
+        break
+    time.sleep(0.1)
+gone.proc.send_signal(signal.SIGKILL)
+gone.proc.wait(timeout=30)
+try:
+    out, err = feeder.communicate(timeout=120)
+except subprocess.TimeoutExpired:
+    feeder.kill()
+    fail("the feeder still waited 120 s after its server was gone for good")
+check(feeder.returncode != 0 and re.search(r"NOT SETTLED: lane 0 counts -?\d+\.\.-?\d+", out),
+      "with its server gone for good the feeder gives up and names the counts not settled "
+      "(exit %d: %s)" % (feeder.returncode, (out + err).strip().replace("\n", "; ")[-400:]))
 print("full_disk_test: all checks passed")
