@@ -83,16 +83,6 @@ void HttpGate::admit(int fd) {
   [[maybe_unused]] ssize_t n = ::write(wake_[1], &b, 1);
 }
 
-GateCounts HttpGate::counts() {
-  std::lock_guard<std::mutex> lock(mu_);
-  return counts_;
-}
-
-size_t HttpGate::waiting() {
-  std::lock_guard<std::mutex> lock(mu_);
-  return waiting_;
-}
-
 void HttpGate::close_now(int fd, const char* answer) {
   if (answer) {
     [[maybe_unused]] ssize_t n =
@@ -126,12 +116,10 @@ void HttpGate::poll_loop() {
         if (oldest != waiting.end()) {
           close_now(oldest->fd, nullptr);
           waiting.erase(oldest);
-          ++counts_.evicted;
         }
         waiting.push_back(std::move(w));
       }
       incoming_.clear();
-      waiting_ = waiting.size();
     }
     fds.assign(1, pollfd{wake_[0], POLLIN, 0});
     for (const Waiting& w : waiting) fds.push_back({w.fd, POLLIN, 0});
@@ -144,7 +132,6 @@ void HttpGate::poll_loop() {
     const int64_t now = steady_ns();
     std::vector<Waiting> still;
     std::vector<std::pair<int, std::string>> heads;
-    uint64_t timed_out = 0, too_large = 0;
     for (size_t k = 0; k < waiting.size(); ++k) {
       const Waiting& w = waiting[k];
       if (fds[k + 1].revents) {
@@ -168,7 +155,6 @@ void HttpGate::poll_loop() {
           }
           if (size_t(n) > opt_.max_head_bytes) {
             close_now(w.fd, too_large_answer_.c_str());
-            ++too_large;
             continue;
           }
         }
@@ -177,16 +163,12 @@ void HttpGate::poll_loop() {
         close_now(w.fd,
                   "HTTP/1.1 408 Request Timeout\r\nConnection: close\r\n"
                   "Content-Length: 0\r\n\r\n");
-        ++timed_out;
         continue;
       }
       still.push_back(w);
     }
     waiting.swap(still);
     std::lock_guard<std::mutex> lock(mu_);
-    counts_.timed_out += timed_out;
-    counts_.too_large += too_large;
-    waiting_ = waiting.size();
     for (auto& h : heads) {
       // Every worker busy and as many requests waiting for one as may wait for their
       // heads: this one is answered busy rather than queued without end.
@@ -204,7 +186,6 @@ void HttpGate::poll_loop() {
   std::lock_guard<std::mutex> lock(mu_);
   for (const Waiting& w : incoming_) ::close(w.fd);
   incoming_.clear();
-  waiting_ = 0;
 }
 
 void HttpGate::worker() {
@@ -216,7 +197,6 @@ void HttpGate::worker() {
       if (stop_) return;
       job = std::move(ready_.front());
       ready_.pop_front();
-      ++counts_.served;
     }
     bool keep = false;
     try {

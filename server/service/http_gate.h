@@ -30,10 +30,6 @@ struct GateOptions {
   int workers = 40;
 };
 
-struct GateCounts {
-  uint64_t served = 0, timed_out = 0, evicted = 0, too_large = 0;
-};
-
 class HttpGate {
  public:
   // serve(fd, head) runs on a worker with the connection's request head (read off the
@@ -43,8 +39,6 @@ class HttpGate {
   ~HttpGate();
   void admit(int fd);  // a connection accepted (or kept alive) by any thread
   void stop();         // closes every connection waiting; workers finish what they serve
-  GateCounts counts();
-  size_t waiting();
 
  private:
   struct Waiting {
@@ -64,8 +58,6 @@ class HttpGate {
   std::condition_variable ready_cv_;
   std::deque<Waiting> incoming_;
   std::deque<std::pair<int, std::string>> ready_;
-  size_t waiting_ = 0;
-  GateCounts counts_;
   bool stop_ = false;
   std::thread poller_;
   std::vector<std::thread> workers_;
