@@ -4,12 +4,14 @@
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <netinet/in.h>
+#include <openssl/ssl.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
 #include <memory>
 #include <string>
 #include <thread>
@@ -32,9 +34,25 @@ ServerOptions options(const test::TempDir& t) {
   return o;
 }
 
-HttpOptions http_options() {
+// A test CA, made once per process, for the TLS side.
+const test::TempDir& test_ca() {
+  static test::TempDir dir;
+  static const bool made = [] {
+    const std::string cmd =
+        std::string(RANGEX_SOURCE_DIR) + "/scripts/make-test-ca.sh '" + dir.str() + "' > /dev/null";
+    return std::system(cmd.c_str()) == 0;
+  }();
+  EXPECT_TRUE(made) << "scripts/make-test-ca.sh failed";
+  return dir;
+}
+
+HttpOptions http_options(bool tls = false) {
   HttpOptions ho;
   ho.listen = "127.0.0.1:0";
+  if (tls) {
+    ho.security.tls_cert = test_ca().str("server.crt");
+    ho.security.tls_key = test_ca().str("server.key");
+  }
   return ho;
 }
 
@@ -61,35 +79,94 @@ int connect_to(int port) {
   return fd;
 }
 
-// Slowloris: connections that send a request head a byte every 3 s, reconnecting when the
-// server closes them, while the API is asked for its statistics every 200 ms; returns the
-// slowest answer in seconds (a failed request is a failure of the test).
-double api_under_slow_clients(int clients, double seconds) {
-  Plant plant;
-  const int port = plant.web.port();
+// One slowloris connection: a request head a byte at a time; over TLS either the head in a
+// session (a record a byte) or, before any session, the handshake itself.
+struct SlowClient {
+  enum Kind { kHead, kTlsHead, kTlsHandshake } kind;
+  int fd = -1;
+  SSL* ssl = nullptr;
+  size_t sent = 0;
+  void close() {
+    if (ssl) SSL_free(ssl);
+    if (fd >= 0) ::close(fd);
+    ssl = nullptr;
+    fd = -1;
+  }
+  // Connects when not connected; false when that fails (tried again next round).
+  bool connect(int port, SSL_CTX* ctx) {
+    if (fd >= 0) return true;
+    sent = 0;
+    fd = connect_to(port);
+    if (fd < 0) return false;
+    timeval tv{5, 0};  // a hang bound for the handshake below
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    if (kind != kTlsHead) return true;
+    ssl = SSL_new(ctx);
+    SSL_set_fd(ssl, fd);
+    if (SSL_connect(ssl) != 1) close();
+    return fd >= 0;
+  }
+  bool send_one() {
+    static const std::string head = "GET /api/statistics HTTP/1.1\r\nHost: rangex\r\nX-Slow: ";
+    // A TLS record header announcing 512 bytes of handshake, then its bytes one by one.
+    static const std::string hello = std::string("\x16\x03\x01\x02\x00", 5);
+    const std::string& text = kind == kTlsHandshake ? hello : head;
+    const char b = sent < text.size() ? text[sent] : 'x';
+    ++sent;
+    if (ssl) return SSL_write(ssl, &b, 1) == 1;
+    return ::send(fd, &b, 1, MSG_NOSIGNAL) == 1;
+  }
+};
+
+// Asks the API for its statistics over a new connection: the seconds it took, or -1.
+double timed_statistics(int port, bool tls, int answered) {
+  std::unique_ptr<httplib::ClientImpl> c;
+  if (tls) {
+    auto ssl = std::make_unique<httplib::SSLClient>("127.0.0.1", port);
+    ssl->enable_server_certificate_verification(false);
+    c = std::move(ssl);
+  } else {
+    c = std::make_unique<httplib::ClientImpl>("127.0.0.1", port);
+  }
+  c->set_connection_timeout(10, 0);
+  c->set_read_timeout(10, 0);  // a hang bound; the slowest answer is reported
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto r = c->Get("/api/statistics");
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_TRUE(r) << "request " << answered << (tls ? " over TLS" : "") << ": "
+                 << httplib::to_string(r.error());
+  if (!r) return -1;
+  EXPECT_EQ(r->status, 200);
+  return s;
+}
+
+// Slowloris: connections that send a request head (or a TLS handshake) a byte every 3 s,
+// reconnecting when the server closes them, while the API is asked for its statistics every
+// 200 ms; returns the slowest answer in seconds (a failed request is a failure of the test).
+double api_under_slow_clients(int clients, double seconds, bool tls = false) {
+  test::TempDir dir;
+  RangexServer server{default_plant_config(1), options(dir)};
+  HttpServer web{server.engine(), server.store(), server.hub(), http_options(tls)};
+  const int port = web.port();
   std::atomic<bool> done{false};
   std::thread slow([&] {
-    const std::string head = "GET /api/statistics HTTP/1.1\r\nHost: rangex\r\nX-Slow: ";
-    std::vector<int> fds(size_t(clients), -1);
-    std::vector<size_t> sent(size_t(clients), 0);
+    SSL_CTX* ctx = SSL_CTX_new(TLS_client_method());
+    std::vector<SlowClient> conns(static_cast<size_t>(clients));
+    for (int k = 0; k < clients; ++k)
+      conns[size_t(k)].kind = !tls    ? SlowClient::kHead
+                              : k % 2 ? SlowClient::kTlsHead
+                                      : SlowClient::kTlsHandshake;
     while (!done) {
-      for (int k = 0; k < clients && !done; ++k) {
-        int& fd = fds[size_t(k)];
-        if (fd < 0) fd = connect_to(port), sent[size_t(k)] = 0;
-        if (fd < 0) continue;
-        const char b = sent[size_t(k)] < head.size() ? head[sent[size_t(k)]] : 'x';
-        if (::send(fd, &b, 1, MSG_NOSIGNAL) != 1) {
-          ::close(fd);
-          fd = -1;
-          continue;
-        }
-        ++sent[size_t(k)];
+      for (SlowClient& c : conns) {
+        if (done) break;
+        if (c.connect(port, ctx) && !c.send_one()) c.close();
       }
       for (int t = 0; t < 30 && !done; ++t)
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
-    for (int fd : fds)
-      if (fd >= 0) ::close(fd);
+    for (SlowClient& c : conns) c.close();
+    SSL_CTX_free(ctx);
   });
   // The slow clients first: every one of them connected and waiting.
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
@@ -97,16 +174,8 @@ double api_under_slow_clients(int clients, double seconds) {
   int answered = 0;
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   while (std::chrono::steady_clock::now() < end) {
-    httplib::Client c("127.0.0.1", port);
-    c.set_connection_timeout(10, 0);
-    c.set_read_timeout(10, 0);  // a hang bound; the slowest answer is reported
-    const auto t0 = std::chrono::steady_clock::now();
-    const auto r = c.Get("/api/statistics");
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    EXPECT_TRUE(r) << "request " << answered << " under " << clients
-                   << " slow clients: " << httplib::to_string(r.error());
-    if (!r) break;
-    EXPECT_EQ(r->status, 200);
+    const double s = timed_statistics(port, tls, answered);
+    if (s < 0) break;
     slowest = std::max(slowest, s);
     ++answered;
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
@@ -114,7 +183,8 @@ double api_under_slow_clients(int clients, double seconds) {
   done = true;
   slow.join();
   EXPECT_GT(answered, 10);
-  std::printf("%d slow clients: %d answers, the slowest in %.3f s\n", clients, answered, slowest);
+  std::printf("%d slow clients%s: %d answers, the slowest in %.3f s\n", clients,
+              tls ? " over TLS" : "", answered, slowest);
   return slowest;
 }
 
@@ -129,6 +199,44 @@ TEST(HttpHostile, FortyAndThreeHundredSlowClientsLeaveTheApiAnswering) {
     // A hang bound, not a speed test: the figure above is what the closing note reports.
     EXPECT_LT(slowest, 10.0) << clients << " slow clients";
   }
+}
+
+TEST(HttpHostile, SlowTlsHandshakesAndHeadsLeaveTheApiAnswering) {
+  // Half the clients send their handshake a byte every 3 s, half their request head inside
+  // a session: neither holds a worker (the gate steps handshakes without blocking).
+  const double slowest = api_under_slow_clients(300, 15, true);
+  EXPECT_LT(slowest, 10.0);  // a hang bound, not a speed test
+}
+
+TEST(HttpHostile, TlsKeepsItsConnectionAliveAcrossRequests) {
+  test::TempDir dir;
+  RangexServer server{default_plant_config(1), options(dir)};
+  HttpServer web{server.engine(), server.store(), server.hub(), http_options(true)};
+  httplib::SSLClient c("127.0.0.1", web.port());
+  c.enable_server_certificate_verification(false);
+  c.set_keep_alive(true);
+  c.set_read_timeout(10, 0);
+  for (int k = 0; k < 5; ++k) {
+    const auto r = c.Get(k % 2 ? "/api/info" : "/api/statistics");
+    ASSERT_TRUE(r) << "request " << k << ": " << httplib::to_string(r.error());
+    EXPECT_EQ(r->status, 200);
+    EXPECT_FALSE(r->body.empty());
+  }
+  // A plain-HTTP request to the TLS port is no handshake: closed, and the server goes on.
+  const int fd = connect_to(web.port());
+  ASSERT_GE(fd, 0);
+  const std::string req = "GET /api/info HTTP/1.1\r\nHost: rangex\r\n\r\n";
+  ::send(fd, req.data(), req.size(), MSG_NOSIGNAL);
+  timeval tv{10, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  char buf[64];
+  const ssize_t n = ::recv(fd, buf, sizeof buf, 0);  // nothing, or a TLS alert
+  EXPECT_TRUE(n <= 0 || std::string(buf, size_t(n)).find("HTTP/1.1") == std::string::npos);
+  ::close(fd);
+  const auto again = c.Get("/api/statistics");
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->status, 200);
+  web.stop();
 }
 
 TEST(HttpHostile, EventClientsThatNeverReadAreDroppedAndARealOneConnects) {

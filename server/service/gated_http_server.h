@@ -1,6 +1,6 @@
-// cpp-httplib's server behind the HttpGate (plain HTTP): accepted connections go to the gate
+// cpp-httplib's server behind the HttpGate, plain or TLS: accepted connections go to the gate
 // instead of straight to a pooled thread, and a worker serves one request whose head has
-// arrived, through a Stream that reads that head first and then the socket.
+// arrived, through a stream that reads that head first and then the connection.
 #pragma once
 #include <httplib.h>
 
@@ -9,11 +9,14 @@
 
 #include "service/http_gate.h"
 
+struct ssl_ctx_st;
+
 namespace rangex {
 
 class GatedHttpServer : public httplib::Server {
  public:
-  explicit GatedHttpServer(GateOptions opt);
+  // With tls (taken: freed with the server), every connection is TLS.
+  explicit GatedHttpServer(GateOptions opt, ssl_ctx_st* tls = nullptr);
   ~GatedHttpServer() override;
   HttpGate& gate() { return *gate_; }
   // The connection the calling worker serves (-1 elsewhere): a handler may tune its socket.
@@ -21,7 +24,8 @@ class GatedHttpServer : public httplib::Server {
 
  private:
   bool process_and_close_socket(socket_t sock) override;
-  bool serve(int fd, std::string& head);
+  bool serve(GateConnection& c, std::string& head);
+  ssl_ctx_st* tls_;
   std::unique_ptr<HttpGate> gate_;
 };
 

@@ -35,6 +35,11 @@ std::string peer_address(int fd) {
 }
 }  // namespace
 
+GateConnection::~GateConnection() {
+  ::shutdown(fd_, SHUT_RDWR);
+  ::close(fd_);
+}
+
 HttpGate::HttpGate(GateOptions opt, Serve serve) : opt_(opt), serve_(std::move(serve)) {
   const std::string body =
       "{\"error\":\"request head larger than " + std::to_string(opt_.max_head_bytes) + " bytes\"}";
@@ -66,37 +71,28 @@ void HttpGate::stop() {
   if (poller_.joinable()) poller_.join();
   for (std::thread& t : workers_)
     if (t.joinable()) t.join();
-  for (auto& [fd, head] : ready_) ::close(fd);
   ready_.clear();
 }
 
-void HttpGate::admit(int fd) {
+void HttpGate::admit(std::unique_ptr<GateConnection> c) {
   {
     std::lock_guard<std::mutex> lock(mu_);
-    if (stop_) {
-      ::close(fd);
-      return;
-    }
-    incoming_.push_back({fd, steady_ns(), peer_address(fd)});
+    if (stop_) return;  // closed as it goes
+    const std::string client = peer_address(c->fd());
+    incoming_.push_back({std::move(c), steady_ns(), client, POLLIN});
   }
   const char b = 0;
   [[maybe_unused]] ssize_t n = ::write(wake_[1], &b, 1);
 }
 
-void HttpGate::close_now(int fd, const char* answer) {
-  if (answer) {
-    [[maybe_unused]] ssize_t n =
-        ::send(fd, answer, std::strlen(answer), MSG_NOSIGNAL | MSG_DONTWAIT);
-  }
-  ::shutdown(fd, SHUT_RDWR);
-  ::close(fd);
-}
-
 void HttpGate::poll_loop() {
   std::vector<Waiting> waiting;
   std::vector<pollfd> fds;
-  std::string peek(opt_.max_head_bytes + 1, '\0');
   const int64_t timeout_ns = int64_t(opt_.head_timeout_s * 1e9);
+  const std::string timed_out =
+      "HTTP/1.1 408 Request Timeout\r\nConnection: close\r\nContent-Length: 0\r\n\r\n";
+  const std::string busy =
+      "HTTP/1.1 503 Service Unavailable\r\nConnection: close\r\nContent-Length: 0\r\n\r\n";
   while (true) {
     {
       std::lock_guard<std::mutex> lock(mu_);
@@ -113,17 +109,19 @@ void HttpGate::poll_loop() {
                                 [&](const Waiting& o) { return o.client == w.client; });
         else if (waiting.size() >= opt_.max_waiting)
           oldest = waiting.begin();
-        if (oldest != waiting.end()) {
-          close_now(oldest->fd, nullptr);
-          waiting.erase(oldest);
-        }
+        if (oldest != waiting.end()) waiting.erase(oldest);  // closes it
         waiting.push_back(std::move(w));
       }
       incoming_.clear();
     }
     fds.assign(1, pollfd{wake_[0], POLLIN, 0});
-    for (const Waiting& w : waiting) fds.push_back({w.fd, POLLIN, 0});
-    ::poll(fds.data(), fds.size(), 200);
+    bool read_ahead = false;
+    for (const Waiting& w : waiting) {
+      fds.push_back({w.conn->fd(), w.events, 0});
+      read_ahead = read_ahead || w.conn->has_read_ahead();
+    }
+    // A kept-alive TLS connection may hold its next request already decrypted: no wait then.
+    ::poll(fds.data(), fds.size(), read_ahead ? 0 : 200);
     if (fds[0].revents) {
       char sink[256];
       while (::read(wake_[0], sink, sizeof sink) > 0) {
@@ -131,66 +129,55 @@ void HttpGate::poll_loop() {
     }
     const int64_t now = steady_ns();
     std::vector<Waiting> still;
-    std::vector<std::pair<int, std::string>> heads;
+    std::vector<Ready> heads;
     for (size_t k = 0; k < waiting.size(); ++k) {
-      const Waiting& w = waiting[k];
-      if (fds[k + 1].revents) {
-        const ssize_t n = ::recv(w.fd, peek.data(), peek.size(), MSG_PEEK | MSG_DONTWAIT);
-        if (n <= 0 && !(n < 0 && (errno == EAGAIN || errno == EINTR))) {
-          ::close(w.fd);  // gone
-          continue;
-        }
-        if (n > 0) {
-          const std::string_view got(peek.data(), size_t(n));
-          const size_t end = got.find("\r\n\r\n");
-          if (end != std::string_view::npos) {
-            std::string head(end + 4, '\0');
-            // Exactly the head: the body (if any) and the next request stay in the socket.
-            if (::recv(w.fd, head.data(), head.size(), MSG_DONTWAIT) == ssize_t(head.size())) {
-              heads.emplace_back(w.fd, std::move(head));
-            } else {
-              ::close(w.fd);
-            }
+      Waiting& w = waiting[k];
+      if (fds[k + 1].revents || w.conn->has_read_ahead()) {
+        std::string head;
+        switch (w.conn->read_head(head, opt_.max_head_bytes)) {
+          case GateConnection::Head::kArrived:
+            heads.emplace_back(std::move(w.conn), std::move(head));
             continue;
-          }
-          if (size_t(n) > opt_.max_head_bytes) {
-            close_now(w.fd, too_large_answer_.c_str());
+          case GateConnection::Head::kGone:
+            continue;  // closed as it goes
+          case GateConnection::Head::kTooLarge:
+            w.conn->refuse(too_large_answer_);
             continue;
-          }
+          case GateConnection::Head::kWaitRead:
+            w.events = POLLIN;
+            break;
+          case GateConnection::Head::kWaitWrite:
+            w.events = POLLOUT;
+            break;
         }
       }
       if (now - w.since_ns > timeout_ns) {
-        close_now(w.fd,
-                  "HTTP/1.1 408 Request Timeout\r\nConnection: close\r\n"
-                  "Content-Length: 0\r\n\r\n");
+        w.conn->refuse(timed_out);
         continue;
       }
-      still.push_back(w);
+      still.push_back(std::move(w));
     }
     waiting.swap(still);
     std::lock_guard<std::mutex> lock(mu_);
-    for (auto& h : heads) {
+    for (Ready& h : heads) {
       // Every worker busy and as many requests waiting for one as may wait for their
       // heads: this one is answered busy rather than queued without end.
       if (ready_.size() >= opt_.max_waiting) {
-        close_now(h.first,
-                  "HTTP/1.1 503 Service Unavailable\r\nConnection: close\r\n"
-                  "Content-Length: 0\r\n\r\n");
+        h.first->refuse(busy);
         continue;
       }
       ready_.push_back(std::move(h));
     }
     if (!heads.empty()) ready_cv_.notify_all();
   }
-  for (const Waiting& w : waiting) ::close(w.fd);
+  waiting.clear();
   std::lock_guard<std::mutex> lock(mu_);
-  for (const Waiting& w : incoming_) ::close(w.fd);
   incoming_.clear();
 }
 
 void HttpGate::worker() {
   while (true) {
-    std::pair<int, std::string> job;
+    Ready job;
     {
       std::unique_lock<std::mutex> lock(mu_);
       ready_cv_.wait(lock, [&] { return stop_ || !ready_.empty(); });
@@ -200,14 +187,11 @@ void HttpGate::worker() {
     }
     bool keep = false;
     try {
-      keep = serve_(job.first, job.second);
+      keep = serve_(*job.first, job.second);
     } catch (...) {
       keep = false;
     }
-    if (keep)
-      admit(job.first);
-    else
-      close_now(job.first, nullptr);
+    if (keep) admit(std::move(job.first));
   }
 }
 

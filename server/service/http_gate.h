@@ -1,9 +1,10 @@
-// The door of rangexd's plain-HTTP side. cpp-httplib 0.11 gives every connection a pooled
+// The door of rangexd's HTTP side, plain or TLS. cpp-httplib 0.11 gives every connection a pooled
 // thread from accept on, and a thread waits as long as its client takes to send the request
 // head: forty clients sending a byte every 3 s held every thread and blinded the dashboard.
 // The gate waits for request heads itself, all of them on one thread with poll(), and hands
 // a connection to a worker only once its whole head has arrived:
-// - a head must arrive within head_timeout_s (from accept, or from the previous answer on a
+// - a head must arrive within head_timeout_s (over TLS the handshake counts in it) (from accept, or
+// from the previous answer on a
 //   kept-alive connection), and be at most max_head_bytes; otherwise the connection is closed;
 // - at most max_waiting connections wait for their heads, and at most max_waiting_per_client
 //   from one address; a new one closes the oldest (of its address, when that is over its
@@ -15,10 +16,13 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include "service/gate_connection.h"
 
 namespace rangex {
 
@@ -32,23 +36,25 @@ struct GateOptions {
 
 class HttpGate {
  public:
-  // serve(fd, head) runs on a worker with the connection's request head (read off the
-  // socket); true keeps the connection for the next request (it waits at the gate again).
-  using Serve = std::function<bool(int fd, std::string& head)>;
+  // serve(connection, head) runs on a worker with the connection's request head; true keeps
+  // the connection for the next request (it waits at the gate again).
+  using Serve = std::function<bool(GateConnection& c, std::string& head)>;
   HttpGate(GateOptions opt, Serve serve);
   ~HttpGate();
-  void admit(int fd);  // a connection accepted (or kept alive) by any thread
-  void stop();         // closes every connection waiting; workers finish what they serve
+  // A connection accepted (or kept alive) by any thread.
+  void admit(std::unique_ptr<GateConnection> c);
+  void stop();  // closes every connection waiting; workers finish what they serve
 
  private:
   struct Waiting {
-    int fd;
+    std::unique_ptr<GateConnection> conn;
     int64_t since_ns;
     std::string client;  // the peer's address
+    short events;        // what the connection waits for
   };
+  using Ready = std::pair<std::unique_ptr<GateConnection>, std::string>;
   void poll_loop();
   void worker();
-  void close_now(int fd, const char* answer);
 
   GateOptions opt_;
   Serve serve_;
@@ -57,7 +63,7 @@ class HttpGate {
   std::mutex mu_;
   std::condition_variable ready_cv_;
   std::deque<Waiting> incoming_;
-  std::deque<std::pair<int, std::string>> ready_;
+  std::deque<Ready> ready_;
   bool stop_ = false;
   std::thread poller_;
   std::vector<std::thread> workers_;

@@ -176,6 +176,8 @@ bool setup_tls(SSL_CTX& ctx, const SecurityConfig& s, std::string& why) {
     return false;
   };
   SSL_CTX_set_min_proto_version(&ctx, TLS1_2_VERSION);
+  // A client may not make the server renegotiate (a handshake's cost, asked for again).
+  SSL_CTX_set_options(&ctx, SSL_OP_NO_COMPRESSION | SSL_OP_NO_RENEGOTIATION);
   if (SSL_CTX_use_certificate_chain_file(&ctx, s.tls_cert.c_str()) != 1)
     return failed("security.tls.cert: cannot load " + s.tls_cert);
   if (SSL_CTX_use_PrivateKey_file(&ctx, s.tls_key.c_str(), SSL_FILETYPE_PEM) != 1)
@@ -210,7 +212,7 @@ struct EventClient {
   std::condition_variable cv;
   bool rung = false;
   std::shared_ptr<ResultsHub::Subscription> sub;
-  int fd = -1;  // the connection (plain HTTP; -1 over TLS)
+  int fd = -1;  // the connection
   std::atomic<bool> evicted{false};
 };
 
@@ -228,24 +230,22 @@ HttpServer::HttpServer(Engine& engine, Store& store, ResultsHub& hub, HttpOption
     fail("plant.http '", opt_.listen, "': the port is not a number");
   }
   if (want < 0 || want > 65535) fail("plant.http '", opt_.listen, "': port out of range");
+  // Event streams hold a worker each while open: the gate has room for all of them and for
+  // the ordinary requests beside them.
+  GateOptions g;
+  g.workers = opt_.max_event_streams + 8;
+  SSL_CTX* tls = nullptr;
   if (opt_.security.tls()) {
     std::string why;
-    auto ssl = std::make_unique<httplib::SSLServer>(
-        [&](SSL_CTX& ctx) { return setup_tls(ctx, opt_.security, why); });
-    if (!ssl->is_valid()) fail("plant.http: TLS: ", why.empty() ? "cannot set up" : why);
-    http_ = std::move(ssl);
-    // Event streams hold a thread each while open: the pool has room for all of them and
-    // for the ordinary requests beside them. (Over TLS a slow client still holds a thread
-    // while its head comes, up to the read timeout; the gate serves plain HTTP.)
-    const size_t threads = size_t(opt_.max_event_streams) + 8;
-    http_->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
-  } else {
-    GateOptions g;
-    g.workers = opt_.max_event_streams + 8;
-    auto gated = std::make_unique<GatedHttpServer>(g);
-    gate_ = &gated->gate();
-    http_ = std::move(gated);
+    tls = SSL_CTX_new(TLS_server_method());
+    if (!tls || !setup_tls(*tls, opt_.security, why)) {
+      if (tls) SSL_CTX_free(tls);
+      fail("plant.http: TLS: ", why.empty() ? "cannot set up" : why);
+    }
   }
+  auto gated = std::make_unique<GatedHttpServer>(g, tls);
+  gate_ = &gated->gate();
+  http_ = std::move(gated);
   http_->set_read_timeout(10, 0);
   http_->set_write_timeout(10, 0);
   authorise(*http_);

@@ -90,7 +90,7 @@ class HttpServer {
   std::thread listener_, sampler_;
   std::atomic<bool> stopping_{false};
   std::atomic<int> event_streams_{0};
-  HttpGate* gate_ = nullptr;  // plain HTTP: the gate in front of http_
+  HttpGate* gate_ = nullptr;  // the gate in front of http_
   std::mutex events_mu_;
   std::vector<std::shared_ptr<EventClient>> event_clients_;  // oldest first
   std::atomic<uint64_t> events_dropped_{0};
