@@ -104,6 +104,7 @@ int cmd_soak(int argc, char** argv) {
   std::atomic<uint64_t> queries_ok{0}, queries_failed{0};
   std::vector<std::pair<double, double>> resident_by_minute;  // (minute, MB over the start)
   EngineStats end{};
+  double heap_returned_mb = 0;
   {
     RangexServer server(plant, so);
     auto ch = rangex_channel(server.address());
@@ -196,6 +197,7 @@ int cmd_soak(int argc, char** argv) {
     server.shutdown();  // decides every accepted line; the subscriber's stream then ends
     subscriber.join();
     end = server.engine().stats();
+    heap_returned_mb = double(server.heap_returned()) / 1e6;
   }
   std::filesystem::remove_all(dir);
 
@@ -243,6 +245,7 @@ int cmd_soak(int argc, char** argv) {
         "at the end; %.1f MB a lane)\n",
         (m * sxy - sx * sy) / (m * sxx - sx * sx), resident_by_minute.front().second,
         resident_by_minute.back().second, resident_by_minute.back().second / lanes);
+  std::printf("heap trims gave back %.1f MB over the run\n", heap_returned_mb);
   return lost_in_flight == 0 && lost_in_server == 0 ? 0 : 1;
 }
 

@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "service/access_control.h"
+#include "service/heap_trim.h"
 #include "service/pb_convert.h"
 #include "service/streams.h"
 
@@ -419,10 +420,17 @@ void RangexServer::watchdog() {
   bool serving = true, store_ok = true;
   auto unhealthy_since = std::chrono::steady_clock::time_point::min();
   bool fatal_called = false;
+  auto trimmed_at = std::chrono::steady_clock::now();
   std::unique_lock<std::mutex> lock(wd_mu_);
   while (!wd_cv_.wait_for(lock, std::chrono::duration<double>(opt_.watchdog_period_s),
                           [&] { return wd_stop_; })) {
     lock.unlock();
+    if (opt_.heap_trim_s > 0 &&
+        std::chrono::steady_clock::now() - trimmed_at >
+            std::chrono::duration<double>(opt_.heap_trim_s)) {
+      heap_returned_ += return_free_heap();
+      trimmed_at = std::chrono::steady_clock::now();
+    }
     if (const int closed = close_idle_ingest_streams(*counters_, opt_.engine.stream_idle_s))
       std::fprintf(stderr, "rangexd: closed %d idle ingest stream%s (no request for %.0f s)\n",
                    closed, closed > 1 ? "s" : "", opt_.engine.stream_idle_s);

@@ -5,6 +5,7 @@
 // rangexd can exit for its supervisor to restart it. A retention thread prunes the store
 // (plant.yaml retention) at start and every retention.every_h.
 #pragma once
+#include <atomic>
 #include <condition_variable>
 #include <functional>
 #include <memory>
@@ -40,6 +41,7 @@ struct ServerOptions {
   int min_ping_interval_ms = 5000;
   int keepalive_ms = 60000;
   double watchdog_period_s = 0.1;
+  double heap_trim_s = 60;  // freed heap given back to the system this often (0: never)
   std::function<void(const Health&)> on_fatal;  // NOT_SERVING for exit_after_s
 };
 
@@ -59,6 +61,8 @@ class RangexServer {
   Store& store() { return *store_; }
   ResultsHub& hub() { return *hub_; }
   int ingest_streams() const;
+  // Resident bytes given back by the periodic heap trims since start.
+  size_t heap_returned() const { return heap_returned_; }
 
  private:
   struct Services;
@@ -83,6 +87,7 @@ class RangexServer {
   std::mutex wd_mu_;
   std::condition_variable wd_cv_;
   bool wd_stop_ = false;
+  std::atomic<size_t> heap_returned_{0};
 };
 
 }  // namespace rangex
