@@ -249,7 +249,7 @@ void report(const char* title, const PathTimes& t, const Recorded& rec, int grid
               t.bytes_copied / double(t.lines) / (2.0 * double(rec.frame())));
 }
 
-// Compensation and detection of the same fillets before issue 23 (one spread per fillet,
+// Compensation and detection of the same fillets before product learning (one spread per fillet,
 // fixed thresholds, no band extremes) and after it (band extremes; fixed and learned
 // thresholds; one spread per fillet and spread by thickness), in alternating rounds;
 // medians of the rounds, as ratios to the first.
@@ -259,7 +259,7 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   if (imgs.empty()) return;
   constexpr int kVariants = 4;
   InspectionParams v[kVariants];
-  const char* names[kVariants] = {"before issue 23 (fixed, no extremes)", "fixed, band extremes",
+  const char* names[kVariants] = {"before learning (fixed, no extremes)", "fixed, band extremes",
                                   "learned", "learned, spread by thickness"};
   for (int k = 0; k < kVariants; ++k) {
     v[k] = lc.inspection;

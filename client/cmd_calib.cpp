@@ -1,6 +1,6 @@
-// calib scatter: the scattering constants K1, K2 per camera (seed §5.4.2), fitted from a
-// recording with truth, where the simulator's true stripe stands in for the coated
-// reference profiles of the dissertation.
+// calib scatter: the scattering constants K1, K2 per camera (Laser Range Imaging §5.4.2), fitted
+// from a recording with truth, where the simulator's true stripe stands in for the coated reference
+// profiles of the dissertation.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>

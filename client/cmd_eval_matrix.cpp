@@ -1,4 +1,4 @@
-// eval-matrix: detection on plants the project did not simulate (issue 11). Each plant
+// eval-matrix: detection on plants the project did not simulate. Each plant
 // variant (config/variants/*.yaml) is calibrated from its own calibration scenes (the pin
 // phantom for the fan beam and the detector's blur, blocks for the registration), its plant
 // is simulated with its physics, K1/K2 are fitted on that plant's own recording, and the

@@ -1,4 +1,4 @@
-// learn: product learning on a recording of the plant's own clean product (issue 23). The
+// learn: product learning on a recording of the plant's own clean product. The
 // recording is replayed through the same line stages and inspection as `process`; each
 // fillet's detection extremes per thickness band are fitted with an extreme-value model per
 // lane (pipeline/product_learning.h), the thresholds that meet the lane's false-reject

@@ -1,4 +1,5 @@
-// rangexctl: the command-line client (offline commands for now).
+// rangexctl: the command-line client: offline tools on recordings and simulations, and the
+// gRPC client of a running rangexd (feed, watch, calibrations, status).
 #include <cstdio>
 #include <cstring>
 #include <exception>

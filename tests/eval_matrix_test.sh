@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A slice of the evaluation matrix (issue 11): two plant variants, each calibrated from its
+# A slice of the evaluation matrix: two plant variants, each calibrated from its
 # own scenes and inspected; the figures are parsed from matrix.json. The full matrix is a
 # benchmark (rangexctl eval-matrix, minutes per variant) and runs outside CI.
 set -u
@@ -16,7 +16,7 @@ check "rangex recalls at least what the X-ray alone does" py "all(x['recall_calc
 check "the variant's own calibration says where K1/K2 come from" grep -q "fitted_on: \"calib scatter on" m/strong_blur/lane0.yaml
 check "the blur measured on the variant's pins" grep -q "detector_sigma_px: 0.9" m/strong_blur/lane0.yaml
 check "the scans are gone once evaluated" test ! -e m/strong_blur/rec
-# With learning (issue 23): the variant's own clean fillets learned, its claims checked on
+# With learning: the variant's own clean fillets learned, its claims checked on
 # others, a clean run inspected with what was learned (too few fillets to pass the learning's
 # gate: the matrix forces it, and says so).
 "$ctl" eval-matrix --out l --only rough_meat --fillets 4 --seed 5 --learn 12 --check 3 --frr 3 \

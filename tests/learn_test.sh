@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# rangexctl learn (issue 23) through its command line: a lane learned from a recording of
+# rangexctl learn through its command line: a lane learned from a recording of
 # clean product writes a plant configuration that process uses as is, with its report;
 # the same run learns the same thresholds again (fixed seeds); a learning run that holds
 # bone is refused and names the fillets; bad options name themselves.

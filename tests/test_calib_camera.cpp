@@ -1,4 +1,4 @@
-// Camera intrinsics from simulated target images (issue 10 targets): focal lengths within
+// Camera intrinsics from simulated target images: focal lengths within
 // 0.1 % of truth, principal point within 0.5 px, reprojection RMS within 10 % of the corner
 // noise the images carry, and no worse than cv::calibrateCamera on the same corners. This
 // lens is narrow (20 x 13 degrees): the principal point needs the saddle-fitted corners

@@ -1,4 +1,4 @@
-// Laser-to-X-ray registration from blocks seen by both planes (issue 10 targets: delay
+// Laser-to-X-ray registration from blocks seen by both planes (targets: delay
 // within 0.1 line, block corners laser vs X-ray <= 0.1 mm mean; the dissertation's §6.4.3
 // reports 0.183 mm).
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
 // Camera extrinsics relative to the laser plane and belt from a simulated staircase scan
-// (issue 10 target: worst step error <= 0.1 mm for both cameras; Table 5's worst is 0.291).
+// (targets: worst step error <= 0.1 mm for both cameras; Table 5's worst is 0.291).
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,5 +1,5 @@
 // X-ray fan-beam calibration: the dissertation's real pin measurements (Table 9) and a
-// simulated pin phantom with known geometry and blur (issue 10 targets).
+// simulated pin phantom with known geometry and blur.
 #include <gtest/gtest.h>
 
 #include <cmath>

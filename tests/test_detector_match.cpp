@@ -1,4 +1,4 @@
-// The pseudo-X-ray made to match the detector (issue 11): a domed fillet with a vertical
+// The pseudo-X-ray made to match the detector: a domed fillet with a vertical
 // wall (20 mm of meat within one pixel), seen by an X-ray whose detector blurs (Gaussian line
 // spread) and whose plane lies a fraction of a line off and turned against the laser's.
 // Compared with the truth rendered here, not with the code under test.

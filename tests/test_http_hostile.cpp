@@ -1,4 +1,4 @@
-// The HTTP side against requests a plant's network can hold (issue 24): multi-range bombs and
+// The HTTP side against requests a plant's network can hold: multi-range bombs and
 // header floods are refused small and fast, and the dashboard's API answers throughout.
 #include <arpa/inet.h>
 #include <gtest/gtest.h>

@@ -44,8 +44,9 @@ TEST(Inspection, PseudoXrayRecoversKnownBeta) {
   EXPECT_NEAR(r.resid_mean_dn, 0, 2);
 }
 
-// A polychromatic beam bends ln I (seed's line does not hold): the parabola follows the bend
-// and finds the bones, where the line leaves a thickness-shaped residual that hides them.
+// A polychromatic beam bends ln I (the dissertation's straight line does not hold): the parabola
+// follows the bend and finds the bones, where the line leaves a thickness-shaped residual that
+// hides them.
 TEST(Inspection, HardenedBeamIsFollowedByTheParabola) {
   const std::vector<Bone> bones = {{-20, 130, 1.5, 0.06}, {5, 160, 2.0, 0.05}, {0, 190, 1.5, 0.06}};
   const FilletImage f = synthetic_fillet(std::log(3600.0), -0.03, bones, 4, 300, 200, 0.3);

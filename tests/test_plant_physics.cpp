@@ -1,4 +1,4 @@
-// Plant variants (issue 11): each physics part named in YAML, refused by key when wrong, the
+// Plant variants: each physics part named in YAML, refused by key when wrong, the
 // nominal part rendering exactly the project's simulator, and each effect present where it
 // is asked for.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Drift while running (issue 23) on inspected fillets: thresholds learned from 40 clean
+// Drift while running on inspected fillets: thresholds learned from 40 clean
 // fillets of one texture; the drift tracker, fed the passed fillets' extremes, stays quiet
 // over 200 more of the same product and raises "rougher than learned" once the texture
 // steps up mid-run. The fillets are synthetic (a dome of meat with photon noise, a texture

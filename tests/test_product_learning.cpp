@@ -1,4 +1,4 @@
-// Product learning (issue 23): the GEV model and its fit against known parameters, the
+// Product learning: the GEV model and its fit against known parameters, the
 // component extreme against a threshold sweep, the per-thickness spread against its
 // definition, learning from clean extremes (thresholds meet the budget on fillets it never
 // saw), refusal of a learning run with bone, drift, and the learned section's round trip.

@@ -1,4 +1,5 @@
-// Fan-beam path length through a height profile (seed eq. 39-40) against brute force.
+// Fan-beam path length through a height profile (Laser Range Imaging eq. 39-40) against brute
+// force.
 #include <gtest/gtest.h>
 
 #include <cmath>

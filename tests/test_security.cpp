@@ -1,4 +1,4 @@
-// Identity and roles (issue 14): rangexd over TLS with client certificates and bearer tokens
+// Identity and roles: rangexd over TLS with client certificates and bearer tokens
 // from a test CA made by scripts/make-test-ca.sh. Every RPC is called by every kind of
 // caller and must be refused exactly when the caller's role is below the one the RPC needs
 // (the table below is the specification, and it must name every method the services

@@ -1,4 +1,4 @@
-// Learned settings on rangexd (issue 23): LearnProduct on a live lane fed clean product
+// Learned settings on rangexd: LearnProduct on a live lane fed clean product
 // stores a version with its report and sensitivity; activation shows on the lane; a version
 // whose report failed is refused unless forced (audited); a restart keeps the active one.
 #include <grpcpp/grpcpp.h>

@@ -1,4 +1,4 @@
-// Stripe extraction accuracy on synthetic stripes with known centres (seed ch. 5).
+// Stripe extraction accuracy on synthetic stripes with known centres (Laser Range Imaging ch. 5).
 #include <gtest/gtest.h>
 
 #include <cmath>

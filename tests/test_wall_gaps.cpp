@@ -1,4 +1,4 @@
-// A steep wall's hidden rim closed as a vertical wall in the gap's middle (issue 11).
+// A steep wall's hidden rim closed as a vertical wall in the gap's middle.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,8 +1,8 @@
-// Where each block of a registration scan stands, as each plane sees it (seed §6.4.3): the
-// lines at which its leading and trailing walls cross each plane, its side walls in the
-// X-ray, and each camera's view of its top. The blocks stand askew, so a wall crosses a
-// plane over many lines and pixels, and a straight line through whole-pixel crossings
-// locates it to a fraction of one (the slanted-edge principle).
+// Where each block of a registration scan stands, as each plane sees it (Laser Range Imaging
+// §6.4.3): the lines at which its leading and trailing walls cross each plane, its side walls in
+// the X-ray, and each camera's view of its top. The blocks stand askew, so a wall crosses a plane
+// over many lines and pixels, and a straight line through whole-pixel crossings locates it to a
+// fraction of one (the slanted-edge principle).
 #pragma once
 #include <cstdint>
 #include <vector>

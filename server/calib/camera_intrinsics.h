@@ -1,6 +1,6 @@
-// Camera intrinsics and lens distortion from views of a planar target (seed §6.3.2.2):
-// Zhang's closed form, then all intrinsics (fx, fy, cx, cy, skew), distortion (k1, k2, p1,
-// p2, k3) and every view's pose refined jointly by Levenberg-Marquardt (Ceres) with a Huber
+// Camera intrinsics and lens distortion from views of a planar target (Laser Range Imaging
+// §6.3.2.2): Zhang's closed form, then all intrinsics (fx, fy, cx, cy, skew), distortion (k1, k2,
+// p1, p2, k3) and every view's pose refined jointly by Levenberg-Marquardt (Ceres) with a Huber
 // loss, the standard deviation of every parameter from the fit's covariance, and a map of
 // how far a projected point may move over the sensor given that covariance.
 #pragma once

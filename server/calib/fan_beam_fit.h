@@ -1,5 +1,5 @@
-// X-ray fan-beam geometry from a pin phantom (seed §6.3.2.3-4, Figure 27, Table 9): the
-// source position, the detector's offset, pitch, height and tilt, fitted by Levenberg-
+// X-ray fan-beam geometry from a pin phantom (Laser Range Imaging §6.3.2.3-4, Figure 27, Table 9):
+// the source position, the detector's offset, pitch, height and tilt, fitted by Levenberg-
 // Marquardt (Ceres) to where each pin's shadow falls on the detector.
 #pragma once
 #include <functional>

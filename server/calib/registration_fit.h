@@ -1,5 +1,5 @@
-// Laser-to-X-ray registration (seed §6.3.2.5, eqs. 41-44, §6.4.3) from blocks scanned by
-// both planes.
+// Laser-to-X-ray registration (Laser Range Imaging §6.3.2.5, eqs. 41-44, §6.4.3) from blocks
+// scanned by both planes.
 // - Along the belt: the line at which each block's leading and trailing walls cross the
 //   laser plane (from the laser heights) and the X-ray plane (from the attenuation) differ
 //   by the delay between the planes, which changes across the belt with the angle alpha

@@ -1,6 +1,6 @@
-// Scattering constants K1 and K2 (seed §5.4.2) from paired profiles: the reference row of
-// each column (coated meat in the dissertation, the simulator's truth here) beside the
-// plain centroid and asymmetry measured on the scattered stripe.
+// Scattering constants K1 and K2 (Laser Range Imaging §5.4.2) from paired profiles: the reference
+// row of each column (coated meat in the dissertation, the simulator's truth here) beside the plain
+// centroid and asymmetry measured on the scattered stripe.
 #pragma once
 #include <cstddef>
 

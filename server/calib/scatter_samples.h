@@ -1,5 +1,5 @@
-// Paired samples for the scattering constants K1, K2 (seed §5.4.2): for every column whose
-// reference point lies on meat, the reference row (coated meat in the dissertation, the
+// Paired samples for the scattering constants K1, K2 (Laser Range Imaging §5.4.2): for every column
+// whose reference point lies on meat, the reference row (coated meat in the dissertation, the
 // simulator's truth here) beside the plain centroid and asymmetry of the scattered stripe.
 #pragma once
 #include <cstdint>

@@ -1,8 +1,8 @@
 // A camera's pose relative to the laser plane and the belt from a scan of the CNC staircase
-// (seed §6.4.2, Table 5): the stripe on every step top lies at a known height, and the
-// steps' walls at known x; Levenberg-Marquardt (Ceres) moves the camera until the stripe's
-// rays meet the plane y = 0 at those heights and walls. The intrinsics stay as calibrated.
-// The result is reported per step as in Table 5: mean, std and error of the measured height.
+// (Laser Range Imaging §6.4.2, Table 5): the stripe on every step top lies at a known height, and
+// the steps' walls at known x; Levenberg-Marquardt (Ceres) moves the camera until the stripe's rays
+// meet the plane y = 0 at those heights and walls. The intrinsics stay as calibrated. The result is
+// reported per step as in Table 5: mean, std and error of the measured height.
 #pragma once
 #include <cstdint>
 #include <string>

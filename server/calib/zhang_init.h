@@ -1,6 +1,6 @@
-// Zhang's closed-form start for a planar target (seed eqs. 30-34): a homography per view,
-// the intrinsic matrix from the image of the absolute conic, then each view's pose with
-// its rotation made orthonormal. Lens distortion is ignored here; the refinement adds it.
+// Zhang's closed-form start for a planar target (Laser Range Imaging eqs. 30-34): a homography per
+// view, the intrinsic matrix from the image of the absolute conic, then each view's pose with its
+// rotation made orthonormal. Lens distortion is ignored here; the refinement adds it.
 #pragma once
 #include <vector>
 

@@ -1,5 +1,5 @@
-// The machined calibration objects an integrator places on a lane (seed §6.4): the CNC
-// staircase of Table 5, the X-ray pin phantom of Figure 27 and the registration blocks of
+// The machined calibration objects an integrator places on a lane (Laser Range Imaging §6.4): the
+// CNC staircase of Table 5, the X-ray pin phantom of Figure 27 and the registration blocks of
 // §6.4.3, as their drawings give them (YAML). The solvers take these as known; the
 // simulator builds its scenes from them.
 #pragma once

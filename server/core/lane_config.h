@@ -30,7 +30,7 @@ struct FusionParams {
   double max_column_step_mm = 2.0;  // neighbouring columns further apart are not joined
 };
 
-// Fillet assembly, compensation and detection (seed ch. 7; SPEC data flow steps 4-6).
+// Fillet assembly, compensation and detection (Laser Range Imaging ch. 7).
 struct InspectionParams {
   double floor_mm = 1.5;               // thickness above this is fillet
   double min_fillet_area_mm2 = 800;    // smaller regions are debris, counted not inspected

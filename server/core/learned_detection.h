@@ -1,4 +1,4 @@
-// Detection thresholds learned from a plant's own clean product (issue 23): for each
+// Detection thresholds learned from a plant's own clean product: for each
 // detection statistic (round kernel, needle kernels, air pockets) a GEV model of its
 // per-fillet extreme in thickness bands, and the threshold per band that meets the lane's
 // per-fillet false-reject budget with a stated confidence. Empty (no bands): the fixed

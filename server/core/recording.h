@@ -1,4 +1,4 @@
-// Recordings (SPEC "Interfaces"): a folder with recording.yaml and raw little-endian arrays
+// Recordings: a folder with recording.yaml and raw little-endian arrays
 // per lane: lane<ID>/cam0.u8, cam1.u8 (N x H x W), xray.u16 (N x D), encoder.i64 (N), and
 // optionally lane<ID>/truth/ from the simulator.
 #pragma once

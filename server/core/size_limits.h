@@ -1,4 +1,4 @@
-// Bounds on what rangex reads, checked before anything is parsed (issue 24): a 50 MB YAML
+// Bounds on what rangex reads, checked before anything is parsed: a 50 MB YAML
 // took rangexd to 7.9 GB and std::bad_alloc, since a YAML tree costs about 150 bytes a byte.
 // Each bound is far above what a plant's real documents need (a 16-lane plant.yaml is about
 // 10 kB, a calibration 2 kB, learned settings 2 kB, a report 20 kB).

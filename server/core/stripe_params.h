@@ -1,4 +1,4 @@
-// Stripe extraction settings and the per-camera scattering constants (seed ch. 5).
+// Stripe extraction settings and the per-camera scattering constants (Laser Range Imaging ch. 5).
 #pragma once
 #include <string>
 #include <string_view>

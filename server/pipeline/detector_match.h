@@ -1,4 +1,4 @@
-// The thickness as the X-ray detector would see it (issue 11): the laser measures a sharp
+// The thickness as the X-ray detector would see it: the laser measures a sharp
 // slice of the belt at whole lines, the detector a blurred one, a fraction of a line
 // further and along a plane turned against the laser's. Before the pseudo-X-ray is fitted,
 // a fillet's registered thickness is

@@ -1,6 +1,6 @@
-// Stage 3b, fan-beam projection (seed eq. 39-40): for every X-ray detector pixel, the length
-// of its ray from the source through the meat described by the fused profile. Output is one
-// thickness line in mm of X-ray path, registered to the detector pixels.
+// Stage 3b, fan-beam projection (Laser Range Imaging eq. 39-40): for every X-ray detector pixel,
+// the length of its ray from the source through the meat described by the fused profile. Output is
+// one thickness line in mm of X-ray path, registered to the detector pixels.
 #pragma once
 #include <cstdint>
 

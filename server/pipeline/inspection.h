@@ -1,4 +1,4 @@
-// Per-fillet compensation, detection and decision (seed ch. 7; SPEC steps 5-6):
+// Per-fillet compensation, detection and decision (Laser Range Imaging ch. 7):
 //   fit ln I = b0 + b1 T robustly, pseudo-X-ray P = exp(b0 + b1 T), residual r = ln I - ln P,
 //   z = r / sigma(P) with the fillet's own noise model, light Gaussian smoothing, then
 //   smoothed z below -z_threshold -> bone fragments (reject), above +air_z_threshold -> air

@@ -1,6 +1,6 @@
-// Signal-dependent X-ray noise in the log domain (seed eq. 51 and 64): photon noise gives
-// var(ln I) = a / I and electronic noise b / I^2, so sigma(I) = sqrt(a / I + b / I^2).
-// a and b are estimated from a fillet's own residuals, binned by predicted intensity.
+// Signal-dependent X-ray noise in the log domain (Laser Range Imaging eq. 51 and 64): photon noise
+// gives var(ln I) = a / I and electronic noise b / I^2, so sigma(I) = sqrt(a / I + b / I^2). a and
+// b are estimated from a fillet's own residuals, binned by predicted intensity.
 #pragma once
 #include <cstddef>
 

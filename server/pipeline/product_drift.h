@@ -1,4 +1,4 @@
-// Drift while running (issue 23): a lane tracks the detection extremes of the fillets it
+// Drift while running: a lane tracks the detection extremes of the fillets it
 // passes against its active learned model. Every `every` fillets the last `window` are
 // fitted for a location shift per statistic (product_learning.h: estimate_drift); the
 // false-reject rate that shift implies is what statistics, /metrics and the dashboard show.

@@ -1,4 +1,4 @@
-// Product learning (issue 23): thresholds from a plant's own clean fillets. Each detection
+// Product learning: thresholds from a plant's own clean fillets. Each detection
 // statistic's per-fillet extreme in each thickness band (FilletResult::extremes) is fitted
 // with a GEV regression (gev_fit.h); the threshold per band is the model's quantile that
 // spends the lane's per-fillet false-reject budget, raised to the `confidence` quantile of

@@ -1,5 +1,5 @@
-// Stage 3a, two-camera fusion (seed ch. 4): each camera's (x, z) points, one per column,
-// are joined into a polyline and resampled onto the lane's uniform x grid (where a polyline
+// Stage 3a, two-camera fusion (Laser Range Imaging ch. 4): each camera's (x, z) points, one per
+// column, are joined into a polyline and resampled onto the lane's uniform x grid (where a polyline
 // folds over itself the higher surface wins: the laser lights the top). Then per grid
 // sample: both cameras valid and within agree_tol -> mean; one valid -> that one; both
 // valid but disagreeing -> invalid (no guess); finally gaps up to max_gap_mm with valid

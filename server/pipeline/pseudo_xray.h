@@ -1,7 +1,8 @@
 // The CPU reference of the pseudo-X-ray stages over a flat batch of fillets, the shape of the
 // kernels (kernels/pseudo_xray.cl, shaders/pseudo_xray.comp, shaders/irls_sums.comp):
 //   pseudo_xray_map: per usable pixel, ln P = b0 + b1 T, P = exp(ln P), the residual
-//     ln I - ln P, and the noise-normalised z = residual / sigma_ln(P) (seed eq. 51, 64);
+//     ln I - ln P, and the noise-normalised z = residual / sigma_ln(P) (Laser Range Imaging eq. 51,
+//     64);
 //   irls_sums: per usable pixel the residual r = ln I - (b0 + b1 T) and its Tukey weight,
 //     and per fillet the weighted sums one IRLS iteration of the robust fit needs
 //     (the iteration logic, the MAD scale and convergence, stays on the host).

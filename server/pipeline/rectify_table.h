@@ -1,5 +1,5 @@
-// Stage 2, rectification (seed ch. 6.3.2.6): a bilinear lookup table per camera that maps a
-// distorted pixel (u, v) straight to laser-plane coordinates (x, z) in mm. The table is
+// Stage 2, rectification (Laser Range Imaging ch. 6.3.2.6): a bilinear lookup table per camera that
+// maps a distorted pixel (u, v) straight to laser-plane coordinates (x, z) in mm. The table is
 // built once per calibration from the exact model (iterative undistortion, ray meets the
 // laser plane); the hot path only interpolates.
 #pragma once

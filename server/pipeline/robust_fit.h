@@ -1,6 +1,6 @@
 // Robust straight-line fit ln I = b0 + b1 * T by iteratively reweighted least squares with
-// Tukey's biweight (seed eq. 66-70), following statsmodels' RLM(..., M=TukeyBiweight(c))
-// step for step so that the two agree to rounding:
+// Tukey's biweight (Laser Range Imaging eq. 66-70), following statsmodels' RLM(...,
+// M=TukeyBiweight(c)) step for step so that the two agree to rounding:
 //   start: ordinary least squares;
 //   scale: MAD about zero / 0.6745 of the current residuals, re-estimated every iteration;
 //   weights: (1 - (r / (c * scale))^2)^2 for |r| <= c * scale, else 0;

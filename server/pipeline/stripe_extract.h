@@ -1,5 +1,5 @@
-// Stage 1, stripe extraction (seed ch. 5): for every column of every frame in a batch, the
-// sub-pixel row of the laser stripe, its peak intensity, window width and a valid flag.
+// Stage 1, stripe extraction (Laser Range Imaging ch. 5): for every column of every frame in a
+// batch, the sub-pixel row of the laser stripe, its peak intensity, window width and a valid flag.
 //
 // Per column: peak row p (first maximum), window = the connected run of pixels above
 // T = threshold_rel * peak around p, weights g - T (continuous at the window edge, so the

@@ -1,4 +1,4 @@
-// Learned inspection settings in the engine (issue 23): versions uploaded, listed and
+// Learned inspection settings in the engine: versions uploaded, listed and
 // activated like calibrations, and live learning from a lane's next fillets
 // (ControlService.LearnProduct). The learning itself is pipeline/product_learning.h; its
 // report and gate are service/learned_report.h.

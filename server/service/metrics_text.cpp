@@ -128,7 +128,7 @@ std::string prometheus_text(const MetricsInput& m) {
   for (const LaneState& l : m.lanes)
     w.sample("rangex_lane_restarts_total", lane_label(l.config.id), l.restarts);
 
-  // Learned thresholds and drift: what the lane's recently passed fillets imply (issue 23).
+  // Learned thresholds and drift: what the lane's recently passed fillets imply.
   w.family("rangex_lane_implied_false_reject_rate", "gauge",
            "With learned thresholds: the per-fillet false-reject rate the lane's recently passed "
            "fillets imply under its learned model (-1: not estimated yet), by lane and version.");

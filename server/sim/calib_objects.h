@@ -1,7 +1,7 @@
-// Calibration objects on the belt (seed §6.4): CNC blocks (the staircase of Table 5, the
-// registration blocks of §6.4.3) and steel pins held across the fan beam (Figure 27), in
-// the object coordinates of LaneScene (x across, b along the belt). Their surfaces feed the
-// camera renderer; their attenuation feeds CalibXrayRenderer.
+// Calibration objects on the belt (Laser Range Imaging §6.4): CNC blocks (the staircase of Table 5,
+// the registration blocks of §6.4.3) and steel pins held across the fan beam (Figure 27), in the
+// object coordinates of LaneScene (x across, b along the belt). Their surfaces feed the camera
+// renderer; their attenuation feeds CalibXrayRenderer.
 #pragma once
 #include <cmath>
 #include <vector>

@@ -1,4 +1,4 @@
-// Renders one camera's Mono8 frame of the laser stripe for one line (seed §5.3.2): a
+// Renders one camera's Mono8 frame of the laser stripe for one line (Laser Range Imaging §5.3.2): a
 // Gaussian core plus a one-sided sub-surface scattering tail whose weight depends on the
 // viewing angle to the surface (eq. 14), speckle, sensor noise, 8-bit saturation, and
 // occlusion by the fillet's own curvature. The true stripe row per column is returned.

@@ -1,4 +1,4 @@
-// Meat as rough as real meat (issue 23): the attenuation of a fillet varies with its
+// Meat as rough as real meat: the attenuation of a fillet varies with its
 // texture (muscle fibres, connective tissue: a random field correlated over 1-5 mm, two
 // scales mixed) and its fat marbling (streaks along the muscle where the meat attenuates
 // less). Both are a per-fillet field of relative attenuation over the belt plane. The

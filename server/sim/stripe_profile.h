@@ -1,6 +1,6 @@
-// One column of a laser stripe as the camera sees it (seed eq. 13-14): a pixel-integrated
-// Gaussian core plus a one-sided exponential scattering tail (convolved with the core),
-// with multiplicative speckle. Adds onto the pixels already in the column.
+// One column of a laser stripe as the camera sees it (Laser Range Imaging eq. 13-14): a
+// pixel-integrated Gaussian core plus a one-sided exponential scattering tail (convolved with the
+// core), with multiplicative speckle. Adds onto the pixels already in the column.
 #pragma once
 #include <cstdint>
 #include <vector>

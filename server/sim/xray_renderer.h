@@ -1,5 +1,5 @@
-// Renders one X-ray detector line (seed ch. 7.3.2): for each pixel the fan-beam ray from the
-// source, Beer-Lambert attenuation through meat with texture, fat, air pockets and bone
+// Renders one X-ray detector line (Laser Range Imaging ch. 7.3.2): for each pixel the fan-beam ray
+// from the source, Beer-Lambert attenuation through meat with texture, fat, air pockets and bone
 // fragments (eq. 52-57), Poisson photon noise plus electronic noise, 12-bit output. Returns
 // the true X-ray path length through the meat per pixel.
 //
