@@ -5,11 +5,5 @@
 #pragma OPENCL FP_CONTRACT OFF
 #include "shared/lane_tables.h"
 #include "shared/fillet_tables.h"
+#include "shared/stripe_methods.h"
 
-#define METHOD_CENTROID 0
-#define METHOD_SQUARED 1
-#define METHOD_BINARY 2
-#define METHOD_GAUSSIAN3 3
-#define METHOD_PARABOLA 4
-#define METHOD_SHIFTED 5
-#define METHOD_MODIFIED 6

@@ -3,13 +3,7 @@
 #include "shared/lane_tables.h"
 #include "shared/push_constants.h"
 #include "shared/fillet_tables.h"
+#include "shared/stripe_methods.h"
 
-#define METHOD_CENTROID 0
-#define METHOD_SQUARED 1
-#define METHOD_BINARY 2
-#define METHOD_GAUSSIAN3 3
-#define METHOD_PARABOLA 4
-#define METHOD_SHIFTED 5
-#define METHOD_MODIFIED 6
 
 #define kNaN uintBitsToFloat(0x7fc00000u)

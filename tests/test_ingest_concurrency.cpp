@@ -105,6 +105,8 @@ ServerOptions options(const test::TempDir& t) {
   o.engine.backend = cpu_request();
   o.engine.images = false;
   o.engine.stall_s = 2;
+  // A hang bound: under TSan on a loaded machine a 4,096-line queue took over 30 s to drain.
+  o.engine.drain_timeout_s = 300;
   return o;
 }
 

@@ -3,16 +3,19 @@
 #include <string>
 #include <string_view>
 
+#include "../../kernels/shared/stripe_methods.h"
+
 namespace rangex {
 
+// The numbers are the kernels' (kernels/shared/stripe_methods.h): a lane table carries them.
 enum class StripeMethod {
-  kCentroid,   // eq. 15 with g = intensity above threshold
-  kSquared,    // eq. 15 with g squared
-  kBinary,     // midpoint of the half-maximum crossings (interpolated)
-  kGaussian3,  // 3-point Gaussian (log-parabola) peak
-  kParabola,   // 3-point parabola peak
-  kShifted,    // eq. 18: centroid + K1
-  kModified,   // eq. 19: centroid + offset + K2 * asymmetry (see stripe_extract.h)
+  kCentroid = METHOD_CENTROID,    // eq. 15 with g = intensity above threshold
+  kSquared = METHOD_SQUARED,      // eq. 15 with g squared
+  kBinary = METHOD_BINARY,        // midpoint of the half-maximum crossings (interpolated)
+  kGaussian3 = METHOD_GAUSSIAN3,  // 3-point Gaussian (log-parabola) peak
+  kParabola = METHOD_PARABOLA,    // 3-point parabola peak
+  kShifted = METHOD_SHIFTED,      // eq. 18: centroid + K1
+  kModified = METHOD_MODIFIED,    // eq. 19: centroid + offset + K2 * asymmetry (stripe_extract.h)
 };
 
 // Parses the names used on the command line and in plant.yaml; throws Error naming the

@@ -19,6 +19,10 @@ size_t resident_bytes() {
 }
 }  // namespace
 
+void keep_large_blocks_out_of_arenas() {
+  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
+}
+
 size_t return_free_heap() {
   const size_t before = resident_bytes();
   malloc_trim(0);

@@ -354,6 +354,7 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
   if (opt_.listen.empty()) opt_.listen = plant_.listen;
   if (opt_.data_dir.empty()) opt_.data_dir = plant_.storage;
   check_listen_security(opt_.listen, plant_.security, "gRPC");
+  if (opt_.heap_trim_s > 0) keep_large_blocks_out_of_arenas();
   started_ns_ = now_ns();
   store_ = std::make_unique<Store>(opt_.data_dir);
   hub_ = std::make_unique<ResultsHub>();
@@ -425,9 +426,8 @@ void RangexServer::watchdog() {
   while (!wd_cv_.wait_for(lock, std::chrono::duration<double>(opt_.watchdog_period_s),
                           [&] { return wd_stop_; })) {
     lock.unlock();
-    if (opt_.heap_trim_s > 0 &&
-        std::chrono::steady_clock::now() - trimmed_at >
-            std::chrono::duration<double>(opt_.heap_trim_s)) {
+    if (opt_.heap_trim_s > 0 && std::chrono::steady_clock::now() - trimmed_at >
+                                    std::chrono::duration<double>(opt_.heap_trim_s)) {
       heap_returned_ += return_free_heap();
       trimmed_at = std::chrono::steady_clock::now();
     }

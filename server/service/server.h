@@ -41,7 +41,9 @@ struct ServerOptions {
   int min_ping_interval_ms = 5000;
   int keepalive_ms = 60000;
   double watchdog_period_s = 0.1;
-  double heap_trim_s = 60;  // freed heap given back to the system this often (0: never)
+  // Freed heap given back to the system this often, large blocks kept out of malloc's arenas
+  // (heap_trim.h); 0: neither.
+  double heap_trim_s = 60;
   std::function<void(const Health&)> on_fatal;  // NOT_SERVING for exit_after_s
 };
 

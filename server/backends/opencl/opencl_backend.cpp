@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "backends/device_lines.h"
 #include "backends/lane_tables.h"
 #include "backends/opencl/cl_runtime.h"
 #include "core/error.h"
@@ -85,17 +86,10 @@ struct OpenClBackend::Impl {
   cl::Buffer t_stripe, t_rect, t_nodes, t_geom, t_ln;
 
   // Device buffers for a batch of up to `lines` lines.
-  struct Lines {
-    int lines = 0;
-    cl::Buffer frames, frame_slot, lane_slot;
-    cl::Buffer row, peak, width, asym, centroid, valid;
-    cl::Buffer x, z, xz_valid, cam, profile, profile_valid, counts, top;
-    cl::Buffer thickness, thickness_valid;
-    std::vector<const cl::Buffer*> all() const {
-      return {
-          &frames,        &frame_slot, &lane_slot, &row,       &peak,           &width, &asym,
-          &centroid,      &valid,      &x,         &z,         &xz_valid,       &cam,   &profile,
-          &profile_valid, &counts,     &top,       &thickness, &thickness_valid};
+  struct Lines : DeviceLines<cl::Buffer> {
+    std::vector<const cl::Buffer*> all() {
+      auto v = DeviceLines<cl::Buffer>::all();
+      return {v.begin(), v.end()};
     }
   };
   Lines scratch;  // single-stage calls
@@ -162,10 +156,7 @@ struct OpenClBackend::Impl {
     std::vector<int32_t> lanes_host, frame_slot_host;
     Lines dev;
     std::vector<cl_event> up, run, down;
-    // Results as read back (flags as the kernels write them).
-    std::vector<int32_t> valid_i, xz_valid_i, profile_valid_i, thickness_valid_i;
-    std::vector<kernel::FusionCountK> counts;
-    std::vector<float> top;
+    LineReadback readback;
     void set(uint8_t* f, int32_t* l, int cap) {
       frames_ = f;
       lane_slot_ = l;
@@ -183,25 +174,13 @@ struct OpenClBackend::Impl {
 
   void ensure(Lines& d, int lines) {
     if (lines <= d.lines) return;
-    const size_t W = size_t(tables.width), H = size_t(tables.height);
-    const size_t cols = size_t(lines) * 2 * W, G = size_t(tables.grid_n), P = size_t(tables.pixels);
-    d.frames = buffer(cols * H, CL_MEM_READ_ONLY);
-    d.frame_slot = buffer(size_t(lines) * 2 * 4, CL_MEM_READ_ONLY);
-    d.lane_slot = buffer(size_t(lines) * 4, CL_MEM_READ_ONLY);
-    for (cl::Buffer* b :
-         {&d.row, &d.peak, &d.width, &d.asym, &d.centroid, &d.valid, &d.x, &d.z, &d.xz_valid})
-      *b = buffer(cols * 4);
-    d.cam = buffer(size_t(lines) * 2 * G * 4);
-    d.profile = buffer(size_t(lines) * G * 4);
-    d.profile_valid = buffer(size_t(lines) * G * 4);
-    d.counts = buffer(size_t(lines) * sizeof(kernel::FusionCountK));
-    d.top = buffer(size_t(lines) * 4);
-    d.thickness = buffer(size_t(lines) * P * 4);
-    d.thickness_valid = buffer(size_t(lines) * P * 4);
+    d.each(LineExtents::of(tables, lines), [&](cl::Buffer& b, size_t bytes, bool input) {
+      b = input ? buffer(bytes, CL_MEM_READ_ONLY) : buffer(bytes);
+    });
     d.lines = lines;
   }
 
-  void check_guards(const Lines& d, cl_command_queue qq) {
+  void check_guards(Lines& d, cl_command_queue qq) {
     if (!opt.guards) return;
     for (const cl::Buffer* b : d.all()) b->check_guards(qq, "batch");
     for (const cl::Buffer* b : {&t_stripe, &t_rect, &t_nodes, &t_geom, &t_ln})
@@ -392,50 +371,13 @@ void OpenClBackend::collect(LineBatchSlot& batch, LineResults& out) {
   auto& s = static_cast<Impl::Slot&>(batch);
   if (!s.submitted) submit(batch);
   const cl_command_queue qq = m.q(s.queue);
-  const int lines = s.lines, count = lines * 2;
-  const size_t cols = size_t(count) * m.tables.width, G = size_t(m.tables.grid_n),
-               P = size_t(m.tables.pixels);
-  out.stripes.resize(cols);
-  out.x.resize(cols);
-  out.z.resize(cols);
-  out.xz_valid.resize(cols);
-  out.profile.resize(size_t(lines) * G);
-  out.profile_valid.resize(size_t(lines) * G);
-  out.thickness.resize(size_t(lines) * P);
-  out.thickness_valid.resize(size_t(lines) * P);
-  s.valid_i.resize(cols);
-  s.xz_valid_i.resize(cols);
-  s.profile_valid_i.resize(size_t(lines) * G);
-  s.thickness_valid_i.resize(size_t(lines) * P);
-  s.counts.resize(size_t(lines));
-  const Impl::Lines& d = s.dev;
-  read(qq, d.row.mem(), out.stripes.row.data(), cols * 4, s.down);
-  read(qq, d.peak.mem(), out.stripes.peak.data(), cols * 4, s.down);
-  read(qq, d.width.mem(), out.stripes.width.data(), cols * 4, s.down);
-  read(qq, d.asym.mem(), out.stripes.asym.data(), cols * 4, s.down);
-  read(qq, d.centroid.mem(), out.stripes.centroid.data(), cols * 4, s.down);
-  read(qq, d.valid.mem(), s.valid_i.data(), cols * 4, s.down);
-  read(qq, d.x.mem(), out.x.data(), cols * 4, s.down);
-  read(qq, d.z.mem(), out.z.data(), cols * 4, s.down);
-  read(qq, d.xz_valid.mem(), s.xz_valid_i.data(), cols * 4, s.down);
-  read(qq, d.profile.mem(), out.profile.data(), size_t(lines) * G * 4, s.down);
-  read(qq, d.profile_valid.mem(), s.profile_valid_i.data(), size_t(lines) * G * 4, s.down);
-  read(qq, d.counts.mem(), s.counts.data(), size_t(lines) * sizeof(kernel::FusionCountK), s.down);
-  read(qq, d.thickness.mem(), out.thickness.data(), size_t(lines) * P * 4, s.down);
-  read(qq, d.thickness_valid.mem(), s.thickness_valid_i.data(), size_t(lines) * P * 4, s.down);
+  const LineExtents e = LineExtents::of(m.tables, s.lines);
+  const auto to = s.readback.prepare(e, out);
+  s.dev.outputs(
+      e, [&](cl::Buffer& b, size_t bytes, size_t k) { read(qq, b.mem(), to[k], bytes, s.down); });
   m.finish(qq);
-  m.check_guards(d, qq);
-  to_flags(s.valid_i, cols, out.stripes.valid.data());
-  to_flags(s.xz_valid_i, cols, out.xz_valid.data());
-  to_flags(s.profile_valid_i, size_t(lines) * G, out.profile_valid.data());
-  to_flags(s.thickness_valid_i, size_t(lines) * P, out.thickness_valid.data());
-  for (const auto& c : s.counts) {
-    out.fusion.both += c.both;
-    out.fusion.single += c.single_cam;
-    out.fusion.conflict += c.conflict;
-    out.fusion.filled += c.filled;
-    out.fusion.missing += c.missing;
-  }
+  m.check_guards(s.dev, qq);
+  s.readback.finish(out);
   times_ = {seconds(s.up), seconds(s.run), seconds(s.down)};
   s.busy = s.submitted = false;
 }

@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "../../../kernels/shared/push_constants.h"
+#include "backends/device_lines.h"
 #include "backends/lane_tables.h"
 #include "backends/vulkan/vk_runtime.h"
 #include "core/error.h"
@@ -72,24 +73,16 @@ struct VulkanBackend::Impl {
   vk::Buffer t_stripe, t_rect, t_nodes, t_geom, t_ln;
 
   // Buffers, descriptor sets, a command buffer and a fence for a batch of up to `lines`.
-  struct Lines {
+  struct Lines : DeviceLines<Arr> {
     int index = 0;  // its four timestamps start at 4 * index
-    int lines = 0;
-    Arr frames, frame_slot, lane_slot, row, peak, width, asym, centroid, valid, x, z, xz_valid, cam,
-        profile, profile_valid, counts, top, thickness, thickness_valid;
     std::array<VkDescriptorSet, kKernels> sets{};
     VkCommandBuffer cb = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
-    std::vector<Arr*> all() {
-      return {
-          &frames,        &frame_slot, &lane_slot, &row,       &peak,           &width, &asym,
-          &centroid,      &valid,      &x,         &z,         &xz_valid,       &cam,   &profile,
-          &profile_valid, &counts,     &top,       &thickness, &thickness_valid};
-    }
   };
   struct Slot final : LineBatchSlot {
     Lines* lines_buf = nullptr;
     bool busy = false, submitted = false;
+    LineReadback readback;
     void point(int cap) {
       frames_ = lines_buf->frames.ptr();
       lane_slot_ = reinterpret_cast<int32_t*>(lines_buf->lane_slot.ptr());
@@ -240,22 +233,8 @@ struct VulkanBackend::Impl {
   void ensure(Lines& d, int lines) {
     if (lines <= d.lines) return;
     for (Arr* a : d.all()) free(*a);
-    const VkDeviceSize W = VkDeviceSize(tables.width), H = VkDeviceSize(tables.height);
-    const VkDeviceSize cols = VkDeviceSize(lines) * 2 * W, G = VkDeviceSize(tables.grid_n),
-                       P = VkDeviceSize(tables.pixels);
-    d.frames = array(cols * H);
-    d.frame_slot = array(VkDeviceSize(lines) * 2 * 4);
-    d.lane_slot = array(VkDeviceSize(lines) * 4);
-    for (Arr* a :
-         {&d.row, &d.peak, &d.width, &d.asym, &d.centroid, &d.valid, &d.x, &d.z, &d.xz_valid})
-      *a = array(cols * 4);
-    d.cam = array(VkDeviceSize(lines) * 2 * G * 4);
-    d.profile = array(VkDeviceSize(lines) * G * 4);
-    d.profile_valid = array(VkDeviceSize(lines) * G * 4);
-    d.counts = array(VkDeviceSize(lines) * sizeof(kernel::FusionCountK));
-    d.top = array(VkDeviceSize(lines) * 4);
-    d.thickness = array(VkDeviceSize(lines) * P * 4);
-    d.thickness_valid = array(VkDeviceSize(lines) * P * 4);
+    d.each(LineExtents::of(tables, lines),
+           [&](Arr& a, size_t bytes, bool) { a = array(VkDeviceSize(bytes)); });
     d.lines = lines;
     update_sets(d);
   }
@@ -348,7 +327,7 @@ struct VulkanBackend::Impl {
               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
   }
   // Results of the dispatches to their host mirrors, then visible to the host.
-  void copy_out(Lines& d, std::initializer_list<std::pair<Arr*, VkDeviceSize>> outs) {
+  void copy_out(Lines& d, const std::vector<std::pair<Arr*, VkDeviceSize>>& outs) {
     barrier(d.cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
             VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
             VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
@@ -556,22 +535,10 @@ void VulkanBackend::submit(LineBatchSlot& batch) {
   m.between(d);
   m.record_project(d, lines);
   m.stamp(d, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
-  const VkDeviceSize cols = VkDeviceSize(count) * W, G = VkDeviceSize(m.tables.grid_n),
-                     P = VkDeviceSize(m.tables.pixels);
-  m.copy_out(d, {{&d.row, cols * 4},
-                 {&d.peak, cols * 4},
-                 {&d.width, cols * 4},
-                 {&d.asym, cols * 4},
-                 {&d.centroid, cols * 4},
-                 {&d.valid, cols * 4},
-                 {&d.x, cols * 4},
-                 {&d.z, cols * 4},
-                 {&d.xz_valid, cols * 4},
-                 {&d.profile, VkDeviceSize(lines) * G * 4},
-                 {&d.profile_valid, VkDeviceSize(lines) * G * 4},
-                 {&d.counts, VkDeviceSize(lines) * sizeof(kernel::FusionCountK)},
-                 {&d.thickness, VkDeviceSize(lines) * P * 4},
-                 {&d.thickness_valid, VkDeviceSize(lines) * P * 4}});
+  std::vector<std::pair<Arr*, VkDeviceSize>> outs;
+  d.outputs(LineExtents::of(m.tables, lines),
+            [&](Arr& a, size_t bytes, size_t) { outs.emplace_back(&a, VkDeviceSize(bytes)); });
+  m.copy_out(d, outs);
   m.stamp(d, 3, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
   m.end_and_submit(d);
   s.submitted = true;
@@ -584,39 +551,10 @@ void VulkanBackend::collect(LineBatchSlot& batch, LineResults& out) {
   Impl::Lines& d = *s.lines_buf;
   m.wait(d);
   m.check_guards(d);
-  const int lines = s.lines, count = lines * 2;
-  const size_t cols = size_t(count) * m.tables.width, G = size_t(m.tables.grid_n),
-               P = size_t(m.tables.pixels);
-  auto copy = [](const Arr& a, float* dst, size_t n) { std::memcpy(dst, a.ptr(), n * 4); };
-  out.stripes.resize(cols);
-  copy(d.row, out.stripes.row.data(), cols);
-  copy(d.peak, out.stripes.peak.data(), cols);
-  copy(d.width, out.stripes.width.data(), cols);
-  copy(d.asym, out.stripes.asym.data(), cols);
-  copy(d.centroid, out.stripes.centroid.data(), cols);
-  to_flags(d.valid.ptr(), cols, out.stripes.valid.data());
-  out.x.resize(cols);
-  out.z.resize(cols);
-  out.xz_valid.resize(cols);
-  copy(d.x, out.x.data(), cols);
-  copy(d.z, out.z.data(), cols);
-  to_flags(d.xz_valid.ptr(), cols, out.xz_valid.data());
-  out.profile.resize(size_t(lines) * G);
-  out.profile_valid.resize(size_t(lines) * G);
-  copy(d.profile, out.profile.data(), size_t(lines) * G);
-  to_flags(d.profile_valid.ptr(), size_t(lines) * G, out.profile_valid.data());
-  out.thickness.resize(size_t(lines) * P);
-  out.thickness_valid.resize(size_t(lines) * P);
-  copy(d.thickness, out.thickness.data(), size_t(lines) * P);
-  to_flags(d.thickness_valid.ptr(), size_t(lines) * P, out.thickness_valid.data());
-  const auto* c = reinterpret_cast<const kernel::FusionCountK*>(d.counts.ptr());
-  for (int l = 0; l < lines; ++l) {
-    out.fusion.both += c[l].both;
-    out.fusion.single += c[l].single_cam;
-    out.fusion.conflict += c[l].conflict;
-    out.fusion.filled += c[l].filled;
-    out.fusion.missing += c[l].missing;
-  }
+  const LineExtents e = LineExtents::of(m.tables, s.lines);
+  const auto to = s.readback.prepare(e, out);
+  d.outputs(e, [&](Arr& a, size_t bytes, size_t k) { std::memcpy(to[k], a.ptr(), bytes); });
+  s.readback.finish(out);
   times_ = m.times(d);
   s.busy = s.submitted = false;
 }

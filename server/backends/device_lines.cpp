@@ -1,0 +1,69 @@
+#include "backends/device_lines.h"
+
+namespace rangex {
+
+namespace {
+void to_flags(const std::vector<int32_t>& in, uint8_t* out) {
+  for (size_t i = 0; i < in.size(); ++i) out[i] = in[i] != 0;
+}
+}  // namespace
+
+LineExtents LineExtents::of(const KernelTables& t, int lines) {
+  const size_t n = size_t(lines);
+  return {n, n * 2 * size_t(t.width), size_t(t.height), size_t(t.grid_n), size_t(t.pixels)};
+}
+
+size_t LineReadback::bytes(const LineExtents& e, size_t k) {
+  if (k < 9) return e.cols * 4;          // stripes, then rectified
+  if (k < 11) return e.lines * e.G * 4;  // profile, its flags
+  if (k == 11) return e.lines * sizeof(kernel::FusionCountK);
+  return e.lines * e.P * 4;  // thickness, its flags
+}
+
+std::array<void*, LineReadback::kOutputs> LineReadback::prepare(const LineExtents& e,
+                                                                LineResults& out) {
+  e_ = e;
+  out.stripes.resize(e.cols);
+  out.x.resize(e.cols);
+  out.z.resize(e.cols);
+  out.xz_valid.resize(e.cols);
+  out.profile.resize(e.lines * e.G);
+  out.profile_valid.resize(e.lines * e.G);
+  out.thickness.resize(e.lines * e.P);
+  out.thickness_valid.resize(e.lines * e.P);
+  valid_.resize(e.cols);
+  xz_valid_.resize(e.cols);
+  profile_valid_.resize(e.lines * e.G);
+  thickness_valid_.resize(e.lines * e.P);
+  counts_.resize(e.lines);
+  return {out.stripes.row.data(),
+          out.stripes.peak.data(),
+          out.stripes.width.data(),
+          out.stripes.asym.data(),
+          out.stripes.centroid.data(),
+          valid_.data(),
+          out.x.data(),
+          out.z.data(),
+          xz_valid_.data(),
+          out.profile.data(),
+          profile_valid_.data(),
+          counts_.data(),
+          out.thickness.data(),
+          thickness_valid_.data()};
+}
+
+void LineReadback::finish(LineResults& out) {
+  to_flags(valid_, out.stripes.valid.data());
+  to_flags(xz_valid_, out.xz_valid.data());
+  to_flags(profile_valid_, out.profile_valid.data());
+  to_flags(thickness_valid_, out.thickness_valid.data());
+  for (const kernel::FusionCountK& c : counts_) {
+    out.fusion.both += c.both;
+    out.fusion.single += c.single_cam;
+    out.fusion.conflict += c.conflict;
+    out.fusion.filled += c.filled;
+    out.fusion.missing += c.missing;
+  }
+}
+
+}  // namespace rangex
