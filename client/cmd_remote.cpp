@@ -4,6 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -18,6 +19,7 @@
 #include "core/error.h"
 #include "feeder.h"
 #include "line_source.h"
+#include "rangex/v1/decision_names.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "service/pb_convert.h"
 #include "sim/plant_simulator.h"
@@ -71,22 +73,17 @@ void check(const grpc::Status& s, const char* what) {
        int(s.error_code()), ")", hint);
 }
 
-const char* decision_text(pb::Decision d) {
-  switch (d) {
-    case pb::DECISION_PASS:
-      return "PASS";
-    case pb::DECISION_REJECT:
-      return "REJECT";
-    case pb::DECISION_NOT_INSPECTED:
-      return "NOT INSPECTED";
-    default:
-      return "?";
-  }
+// "NOT INSPECTED" for not_inspected; "?" for a value this build does not know.
+std::string decision_text(pb::Decision d) {
+  std::string t = decision_name(d);
+  if (t.empty()) return "?";
+  for (char& c : t) c = c == '_' ? ' ' : char(std::toupper(static_cast<unsigned char>(c)));
+  return t;
 }
 
 void print_fillet(const pb::FilletResult& f) {
   std::printf("lane %d fillet %-5lld uid %-7lld %-13s", f.lane(), (long long)f.lane_fillet(),
-              (long long)f.uid(), decision_text(f.decision()));
+              (long long)f.uid(), decision_text(f.decision()).c_str());
   if (!f.reason().empty()) std::printf(" %s", f.reason().c_str());
   for (const auto& g : f.fragments())
     if (g.kind() == "bone")
@@ -169,14 +166,10 @@ int cmd_watch(int argc, char** argv) {
   if (a.has("lane")) req.add_lanes(int(a.integer("lane", 0)));
   if (a.has("decision")) {
     const std::string d = a.get("decision", "");
-    if (d == "pass")
-      req.add_decisions(pb::DECISION_PASS);
-    else if (d == "reject")
-      req.add_decisions(pb::DECISION_REJECT);
-    else if (d == "not_inspected")
-      req.add_decisions(pb::DECISION_NOT_INSPECTED);
-    else
+    const pb::Decision value = decision_from_name(d);
+    if (value == pb::DECISION_UNSPECIFIED)
       fail("--decision must be pass, reject or not_inspected (got '", d, "')");
+    req.add_decisions(value);
   }
   const long count = a.integer("count", 0);
   grpc::ClientContext ctx;

@@ -13,6 +13,7 @@
 #include "core/plant_config.h"
 #include "core/recording.h"
 #include "grpc_raw.h"
+#include "rangex/v1/decision_names.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "replay.h"
 #include "server_client.h"
@@ -613,4 +614,26 @@ TEST(Server, HealthAndReflectionAnswer) {
   cq.Shutdown();
   while (cq.Next(&tag, &ok)) {
   }
+}
+
+TEST(DecisionNames, EveryDecisionHasOneNameBothWays) {
+  const pb::Decision all[] = {pb::DECISION_PASS, pb::DECISION_REJECT,
+                              pb::DECISION_NOT_INSPECTED};
+  std::set<std::string> names;
+  for (const pb::Decision d : all) {
+    const std::string name = decision_name(d);
+    EXPECT_FALSE(name.empty()) << d;
+    EXPECT_EQ(decision_from_name(name), d) << name;
+    names.insert(name);
+  }
+  EXPECT_EQ(names, (std::set<std::string>{"pass", "reject", "not_inspected"}));
+  // Every value the proto declares is named, UNSPECIFIED alone by nothing.
+  const auto* e = pb::Decision_descriptor();
+  for (int k = 0; k < e->value_count(); ++k) {
+    const auto d = pb::Decision(e->value(k)->number());
+    EXPECT_EQ(std::string(decision_name(d)).empty(), d == pb::DECISION_UNSPECIFIED)
+        << e->value(k)->name();
+  }
+  EXPECT_EQ(decision_from_name("PASS"), pb::DECISION_UNSPECIFIED);
+  EXPECT_EQ(decision_from_name(""), pb::DECISION_UNSPECIFIED);
 }

@@ -5,31 +5,12 @@
 #include "core/calibration_report.h"
 #include "core/error.h"
 #include "core/plant_config.h"
+#include "rangex/v1/decision_names.h"
 #include "service/learned_report.h"
 
 namespace rangex {
 
 namespace pb = rangex::v1;
-
-pb::Decision to_pb(const std::string& d) {
-  if (d == "pass") return pb::DECISION_PASS;
-  if (d == "reject") return pb::DECISION_REJECT;
-  if (d == "not_inspected") return pb::DECISION_NOT_INSPECTED;
-  return pb::DECISION_UNSPECIFIED;
-}
-
-std::string from_pb(pb::Decision d) {
-  switch (d) {
-    case pb::DECISION_PASS:
-      return "pass";
-    case pb::DECISION_REJECT:
-      return "reject";
-    case pb::DECISION_NOT_INSPECTED:
-      return "not_inspected";
-    default:
-      return "";
-  }
-}
 
 void fill(pb::FilletResult* o, const StoredFillet& f) {
   o->set_uid(f.uid);
@@ -37,7 +18,7 @@ void fill(pb::FilletResult* o, const StoredFillet& f) {
   o->set_lane_fillet(f.lane_fillet);
   o->set_first_encoder(f.first_encoder);
   o->set_rows(f.rows);
-  o->set_decision(to_pb(f.decision));
+  o->set_decision(decision_from_name(f.decision));
   o->set_reason(f.reason);
   o->set_beta0(f.beta0);
   o->set_beta1(f.beta1);

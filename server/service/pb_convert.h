@@ -8,8 +8,6 @@
 
 namespace rangex {
 
-v1::Decision to_pb(const std::string& decision);
-std::string from_pb(v1::Decision d);
 void fill(v1::FilletResult* o, const StoredFillet& f);
 void fill(v1::CalibrationInfo* o, const StoredCalibration& c, bool with_yaml);
 void fill(v1::LearnedSettingsInfo* o, const StoredSetting& s, bool full);

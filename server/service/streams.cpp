@@ -6,6 +6,7 @@
 #include <memory>
 #include <mutex>
 
+#include "rangex/v1/decision_names.h"
 #include "service/engine.h"
 #include "service/line_from_proto.h"
 #include "service/pb_convert.h"
@@ -242,7 +243,7 @@ class Subscription final : public grpc::ServerWriteReactor<pb::SubscribeFilletsR
     std::shared_ptr<Subscription> s(new Subscription(hub, counters));
     std::set<int> lanes(req.lanes().begin(), req.lanes().end());
     std::set<std::string> decisions;
-    for (int d : req.decisions()) decisions.insert(from_pb(pb::Decision(d)));
+    for (int d : req.decisions()) decisions.insert(decision_name(pb::Decision(d)));
     std::weak_ptr<Subscription> weak = s;
     auto sub = hub.subscribe(std::move(lanes), std::move(decisions), 256, [weak] {
       if (auto p = weak.lock()) p->deliver();
