@@ -13,13 +13,6 @@ LineExtents LineExtents::of(const KernelTables& t, int lines) {
   return {n, n * 2 * size_t(t.width), size_t(t.height), size_t(t.grid_n), size_t(t.pixels)};
 }
 
-size_t LineReadback::bytes(const LineExtents& e, size_t k) {
-  if (k < 9) return e.cols * 4;          // stripes, then rectified
-  if (k < 11) return e.lines * e.G * 4;  // profile, its flags
-  if (k == 11) return e.lines * sizeof(kernel::FusionCountK);
-  return e.lines * e.P * 4;  // thickness, its flags
-}
-
 std::array<void*, LineReadback::kOutputs> LineReadback::prepare(const LineExtents& e,
                                                                 LineResults& out) {
   e_ = e;

@@ -25,9 +25,7 @@ struct LineExtents {
 class LineReadback {
  public:
   static constexpr size_t kOutputs = 14;
-  // Bytes of output k (in DeviceLines::outputs' order).
-  static size_t bytes(const LineExtents& e, size_t k);
-  // Sizes out for the batch; the host address of each output.
+  // Sizes out for the batch; the host address of each output, in DeviceLines::outputs' order.
   std::array<void*, kOutputs> prepare(const LineExtents& e, LineResults& out);
   // After the reads: flags into out, fusion counts summed into out.fusion.
   void finish(LineResults& out);
@@ -68,13 +66,14 @@ struct DeviceLines {
     each(LineExtents{}, [&](B& b, size_t, bool) { v.push_back(&b); });
     return v;
   }
-  // The outputs read back after a batch, output k with its bytes.
+  // The outputs read back after a batch, output k with its bytes: every array the kernels
+  // write but the fusion's intermediates (cam, top), in each()'s order.
   template <class F>
   void outputs(const LineExtents& e, F&& f) {
-    B* const out[LineReadback::kOutputs] = {
-        &row, &peak,     &width,   &asym,          &centroid, &valid,     &x,
-        &z,   &xz_valid, &profile, &profile_valid, &counts,   &thickness, &thickness_valid};
-    for (size_t k = 0; k < LineReadback::kOutputs; ++k) f(*out[k], LineReadback::bytes(e, k), k);
+    size_t k = 0;
+    each(e, [&](B& b, size_t bytes, bool input) {
+      if (!input && &b != &cam && &b != &top) f(b, bytes, k++);
+    });
   }
 };
 

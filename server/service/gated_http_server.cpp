@@ -87,9 +87,8 @@ bool GatedHttpServer::serve(GateConnection& c, std::string& head) {
   bool closed = false;
   t_fd = c.fd();
   SSL* ssl = c.tls();
-  const bool ok = process_request(*strm, false, closed, [ssl](httplib::Request& req) {
-    if (ssl) req.ssl = ssl;
-  });
+  const bool ok =
+      process_request(*strm, false, closed, [ssl](httplib::Request& req) { req.ssl = ssl; });
   t_fd = -1;
   return ok && !closed && is_running();
 }

@@ -86,12 +86,7 @@ struct OpenClBackend::Impl {
   cl::Buffer t_stripe, t_rect, t_nodes, t_geom, t_ln;
 
   // Device buffers for a batch of up to `lines` lines.
-  struct Lines : DeviceLines<cl::Buffer> {
-    std::vector<const cl::Buffer*> all() {
-      auto v = DeviceLines<cl::Buffer>::all();
-      return {v.begin(), v.end()};
-    }
-  };
+  using Lines = DeviceLines<cl::Buffer>;
   Lines scratch;  // single-stage calls
 
   // Buffers of a batch of fillets (pseudo-X-ray stages), grown as needed.
@@ -182,7 +177,7 @@ struct OpenClBackend::Impl {
 
   void check_guards(Lines& d, cl_command_queue qq) {
     if (!opt.guards) return;
-    for (const cl::Buffer* b : d.all()) b->check_guards(qq, "batch");
+    for (cl::Buffer* b : d.all()) b->check_guards(qq, "batch");
     for (const cl::Buffer* b : {&t_stripe, &t_rect, &t_nodes, &t_geom, &t_ln})
       b->check_guards(qq, "tables");
   }
