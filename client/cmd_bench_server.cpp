@@ -19,6 +19,7 @@
 #include "core/error.h"
 #include "feeder.h"
 #include "memory_source.h"
+#include "offline/line_path.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "resident_memory.h"
 #include "service/server.h"
@@ -197,31 +198,26 @@ int cmd_bench_server(int argc, char** argv) {
   std::printf("%-6s %-8s %16s %16s %8s %24s\n", "lanes", "backend", "in-process l/s", "gRPC l/s",
               "ratio", "last line -> decision");
   for (int nl : lane_counts) {
-    // In-process: the same lines through the CPU backend and each lane's LaneProcessor,
-    // batches of 64: what the server adds is measured against this.
-    std::vector<uint16_t> xray(size_t(lc.xray.pixels) * 64);
-    std::vector<int64_t> enc(64);
-    LineResults res;
+    // In-process: the same lines through the server's line path on the CPU backend into each
+    // lane's LaneProcessor, batches of 64: what the server adds is measured against this.
+    std::vector<QueuedLine> block;
     const auto t0 = std::chrono::steady_clock::now();
     for (int lane = 0; lane < nl; ++lane) {
-      const std::unique_ptr<Backend> b = create_backend(cpu_request(threads));
-      b->set_lanes({plant.lanes[lane]});
+      LinePath path({plant.lanes[lane]}, cpu_request(threads));
       LaneProcessor proc(plant.lanes[lane], {false, false}, [](InspectedFillet&&) {});
+      path.attach(plant.lanes[lane].id, &proc);
       for (int k0 = 0; k0 < lines; k0 += 64) {
         const int c = std::min(64, lines - k0);
-        // The frames straight into the backend's staging: one copy, as in the server.
-        LineBatchSlot& batch = b->acquire(c);
+        shape_block(block, c, plant.lanes[lane].id, frame, lc.xray.pixels);
         for (int k = 0; k < c; ++k) {
-          std::memcpy(batch.frames() + frame * 2 * k, scans[k0 + k].cam0().data(), frame);
-          std::memcpy(batch.frames() + frame * (2 * k + 1), scans[k0 + k].cam1().data(), frame);
-          std::memcpy(&xray[size_t(lc.xray.pixels) * k], scans[k0 + k].xray().data(),
-                      scans[k0 + k].xray().size());
-          enc[k] = scans[k0 + k].encoder();
+          const pb::LineScan& scan = scans[k0 + k];
+          IncomingLine& in = block[k].line;
+          in.encoder = scan.encoder();
+          std::memcpy(in.cam0.data(), scan.cam0().data(), frame);
+          std::memcpy(in.cam1.data(), scan.cam1().data(), frame);
+          std::memcpy(in.xray.data(), scan.xray().data(), scan.xray().size());
         }
-        std::fill_n(batch.lane_slot(), c, 0);
-        b->submit(batch);
-        b->collect(batch, res);
-        proc.push(res, 0, c, xray.data(), enc.data());
+        path.run(block);
       }
       proc.finish();
     }

@@ -6,12 +6,12 @@
 #include <fstream>
 
 #include "args.h"
-#include "calib_rig.h"
 #include "commands.h"
 #include "core/error.h"
 #include "core/png_io.h"
 #include "progress_bar.h"
 #include "sim/calib_scenes.h"
+#include "sim/perturbed_rig.h"
 #include "sim/plant_physics.h"
 #include "sim/target_scene.h"
 
@@ -36,9 +36,9 @@ int cmd_calib_simulate(int argc, char** argv) {
   const std::string kind = a.positional(0, "scene"), out = a.positional(1, "output folder");
   const PlantConfig plant = load_config(a.get("config", ""));
   const LaneConfig& nominal = plant.lane(int(a.integer("lane", 0)));
-  SimulatedRig rig;
+  sim::SimulatedRig rig;
   if (a.has("rig-seed")) {
-    rig = perturbed_rig(nominal, (unsigned long)a.integer("rig-seed", 1));
+    rig = sim::perturbed_rig(nominal, (unsigned long)a.integer("rig-seed", 1));
   } else {
     rig.lane = nominal;
     rig.xray_plane_y_mm =

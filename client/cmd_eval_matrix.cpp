@@ -20,15 +20,15 @@
 #include <vector>
 
 #include "args.h"
-#include "calib_rig.h"
+#include "calib/lane_calibration_file.h"
 #include "commands.h"
 #include "core/error.h"
 #include "core/recording.h"
-#include "detection_eval.h"
-#include "evaluation.h"
-#include "fillet_records.h"
+#include "core/text_file.h"
+#include "offline/detection_eval.h"
+#include "offline/evaluation.h"
+#include "offline/fillet_records.h"
 #include "sim/plant_physics.h"
-#include "text_file.h"
 
 namespace fs = std::filesystem;
 

@@ -5,7 +5,7 @@
 #include "args.h"
 #include "commands.h"
 #include "core/error.h"
-#include "csv_points.h"
+#include "offline/csv_points.h"
 #include "pipeline/robust_fit.h"
 
 namespace rangex::cli {

@@ -21,15 +21,15 @@
 
 #include "args.h"
 #include "backend_args.h"
-#include "calib_rig.h"
+#include "calib/lane_calibration_file.h"
 #include "commands.h"
 #include "core/error.h"
 #include "learn_report.h"
+#include "offline/plant_run.h"
+#include "offline/replay.h"
 #include "pipeline/product_learning.h"
 #include "pipeline/sensitivity.h"
-#include "plant_run.h"
 #include "progress_bar.h"
-#include "replay.h"
 #include "service/learned_report.h"
 
 namespace fs = std::filesystem;

@@ -11,17 +11,18 @@
 
 #include "args.h"
 #include "backend_args.h"
-#include "calib_rig.h"
+#include "calib/lane_calibration_file.h"
 #include "commands.h"
 #include "core/error.h"
 #include "core/png_io.h"
-#include "detection_eval.h"
-#include "evaluation.h"
-#include "fillet_records.h"
+#include "offline/detection_eval.h"
+#include "offline/evaluation.h"
+#include "offline/fillet_records.h"
+#include "offline/plant_run.h"
+#include "offline/replay.h"
 #include "pipeline/fillet_images.h"
-#include "plant_run.h"
 #include "progress_bar.h"
-#include "replay.h"
+#include "sim/perturbed_rig.h"
 #include "sim/plant_simulator.h"
 
 namespace fs = std::filesystem;
@@ -69,7 +70,8 @@ int cmd_simulate(int argc, char** argv) {
   PlantConfig plant = load_config(a.get("config", ""));
   // A plant whose rigs differ from plant.yaml (as `calib simulate --rig-seed` draws them).
   if (a.has("rig-seed"))
-    for (auto& l : plant.lanes) l = perturbed_rig(l, (unsigned long)a.integer("rig-seed", 1)).lane;
+    for (auto& l : plant.lanes)
+      l = sim::perturbed_rig(l, (unsigned long)a.integer("rig-seed", 1)).lane;
   sim::SimulationParams p;
   p.lanes = int(a.integer("lanes", long(plant.lanes.size())));
   p.scene.fillets = int(a.integer("fillets", 5));

@@ -14,7 +14,7 @@
 #include <thread>
 
 #include "args.h"
-#include "calib_rig.h"
+#include "calib/lane_calibration_file.h"
 #include "commands.h"
 #include "core/error.h"
 #include "feeder.h"

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "report_plots.h"
+#include "calib/report_plots.h"
 
 namespace rangex::cli {
 

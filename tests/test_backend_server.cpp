@@ -7,8 +7,8 @@
 #include <algorithm>
 
 #include "backend_cases.h"
-#include "plant_run.h"
-#include "replay.h"
+#include "offline/plant_run.h"
+#include "offline/replay.h"
 #include "server_client.h"
 #include "sim/plant_simulator.h"
 #include "temp_dir.h"

@@ -2,8 +2,8 @@
 #include <gtest/gtest.h>
 
 #include "core/plant_config.h"
-#include "evaluation.h"
-#include "replay.h"
+#include "offline/evaluation.h"
+#include "offline/replay.h"
 #include "sim/plant_simulator.h"
 #include "temp_dir.h"
 

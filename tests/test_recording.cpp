@@ -7,7 +7,7 @@
 #include "core/error.h"
 #include "core/plant_config.h"
 #include "core/recording.h"
-#include "replay.h"
+#include "offline/replay.h"
 #include "temp_dir.h"
 
 using namespace rangex;

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "core/error.h"
-#include "csv_points.h"
+#include "offline/csv_points.h"
 #include "pipeline/robust_fit.h"
 #include "temp_dir.h"
 

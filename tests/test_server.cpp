@@ -13,9 +13,9 @@
 #include "core/plant_config.h"
 #include "core/recording.h"
 #include "grpc_raw.h"
+#include "offline/replay.h"
 #include "rangex/v1/decision_names.h"
 #include "rangex/v1/rangex.grpc.pb.h"
-#include "replay.h"
 #include "server_client.h"
 #include "service/server.h"
 #include "sim/plant_simulator.h"
@@ -617,8 +617,7 @@ TEST(Server, HealthAndReflectionAnswer) {
 }
 
 TEST(DecisionNames, EveryDecisionHasOneNameBothWays) {
-  const pb::Decision all[] = {pb::DECISION_PASS, pb::DECISION_REJECT,
-                              pb::DECISION_NOT_INSPECTED};
+  const pb::Decision all[] = {pb::DECISION_PASS, pb::DECISION_REJECT, pb::DECISION_NOT_INSPECTED};
   std::set<std::string> names;
   for (const pb::Decision d : all) {
     const std::string name = decision_name(d);

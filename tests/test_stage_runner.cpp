@@ -10,7 +10,7 @@
 #include <cstring>
 
 #include "backend_cases.h"
-#include "service/stage_runner.h"
+#include "backends/stage_runner.h"
 
 using namespace rangex;
 using namespace rangex::test;

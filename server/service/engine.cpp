@@ -371,14 +371,9 @@ void Engine::route(std::vector<Queued>& lines, const LineResults& r) {
     Lane& l = lane(q.line.lane);
     try {
       if (!q.restart.empty()) restart_lane(l, q.restart);
-      const size_t D = size_t(l.pixels);
-      std::memcpy(l.xray.data(), q.line.xray.data(), D * 2);
-      bytes_xray_copied_ += D * 2;
       l.arrivals.emplace_back(q.line.encoder, q.arrived_ns);
-      const size_t G = r.profile_valid.size() / std::max<size_t>(1, lines.size());
-      const bool blind = G > 0 && LaneProcessor::blind(&r.profile_valid[k * G], G);
-      l.proc->push(&r.thickness[k * D], &r.thickness_valid[k * D], l.xray.data(), q.line.encoder,
-                   blind);
+      push_line_results(*l.proc, q, r, k, lines.size(), l.xray);
+      bytes_xray_copied_ += l.xray.size() * sizeof(uint16_t);
       l.last_pushed = q.line.encoder;
       ++done;
       ++l.processed;

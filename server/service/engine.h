@@ -35,16 +35,16 @@
 #include <unordered_map>
 #include <vector>
 
+#include "backends/stage_runner.h"
+#include "core/incoming_line.h"
 #include "core/plant_config.h"
 #include "pipeline/lane_processor.h"
 #include "pipeline/product_drift.h"
-#include "service/incoming_line.h"
 #include "service/lane_admission.h"
 #include "service/lane_queues.h"
 #include "service/latency_stats.h"
 #include "service/line_codes.h"
 #include "service/results_hub.h"
-#include "service/stage_runner.h"
 #include "service/store.h"
 
 namespace rangex {

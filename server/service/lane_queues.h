@@ -8,7 +8,7 @@
 #include <deque>
 #include <vector>
 
-#include "service/incoming_line.h"
+#include "core/incoming_line.h"
 
 namespace rangex {
 

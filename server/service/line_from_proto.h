@@ -1,7 +1,7 @@
 // A LineScan as the server takes it in: its bytes moved out of the message, not copied.
 #pragma once
+#include "core/incoming_line.h"
 #include "rangex/v1/rangex.pb.h"
-#include "service/incoming_line.h"
 
 namespace rangex {
 

@@ -4,7 +4,7 @@
 #include <optional>
 #include <string>
 
-#include "service/incoming_line.h"
+#include "core/incoming_line.h"
 #include "service/line_codes.h"
 
 namespace rangex {

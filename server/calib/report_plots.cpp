@@ -1,11 +1,11 @@
-#include "report_plots.h"
+#include "calib/report_plots.h"
 
 #include <algorithm>
 #include <cmath>
 
 #include "core/png_io.h"
 
-namespace rangex::cli {
+namespace rangex {
 
 void plot_points(const std::string& path, const std::vector<Series>& series, double x0, double x1,
                  double y0, double y1, double grid_x, double grid_y, int W, int H) {
@@ -37,4 +37,4 @@ void plot_points(const std::string& path, const std::vector<Series>& series, dou
   write_png8(path, img.data(), W, H, 3);
 }
 
-}  // namespace rangex::cli
+}  // namespace rangex

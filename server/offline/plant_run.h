@@ -9,8 +9,8 @@
 
 #include "backends/registry.h"
 #include "core/plant_config.h"
-#include "evaluation.h"
-#include "fillet_records.h"
+#include "offline/evaluation.h"
+#include "offline/fillet_records.h"
 #include "pipeline/lane_processor.h"
 #include "sim/plant_simulator.h"
 

@@ -1,4 +1,4 @@
-#include "truth_heights.h"
+#include "offline/truth_heights.h"
 
 #include <cmath>
 

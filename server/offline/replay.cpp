@@ -1,11 +1,13 @@
-#include "replay.h"
+#include "offline/replay.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "core/error.h"
+#include "offline/line_path.h"
 
 namespace rangex {
 
@@ -39,11 +41,11 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
     if (opt.method) lc.stripe.method = *opt.method;
     configs.push_back(lc);
   }
-  // One backend for every lane replayed: the lane's slot is its place in `lanes`.
-  const std::unique_ptr<Backend> backend = create_backend(opt.backend);
-  backend->set_lanes(configs);
-  if (backend_info) *backend_info = backend->info();
+  // One line path for every lane replayed, as the server runs its lanes.
+  LinePath path(configs, opt.backend);
+  if (backend_info) *backend_info = path.backend();
   std::vector<LaneReplay> out;
+  std::vector<QueuedLine> block;
   for (size_t slot = 0; slot < lanes.size(); ++slot) {
     const int id = lanes[slot];
     const LaneConfig& lc = configs[slot];
@@ -59,29 +61,31 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
     int64_t first_encoder = 0;
     // Keep what the evaluation and the images need: stripe rows per camera line and the
     // thickness registered to X-ray line n + delay.
-    auto observe = [&](const LineResults& res, const int64_t* enc, int count) {
-      for (int k = 0; k < count; ++k) {
-        const int64_t n = enc[k] - first_encoder;
+    const LinePath::Observer observe = [&](const std::vector<QueuedLine>& lines,
+                                           const LineResults& res) {
+      for (size_t k = 0; k < lines.size(); ++k) {
+        const int64_t n = lines[k].line.encoder - first_encoder;
         for (int c = 0; c < 2; ++c)
-          std::copy_n(&res.stripes.row[size_t(2 * k + c) * r.width], r.width,
+          std::copy_n(&res.stripes.row[(2 * k + c) * size_t(r.width)], r.width,
                       &r.stripe_rows[c][size_t(n) * r.width]);
         const int64_t xl = n + delay;
         if (xl >= r.lines) continue;
         for (int i = 0; i < r.pixels; ++i) {
-          const size_t o = size_t(k) * r.pixels + i;
+          const size_t o = k * size_t(r.pixels) + i;
           r.thickness[size_t(xl) * r.pixels + i] = res.thickness_valid[o] ? res.thickness[o] : nan;
         }
       }
     };
     LaneProcessor proc(lc, {opt.baseline, opt.keep_images},
                        [&](InspectedFillet&& f) { r.fillets.push_back(std::move(f)); });
-    LineResults res;
+    path.attach(id, &proc);
     const size_t frame = size_t(info.width) * info.height;
-    // The frames stay where the page cache has them until they are copied into staging.
+    // The frames stay where the page cache has them until they are read into the lines.
     const RecordingReader::MappedFrames frames = rec.map_frames(id);
     std::vector<uint16_t> xray;
     std::vector<int64_t> enc;
     int64_t last_encoder = std::numeric_limits<int64_t>::min();
+    const double stages_before = path.stage_seconds();
     for (int64_t n0 = 0; n0 < info.lines; n0 += opt.batch_lines) {
       const int count = int(std::min<int64_t>(opt.batch_lines, info.lines - n0));
       xray.resize(size_t(info.xray_pixels) * count);
@@ -97,24 +101,22 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
         last_encoder = enc[k];
       }
       if (n0 == 0) first_encoder = enc[0];
-      // Both cameras' frames interleaved straight into the backend's staging.
-      const auto t0 = std::chrono::steady_clock::now();
-      LineBatchSlot& batch = backend->acquire(count);
+      // Each line as the server receives it: its bytes, then one copy into the staging.
+      shape_block(block, count, id, frame, info.xray_pixels);
       for (int k = 0; k < count; ++k) {
-        std::copy_n(frames.frame(0, n0 + k), frame, batch.frames() + frame * (2 * k));
-        std::copy_n(frames.frame(1, n0 + k), frame, batch.frames() + frame * (2 * k + 1));
+        IncomingLine& in = block[k].line;
+        in.encoder = enc[k];
+        std::copy_n(frames.frame(0, n0 + k), frame, in.cam0.data());
+        std::copy_n(frames.frame(1, n0 + k), frame, in.cam1.data());
+        std::memcpy(in.xray.data(), &xray[size_t(info.xray_pixels) * k], in.xray.size());
       }
-      std::fill_n(batch.lane_slot(), count, int(slot));
-      backend->submit(batch);
-      backend->collect(batch, res);
-      r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      observe(res, enc.data(), count);
-      proc.push(res, 0, count, xray.data(), enc.data());
+      path.run(block, observe);
       done += count;
       if (progress) progress(done, total);
     }
     proc.finish();
-    r.fusion = res.fusion;
+    r.seconds = path.stage_seconds() - stages_before;
+    r.fusion = path.fusion(id);
     r.assembly = proc.assembly();
     r.inspection_seconds = proc.inspection_seconds();
     out.push_back(std::move(r));

@@ -1,14 +1,16 @@
-#include "plant_run.h"
+#include "offline/plant_run.h"
 
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <thread>
 
 #include "core/error.h"
-#include "truth_heights.h"
+#include "offline/line_path.h"
+#include "offline/truth_heights.h"
 
 namespace rangex {
 
@@ -34,10 +36,10 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
   int64_t done = 0;
   std::vector<PlantRunLane> out;
   const int threads = std::max(1, opt.threads);
-  // One backend for every simulated lane: lane li is slot li.
-  const std::unique_ptr<Backend> backend = create_backend(opt.backend);
-  backend->set_lanes({plant.lanes.begin(), plant.lanes.begin() + sp.lanes});
-  if (backend_info) *backend_info = backend->info();
+  // One line path for every simulated lane, as the server runs its lanes.
+  LinePath path({plant.lanes.begin(), plant.lanes.begin() + sp.lanes}, opt.backend);
+  if (backend_info) *backend_info = path.backend();
+  std::vector<QueuedLine> block;
   for (int li = 0; li < sp.lanes; ++li) {
     const LaneConfig& lc = plant.lanes[li];
     const sim::LaneSimulator& sim = sims[li];
@@ -52,7 +54,6 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
     constexpr int kBlock = 64;
     std::vector<uint16_t> xray(size_t(D) * kBlock);
     std::vector<float> rows(size_t(2 * W) * kBlock), truth_t(size_t(D) * kBlock);
-    std::vector<int64_t> enc(kBlock);
     const TruthHeights truth_heights[2] = {TruthHeights(lc, 0), TruthHeights(lc, 1)};
     ErrorAccumulator stripe_all[2], stripe_fillet[2], thick;
     size_t truth_cols[2] = {0, 0}, found_cols[2] = {0, 0}, blank_cols[2] = {0, 0},
@@ -60,11 +61,12 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
     size_t fillet_px = 0, measured_px = 0;
     std::map<int64_t, std::vector<float>> registered;  // X-ray line -> measured thickness
     int64_t n0 = 0;
-    auto observe = [&](const LineResults& res, const int64_t* e, int count) {
+    const LinePath::Observer observe = [&](const std::vector<QueuedLine>& lines,
+                                           const LineResults& res) {
       std::vector<float> tz(W);
       std::vector<uint8_t> tv2(W);
-      for (int k = 0; k < count; ++k) {
-        const int64_t n = e[k] - sim.encoder(0);
+      for (int k = 0; k < int(lines.size()); ++k) {
+        const int64_t n = lines[k].line.encoder - sim.encoder(0);
         for (int c = 0; c < 2; ++c) {
           const float* truth = &rows[size_t(2 * k + c) * W];
           const float* meas = &res.stripes.row[size_t(2 * k + c) * W];
@@ -95,31 +97,29 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
                          lane.ours.add(f.result);
                          lane.baseline.add(f.baseline);
                        });
-    LineResults res;
+    path.attach(lc.id, &proc);
+    const double stages_before = path.stage_seconds();
     for (n0 = 0; n0 < sim.lines(); n0 += kBlock) {
       const int count = int(std::min<int64_t>(kBlock, sim.lines() - n0));
-      // Frames are rendered straight into the backend's staging, as the server copies them.
-      LineBatchSlot& batch = backend->acquire(count);
-      uint8_t* frames = batch.frames();
+      // Frames are rendered into the lines as the server receives them.
+      shape_block(block, count, lc.id, frame, D);
       const auto t0 = std::chrono::steady_clock::now();
       std::vector<std::thread> pool;
       for (int w = 0; w < threads; ++w)
         pool.emplace_back([&, w] {
           for (int k = w; k < count; k += threads)
-            sim.render(n0 + k, &frames[frame * 2 * k], &frames[frame * (2 * k + 1)],
-                       &xray[size_t(D) * k], &rows[size_t(2 * k) * W], &rows[size_t(2 * k + 1) * W],
+            sim.render(n0 + k, reinterpret_cast<uint8_t*>(block[k].line.cam0.data()),
+                       reinterpret_cast<uint8_t*>(block[k].line.cam1.data()), &xray[size_t(D) * k],
+                       &rows[size_t(2 * k) * W], &rows[size_t(2 * k + 1) * W],
                        &truth_t[size_t(D) * k]);
         });
       for (auto& t : pool) t.join();
-      for (int k = 0; k < count; ++k) enc[k] = sim.encoder(n0 + k);
+      for (int k = 0; k < count; ++k) {
+        block[k].line.encoder = sim.encoder(n0 + k);
+        std::memcpy(block[k].line.xray.data(), &xray[size_t(D) * k], size_t(D) * sizeof(uint16_t));
+      }
       lane.render_s += since(t0);
-      const auto t1 = std::chrono::steady_clock::now();
-      std::fill_n(batch.lane_slot(), count, li);
-      backend->submit(batch);
-      backend->collect(batch, res);
-      lane.pipeline_s += since(t1);
-      observe(res, enc.data(), count);
-      proc.push(res, 0, count, xray.data(), enc.data());
+      path.run(block, observe);
       // Thickness accuracy: X-ray line n's truth against the camera line n - delay.
       for (int k = 0; k < count; ++k) {
         auto it = registered.find(n0 + k);
@@ -139,8 +139,9 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
       if (progress) progress(done, total);
     }
     proc.finish();
+    lane.pipeline_s = path.stage_seconds() - stages_before;
     lane.assembly = proc.assembly();
-    lane.fusion = res.fusion;
+    lane.fusion = path.fusion(lc.id);
     lane.inspection_s = proc.inspection_seconds();
     LaneEvaluation& ev = lane.accuracy;
     ev.lane = lc.id;

@@ -1,4 +1,4 @@
-#include "evaluation.h"
+#include "offline/evaluation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
-#include "truth_heights.h"
+#include "offline/truth_heights.h"
 
 namespace rangex {
 

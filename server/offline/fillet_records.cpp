@@ -1,4 +1,4 @@
-#include "fillet_records.h"
+#include "offline/fillet_records.h"
 
 #include <cstdio>
 #include <filesystem>

@@ -1,4 +1,4 @@
-#include "csv_points.h"
+#include "offline/csv_points.h"
 
 #include <cmath>
 #include <fstream>

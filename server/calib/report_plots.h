@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-namespace rangex::cli {
+namespace rangex {
 
 struct Series {
   std::vector<double> x, y;
@@ -18,4 +18,4 @@ void plot_points(const std::string& path, const std::vector<Series>& series, dou
                  double y0, double y1, double grid_x = 0, double grid_y = 0, int width = 640,
                  int height = 240);
 
-}  // namespace rangex::cli
+}  // namespace rangex

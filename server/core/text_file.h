@@ -3,8 +3,8 @@
 #pragma once
 #include <string>
 
-namespace rangex::cli {
+namespace rangex {
 
 std::string read_text_file(const std::string& path, const std::string& hint = "");
 
-}  // namespace rangex::cli
+}  // namespace rangex

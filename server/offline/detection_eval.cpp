@@ -1,4 +1,4 @@
-#include "detection_eval.h"
+#include "offline/detection_eval.h"
 
 #include <algorithm>
 #include <cmath>

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "evaluation.h"
-#include "fillet_records.h"
+#include "offline/evaluation.h"
+#include "offline/fillet_records.h"
 
 namespace rangex {
 

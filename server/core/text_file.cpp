@@ -1,11 +1,11 @@
-#include "text_file.h"
+#include "core/text_file.h"
 
 #include <fstream>
 #include <sstream>
 
 #include "core/error.h"
 
-namespace rangex::cli {
+namespace rangex {
 
 std::string read_text_file(const std::string& path, const std::string& hint) {
   std::ifstream in(path);
@@ -15,4 +15,4 @@ std::string read_text_file(const std::string& path, const std::string& hint) {
   return ss.str();
 }
 
-}  // namespace rangex::cli
+}  // namespace rangex

@@ -10,6 +10,8 @@
 // CPU's results), and when the device fails (a failed dispatch, a lost device, no memory)
 // the batches in flight are recomputed on it and the server stays on the CPU: no line lost.
 //
+// The server's engine and the offline runs (offline/line_path.h) both go through it.
+//
 // Worker thread only, except the read-only accessors marked as such.
 #pragma once
 #include <atomic>
@@ -25,13 +27,17 @@
 
 #include "backends/backend.h"
 #include "backends/registry.h"
-#include "service/incoming_line.h"
+#include "core/incoming_line.h"
+#include "pipeline/lane_processor.h"
 
 namespace rangex {
 
 struct StageRunnerOptions {
   BackendRequest backend;
   double verify_fraction = 0.01;  // of batches on a device, recomputed on the CPU
+  // A backend that cannot start: run on the CPU with a note (a server keeps inspecting), or
+  // throw (a tool asked for that backend).
+  bool fall_back = true;
 };
 
 struct StageRunnerStats {
@@ -41,8 +47,8 @@ struct StageRunnerStats {
 
 class StageRunner {
  public:
-  // The lines of one finished batch and their results (line k is item k of `results`), and
-  // the milliseconds from its launch to its results.
+  // The lines of one finished batch and their results (line k is item k of `results`, the
+  // fusion counts are the batch's), and the milliseconds from its launch to its results.
   using Sink =
       std::function<void(std::vector<QueuedLine>& lines, const LineResults& results, double ms)>;
   // Lines no backend could compute (only if the CPU itself fails): they are lost, with why.
@@ -105,5 +111,11 @@ class StageRunner {
   BackendInfo running_;
   std::string note_;
 };
+
+// Line k of a finished batch of `batch_lines` into its lane's processor, as the line path
+// routes it: its X-ray line copied out of the received bytes into `xray` (aligned, the
+// lane's detector pixels), its thickness line marked blind where no camera saw the stripe.
+void push_line_results(LaneProcessor& proc, const QueuedLine& line, const LineResults& results,
+                       size_t k, size_t batch_lines, std::vector<uint16_t>& xray);
 
 }  // namespace rangex

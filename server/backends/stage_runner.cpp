@@ -1,5 +1,6 @@
-#include "service/stage_runner.h"
+#include "backends/stage_runner.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 
@@ -52,6 +53,7 @@ StageRunner::StageRunner(const std::vector<LaneConfig>& lanes, StageRunnerOption
       }
       if (g == 0) note_ = why.empty() ? "requested" : why;
     } catch (const std::exception& e) {
+      if (!opt_.fall_back) throw;
       // Loud, and the plant keeps inspecting on the CPU.
       note_ = "backend '" + opt_.backend.name + "' cannot start: " + e.what() + "; running on cpu";
       std::fprintf(stderr, "rangex: %s\n", note_.c_str());
@@ -169,6 +171,7 @@ void StageRunner::finish_oldest() {
   inflight_.pop_front();
   Group& g = groups_[f.group];
   bool ok = false;
+  results_.fusion = {};  // a batch's own counts (backends add to them)
   if (f.backend && f.backend == g.active) {
     try {
       g.active->collect(*f.slot, results_);
@@ -207,6 +210,7 @@ bool StageRunner::verify_now() {
 
 void StageRunner::verify(Group& g, InFlight& f, LineResults& r) {
   // The staging still holds the batch's frames: collect() does not touch them.
+  reference_.fusion = {};
   try {
     run_batch(*g.cpu, f.slot->frames(), int(f.lines.size()), f.slot->lane_slot(), reference_);
   } catch (const std::exception& e) {
@@ -254,6 +258,15 @@ void StageRunner::update_lane(int lane_id, const LaneConfig& lane) {
   } catch (const std::exception& e) {
     fail_over(std::string("updating lane tables: ") + e.what());
   }
+}
+
+void push_line_results(LaneProcessor& proc, const QueuedLine& q, const LineResults& r, size_t k,
+                       size_t batch_lines, std::vector<uint16_t>& xray) {
+  const size_t D = xray.size();
+  std::memcpy(xray.data(), q.line.xray.data(), D * sizeof(uint16_t));
+  const size_t G = r.profile_valid.size() / std::max<size_t>(1, batch_lines);
+  const bool blind = G > 0 && LaneProcessor::blind(&r.profile_valid[k * G], G);
+  proc.push(&r.thickness[k * D], &r.thickness_valid[k * D], xray.data(), q.line.encoder, blind);
 }
 
 }  // namespace rangex
