@@ -9,7 +9,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -27,8 +26,7 @@
 #include "learn_report.h"
 #include "offline/plant_run.h"
 #include "offline/replay.h"
-#include "pipeline/product_learning.h"
-#include "pipeline/sensitivity.h"
+#include "pipeline/lane_learning.h"
 #include "progress_bar.h"
 #include "service/learned_report.h"
 
@@ -66,13 +64,6 @@ std::vector<int> lane_list(const std::string& v) {
   return out;
 }
 
-std::string default_version() {
-  const std::time_t now = std::time(nullptr);
-  char b[32];
-  std::strftime(b, sizeof b, "learn-%Y%m%d-%H%M%S", std::gmtime(&now));
-  return b;
-}
-
 // The plant configuration at `config` with each learned lane's inspection section replaced.
 std::string learned_plant_yaml(const std::string& config,
                                const std::vector<std::pair<int, LearnedDetection>>& learned) {
@@ -100,36 +91,17 @@ std::string learned_plant_yaml(const std::string& config,
          out.c_str() + "\n";
 }
 
-// One lane's learning fillets, from a replay or an in-memory simulation: each inspected
-// fillet's extremes and a copy of its image (for the test pieces).
+// One lane's learning fillets, from a replay or an in-memory simulation.
 struct LaneFillets {
   int lane = 0;
-  std::vector<LearningFillet> fillets;
-  std::vector<FilletImage> images;
-  std::vector<std::pair<double, double>> fits;  // b1, b2: the meat's attenuation
-  int skipped = 0;
-  void add(const InspectedFillet& f) {
-    if (f.result.decision == Decision::kNotInspected || !f.result.fitted) {
-      ++skipped;  // fail-safe fillets say nothing about the product's texture
-      return;
-    }
-    fillets.push_back({f.result.lane, f.result.id, f.result.y0_mm, f.result.extremes});
-    images.push_back(f.image);
-    fits.push_back({f.result.fit.beta1, f.result.fit.beta2});
-  }
-  std::vector<SensitivityFillet> sensitivity_fillets() const {
-    std::vector<SensitivityFillet> v;
-    for (size_t i = 0; i < images.size(); ++i)
-      v.push_back({&images[i], fits[i].first, fits[i].second});
-    return v;
-  }
+  LearningSet set;
 };
 
 std::vector<LaneFillets> from_replay(const std::vector<LaneReplay>& lanes) {
   std::vector<LaneFillets> out;
   for (const LaneReplay& r : lanes) {
-    out.push_back({r.lane, {}, {}, {}, 0});
-    for (const InspectedFillet& f : r.fillets) out.back().add(f);
+    out.push_back({r.lane, {}});
+    for (const InspectedFillet& f : r.fillets) out.back().set.add(f.result, f.image);
   }
   return out;
 }
@@ -165,7 +137,7 @@ int cmd_learn(int argc, char** argv) {
   SensitivityOptions so;
   so.material.excess_ratio = number(a, "excess-ratio", so.material.excess_ratio, 0.05, 100);
   so.material.excess_per_mm = number(a, "excess-per-mm", 0, 0, 10);
-  const std::string version = a.get("version", default_version());
+  const std::string version = a.get("version", learning_version_name());
   ReplayOptions opt;
   opt.keep_images = true;
   opt.baseline = false;
@@ -193,7 +165,7 @@ int cmd_learn(int argc, char** argv) {
       std::lock_guard<std::mutex> lock(mu);
       LaneFillets& l = by_lane[f.result.lane];
       l.lane = f.result.lane;
-      l.add(f);
+      l.set.add(f.result, f.image);
     };
     ProgressBar bar("simulate");
     run_simulated_plant(plant, sp, po, [&](int64_t d, int64_t t) { bar.update(d, t); });
@@ -222,27 +194,24 @@ int cmd_learn(int argc, char** argv) {
     lo.target_frr = number(a, "target-frr", lane.inspection.false_reject_target, 1e-5, 0.2);
     lo.confidence = number(a, "confidence", lo.confidence, 0.5, 0.999);
     lo.spread_by_thickness = lane.inspection.spread_by_thickness;
-    const std::vector<SensitivityFillet> images = r.sensitivity_fillets();
     std::printf("lane %d: %zu fillets inspected (%d not inspected, left out); fitting ...\n",
-                r.lane, r.fillets.size(), r.skipped);
+                r.lane, r.set.size(), r.set.not_inspected);
     std::fflush(stdout);
-    ProductLearning L = learn_product(r.fillets, lo);
-    L.learned.version = version;
-    L.learned.learned_on = source + " lane " + std::to_string(r.lane);
-    // The sensitivity those thresholds buy, on the same fillets (the report says so; a
-    // held-out check is --check, on fillets it did not learn from).
-    InspectionParams p = lane.inspection;
-    p.learned = L.learned;
+    // The sensitivity the thresholds buy is measured on the same fillets (the report says
+    // so; a held-out check is --check, on fillets it did not learn from).
     ProgressBar sbar("sensitivity");
-    const SensitivityResult sens =
-        measure_sensitivity(images, p, so, [&](int d, int t) { sbar.update(d, t); });
-    L.learned.sensitivity = sens.summary;
+    const LaneLearning ll = learn_lane(r.set, lane.inspection, lo, so, version,
+                                       source + " lane " + std::to_string(r.lane),
+                                       [&](int d, int t) { sbar.update(d, t); });
+    const ProductLearning& L = ll.learning;
+    const SensitivityResult& sens = ll.sensitivity;
+    const InspectionParams& p = ll.inspection;
     nlohmann::json lane_json = nlohmann::json::parse(learned_report_json(r.lane, L, sens));
     for (const LaneReplay& c : check) {
       if (c.lane != r.lane) continue;
       std::vector<SensitivityFillet> held;
       for (const InspectedFillet& f : c.fillets)
-        if (f.result.decision != Decision::kNotInspected && f.result.fitted)
+        if (LearningSet::teaches(f.result))
           held.push_back({&f.image, f.result.fit.beta1, f.result.fit.beta2});
       ProgressBar cbar("sensitivity (check)");
       const SensitivityResult on_held =

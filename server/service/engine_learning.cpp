@@ -1,15 +1,14 @@
 // Learned inspection settings in the engine: versions uploaded, listed and
 // activated like calibrations, and live learning from a lane's next fillets
-// (ControlService.LearnProduct). The learning itself is pipeline/product_learning.h; its
+// (ControlService.LearnProduct). The learning itself is pipeline/lane_learning.h; its
 // report and gate are service/learned_report.h.
 #include <chrono>
-#include <ctime>
 #include <map>
 
 #include "core/error.h"
 #include "core/plant_config.h"
 #include "core/size_limits.h"
-#include "pipeline/sensitivity.h"
+#include "pipeline/lane_learning.h"
 #include "service/engine.h"
 #include "service/learned_report.h"
 
@@ -22,23 +21,9 @@ struct ProductCollector {
   std::mutex mu;
   std::condition_variable cv;
   std::map<int64_t, FilletImage> cut;  // by the lane's fillet id, waiting for a decision
-  std::vector<LearningFillet> fillets;
-  std::vector<FilletImage> images;              // of `fillets`, in the same order
-  std::vector<std::pair<double, double>> fits;  // their fits' b1, b2 (the meat's attenuation)
-  int not_inspected = 0;
-  bool done() const { return int(fillets.size()) >= want; }
+  LearningSet set;
+  bool done() const { return int(set.size()) >= want; }
 };
-
-namespace {
-
-std::string new_version_name() {
-  const std::time_t now = std::time(nullptr);
-  char b[40];
-  std::strftime(b, sizeof b, "learn-%Y%m%d-%H%M%S", std::gmtime(&now));
-  return b;
-}
-
-}  // namespace
 
 std::shared_ptr<ProductCollector> Engine::collector_of(Lane& l) {
   std::lock_guard<std::mutex> lock(learn_mu_);
@@ -49,7 +34,7 @@ void Engine::collect_image(Lane& l, const FilletImage& img) {
   const auto c = collector_of(l);
   if (!c) return;
   std::lock_guard<std::mutex> lock(c->mu);
-  if (int(c->fillets.size() + c->cut.size()) < c->want) c->cut.emplace(img.id, img);
+  if (int(c->set.size() + c->cut.size()) < c->want) c->cut.emplace(img.id, img);
 }
 
 void Engine::collect_result(Lane& l, const FilletResult& r) {
@@ -58,14 +43,8 @@ void Engine::collect_result(Lane& l, const FilletResult& r) {
   std::lock_guard<std::mutex> lock(c->mu);
   const auto it = c->cut.find(r.id);
   if (it == c->cut.end()) return;
-  // A fillet that was not inspected says nothing about the product's texture.
-  if (r.decision == Decision::kNotInspected || !r.fitted) {
-    ++c->not_inspected;
-  } else if (!c->done()) {
-    c->fillets.push_back({r.lane, r.id, r.y0_mm, r.extremes});
-    c->images.push_back(std::move(it->second));
-    c->fits.push_back({r.fit.beta1, r.fit.beta2});
-  }
+  // Fillets left out are counted to the end; the set takes no more than it wants.
+  if (!LearningSet::teaches(r) || !c->done()) c->set.add(r, std::move(it->second));
   c->cut.erase(it);
   if (c->done()) c->cv.notify_all();
 }
@@ -136,7 +115,7 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
     fail("target_frr must be in (0, 0.5) (0: the lane's false_reject_target)");
   if (!(req.confidence >= 0.5 && req.confidence < 1)) fail("confidence must be in [0.5, 1)");
   if (!(req.timeout_s > 0 && req.timeout_s <= 86400)) fail("timeout_s must be within (0, 86400]");
-  const std::string vid = req.id.empty() ? new_version_name() : req.id;
+  const std::string vid = req.id.empty() ? learning_version_name() : req.id;
   if (store_.setting(SettingKind::kLearned, id, vid))
     fail_exists("lane ", id, " already has learned settings '", vid, "' (versions are immutable)");
   auto c = std::make_shared<ProductCollector>();
@@ -168,7 +147,7 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
   }
   // The collector is this thread's alone now.
   if (!c->done())
-    fail("lane ", id, ": only ", c->fillets.size(), " of ", req.fillets,
+    fail("lane ", id, ": only ", c->set.size(), " of ", req.fillets,
          " fillets were inspected within ", req.timeout_s, " s",
          stop ? " (the server is stopping)" : "", "; nothing was learned");
   LaneConfig lc;
@@ -187,19 +166,12 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
   } else {
     lo.spread_by_thickness = lc.inspection.spread_by_thickness;
   }
-  ProductLearning L = rangex::learn_product(c->fillets, lo);
-  L.learned.version = vid;
-  L.learned.learned_on = "lane " + std::to_string(id) + " live, " +
-                         std::to_string(c->fillets.size()) + " fillets (" +
-                         std::to_string(c->not_inspected) + " not inspected left out)";
-  InspectionParams p = lc.inspection;
-  p.learned = L.learned;
-  std::vector<SensitivityFillet> sf;
-  for (size_t i = 0; i < c->images.size(); ++i)
-    sf.push_back({&c->images[i], c->fits[i].first, c->fits[i].second});
-  const SensitivityResult sens = measure_sensitivity(sf, p, SensitivityOptions{});
-  L.learned.sensitivity = sens.summary;
-  const std::string report = learned_report_json(id, L, sens);
+  const LaneLearning learned = learn_lane(
+      c->set, lc.inspection, lo, SensitivityOptions{}, vid,
+      "lane " + std::to_string(id) + " live, " + std::to_string(c->set.size()) + " fillets (" +
+          std::to_string(c->set.not_inspected) + " not inspected left out)");
+  const ProductLearning& L = learned.learning;
+  const std::string report = learned_report_json(id, L, learned.sensitivity);
   StoredSetting s{id, vid, learned_detection_yaml(L.learned), now_ns(), false, report};
   store_.add_setting(SettingKind::kLearned, s);
   store_.audit(who, "learned.learn",

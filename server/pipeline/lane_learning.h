@@ -1,0 +1,47 @@
+// What a lane learns from its own clean product, the same for rangexctl learn (a recording
+// or a simulated plant) and a live learning run in the server (ControlService.LearnProduct):
+// the learning fillets (each inspected fillet's extremes and a copy of its image for the
+// test pieces), the extreme-value thresholds fitted to them (product_learning.h) and the
+// sensitivity those thresholds buy on the same fillets (sensitivity.h).
+#pragma once
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "pipeline/inspection.h"
+#include "pipeline/product_learning.h"
+#include "pipeline/sensitivity.h"
+
+namespace rangex {
+
+struct LearningSet {
+  std::vector<LearningFillet> fillets;
+  std::vector<FilletImage> images;              // of `fillets`, in the same order
+  std::vector<std::pair<double, double>> fits;  // their fits' b1, b2 (the meat's attenuation)
+  int not_inspected = 0;                        // fillets left out
+
+  // A fillet that was not inspected (or not fitted) says nothing about the product's texture.
+  static bool teaches(const FilletResult& r);
+  // The fillet joins the set when it teaches; otherwise it is counted as left out.
+  void add(const FilletResult& r, FilletImage image);
+  size_t size() const { return fillets.size(); }
+  std::vector<SensitivityFillet> sensitivity_fillets() const;
+};
+
+struct LaneLearning {
+  ProductLearning learning;       // its thresholds carry `version` and `learned_on`
+  InspectionParams inspection;    // the lane's inspection with those thresholds
+  SensitivityResult sensitivity;  // what they buy on the learning fillets
+};
+
+// `inspection`: the lane's settings the fillets were inspected with.
+LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspection,
+                        const LearnOptions& lo, const SensitivityOptions& so,
+                        const std::string& version, const std::string& learned_on,
+                        const std::function<void(int, int)>& progress = {});
+
+// A new version's default name: learn-YYYYmmdd-HHMMSS (UTC).
+std::string learning_version_name();
+
+}  // namespace rangex
