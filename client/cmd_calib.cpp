@@ -6,10 +6,10 @@
 
 #include "args.h"
 #include "calib/lane_calibration_file.h"
+#include "calib/scatter_from_truth.h"
 #include "commands.h"
 #include "core/error.h"
 #include "core/recording.h"
-#include "offline/scatter_from_truth.h"
 
 namespace fs = std::filesystem;
 

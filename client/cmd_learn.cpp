@@ -27,8 +27,8 @@
 #include "offline/plant_run.h"
 #include "offline/replay.h"
 #include "pipeline/lane_learning.h"
+#include "pipeline/learned_report.h"
 #include "progress_bar.h"
-#include "service/learned_report.h"
 
 namespace fs = std::filesystem;
 

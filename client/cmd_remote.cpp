@@ -20,8 +20,8 @@
 #include "feeder.h"
 #include "line_source.h"
 #include "rangex/v1/decision_names.h"
+#include "rangex/v1/message_json.h"
 #include "rangex/v1/rangex.grpc.pb.h"
-#include "service/pb_convert.h"
 #include "sim/plant_simulator.h"
 
 namespace rangex::cli {

@@ -24,11 +24,12 @@ int cmd_calib_remote(int argc, char** argv);
 int cmd_calib_solve(int argc, char** argv);
 int cmd_lanes(int argc, char** argv);
 int cmd_learned(int argc, char** argv);
-int cmd_bench(int argc, char** argv);
-int cmd_bench_server(int argc, char** argv);
 int cmd_audit(int argc, char** argv);
-int cmd_soak(int argc, char** argv);
 int cmd_token(int argc, char** argv);
+
+// bench, bench-server and soak run in rangex-bench (client/bench/), which holds a server in
+// process: rangexctl hands the command line over to it.
+int run_bench_binary(int argc, char** argv);
 
 // --config, else $RANGEX_CONFIG, else ./config/plant.yaml, else the source tree's default.
 std::string config_path(const std::string& option_value);

@@ -6,6 +6,7 @@
 
 #include "commands.h"
 #include "core/error.h"
+#include "run_command.h"
 
 namespace {
 constexpr const char* kUsage = R"(usage: rangexctl <command> [options]
@@ -110,7 +111,7 @@ int main(int argc, char** argv) {
   }
   using namespace rangex::cli;
   const char* cmd = argv[1];
-  try {
+  return run_command(cmd, [&] {
     if (!std::strcmp(cmd, "simulate")) return cmd_simulate(argc, argv);
     if (!std::strcmp(cmd, "extract")) return cmd_extract(argc, argv);
     if (!std::strcmp(cmd, "process")) return cmd_process(argc, argv);
@@ -126,18 +127,12 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "image")) return cmd_image(argc, argv);
     if (!std::strcmp(cmd, "lanes")) return cmd_lanes(argc, argv);
     if (!std::strcmp(cmd, "learned")) return cmd_learned(argc, argv);
-    if (!std::strcmp(cmd, "bench")) return cmd_bench(argc, argv);
-    if (!std::strcmp(cmd, "bench-server")) return cmd_bench_server(argc, argv);
+    if (!std::strcmp(cmd, "bench") || !std::strcmp(cmd, "bench-server") ||
+        !std::strcmp(cmd, "soak"))
+      return run_bench_binary(argc, argv);
     if (!std::strcmp(cmd, "audit")) return cmd_audit(argc, argv);
-    if (!std::strcmp(cmd, "soak")) return cmd_soak(argc, argv);
     if (!std::strcmp(cmd, "token")) return cmd_token(argc, argv);
     std::fprintf(stderr, "rangexctl: unknown command '%s'\n\n%s", cmd, kUsage);
     return 2;
-  } catch (const rangex::Error& e) {
-    std::fprintf(stderr, "rangexctl %s: error: %s\n", cmd, e.what());
-    return 1;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "rangexctl %s: internal error: %s\n", cmd, e.what());
-    return 3;
-  }
+  });
 }

@@ -6,7 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
-#include "offline/truth_heights.h"
+#include "pipeline/truth_heights.h"
 
 namespace rangex {
 

@@ -10,7 +10,7 @@
 
 #include "core/error.h"
 #include "offline/line_path.h"
-#include "offline/truth_heights.h"
+#include "pipeline/truth_heights.h"
 
 namespace rangex {
 

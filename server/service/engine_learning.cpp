@@ -9,8 +9,8 @@
 #include "core/plant_config.h"
 #include "core/size_limits.h"
 #include "pipeline/lane_learning.h"
+#include "pipeline/learned_report.h"
 #include "service/engine.h"
-#include "service/learned_report.h"
 
 namespace rangex {
 

@@ -1,12 +1,10 @@
 #include "service/pb_convert.h"
 
-#include <google/protobuf/util/json_util.h>
-
 #include "core/calibration_report.h"
 #include "core/error.h"
 #include "core/plant_config.h"
+#include "pipeline/learned_report.h"
 #include "rangex/v1/decision_names.h"
-#include "service/learned_report.h"
 
 namespace rangex {
 
@@ -157,16 +155,6 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
   o->set_batches_verified(s.batches.verified);
   o->set_verify_mismatches(s.batches.mismatches);
   o->set_backend_failures(s.batches.failures);
-}
-
-std::string to_json(const google::protobuf::Message& m) {
-  std::string out;
-  google::protobuf::util::JsonPrintOptions jo;
-  jo.preserve_proto_field_names = true;
-  jo.always_print_primitive_fields = true;
-  if (!google::protobuf::util::MessageToJsonString(m, &out, jo).ok())
-    fail(m.GetTypeName(), " cannot be written as JSON");
-  return out;
 }
 
 }  // namespace rangex

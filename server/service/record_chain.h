@@ -6,7 +6,7 @@
 #pragma once
 #include <string>
 
-#include "service/store.h"
+#include "service/stored_records.h"
 
 namespace rangex {
 

@@ -9,29 +9,11 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/inspection.h"
+#include "service/stored_records.h"
 
 struct sqlite3;
 
 namespace rangex {
-
-struct StoredFragment {
-  std::string kind;
-  double x_mm, y_mm, area_mm2, peak_z, attenuation_mm2;
-  double meat_mm = 0;                          // peak excess attenuation in mm of the fillet's meat
-  int row0 = 0, row1 = 0, col0 = 0, col1 = 0;  // bounding box in the fillet's images
-};
-
-struct StoredFillet {
-  int64_t uid = 0;
-  int lane = 0;
-  int64_t lane_fillet = 0, first_encoder = 0;
-  int rows = 0;
-  std::string decision, reason, calibration_id;
-  double beta0 = 0, beta1 = 0, beta2 = 0, resid_mean_dn = 0, resid_std_dn = 0, belt_y0_mm = 0;
-  int64_t decided_ns = 0;
-  std::vector<StoredFragment> fragments;
-};
 
 // A versioned lane setting: a calibration set, or learned inspection settings. Versions are
 // immutable; one per lane and kind is active.
@@ -54,11 +36,6 @@ struct FilletQuery {
   int64_t after = 0;
   int limit = 1000;
   bool newest_first = false;  // the latest `limit` matches, newest first (after is ignored)
-};
-
-struct AuditEntry {
-  int64_t ts_ns = 0;
-  std::string who, what, detail;
 };
 
 // What verifying a store's hash chain found: ok, or the first link that does not hold and

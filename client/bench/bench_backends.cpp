@@ -1,4 +1,4 @@
-#include "bench_backends.h"
+#include "bench/bench_backends.h"
 
 #include <algorithm>
 #include <chrono>

@@ -1,4 +1,4 @@
-#include "memory_source.h"
+#include "bench/memory_source.h"
 
 #include <algorithm>
 

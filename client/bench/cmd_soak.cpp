@@ -18,12 +18,13 @@
 
 #include "args.h"
 #include "backend_args.h"
+#include "bench/bench_commands.h"
+#include "bench/memory_source.h"
+#include "bench/resident_memory.h"
 #include "commands.h"
 #include "core/error.h"
 #include "feeder.h"
-#include "memory_source.h"
 #include "rangex/v1/rangex.grpc.pb.h"
-#include "resident_memory.h"
 #include "service/server.h"
 
 namespace rangex::cli {

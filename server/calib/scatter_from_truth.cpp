@@ -1,10 +1,10 @@
-#include "offline/scatter_from_truth.h"
+#include "calib/scatter_from_truth.h"
 
 #include <algorithm>
 
 #include "calib/scatter_samples.h"
 #include "core/error.h"
-#include "offline/truth_heights.h"
+#include "pipeline/truth_heights.h"
 
 namespace rangex {
 

@@ -1,4 +1,4 @@
-#include "bench_path.h"
+#include "bench/bench_path.h"
 
 #include <algorithm>
 #include <chrono>

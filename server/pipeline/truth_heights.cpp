@@ -1,4 +1,4 @@
-#include "offline/truth_heights.h"
+#include "pipeline/truth_heights.h"
 
 #include <cmath>
 

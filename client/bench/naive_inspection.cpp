@@ -1,4 +1,4 @@
-#include "naive_inspection.h"
+#include "bench/naive_inspection.h"
 
 #include <algorithm>
 #include <cmath>

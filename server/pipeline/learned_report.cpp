@@ -1,4 +1,4 @@
-#include "service/learned_report.h"
+#include "pipeline/learned_report.h"
 
 #include <nlohmann/json.hpp>
 
