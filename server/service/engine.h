@@ -10,14 +10,14 @@
 // store and publish the fillets they cut, each lane's in order; control RPCs and the
 // watchdog read state.
 // Engine locks never nest and are never held while calling out of the engine (store, hub,
-// processors), but save_mu_:
+// processors), but the decision recorder's:
 //   mu_      admission: the queue, every lane's LaneAdmission, stopping/paused flags
 //   ctl_mu_  control: lanes' configurations, pending changes, calibration ids
 //   inspect_mu_  the fillets waiting for an inspector, which lanes an inspector holds
 //   learn_mu_  which lane has a live learning run (its collector has a lock of its own)
-//   save_mu_ storing and publishing decisions; held while calling the store and the hub
-//            (neither calls back into the engine), and around health_mu_
-//   leaf locks inside LatencyStats, rate_mu_, health_mu_
+//   the recorder's (decision_recorder.h) storing and publishing decisions; held while
+//            calling the store and the hub (neither calls back into the engine)
+//   leaf locks inside LatencyStats, rate_mu_, the recorder's error lock
 // Counters are atomics, so statistics never wait for ingest and ingest never waits for them.
 #pragma once
 #include <array>
@@ -40,6 +40,7 @@
 #include "core/plant_config.h"
 #include "pipeline/lane_processor.h"
 #include "pipeline/product_drift.h"
+#include "service/decision_recorder.h"
 #include "service/lane_admission.h"
 #include "service/lane_queues.h"
 #include "service/latency_stats.h"
@@ -266,13 +267,6 @@ class Engine {
     int64_t last_arrival_ns;  // arrival of the fillet's last line (0: unknown)
     int64_t queued_ns;
   };
-  struct Unsaved {  // a decision waiting for the store
-    StoredFillet record;
-    InspectedFillet fillet;
-    int64_t last_arrival_ns;
-    bool images_stored = false;  // written and registered (retried with the record)
-  };
-
   Verdict refuse(Lane* l, Refusal code, std::string message, size_t queued);  // l: when known
   void worker();
   void process(std::vector<Queued>& batch);
@@ -287,7 +281,6 @@ class Engine {
   void on_image(Lane& l, FilletImage&& img);                   // worker
   void inspector();                                            // an inspector thread
   void on_fillet(const InspectJob& job, InspectedFillet&& f);  // inspector
-  void flush_unsaved();
   // Durable counts (engine_progress.cpp).
   void resume_from_store();                             // constructor
   int64_t durable_margin(const Lane& l) const;          // lines to rebuild from
@@ -296,8 +289,6 @@ class Engine {
   void fillet_stored(int lane, int64_t first_encoder);  // inspector, once committed
   void save_progress();                                 // the progress thread
   void progress_loop();
-  bool save(Unsaved& u);  // save_mu_
-  void retry_unsaved();   // save_mu_
   Lane& lane(int id);
   // A passed fillet's extremes into the lane's drift tracker (the inspector holding the lane).
   void track_drift(Lane& l, const LearnedDetection& learned,
@@ -310,8 +301,8 @@ class Engine {
 
   PlantConfig plant_;
   Store& store_;
-  ResultsHub& hub_;
   EngineOptions opt_;
+  DecisionRecorder recorder_;  // store, images and hub: the way back of every decision
   std::vector<std::unique_ptr<Lane>> lanes_;
   std::unordered_map<int, Lane*> by_id_;
   std::unique_ptr<StageRunner> runner_;  // worker only, but for its read-only accessors
@@ -321,7 +312,6 @@ class Engine {
   LaneQueues queue_;
   bool stopping_ = false, paused_ = false;
   OpenFillets at_stop_ = OpenFillets::kClose;  // mu_; read by the worker once it stops
-  std::atomic<bool> store_failing_{false};     // decisions cannot be stored: hand lines back
   std::atomic<size_t> queued_{0};
   std::atomic<bool> stopping_flag_{false};
 
@@ -341,10 +331,6 @@ class Engine {
   std::condition_variable done_cv_;
   bool done_ = false;
   std::atomic<int64_t> batch_started_ns_{0};
-  // Storing and publishing, one decision at a time: save_mu_ (never held with another lock
-  // of the engine's but health_mu_, a leaf).
-  std::mutex save_mu_;
-  std::deque<Unsaved> unsaved_;
 
   uint64_t epoch_ = 0;
   std::thread progress_;
@@ -355,17 +341,13 @@ class Engine {
 
   std::atomic<uint64_t> received_{0}, accepted_{0}, processed_{0};
   std::atomic<uint64_t> bytes_parsed_{0}, bytes_xray_copied_{0};
-  std::atomic<uint64_t> fillets_{0}, rejects_{0}, not_inspected_{0}, store_errors_{0};
+  std::atomic<uint64_t> fillets_{0}, rejects_{0}, not_inspected_{0};
   std::array<std::atomic<uint64_t>, kRefusals> refused_{};
   std::array<std::atomic<uint64_t>, kDropReasons> dropped_{};
 
-  std::mutex health_mu_;
-  std::string store_error_;
-  size_t unsaved_count_ = 0;
-
   std::mutex rate_mu_;
   std::deque<std::pair<int64_t, uint64_t>> rate_;  // (steady ns, processed) samples
-  LatencyStats queue_wait_, pipeline_, inspection_, decision_, inspection_wait_, store_time_;
+  LatencyStats queue_wait_, pipeline_, inspection_, inspection_wait_;
   LatencyStats inspection_stage_[kStages];
 };
 

@@ -71,6 +71,11 @@ class HttpServer {
 
  private:
   void routes();
+  // The routes by resource (http_*_routes.cpp, http_events.cpp).
+  void plant_routes(httplib::Server& s);
+  void fillet_routes(httplib::Server& s);
+  void record_routes(httplib::Server& s);
+  void event_routes(httplib::Server& s);
   void authorise(httplib::Server& s);
   // Answers (and returns true for) a request too big to serve: too many headers, or more
   // than one range.

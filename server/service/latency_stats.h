@@ -38,7 +38,7 @@ class LatencyStats {
     // Samples <= kBoundsMs[k], cumulative (the +Inf bucket is `samples`).
     std::array<uint64_t, kBoundsMs.size()> cumulative{};
   };
-  Summary summary() {
+  Summary summary() const {
     std::vector<double> v;
     Summary s;
     {
@@ -58,7 +58,7 @@ class LatencyStats {
 
  private:
   static constexpr size_t kCap = 4096;
-  std::mutex mu_;
+  mutable std::mutex mu_;
   std::vector<double> ring_;
   size_t next_ = 0;
   uint64_t count_ = 0;

@@ -24,6 +24,7 @@ namespace rangex {
 
 struct StreamCounters;
 class AccessControl;
+class RpcServices;
 
 struct ServerOptions {
   std::string listen;    // host:port; empty takes plant.yaml's
@@ -67,7 +68,6 @@ class RangexServer {
   size_t heap_returned() const { return heap_returned_; }
 
  private:
-  struct Services;
   void watchdog();
   void retention();  // a pass at start, then every retention.every_h
   void set_health(const Health& h);
@@ -79,7 +79,7 @@ class RangexServer {
   std::unique_ptr<Engine> engine_;
   std::unique_ptr<StreamCounters> counters_;
   std::unique_ptr<AccessControl> access_;
-  std::unique_ptr<Services> services_;
+  std::unique_ptr<RpcServices> services_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;
   int64_t started_ns_ = 0;

@@ -1,0 +1,147 @@
+#include "service/decision_recorder.h"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <thread>
+
+#include "pipeline/fillet_images.h"
+#include "rangex/v1/decision_names.h"
+#include "service/steady_ns.h"
+
+namespace fs = std::filesystem;
+
+namespace rangex {
+
+DecisionRecorder::DecisionRecorder(Store& store, ResultsHub& hub, bool images, Stored stored)
+    : store_(store), hub_(hub), images_(images), stored_(std::move(stored)) {}
+
+StoredFillet DecisionRecorder::record_of(const FilletResult& r, const std::string& calibration) {
+  StoredFillet s;
+  s.lane = r.lane;
+  s.lane_fillet = r.id;
+  s.first_encoder = r.first_encoder;
+  s.rows = r.rows;
+  s.decision = std::string(decision_name(r.decision));
+  s.reason = r.reason;
+  s.beta0 = r.fit.beta0;
+  s.beta1 = r.fit.beta1;
+  s.beta2 = r.fit.beta2;
+  s.resid_mean_dn = r.resid_mean_dn;
+  s.resid_std_dn = r.resid_std_dn;
+  s.belt_y0_mm = r.y0_mm;
+  s.decided_ns = now_ns();
+  s.calibration_id = calibration;
+  for (const auto* list : {&r.fragments, &r.air_pockets})
+    for (const Blob& b : *list)
+      s.fragments.push_back({list == &r.fragments ? "bone" : "air", b.x_mm, b.y_mm, b.area_mm2,
+                             b.peak_z, b.attenuation_mm2, b.meat_mm, b.row0, b.row1, b.col0,
+                             b.col1});
+  return s;
+}
+
+void DecisionRecorder::record(InspectedFillet&& fillet, const std::string& calibration,
+                              int64_t last_arrival_ns) {
+  Unsaved u;
+  u.record = record_of(fillet.result, calibration);
+  u.fillet = std::move(fillet);
+  u.last_arrival_ns = last_arrival_ns;
+  // Decisions are published in order, each once it is stored.
+  std::lock_guard<std::mutex> lock(mu_);
+  retry_locked();
+  if (!unsaved_.empty() || !save(u)) {
+    if (unsaved_.size() >= kMaxUnsaved) {
+      // Its lines stay not durable (still pending): the feeders resend them to a server that
+      // can store the decision.
+      std::fprintf(stderr,
+                   "rangexd: the store has failed for %zu decisions; no longer held: lane %d "
+                   "fillet %lld (%s), its lines are handed back\n",
+                   unsaved_.size(), unsaved_.front().record.lane,
+                   (long long)unsaved_.front().record.lane_fillet,
+                   unsaved_.front().record.decision.c_str());
+      unsaved_.pop_front();
+    }
+    unsaved_.push_back(std::move(u));
+  }
+  std::lock_guard<std::mutex> e(error_mu_);
+  waiting_ = unsaved_.size();
+}
+
+void DecisionRecorder::retry() {
+  std::lock_guard<std::mutex> lock(mu_);
+  retry_locked();
+}
+
+void DecisionRecorder::flush() {
+  std::lock_guard<std::mutex> lock(mu_);
+  for (int tries = 0; tries < 20 && !unsaved_.empty(); ++tries) {
+    retry_locked();
+    if (!unsaved_.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  if (!unsaved_.empty())
+    std::fprintf(stderr, "rangexd: %zu decisions could not be stored before the stop\n",
+                 unsaved_.size());
+}
+
+std::string DecisionRecorder::error(size_t* waiting) const {
+  std::lock_guard<std::mutex> lock(error_mu_);
+  if (waiting) *waiting = waiting_;
+  return error_;
+}
+
+bool DecisionRecorder::failed(const std::string& what) {
+  ++errors_;
+  failing_ = true;
+  std::lock_guard<std::mutex> lock(error_mu_);
+  if (error_.empty())
+    std::fprintf(stderr, "rangexd: the store failed: %s; decisions wait until it recovers\n",
+                 what.c_str());
+  error_ = what;
+  return false;
+}
+
+bool DecisionRecorder::save(Unsaved& u) {
+  const int64_t t0 = steady_ns();
+  StoredFillet& s = u.record;
+  const FilletResult& r = u.fillet.result;
+  try {
+    if (s.uid == 0) s.uid = store_.add_fillet(s);
+  } catch (const std::exception& e) {
+    return failed(e.what());
+  }
+  // The images are part of the decision: written whole (each renamed into place) and
+  // registered, or retried with it. The decision is durable and published after them.
+  if (images_ && !u.images_stored && r.decision != Decision::kPass &&
+      !u.fillet.image.mask.empty()) {
+    try {
+      const std::string dir = store_.image_dir(s.uid);
+      write_fillet_images(dir, u.fillet.image, r);
+      for (const char* kind : {"overlay", "xray", "thickness", "pseudo_xray", "residual"}) {
+        const std::string path = (fs::path(dir) / (std::string(kind) + ".png")).string();
+        if (fs::exists(path)) store_.add_image(s.uid, kind, path);
+      }
+    } catch (const std::exception& e) {
+      return failed("images of fillet " + std::to_string(s.uid) + ": " + e.what());
+    }
+  }
+  u.images_stored = true;
+  if (stored_) stored_(s.lane, s.first_encoder);
+  const int64_t t1 = steady_ns();
+  store_time_.add((t1 - t0) / 1e6);
+  if (u.last_arrival_ns) decision_.add((t1 - u.last_arrival_ns) / 1e6);
+  hub_.publish(s);
+  return true;
+}
+
+void DecisionRecorder::retry_locked() {
+  while (!unsaved_.empty() && save(unsaved_.front())) unsaved_.pop_front();
+  std::lock_guard<std::mutex> lock(error_mu_);
+  waiting_ = unsaved_.size();
+  if (unsaved_.empty()) failing_ = false;
+  if (unsaved_.empty() && !error_.empty()) {
+    std::fprintf(stderr, "rangexd: the store recovered\n");
+    error_.clear();
+  }
+}
+
+}  // namespace rangex

@@ -1,0 +1,123 @@
+#include "service/http_json.h"
+
+#include <cstdio>
+#include <vector>
+
+#include "pipeline/product_drift.h"
+
+namespace rangex {
+
+using json = nlohmann::json;
+
+namespace {
+json fragment_json(const StoredFragment& g) {
+  return {{"kind", g.kind},         {"x_mm", g.x_mm},     {"y_mm", g.y_mm},
+          {"area_mm2", g.area_mm2}, {"peak_z", g.peak_z}, {"attenuation_mm2", g.attenuation_mm2},
+          {"meat_mm", g.meat_mm},   {"row0", g.row0},     {"row1", g.row1},
+          {"col0", g.col0},         {"col1", g.col1}};
+}
+
+const LaneCounts* find_lane(const HistorySample& s, int lane) {
+  for (const LaneCounts& c : s.lanes)
+    if (c.lane == lane) return &c;
+  return nullptr;
+}
+}  // namespace
+
+json fillet_json(const StoredFillet& f) {
+  json frags = json::array();
+  for (const StoredFragment& g : f.fragments) frags.push_back(fragment_json(g));
+  return {{"uid", f.uid},
+          {"lane", f.lane},
+          {"lane_fillet", f.lane_fillet},
+          {"first_encoder", f.first_encoder},
+          {"rows", f.rows},
+          {"decision", f.decision},
+          {"reason", f.reason},
+          {"calibration", f.calibration_id},
+          {"beta0", f.beta0},
+          {"beta1", f.beta1},
+          {"beta2", f.beta2},
+          {"resid_mean_dn", f.resid_mean_dn},
+          {"resid_std_dn", f.resid_std_dn},
+          {"belt_y0_mm", f.belt_y0_mm},
+          {"decided_ns", f.decided_ns},
+          {"fragments", frags}};
+}
+
+json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) {
+  double line_rate = 0, fillets_per_min = 0, reject_rate = 0, ni_rate = 0;
+  HistorySample a, b;
+  if (h.window(10'000'000'000, a, b)) {
+    const LaneCounts *ca = find_lane(a, l.config.id), *cb = find_lane(b, l.config.id);
+    const double dt = double(b.t_ns - a.t_ns) / 1e9;
+    if (ca && cb && dt > 0) line_rate = double(cb->processed - ca->processed) / dt;
+  }
+  if (h.window(300'000'000'000, a, b)) {
+    const LaneCounts *ca = find_lane(a, l.config.id), *cb = find_lane(b, l.config.id);
+    const double dt = double(b.t_ns - a.t_ns) / 1e9;
+    if (ca && cb && dt > 0) {
+      const double n = double(cb->fillets - ca->fillets);
+      fillets_per_min = 60 * n / dt;
+      if (n > 0) {
+        reject_rate = double(cb->rejects - ca->rejects) / n;
+        ni_rate = double(cb->not_inspected - ca->not_inspected) / n;
+      }
+    }
+  }
+  std::string light = "green", why = "inspecting";
+  if (!l.fed) {
+    light = "grey", why = "never fed";
+  } else if (l.idle_ms > 5000) {
+    light = "red", why = "stopped: no line for " + std::to_string(l.idle_ms / 1000) + " s";
+  } else if (ni_rate > 0.02) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%.1f %% of the last 5 minutes' fillets not inspected",
+                  100 * ni_rate);
+    light = "amber", why = buf;
+  }
+  if (l.product_drift && light == "green")
+    light = "amber", why = product_drift_warning(l.config.id, l.drift_fillets, l.implied_frr);
+  const LearnedDetection& learned = l.config.inspection.learned;
+  return {
+      {"lane", l.config.id},
+      {"learned_version", learned.active() ? learned.version : ""},
+      {"learned_sensitivity", learned.active() ? learned.sensitivity : std::vector<std::string>{}},
+      {"false_reject_target", l.config.inspection.false_reject_target},
+      {"implied_false_reject_rate", l.implied_frr},
+      {"drift_fillets", l.drift_fillets},
+      {"product_drift", l.product_drift},
+      {"fed", l.fed},
+      {"idle_ms", l.idle_ms},
+      {"calibration", l.calibration_id},
+      {"fillet_in_progress", l.fillet_in_progress},
+      {"restarts", l.restarts},
+      {"last_restart", l.last_restart},
+      {"received", l.received},
+      {"processed", l.processed},
+      {"fillets", l.fillets},
+      {"rejects", l.rejects},
+      {"not_inspected", l.not_inspected},
+      {"refused", l.refused},
+      {"dropped", l.dropped},
+      {"line_rate", line_rate},
+      {"fillets_per_min", fillets_per_min},
+      {"reject_rate", reject_rate},
+      {"not_inspected_rate", ni_rate},
+      {"light", light},
+      {"light_reason", why},
+      {"backend", backend}};
+}
+
+json image_kinds(Store& store, int64_t uid) {
+  json kinds = json::array();
+  for (const char* k : {"overlay", "xray", "thickness", "pseudo_xray", "residual"})
+    if (store.image_path(uid, k)) kinds.push_back(k);
+  return kinds;
+}
+
+void send_json(httplib::Response& res, const json& j) {
+  res.set_content(j.dump(), "application/json");
+}
+
+}  // namespace rangex
