@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   cmake ninja-build g++ pkg-config
   libyaml-cpp-dev libpng-dev libsqlite3-dev libeigen3-dev libceres-dev libopencv-dev
-  libcpp-httplib-dev nlohmann-json3-dev libssl-dev openssl
+  libcpp-httplib-dev nlohmann-json3-dev libssl-dev openssl libspdlog-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   clang libclang-rt-14-dev
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc

@@ -21,6 +21,7 @@
 #include "backends/verify.h"
 #include "core/error.h"
 #include "core/lane_config.h"
+#include "offline/stage_cases.h"
 #include "pipeline/pseudo_xray.h"
 #include "pipeline/stripe_extract.h"
 #include "sim/plant_simulator.h"
@@ -508,3 +509,30 @@ INSTANTIATE_TEST_SUITE_P(Backends, OnEveryBackend,
                            std::replace(n.begin(), n.end(), '-', '_');
                            return n;
                          });
+
+// The stage case table (offline/stage_cases.h, which `bench --backend` times): every case on
+// this backend against the CPU backend, within the tolerance the case declares.
+TEST_P(OnEveryBackend, EveryStageCaseOfTheTableMatchesTheCpu) {
+  const StageWork w = make_stage_work(default_lane_config(0), 3, 12, 3, 4000);
+  backend_->set_lanes(w.lanes);
+  const std::unique_ptr<Backend> cpu = create_backend(cpu_request());
+  cpu->set_lanes(w.lanes);
+  const std::vector<StageCase> cases = stage_cases(w);
+  ASSERT_EQ(cases.size(), 6u);
+  for (const StageCase& c : cases) {
+    StageOutput got, want;
+    c.run(*backend_, w, got);
+    c.run(*cpu, w, want);
+    EXPECT_EQ(c.compare(got, want), "") << c.stage << " (" << c.what << ")";
+    // The comparison is not blind: a result moved beyond the tolerance is caught.
+    if (!want.thickness.empty()) {
+      StageOutput moved = want;
+      for (size_t i = 0; i < moved.thickness.size(); ++i)
+        if (moved.thickness_valid[i]) {
+          moved.thickness[i] += 0.01f;
+          break;
+        }
+      EXPECT_NE(c.compare(moved, want), "") << c.stage;
+    }
+  }
+}

@@ -12,6 +12,7 @@
 #include "backends/registry.h"
 #include "backends/robust_fit_batch.h"
 #include "core/error.h"
+#include "offline/stage_cases.h"
 #include "sim/plant_simulator.h"
 
 namespace rangex::cli {
@@ -213,76 +214,24 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
       }
     }
 
-  // The later stages alone, on the results of a CPU run of the largest batch.
+  // Every case of the stage table (offline/stage_cases.h, which the backend suite checks on
+  // every backend) on the largest batch and 16 fillets of 60,000 pixels (a 500 x 250 px
+  // fillet holds about that many); the robust fit beside them.
   const int nl = max_lanes, lines = *std::max_element(opt.batches.begin(), opt.batches.end());
-  const BenchBatch bb = make_batch(rendered, frame, nl, lines);
-  LineResults ref;
-  {
-    const LinePipeline pipe(lanes, opt.threads);
-    pipe.run(bb.frames.data(), lines, bb.lane_slot.data(), ref);
-  }
-  std::printf("\nlater stages alone, %d lanes, %d lines per batch (items: columns, lines, lines)\n",
-              nl, lines);
-  std::printf("%-12s %-9s %14s %9s %9s %9s\n", "backend", "stage", "items/s", "up", "compute",
-              "down");
-  const int count = 2 * lines;
-  const size_t cols = size_t(count) * lc.frame_width;
-  std::vector<float> x(cols), z(cols), prof(ref.profile.size()), th(ref.thickness.size());
-  std::vector<uint8_t> xzv(cols), pv(ref.profile.size()), tv(ref.thickness.size());
+  const StageWork work = make_stage_work(lc, nl, lines, 16, 60000);
+  const std::vector<StageCase> cases = stage_cases(work);
+  std::printf("\nstage cases alone, %d lanes, %d lines per batch, %d fillets of %d pixels\n", nl,
+              lines, 16, 60000);
+  std::printf("%-12s %-12s %14s %-8s %9s %9s %9s\n", "backend", "stage", "items/s", "", "up",
+              "compute", "down");
   std::map<std::string, double> cpu_stage;
+  const FilletBatch fb = work.fillets();
   for (auto& b : backends) {
     const std::string name = b->info().name;
-    auto row = [&](const char* stage, double items, const Cell& c) {
-      std::printf("%-12s %-9s %14.0f %9.3f %9.3f %9.3f ms", name.c_str(), stage, c.per_s * items,
-                  1e3 * c.t.upload, 1e3 * c.t.compute, 1e3 * c.t.download);
-      if (name == "cpu")
-        cpu_stage[stage] = c.per_s;
-      else if (cpu_stage.count(stage))
-        std::printf("  %6.2fx cpu", c.per_s / cpu_stage[stage]);
-      std::printf("\n");
-    };
-    row("rectify", double(cols), measure(*b, opt.seconds, [&] {
-          b->rectify(ref.stripes.row.data(), ref.stripes.valid.data(), count, bb.frame_slot.data(),
-                     x.data(), z.data(), xzv.data());
-        }));
-    row("fuse", lines, measure(*b, opt.seconds, [&] {
-          b->fuse(ref.x.data(), ref.z.data(), ref.xz_valid.data(), lines, bb.lane_slot.data(),
-                  prof.data(), pv.data(), nullptr);
-        }));
-    row("project", lines, measure(*b, opt.seconds, [&] {
-          b->project(ref.profile.data(), ref.profile_valid.data(), lines, bb.lane_slot.data(),
-                     th.data(), tv.data());
-        }));
-  }
-
-  // The pseudo-X-ray stages on a batch of 16 fillets of 60,000 pixels (a 500 x 250 px fillet
-  // holds about that many), one IRLS iteration's sums.
-  const int nf = 16, per = 60000;
-  std::vector<float> ft(size_t(nf) * per);
-  std::vector<uint16_t> fx(ft.size());
-  std::vector<uint8_t> fu(ft.size(), 1);
-  std::vector<int32_t> fo(nf + 1, 0);
-  std::vector<FilletModel> fm(nf);
-  for (int f = 0; f < nf; ++f) {
-    fo[f + 1] = fo[f] + per;
-    fm[f] = {std::log(3600.0), -0.03, 0.02, 5.0, 4.0, 800.0};
-    for (int i = 0; i < per; ++i) {
-      const size_t k = size_t(f) * per + i;
-      ft[k] = float(30.0 * ((i * 7919) % per) / per);
-      fx[k] = uint16_t(3600.0 * std::exp(-0.03 * ft[k]) * (1 + 0.01 * ((i % 13) - 6)));
-    }
-  }
-  const FilletBatch fb{ft.data(), fx.data(), fu.data(), fo.data(), nf, fm.data()};
-  std::vector<float> lp(ft.size()), pp(ft.size()), res(ft.size()), zz(ft.size());
-  std::vector<double> rr(ft.size()), sums(size_t(nf) * IRLS_SUMS);
-  std::printf("\npseudo-X-ray stages, %d fillets of %d pixels (items: pixels)\n", nf, per);
-  std::printf("%-12s %-9s %14s %9s %9s %9s\n", "backend", "stage", "items/s", "up", "compute",
-              "down");
-  for (auto& b : backends) {
-    const std::string name = b->info().name;
-    auto row = [&](const char* stage, const Cell& c) {
-      std::printf("%-12s %-9s %14.0f %9.3f %9.3f %9.3f ms", name.c_str(), stage,
-                  c.per_s * double(ft.size()), 1e3 * c.t.upload, 1e3 * c.t.compute,
+    b->set_lanes(work.lanes);
+    auto row = [&](const std::string& stage, double items, const std::string& unit, const Cell& c) {
+      std::printf("%-12s %-12s %14.0f %-8s %9.3f %9.3f %9.3f ms", name.c_str(), stage.c_str(),
+                  c.per_s * items, unit.c_str(), 1e3 * c.t.upload, 1e3 * c.t.compute,
                   1e3 * c.t.download);
       if (name == "cpu")
         cpu_stage[stage] = c.per_s;
@@ -290,12 +239,14 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
         std::printf("  %6.2fx cpu", c.per_s / cpu_stage[stage]);
       std::printf("\n");
     };
-    row("map", measure(*b, opt.seconds,
-                       [&] { b->pseudo_xray(fb, lp.data(), pp.data(), res.data(), zz.data()); }));
-    row("irls", measure(*b, opt.seconds, [&] { b->irls_sums(fb, rr.data(), sums.data()); }));
+    for (const StageCase& sc : cases) {
+      StageOutput out;
+      row(sc.stage, sc.items, sc.unit, measure(*b, opt.seconds, [&] { sc.run(*b, work, out); }));
+    }
     // The whole robust fit: every iteration's per-pixel work on the backend, the iteration
     // logic (MAD scale, weighted line, deviance) on the host.
-    row("fit", measure(*b, opt.seconds, [&] { fit_tukey_lines(*b, fb); }));
+    row("fit", double(fb.pixels()), "pixels",
+        measure(*b, opt.seconds, [&] { fit_tukey_lines(*b, fb); }));
   }
 
   std::printf("\nstripe stage at its best batch, against the device's host-to-device copy:\n");

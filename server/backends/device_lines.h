@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "../../kernels/shared/lane_tables.h"
+#include "shared/lane_tables.h"
 #include "backends/lane_tables.h"
 #include "pipeline/line_pipeline.h"
 

@@ -6,7 +6,7 @@
 #pragma once
 #include <vector>
 
-#include "../../kernels/shared/lane_tables.h"
+#include "shared/lane_tables.h"
 #include "core/lane_config.h"
 #include "pipeline/rectify_table.h"
 

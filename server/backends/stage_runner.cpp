@@ -6,6 +6,7 @@
 
 #include "backends/verify.h"
 #include "core/error.h"
+#include "core/log.h"
 
 namespace rangex {
 
@@ -56,7 +57,7 @@ StageRunner::StageRunner(const std::vector<LaneConfig>& lanes, StageRunnerOption
       if (!opt_.fall_back) throw;
       // Loud, and the plant keeps inspecting on the CPU.
       note_ = "backend '" + opt_.backend.name + "' cannot start: " + e.what() + "; running on cpu";
-      std::fprintf(stderr, "rangex: %s\n", note_.c_str());
+      log::error("backend_unavailable", "{}", note_);
       for (Group& earlier : groups_)
         if (earlier.device) {
           earlier.failed.push_back(std::move(earlier.device));
@@ -214,7 +215,7 @@ void StageRunner::verify(Group& g, InFlight& f, LineResults& r) {
   try {
     run_batch(*g.cpu, f.slot->frames(), int(f.lines.size()), f.slot->lane_slot(), reference_);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "rangex: verification on the CPU failed: %s\n", e.what());
+    log::error("verification_failed", "verification on the CPU failed: {}", e.what());
     return;
   }
   ++verified_;
@@ -222,11 +223,10 @@ void StageRunner::verify(Group& g, InFlight& f, LineResults& r) {
   if (!m) return;
   ++mismatches_;
   const IncomingLine& in = f.lines.at(std::min(m->line, f.lines.size() - 1)).line;
-  std::fprintf(stderr,
-               "rangex: backend %s differs from the CPU reference: %s (lane %d, encoder %lld); "
-               "this batch is decided from the CPU's results\n",
-               g.active->info().name.c_str(), m->describe().c_str(), in.lane,
-               (long long)in.encoder);
+  log::error("backend_mismatch",
+             "backend {} differs from the CPU reference: {} (lane {}, encoder {}); this batch is "
+             "decided from the CPU's results",
+             g.active->info().name, m->describe(), in.lane, in.encoder);
   std::swap(r, reference_);
 }
 
@@ -242,9 +242,8 @@ void StageRunner::fail_over(const std::string& why) {
   std::lock_guard<std::mutex> lock(info_mu_);
   note_ = "backend " + name + " failed: " + why + "; switched to cpu";
   running_ = groups_.front().active->info();
-  std::fprintf(stderr,
-               "rangex: %s (the batches in flight are recomputed on the CPU, no line is lost)\n",
-               note_.c_str());
+  log::error("backend_failed",
+             "{} (the batches in flight are recomputed on the CPU, no line is lost)", note_);
 }
 
 void StageRunner::update_lane(int lane_id, const LaneConfig& lane) {

@@ -3,7 +3,7 @@
 #include <string>
 #include <string_view>
 
-#include "../../kernels/shared/stripe_methods.h"
+#include "shared/stripe_methods.h"
 
 namespace rangex {
 

@@ -10,7 +10,7 @@
 #pragma once
 #include <cstdint>
 
-#include "../../kernels/shared/fillet_tables.h"
+#include "shared/fillet_tables.h"
 
 namespace rangex {
 

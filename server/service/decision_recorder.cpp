@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <thread>
 
+#include "core/log.h"
 #include "pipeline/fillet_images.h"
 #include "rangex/v1/decision_names.h"
 #include "service/steady_ns.h"
@@ -53,12 +54,11 @@ void DecisionRecorder::record(InspectedFillet&& fillet, const std::string& calib
     if (unsaved_.size() >= kMaxUnsaved) {
       // Its lines stay not durable (still pending): the feeders resend them to a server that
       // can store the decision.
-      std::fprintf(stderr,
-                   "rangexd: the store has failed for %zu decisions; no longer held: lane %d "
-                   "fillet %lld (%s), its lines are handed back\n",
-                   unsaved_.size(), unsaved_.front().record.lane,
-                   (long long)unsaved_.front().record.lane_fillet,
-                   unsaved_.front().record.decision.c_str());
+      log::error("decision_dropped_from_memory",
+                 "the store has failed for {} decisions; no longer held: lane {} fillet {} ({}), "
+                 "its lines are handed back",
+                 unsaved_.size(), unsaved_.front().record.lane, unsaved_.front().record.lane_fillet,
+                 unsaved_.front().record.decision);
       unsaved_.pop_front();
     }
     unsaved_.push_back(std::move(u));
@@ -79,8 +79,8 @@ void DecisionRecorder::flush() {
     if (!unsaved_.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   if (!unsaved_.empty())
-    std::fprintf(stderr, "rangexd: %zu decisions could not be stored before the stop\n",
-                 unsaved_.size());
+    log::error("decisions_not_stored", "{} decisions could not be stored before the stop",
+               unsaved_.size());
 }
 
 std::string DecisionRecorder::error(size_t* waiting) const {
@@ -94,8 +94,7 @@ bool DecisionRecorder::failed(const std::string& what) {
   failing_ = true;
   std::lock_guard<std::mutex> lock(error_mu_);
   if (error_.empty())
-    std::fprintf(stderr, "rangexd: the store failed: %s; decisions wait until it recovers\n",
-                 what.c_str());
+    log::error("store_failed", "the store failed: {}; decisions wait until it recovers", what);
   error_ = what;
   return false;
 }
@@ -139,7 +138,7 @@ void DecisionRecorder::retry_locked() {
   waiting_ = unsaved_.size();
   if (unsaved_.empty()) failing_ = false;
   if (unsaved_.empty() && !error_.empty()) {
-    std::fprintf(stderr, "rangexd: the store recovered\n");
+    log::info("store_recovered", "the store recovered");
     error_.clear();
   }
 }

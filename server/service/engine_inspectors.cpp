@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <optional>
 
+#include "core/log.h"
 #include "service/engine.h"
 #include "service/steady_ns.h"
 
@@ -48,7 +49,7 @@ void Engine::inspector() {
         // Uninspected product is never passed: the fillet fails safe.
         f.result.decision = Decision::kNotInspected;
         f.result.reason = std::string("inspection failed: ") + e.what();
-        std::fprintf(stderr, "rangexd: lane %d: %s\n", job->lane->id, f.result.reason.c_str());
+        log::error("inspection_failed", "lane {}: {}", job->lane->id, f.result.reason);
       }
       on_fillet(*job, std::move(f));
       {
@@ -89,9 +90,8 @@ void Engine::track_drift(Lane& l, const LearnedDetection& learned,
   l.drift_fillets = d.fillets;
   const bool was = l.product_drift.exchange(l.drift.drifting(learned));
   if (l.product_drift && !was)
-    std::fprintf(stderr, "rangexd: %s against a target of %.2f %%\n",
-                 product_drift_warning(l.id, d.fillets, d.implied_frr).c_str(),
-                 100 * learned.target_frr);
+    log::warn("product_drift", "{} against a target of {:.2f} %",
+              product_drift_warning(l.id, d.fillets, d.implied_frr), 100 * learned.target_frr);
 }
 
 }  // namespace rangex

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "core/log.h"
 #include "service/engine.h"
 
 namespace rangex {
@@ -29,8 +30,8 @@ void Engine::resume_from_store() {
     l.admission.resume(durable);
     l.durable_saved = durable;
     l.decided_until = store_.last_fillet_end(id).value_or(INT64_MIN);
-    std::fprintf(stderr, "rangexd: lane %d resumes after count %lld (durable before the stop)\n",
-                 id, (long long)durable);
+    log::info("lane_resumes", "lane {} resumes after count {} (durable before the stop)", id,
+              durable);
   }
 }
 
@@ -61,10 +62,10 @@ std::vector<LaneProgress> Engine::progress() {
 
 bool Engine::fillet_cut(Lane& l, const FilletImage& img) {
   if (img.first_encoder <= l.decided_until) {
-    std::fprintf(stderr,
-                 "rangexd: lane %d: the fillet at counts %lld..%lld was decided before the "
-                 "restart; not deciding it again\n",
-                 l.id, (long long)img.first_encoder, (long long)(img.first_encoder + img.rows - 1));
+    log::info("fillet_decided_before",
+              "lane {}: the fillet at counts {}..{} was decided before the restart; not deciding "
+              "it again",
+              l.id, img.first_encoder, img.first_encoder + img.rows - 1);
     return false;
   }
   std::lock_guard<std::mutex> lock(l.pending_mu);
@@ -98,7 +99,7 @@ void Engine::save_progress() {
   } catch (const std::exception& e) {
     // Acknowledgements keep the last saved counts; feeders keep their lines meanwhile.
     if (!progress_failed_)
-      std::fprintf(stderr, "rangexd: durable counts not saved: %s\n", e.what());
+      log::error("durable_counts_not_saved", "durable counts not saved: {}", e.what());
     progress_failed_ = true;
     return;
   }

@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "core/log.h"
 #include "service/engine.h"
 #include "service/steady_ns.h"
 
@@ -59,17 +60,17 @@ void Engine::worker() {
       // Undecided, not durable: the feeders resend its lines to the next server, which
       // decides it whole.
       if (!l->proc->quiet())
-        std::fprintf(stderr,
-                     "rangexd: lane %d: the fillet coming in from count %lld is handed back "
-                     "undecided (its lines are not durable; feeders resend them)\n",
-                     l->id, (long long)l->proc->pending_from());
+        log::info("fillet_handed_back",
+                  "lane {}: the fillet coming in from count {} is handed back undecided (its "
+                  "lines are not durable; feeders resend them)",
+                  l->id, l->proc->pending_from());
       continue;
     }
     try {
       l->proc->finish();
     } catch (const std::exception& e) {
-      std::fprintf(stderr, "rangexd: lane %d: closing its open fillets failed: %s\n", l->id,
-                   e.what());
+      log::error("lane_close_failed", "lane {}: closing its open fillets failed: {}", l->id,
+                 e.what());
     }
     l->in_progress = false;
   }
@@ -111,7 +112,7 @@ void Engine::apply_pending(Lane& l) {
 }
 
 void Engine::restart_lane(Lane& l, const std::string& reason) {
-  std::fprintf(stderr, "rangexd: lane %d restarts: %s\n", l.id, reason.c_str());
+  log::warn("lane_restart", "lane {} restarts: {}", l.id, reason);
   l.proc->restart(reason);
   l.assembly_restarts = l.proc->assembly().restarts;
   l.arrivals.clear();
@@ -130,7 +131,7 @@ void Engine::note_assembly_restarts(Lane& l) {
   l.restarts += uint64_t(n - l.assembly_restarts);
   l.assembly_restarts = n;
   const std::string why = l.proc->last_restart();
-  std::fprintf(stderr, "rangexd: lane %d restarts: %s\n", l.id, why.c_str());
+  log::warn("lane_restart", "lane {} restarts: {}", l.id, why);
   std::lock_guard<std::mutex> lock(ctl_mu_);
   l.last_restart = why;
 }
@@ -215,7 +216,7 @@ void Engine::route(std::vector<Queued>& lines, const LineResults& r) {
 }
 
 void Engine::lose(std::vector<Queued>& lines, const std::string& why) {
-  std::fprintf(stderr, "rangexd: %zu lines lost: %s\n", lines.size(), why.c_str());
+  log::error("lines_lost", "{} lines lost: {}", lines.size(), why);
   dropped_[size_t(DropReason::kProcessingError)] += lines.size();
   std::vector<int> seen;
   for (const Queued& q : lines) {
@@ -230,8 +231,8 @@ void Engine::recover(Lane& l, const std::string& why) {
   try {
     restart_lane(l, why);
   } catch (const std::exception& e2) {
-    std::fprintf(stderr, "rangexd: lane %d: restart after an error failed too: %s\n", l.id,
-                 e2.what());
+    log::error("lane_restart_failed", "lane {}: restart after an error failed too: {}", l.id,
+               e2.what());
     Lane* raw = &l;
     const int64_t next = l.proc->next_fillet_id();  // the numbering goes on
     l.proc = std::make_unique<LaneProcessor>(
@@ -253,7 +254,7 @@ void Engine::close_idle_lanes() {
     try {
       restart_lane(l, why);
     } catch (const std::exception& e) {
-      std::fprintf(stderr, "rangexd: lane %d: closing an idle lane failed: %s\n", l.id, e.what());
+      log::error("lane_close_failed", "lane {}: closing an idle lane failed: {}", l.id, e.what());
     }
   }
 }

@@ -13,15 +13,11 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "service/steady_ns.h"
 
 namespace rangex {
 
 namespace {
-int64_t steady_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 std::string peer_address(int fd) {
   sockaddr_storage a{};
   socklen_t n = sizeof a;

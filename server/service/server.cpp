@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/log.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "service/access_control.h"
 #include "service/heap_trim.h"
@@ -124,14 +125,13 @@ void RangexServer::watchdog() {
       trimmed_at = std::chrono::steady_clock::now();
     }
     if (const int closed = close_idle_ingest_streams(*counters_, opt_.engine.stream_idle_s))
-      std::fprintf(stderr, "rangexd: closed %d idle ingest stream%s (no request for %.0f s)\n",
-                   closed, closed > 1 ? "s" : "", opt_.engine.stream_idle_s);
+      log::info("ingest_streams_closed", "closed {} idle ingest stream{} (no request for {:.0f} s)",
+                closed, closed > 1 ? "s" : "", opt_.engine.stream_idle_s);
     lock.lock();
     const Health h = engine_->health();
     if (h.serving != serving || h.store_ok != store_ok) {
-      for (const std::string& r : h.reasons)
-        std::fprintf(stderr, "rangexd: NOT SERVING: %s\n", r.c_str());
-      if (h.serving) std::fprintf(stderr, "rangexd: serving again\n");
+      for (const std::string& r : h.reasons) log::error("not_serving", "NOT SERVING: {}", r);
+      if (h.serving) log::info("serving", "serving again");
       set_health(h);
       serving = h.serving;
       store_ok = h.store_ok;
@@ -173,14 +173,13 @@ void RangexServer::retention() {
       }
     } catch (const std::exception& e) {
       if (!lock.owns_lock()) lock.lock();
-      std::fprintf(stderr, "rangexd: retention pass failed (kept everything): %s\n", e.what());
+      log::error("retention_failed", "retention pass failed (kept everything): {}", e.what());
     }
     if (total.links || total.images)
-      std::fprintf(stderr,
-                   "rangexd: retention: pruned %lld fillet records, %lld audit entries and "
-                   "%lld images (kept: records %.0f days, images %.0f days)\n",
-                   (long long)total.fillets, (long long)total.audit_entries,
-                   (long long)total.images, r.days, r.images_days);
+      log::info("retention_pruned",
+                "pruned {} fillet records, {} audit entries and {} images (kept: records {:.0f} "
+                "days, images {:.0f} days)",
+                total.fillets, total.audit_entries, total.images, r.days, r.images_days);
   } while (!wd_cv_.wait_for(lock, std::chrono::duration<double>(r.every_h * 3600),
                             [&] { return wd_stop_; }));
 }

@@ -11,6 +11,7 @@
 #include "service/line_from_proto.h"
 #include "service/pb_convert.h"
 #include "service/results_hub.h"
+#include "service/steady_ns.h"
 #include "service/tsan_annotations.h"
 
 namespace rangex {
@@ -35,12 +36,6 @@ class Reaction {
  private:
   const void* r_;
 };
-
-int64_t steady_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 
 // Owned by itself (self_) until OnDone; the idle sweep holds only a weak reference, so a
 // sweep that races OnDone keeps the reactor alive until it returns.
@@ -85,7 +80,7 @@ class IngestStream final
     bool expired;
     {
       std::lock_guard<std::mutex> lock(mu_);
-      last_ns_ = steady_now_ns();
+      last_ns_ = steady_ns();
       expired = expired_;
     }
     pb::StreamLinesResponse ack;
@@ -230,7 +225,7 @@ class IngestStream final
   bool finished_ = false;
   bool fed_ = false;      // a line came (the reading reaction's alone: reads are one at a time)
   bool expired_ = false;  // closed by the idle sweep
-  int64_t last_ns_ = steady_now_ns();  // the last request (or the start)
+  int64_t last_ns_ = steady_ns();  // the last request (or the start)
   std::shared_ptr<IngestStream> self_;
 };
 
@@ -363,7 +358,7 @@ int close_idle_ingest_streams(StreamCounters& counters, double idle_s) {
       if (auto s = w.lock()) open.push_back(std::move(s));
   }
   // Closed outside the registry's lock: Finish may run reactions of its own.
-  const int64_t now = steady_now_ns(), idle = int64_t(idle_s * 1e9);
+  const int64_t now = steady_ns(), idle = int64_t(idle_s * 1e9);
   int closed = 0;
   for (const auto& s : open) closed += s->close_if_idle(now, idle);
   return closed;

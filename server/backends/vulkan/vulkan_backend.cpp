@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "../../../kernels/shared/push_constants.h"
+#include "shared/push_constants.h"
 #include "backends/device_lines.h"
 #include "backends/lane_tables.h"
 #include "backends/vulkan/vk_runtime.h"
