@@ -205,24 +205,16 @@ int cmd_learn(int argc, char** argv) {
                                        [&](int d, int t) { sbar.update(d, t); });
     const ProductLearning& L = ll.learning;
     const SensitivityResult& sens = ll.sensitivity;
-    const InspectionParams& p = ll.inspection;
     nlohmann::json lane_json = nlohmann::json::parse(learned_report_json(r.lane, L, sens));
     for (const LaneReplay& c : check) {
       if (c.lane != r.lane) continue;
-      std::vector<SensitivityFillet> held;
-      for (const InspectedFillet& f : c.fillets)
-        if (LearningSet::teaches(f.result))
-          held.push_back({&f.image, f.result.fit.beta1, f.result.fit.beta2});
       ProgressBar cbar("sensitivity (check)");
-      const SensitivityResult on_held =
-          measure_sensitivity(held, p, so, [&](int d, int t) { cbar.update(d, t); });
-      const auto checks = check_claims(sens.claims, on_held, so.rate);
+      const HeldOutCheck hc =
+          check_held_out(c.fillets, ll, so, [&](int d, int t) { cbar.update(d, t); });
       lane_json["held_out_check"] =
-          nlohmann::json::parse(claim_checks_json(check_rec->dir(), int(held.size()), checks));
-      int ok = 0;
-      for (const ClaimCheck& k : checks) ok += k.held;
-      std::printf("  held-out check on %zu fillets of %s: %d of %zu claims held\n", held.size(),
-                  check_rec->dir().c_str(), ok, checks.size());
+          nlohmann::json::parse(claim_checks_json(check_rec->dir(), hc.fillets, hc.checks));
+      std::printf("  held-out check on %d fillets of %s: %d of %zu claims held\n", hc.fillets,
+                  check_rec->dir().c_str(), hc.held(), hc.checks.size());
     }
     report["lanes"].push_back(lane_json);
     write_learn_plots(report_dir, r.lane, L, sens);

@@ -21,6 +21,7 @@
 #include "offline/plant_run.h"
 #include "offline/replay.h"
 #include "pipeline/fillet_images.h"
+#include "pipeline/recorded_stripes.h"
 #include "progress_bar.h"
 #include "sim/perturbed_rig.h"
 #include "sim/plant_simulator.h"
@@ -96,30 +97,22 @@ int cmd_extract(int argc, char** argv) {
   std::ofstream out(out_path);
   if (!out) fail(out_path, ": cannot create");
   out << "frame,column,row\n";
-  const int W = rec.info().width, H = rec.info().height;
-  const size_t frame = size_t(W) * H;
-  constexpr int kBatch = 64;
-  std::vector<uint8_t> frames(frame * kBatch);
-  std::vector<int> slots(kBatch, 0);
-  StripeOutput so;
+  const int W = rec.info().width;
   ProgressBar bar("extract");
   char buf[64];
-  for (int64_t n0 = 0; n0 < rec.info().lines; n0 += kBatch) {
-    const int count = int(std::min<int64_t>(kBatch, rec.info().lines - n0));
-    rec.read(lane, n0, count, camera == 0 ? frames.data() : nullptr,
-             camera == 1 ? frames.data() : nullptr, nullptr, nullptr);
-    extract_stripes(frames.data(), count, W, H, slots.data(), &slot, so);
-    for (int k = 0; k < count; ++k)
-      for (int c = 0; c < W; ++c) {
-        const size_t o = size_t(k) * W + c;
-        if (so.valid[o])
-          std::snprintf(buf, sizeof buf, "%lld,%d,%.4f\n", (long long)(n0 + k), c, so.row[o]);
-        else
-          std::snprintf(buf, sizeof buf, "%lld,%d,\n", (long long)(n0 + k), c);
-        out << buf;
-      }
-    bar.update(n0 + count, rec.info().lines);
-  }
+  for_each_recorded_stripe_batch(
+      rec, lane, camera, slot, [&](int64_t n0, int count, const StripeOutput& so) {
+        for (int k = 0; k < count; ++k)
+          for (int c = 0; c < W; ++c) {
+            const size_t o = size_t(k) * W + c;
+            if (so.valid[o])
+              std::snprintf(buf, sizeof buf, "%lld,%d,%.4f\n", (long long)(n0 + k), c, so.row[o]);
+            else
+              std::snprintf(buf, sizeof buf, "%lld,%d,\n", (long long)(n0 + k), c);
+            out << buf;
+          }
+        bar.update(n0 + count, rec.info().lines);
+      });
   if (!out) fail(out_path, ": write failed");
   return 0;
 }

@@ -5,29 +5,22 @@
 #include <filesystem>
 
 #include "core/text_file.h"
-#include "pipeline/stripe_extract.h"
+#include "pipeline/recorded_stripes.h"
 
 namespace rangex {
 
 std::vector<float> scan_stripe_rows(const RecordingReader& rec, int lane, int cam,
                                     const StripeParams& params) {
   const RecordingInfo& info = rec.info();
-  const int W = info.width, H = info.height;
   StripeSlot slot{params, {}};
   slot.params.method = StripeMethod::kCentroid;
-  std::vector<uint8_t> frames(size_t(W) * H * 64);
-  std::vector<int> slots(64, 0);
-  StripeOutput so;
   std::vector<float> rows;
-  rows.reserve(size_t(info.lines) * W);
-  for (int64_t n0 = 0; n0 < info.lines; n0 += 64) {
-    const int count = int(std::min<int64_t>(64, info.lines - n0));
-    rec.read(lane, n0, count, cam == 0 ? frames.data() : nullptr,
-             cam == 1 ? frames.data() : nullptr, nullptr, nullptr);
-    extract_stripes(frames.data(), count, W, H, slots.data(), &slot, so);
-    for (size_t i = 0; i < size_t(count) * W; ++i)
-      rows.push_back(so.valid[i] ? so.row[i] : std::nanf(""));
-  }
+  rows.reserve(size_t(info.lines) * info.width);
+  for_each_recorded_stripe_batch(rec, lane, cam, slot,
+                                 [&](int64_t, int count, const StripeOutput& so) {
+                                   for (size_t i = 0; i < size_t(count) * info.width; ++i)
+                                     rows.push_back(so.valid[i] ? so.row[i] : std::nanf(""));
+                                 });
   return rows;
 }
 

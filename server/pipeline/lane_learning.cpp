@@ -40,6 +40,26 @@ LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspecti
   return out;
 }
 
+int HeldOutCheck::held() const {
+  int n = 0;
+  for (const ClaimCheck& k : checks) n += k.held;
+  return n;
+}
+
+HeldOutCheck check_held_out(const std::vector<InspectedFillet>& fillets, const LaneLearning& l,
+                            const SensitivityOptions& so,
+                            const std::function<void(int, int)>& progress) {
+  std::vector<SensitivityFillet> held;
+  for (const InspectedFillet& f : fillets)
+    if (LearningSet::teaches(f.result))
+      held.push_back({&f.image, f.result.fit.beta1, f.result.fit.beta2});
+  HeldOutCheck c;
+  c.fillets = int(held.size());
+  const SensitivityResult on_held = measure_sensitivity(held, l.inspection, so, progress);
+  c.checks = check_claims(l.sensitivity.claims, on_held, so.rate);
+  return c;
+}
+
 std::string learning_version_name() {
   const std::time_t now = std::time(nullptr);
   char b[40];

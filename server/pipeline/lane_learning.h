@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "pipeline/inspection.h"
+#include "pipeline/lane_processor.h"
 #include "pipeline/product_learning.h"
 #include "pipeline/sensitivity.h"
 
@@ -40,6 +41,17 @@ LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspecti
                         const LearnOptions& lo, const SensitivityOptions& so,
                         const std::string& version, const std::string& learned_on,
                         const std::function<void(int, int)>& progress = {});
+
+// The learning's sensitivity claims checked on fillets it did not learn from (another
+// recording of the same product): the pieces are injected into those that teach.
+struct HeldOutCheck {
+  int fillets = 0;  // used for the check
+  std::vector<ClaimCheck> checks;
+  int held() const;
+};
+HeldOutCheck check_held_out(const std::vector<InspectedFillet>& fillets, const LaneLearning& l,
+                            const SensitivityOptions& so,
+                            const std::function<void(int, int)>& progress = {});
 
 // A new version's default name: learn-YYYYmmdd-HHMMSS (UTC).
 std::string learning_version_name();
