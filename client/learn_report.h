@@ -1,5 +1,5 @@
 // What `rangexctl learn` shows of a product learning beside its JSON report
-// (service/learned_report.h): PNG plots (thresholds and sensitivity against thickness, the
+// (pipeline/learned_report.h): PNG plots (thresholds and sensitivity against thickness, the
 // QQ plot of the learning fillets' extremes against the fitted model) and a few lines for
 // people.
 #pragma once

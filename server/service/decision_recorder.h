@@ -4,7 +4,7 @@
 // the oldest leaves memory, loudly, its lines still not durable); the engine hands new lines
 // back meanwhile. Owns the store's writes of decisions, the image files and the hub.
 //
-// Thread-safe: its lock (save_mu_ in the engine's lock map) is held while calling the store
+// Thread-safe: its lock (in the engine's lock map) is held while calling the store
 // and the hub, neither of which calls back; `stored` is called under it.
 #pragma once
 #include <atomic>

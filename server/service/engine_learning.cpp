@@ -1,7 +1,7 @@
 // Learned inspection settings in the engine: versions uploaded, listed and
 // activated like calibrations, and live learning from a lane's next fillets
 // (ControlService.LearnProduct). The learning itself is pipeline/lane_learning.h; its
-// report and gate are service/learned_report.h.
+// report and gate are pipeline/learned_report.h.
 #include <chrono>
 #include <map>
 
