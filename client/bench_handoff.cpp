@@ -12,8 +12,7 @@ namespace fs = std::filesystem;
 
 namespace rangex::cli {
 
-int run_bench_binary(int argc, char** argv) {
-  (void)argc;
+int run_bench_binary(char** argv) {
   // Beside rangexctl (installed, or the build tree), else where this build put it.
   std::error_code ec;
   const fs::path self = fs::read_symlink("/proc/self/exe", ec);

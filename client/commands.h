@@ -29,7 +29,7 @@ int cmd_token(int argc, char** argv);
 
 // bench, bench-server and soak run in rangex-bench (client/bench/), which holds a server in
 // process: rangexctl hands the command line over to it.
-int run_bench_binary(int argc, char** argv);
+int run_bench_binary(char** argv);
 
 // --config, else $RANGEX_CONFIG, else ./config/plant.yaml, else the source tree's default.
 std::string config_path(const std::string& option_value);

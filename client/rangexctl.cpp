@@ -129,7 +129,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "learned")) return cmd_learned(argc, argv);
     if (!std::strcmp(cmd, "bench") || !std::strcmp(cmd, "bench-server") ||
         !std::strcmp(cmd, "soak"))
-      return run_bench_binary(argc, argv);
+      return run_bench_binary(argv);
     if (!std::strcmp(cmd, "audit")) return cmd_audit(argc, argv);
     if (!std::strcmp(cmd, "token")) return cmd_token(argc, argv);
     std::fprintf(stderr, "rangexctl: unknown command '%s'\n\n%s", cmd, kUsage);

@@ -13,38 +13,12 @@
 #include "backends/robust_fit_batch.h"
 #include "core/error.h"
 #include "offline/stage_cases.h"
-#include "sim/plant_simulator.h"
 
 namespace rangex::cli {
 
 namespace {
 
 using clk = std::chrono::steady_clock;
-
-// Batches of `lines` lines over `lanes` lanes (line k on lane k % lanes), frames of a
-// simulated lane with fillets in it, every line distinct up to 64.
-struct BenchBatch {
-  int lanes = 0, lines = 0;
-  size_t frame = 0;
-  std::vector<uint8_t> frames;
-  std::vector<int> lane_slot, frame_slot;
-};
-
-BenchBatch make_batch(const std::vector<uint8_t>& rendered, size_t frame, int lanes, int lines) {
-  BenchBatch b;
-  b.lanes = lanes;
-  b.lines = lines;
-  b.frame = frame;
-  const size_t distinct = rendered.size() / (2 * frame);
-  b.frames.resize(size_t(lines) * 2 * frame);
-  for (int k = 0; k < lines; ++k) {
-    std::memcpy(&b.frames[2 * frame * k], &rendered[2 * frame * (k % distinct)], 2 * frame);
-    b.lane_slot.push_back(k % lanes);
-    b.frame_slot.push_back(2 * (k % lanes));
-    b.frame_slot.push_back(2 * (k % lanes) + 1);
-  }
-  return b;
-}
 
 struct Cell {
   double per_s = 0;  // batches per second
@@ -77,7 +51,7 @@ Cell measure(Backend& b, double seconds, F&& pass) {
 }
 
 // The line path as the server runs it: fill staging, submit, two batches in flight.
-Cell line_path(Backend& b, const BenchBatch& batch, double seconds) {
+Cell line_path(Backend& b, const LineBatchInputs& batch, double seconds) {
   std::deque<LineBatchSlot*> flight;
   LineResults r;
   const size_t bytes = batch.frames.size();
@@ -124,17 +98,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
     l.id = id;
   }
   // 64 distinct lines of a simulated lane with fillets in it.
-  sim::SimulationParams sp;
-  sp.scene.fillets = 2;
-  sp.scene.lead_in_mm = 5;
-  const sim::LaneSimulator sim(lc, sp);
-  const int distinct = 64;
-  std::vector<uint8_t> rendered(2 * frame * distinct);
-  std::vector<uint16_t> xray(lc.xray.pixels);
-  for (int k = 0; k < distinct; ++k)
-    sim.render(int64_t(k) * std::max<int64_t>(1, sim.lines() / distinct), &rendered[2 * frame * k],
-               &rendered[2 * frame * k + frame], xray.data(), nullptr, nullptr, nullptr);
-
+  const std::vector<uint8_t> rendered = render_distinct_lines(lc, 64);
   std::vector<std::unique_ptr<Backend>> backends;
   for (const std::string& name : opt.backends) {
     BackendRequest r;
@@ -173,7 +137,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
   std::map<std::string, double> best_stripe_bytes;
   for (int nl : opt.lanes)
     for (int lines : opt.batches) {
-      const BenchBatch bb = make_batch(rendered, frame, nl, lines);
+      const LineBatchInputs bb = interleave_lines(rendered, frame, nl, lines);
       for (auto& b : backends) {
         // The frames sit in the backend's own staging (pinned on a device), as the server's
         // do: a copy from pageable memory would measure the driver's bounce buffer.
@@ -204,7 +168,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
               "up", "compute", "down");
   for (int nl : opt.lanes)
     for (int lines : opt.batches) {
-      const BenchBatch bb = make_batch(rendered, frame, nl, lines);
+      const LineBatchInputs bb = interleave_lines(rendered, frame, nl, lines);
       for (auto& b : backends) {
         const Cell c = line_path(*b, bb, opt.seconds);
         const bool is_cpu = b->info().name == "cpu";

@@ -50,12 +50,13 @@ void LineReadback::finish(LineResults& out) {
   to_flags(xz_valid_, out.xz_valid.data());
   to_flags(profile_valid_, out.profile_valid.data());
   to_flags(thickness_valid_, out.thickness_valid.data());
-  for (const kernel::FusionCountK& c : counts_) {
-    out.fusion.both += c.both;
-    out.fusion.single += c.single_cam;
-    out.fusion.conflict += c.conflict;
-    out.fusion.filled += c.filled;
-    out.fusion.missing += c.missing;
+  add_fusion_counts(counts_.data(), counts_.size(), out.fusion);
+}
+
+void add_fusion_counts(const kernel::FusionCountK* counts, size_t lines, FusionStats& stats) {
+  for (size_t l = 0; l < lines; ++l) {
+    const kernel::FusionCountK& c = counts[l];
+    stats += {c.both, c.single_cam, c.conflict, c.filled, c.missing};
   }
 }
 

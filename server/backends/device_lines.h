@@ -7,9 +7,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "shared/lane_tables.h"
 #include "backends/lane_tables.h"
 #include "pipeline/line_pipeline.h"
+#include "shared/lane_tables.h"
 
 namespace rangex {
 
@@ -35,6 +35,9 @@ class LineReadback {
   std::vector<int32_t> valid_, xz_valid_, profile_valid_, thickness_valid_;
   std::vector<kernel::FusionCountK> counts_;
 };
+
+// The fusion kernel's per-line counts of `lines` lines added to `stats`.
+void add_fusion_counts(const kernel::FusionCountK* counts, size_t lines, FusionStats& stats);
 
 template <class B>
 struct DeviceLines {

@@ -49,12 +49,7 @@ void LinePath::run(std::vector<QueuedLine>& lines, const Observer& observe) {
 
 void LinePath::finished(std::vector<QueuedLine>& lines, const LineResults& r, double ms) {
   stage_s_ += ms / 1e3;
-  FusionStats& f = lanes_.at(lines.front().line.lane).fusion;
-  f.both += r.fusion.both;
-  f.single += r.fusion.single;
-  f.conflict += r.fusion.conflict;
-  f.filled += r.fusion.filled;
-  f.missing += r.fusion.missing;
+  lanes_.at(lines.front().line.lane).fusion += r.fusion;
   if (observe_ && *observe_) (*observe_)(lines, r);
   for (size_t k = 0; k < lines.size(); ++k) {
     Lane& l = lanes_.at(lines[k].line.lane);

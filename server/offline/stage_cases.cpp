@@ -55,32 +55,46 @@ FilletBatch StageWork::fillets() const {
           fillet_offsets.data(),   int(fillet_models.size()), fillet_models.data()};
 }
 
-StageWork make_stage_work(const LaneConfig& lane, int lanes, int lines, int fillets,
-                          int fillet_pixels) {
-  StageWork w;
-  w.lanes = varied_lanes(lane, lanes);
-  w.lines = lines;
-  const size_t frame = size_t(lane.frame_width) * lane.frame_height;
-  // Up to 64 distinct lines of a simulated lane with fillets in it.
+std::vector<uint8_t> render_distinct_lines(const LaneConfig& lane, int count) {
   sim::SimulationParams sp;
   sp.scene.fillets = 2;
   sp.scene.lead_in_mm = 5;
   const sim::LaneSimulator sim(lane, sp);
-  const int distinct = std::min(lines, 64);
-  std::vector<uint8_t> rendered(2 * frame * size_t(distinct));
+  const size_t frame = size_t(lane.frame_width) * lane.frame_height;
+  std::vector<uint8_t> rendered(2 * frame * size_t(count));
   std::vector<uint16_t> xray(size_t(lane.xray.pixels));
-  for (int k = 0; k < distinct; ++k)
-    sim.render(int64_t(k) * std::max<int64_t>(1, sim.lines() / distinct), &rendered[2 * frame * k],
+  for (int k = 0; k < count; ++k)
+    sim.render(int64_t(k) * std::max<int64_t>(1, sim.lines() / count), &rendered[2 * frame * k],
                &rendered[2 * frame * k + frame], xray.data(), nullptr, nullptr, nullptr);
-  w.frames.resize(size_t(lines) * 2 * frame);
+  return rendered;
+}
+
+LineBatchInputs interleave_lines(const std::vector<uint8_t>& rendered, size_t frame, int lanes,
+                                 int lines) {
+  LineBatchInputs b;
+  b.lanes = lanes;
+  b.lines = lines;
+  b.frame = frame;
+  const size_t distinct = rendered.size() / (2 * frame);
+  b.frames.resize(size_t(lines) * 2 * frame);
   for (int k = 0; k < lines; ++k) {
-    std::memcpy(&w.frames[2 * frame * k], &rendered[2 * frame * (k % distinct)], 2 * frame);
-    w.lane_slot.push_back(k % lanes);
-    w.frame_slot.push_back(2 * (k % lanes));
-    w.frame_slot.push_back(2 * (k % lanes) + 1);
+    std::memcpy(&b.frames[2 * frame * k], &rendered[2 * frame * (k % distinct)], 2 * frame);
+    b.lane_slot.push_back(k % lanes);
+    b.frame_slot.push_back(2 * (k % lanes));
+    b.frame_slot.push_back(2 * (k % lanes) + 1);
   }
+  return b;
+}
+
+StageWork make_stage_work(const LaneConfig& lane, int lanes, int lines, int fillets,
+                          int fillet_pixels) {
+  StageWork w;
+  w.lanes = varied_lanes(lane, lanes);
+  const size_t frame = size_t(lane.frame_width) * lane.frame_height;
+  // Up to 64 distinct lines of a simulated lane with fillets in it.
+  w.batch = interleave_lines(render_distinct_lines(lane, std::min(lines, 64)), frame, lanes, lines);
   const LinePipeline pipe(w.lanes, 1);
-  pipe.run(w.frames.data(), lines, w.lane_slot.data(), w.ref);
+  pipe.run(w.batch.frames.data(), lines, w.batch.lane_slot.data(), w.ref);
   // Fillets whose attenuation follows a known model, with a little noise.
   w.fillet_offsets.assign(size_t(fillets) + 1, 0);
   for (int f = 0; f < fillets; ++f) {
@@ -98,7 +112,7 @@ StageWork make_stage_work(const LaneConfig& lane, int lanes, int lines, int fill
 
 std::vector<StageCase> stage_cases(const StageWork& w) {
   std::vector<StageCase> cases;
-  const int lines = w.lines, frames = 2 * lines;
+  const int lines = w.batch.lines, frames = 2 * lines;
   const int width = w.lanes.front().frame_width;
   const size_t cols = size_t(frames) * size_t(width);
   const size_t grid = w.ref.profile.size(), pixels = w.ref.thickness.size();
@@ -106,7 +120,7 @@ std::vector<StageCase> stage_cases(const StageWork& w) {
 
   cases.push_back({"stripe", "flags exact, rows within 1e-4 px", double(cols), "columns",
                    [frames](Backend& b, const StageWork& w, StageOutput& o) {
-                     b.stripes(w.frames.data(), frames, w.frame_slot.data(), o.stripes);
+                     b.stripes(w.batch.frames.data(), frames, w.batch.frame_slot.data(), o.stripes);
                    },
                    [cols](const StageOutput& g, const StageOutput& r) {
                      std::string d = first_difference("stripe valid", g.stripes.valid,
@@ -121,7 +135,7 @@ std::vector<StageCase> stage_cases(const StageWork& w) {
        [frames, cols](Backend& b, const StageWork& w, StageOutput& o) {
          o.x.resize(cols), o.z.resize(cols), o.xz_valid.resize(cols);
          b.rectify(w.ref.stripes.row.data(), w.ref.stripes.valid.data(), frames,
-                   w.frame_slot.data(), o.x.data(), o.z.data(), o.xz_valid.data());
+                   w.batch.frame_slot.data(), o.x.data(), o.z.data(), o.xz_valid.data());
        },
        [cols](const StageOutput& g, const StageOutput& r) {
          std::string d = first_difference("rectified valid", g.xz_valid, r.xz_valid, cols, 0, 0);
@@ -135,8 +149,8 @@ std::vector<StageCase> stage_cases(const StageWork& w) {
       {"fuse", "flags exact, heights within 1e-4 mm", double(lines), "lines",
        [lines, grid](Backend& b, const StageWork& w, StageOutput& o) {
          o.profile.resize(grid), o.profile_valid.resize(grid);
-         b.fuse(w.ref.x.data(), w.ref.z.data(), w.ref.xz_valid.data(), lines, w.lane_slot.data(),
-                o.profile.data(), o.profile_valid.data(), nullptr);
+         b.fuse(w.ref.x.data(), w.ref.z.data(), w.ref.xz_valid.data(), lines,
+                w.batch.lane_slot.data(), o.profile.data(), o.profile_valid.data(), nullptr);
        },
        [grid](const StageOutput& g, const StageOutput& r) {
          std::string d =
@@ -149,7 +163,8 @@ std::vector<StageCase> stage_cases(const StageWork& w) {
                    [lines, pixels](Backend& b, const StageWork& w, StageOutput& o) {
                      o.thickness.resize(pixels), o.thickness_valid.resize(pixels);
                      b.project(w.ref.profile.data(), w.ref.profile_valid.data(), lines,
-                               w.lane_slot.data(), o.thickness.data(), o.thickness_valid.data());
+                               w.batch.lane_slot.data(), o.thickness.data(),
+                               o.thickness_valid.data());
                    },
                    [pixels](const StageOutput& g, const StageOutput& r) {
                      std::string d = first_difference("thickness valid", g.thickness_valid,

@@ -14,15 +14,28 @@
 
 namespace rangex {
 
+// `count` distinct lines of a simulated lane with fillets in it, spread over its scene: both
+// cameras' frames of each, [line][camera][row][column].
+std::vector<uint8_t> render_distinct_lines(const LaneConfig& lane, int count);
+
+// A batch of `lines` lines over `lanes` lanes (line k on lane k % lanes) repeating the lines
+// of `rendered`, and each line's lane slot and each frame's slot.
+struct LineBatchInputs {
+  int lanes = 0, lines = 0;
+  size_t frame = 0;             // bytes of one camera's frame
+  std::vector<uint8_t> frames;  // [line][camera][row][column]
+  std::vector<int> lane_slot, frame_slot;
+};
+LineBatchInputs interleave_lines(const std::vector<uint8_t>& rendered, size_t frame, int lanes,
+                                 int lines);
+
 // One batch's inputs for every stage, made once and shared by every backend: `lines` lines of
 // `lanes` lanes (line k on lane k % lanes, each lane with its own settings) from a simulated
 // lane with fillets in it; the CPU pipeline's results of them (the later stages' inputs);
 // and a batch of fillets for the pseudo-X-ray stages.
 struct StageWork {
   std::vector<LaneConfig> lanes;
-  int lines = 0;
-  std::vector<uint8_t> frames;  // [line][camera][row][column]
-  std::vector<int> lane_slot, frame_slot;
+  LineBatchInputs batch;
   LineResults ref;
   std::vector<float> fillet_thickness;
   std::vector<uint16_t> fillet_xray;

@@ -83,13 +83,7 @@ void fuse_profiles(const float* x, const float* z, const uint8_t* valid, int wid
     }
     for (int g = 0; g < grid_n; ++g) st.missing += ov[g] ? 0 : 1;
   }
-  if (stats) {
-    stats->both += st.both;
-    stats->single += st.single;
-    stats->conflict += st.conflict;
-    stats->filled += st.filled;
-    stats->missing += st.missing;
-  }
+  if (stats) *stats += st;
 }
 
 }  // namespace rangex

@@ -13,6 +13,11 @@ namespace rangex {
 
 struct FusionStats {
   int64_t both = 0, single = 0, conflict = 0, filled = 0, missing = 0;
+  FusionStats& operator+=(const FusionStats& o) {
+    both += o.both, single += o.single, conflict += o.conflict, filled += o.filled,
+        missing += o.missing;
+    return *this;
+  }
 };
 
 // x, z, valid: frames laid out as [line][camera 0|1][column]. lane_slot[l] picks line l's

@@ -452,14 +452,7 @@ void OpenClBackend::fuse(const float* x, const float* z, const uint8_t* valid, i
   m.finish(qq);
   m.check_guards(m.scratch, qq);
   to_flags(vout, size_t(lines) * G, profile_valid);
-  if (stats)
-    for (const auto& c : counts) {
-      stats->both += c.both;
-      stats->single += c.single_cam;
-      stats->conflict += c.conflict;
-      stats->filled += c.filled;
-      stats->missing += c.missing;
-    }
+  if (stats) add_fusion_counts(counts.data(), counts.size(), *stats);
   times_ = {seconds(up), seconds(run), seconds(down)};
 }
 

@@ -6,12 +6,12 @@
 #include <cmath>
 #include <cstring>
 
-#include "shared/push_constants.h"
 #include "backends/device_lines.h"
 #include "backends/lane_tables.h"
 #include "backends/vulkan/vk_runtime.h"
 #include "core/error.h"
 #include "shaders_spv.h"
+#include "shared/push_constants.h"
 
 namespace rangex {
 
@@ -654,16 +654,9 @@ void VulkanBackend::fuse(const float* x, const float* z, const uint8_t* valid, i
   m.check_guards(d);
   std::memcpy(profile, d.profile.ptr(), size_t(lines) * G * 4);
   to_flags(d.profile_valid.ptr(), size_t(lines) * G, profile_valid);
-  if (stats) {
-    const auto* c = reinterpret_cast<const kernel::FusionCountK*>(d.counts.ptr());
-    for (int l = 0; l < lines; ++l) {
-      stats->both += c[l].both;
-      stats->single += c[l].single_cam;
-      stats->conflict += c[l].conflict;
-      stats->filled += c[l].filled;
-      stats->missing += c[l].missing;
-    }
-  }
+  if (stats)
+    add_fusion_counts(reinterpret_cast<const kernel::FusionCountK*>(d.counts.ptr()), size_t(lines),
+                      *stats);
   times_ = m.times(d);
 }
 
