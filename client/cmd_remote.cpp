@@ -510,6 +510,19 @@ int cmd_lanes(int argc, char** argv) {
                   l.last_restart().empty() ? "" : (l.last_restart() + ")").c_str());
     else
       std::printf("        not fed yet\n");
+    if (l.has_sensors()) {
+      const pb::LaneSensors& s = l.sensors();
+      std::printf("        sensors (%s): %llu lines, %llu missing, %llu refused\n",
+                  s.trigger().c_str(), (unsigned long long)s.lines(),
+                  (unsigned long long)s.incomplete_lines(), (unsigned long long)s.refused_lines());
+      for (const auto& d : s.devices())
+        std::printf(
+            "          %s %s %s: %llu frames, %llu incomplete, %llu lost, %llu "
+            "reconnects%s%s\n",
+            d.role().c_str(), d.device().c_str(), d.state().c_str(), (unsigned long long)d.frames(),
+            (unsigned long long)d.incomplete(), (unsigned long long)d.lost_frames(),
+            (unsigned long long)d.reconnects(), d.error().empty() ? "" : " - ", d.error().c_str());
+    }
   }
   return 0;
 }

@@ -267,3 +267,53 @@ TEST(PlantConfig, ACameraKilometresAwayIsRefused) {
             std::string::npos)
       << e;
 }
+
+TEST(PlantConfig, LaneSourcesAreReadAndChecked) {
+  const PlantConfig p = parse_plant_config(
+      "lanes:\n"
+      "  - id: 0\n"
+      "    sources: {cameras: [10.0.0.11, cam-b], xray: 10.0.0.13, offset_y: 400,\n"
+      "              exposure_us: 80, packet_size: 8192}\n"
+      "  - id: 1\n"
+      "    sources: {cameras: [10.0.1.11, 10.0.1.12], xray: 10.0.1.13, trigger: free_run}\n"
+      "  - id: 2\n",
+      "test");
+  const SensorSources& s = p.lane(0).sources;
+  ASSERT_TRUE(s.enabled());
+  EXPECT_EQ(s.devices(), (std::vector<std::string>{"10.0.0.11", "cam-b", "10.0.0.13"}));
+  EXPECT_EQ(s.trigger, LineTrigger::kEncoder);  // the default: a line per encoder pulse
+  EXPECT_EQ(s.trigger_line, "Line0");
+  EXPECT_EQ(s.offset_y, 400);
+  EXPECT_EQ(s.packet_size, 8192);
+  EXPECT_EQ(p.lane(1).sources.trigger, LineTrigger::kFreeRun);
+  EXPECT_FALSE(p.lane(2).sources.enabled());  // fed over gRPC
+  EXPECT_TRUE(p.lane(2).sources.devices().empty());
+
+  auto error_of = [](const std::string& lanes) {
+    try {
+      parse_plant_config("lanes:\n" + lanes, "t");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(error_of("  - {id: 0, sources: {cameras: [a], xray: x}}\n").find("two devices"),
+            std::string::npos);
+  EXPECT_NE(error_of("  - {id: 0, sources: {cameras: [a, b]}}\n").find("missing key 'xray'"),
+            std::string::npos);
+  EXPECT_NE(error_of("  - {id: 0, sources: {cameras: [a, a], xray: x}}\n").find("named twice"),
+            std::string::npos);
+  EXPECT_NE(error_of("  - {id: 0, sources: {cameras: [a, b], xray: x, trigger: pulse}}\n")
+                .find("lanes[0].sources.trigger: must be encoder or free_run"),
+            std::string::npos);
+  EXPECT_NE(error_of("  - {id: 0, sources: {cameras: [a, b], xray: x, packet_size: 100}}\n")
+                .find("packet_size"),
+            std::string::npos);
+  EXPECT_NE(error_of("  - {id: 0, sources: {cameras: [a, b], xray: x}}\n"
+                     "  - {id: 1, sources: {cameras: [c, d], xray: x}}\n")
+                .find("device 'x' already belongs to another lane"),
+            std::string::npos);
+  EXPECT_NE(error_of("  - {id: 0, sources: {cameras: [a, b], xray: x, mtu: 9000}}\n")
+                .find("unknown key 'mtu'"),
+            std::string::npos);
+}

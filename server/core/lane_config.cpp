@@ -61,4 +61,8 @@ std::string unfitted_constants(const LaneConfig& l) {
                             " runs on constants never fitted on its own rig: " + what;
 }
 
+const char* trigger_name(LineTrigger t) {
+  return t == LineTrigger::kFreeRun ? "free_run" : "encoder";
+}
+
 }  // namespace rangex

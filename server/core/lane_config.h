@@ -8,6 +8,7 @@
 #include "core/fan_beam.h"
 #include "core/laser_plane.h"
 #include "core/learned_detection.h"
+#include "core/sensor_sources.h"
 #include "core/stripe_params.h"
 
 namespace rangex {
@@ -87,6 +88,7 @@ struct LaneConfig {
   int lut_step_px = 2;  // rectification table node spacing on the sensor
   FusionParams fusion;
   InspectionParams inspection;
+  SensorSources sources;  // empty: fed over gRPC
 };
 
 // What a lane runs on that was never fitted or measured on its own rig (shipped K1/K2, an

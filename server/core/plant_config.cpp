@@ -244,6 +244,39 @@ void read_learned(const Node& n, LearnedDetection& L) {
 
 // Reads one lane from its own node over `c`, falling back section by section to
 // lane_defaults.
+void read_sources(const Node& n, SensorSources& s) {
+  n.only_keys(
+      {"cameras", "xray", "trigger", "trigger_line", "offset_y", "exposure_us", "packet_size"});
+  if (!n.has("cameras")) n.bad("missing key 'cameras' (two laser cameras)");
+  const Node cams = n.at("cameras");
+  if (!cams.node.IsSequence() || cams.node.size() != 2)
+    cams.bad("expected a list of two devices (Aravis ids or IP addresses)");
+  s.cameras = {cams.item(0).str(), cams.item(1).str()};
+  if (!n.has("xray")) n.bad("missing key 'xray' (the X-ray line-scan detector)");
+  s.xray = n.at("xray").str();
+  std::set<std::string> seen;
+  for (const std::string& d : s.devices()) {
+    if (d.empty()) n.bad("a device id is empty");
+    if (!seen.insert(d).second) n.bad("device '" + d + "' is named twice");
+  }
+  if (n.has("trigger")) {
+    const std::string t = n.at("trigger").str();
+    if (t == "encoder")
+      s.trigger = LineTrigger::kEncoder;
+    else if (t == "free_run")
+      s.trigger = LineTrigger::kFreeRun;
+    else
+      n.at("trigger").bad("must be encoder or free_run (got '" + t + "')");
+  }
+  n.get("trigger_line", s.trigger_line);
+  n.get("offset_y", s.offset_y);
+  if (n.has("offset_y") && s.offset_y < 0) n.at("offset_y").bad("must be >= 0");
+  if (n.has("exposure_us")) n.positive("exposure_us", s.exposure_us);
+  n.get("packet_size", s.packet_size);
+  if (s.packet_size != 0 && (s.packet_size < 576 || s.packet_size > 16384))
+    n.at("packet_size").bad("must be 576..16384 bytes (or 0: negotiated)");
+}
+
 LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
   auto section = [&](const char* key) -> std::optional<Node> {
     if (lane.has(key)) return lane.at(key);
@@ -573,16 +606,22 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
   const Node lanes = top.at("lanes");
   if (!lanes.node.IsSequence() || lanes.node.size() == 0) lanes.bad("expected a non-empty list");
   std::set<int> seen;
+  std::set<std::string> sensors;
   for (size_t i = 0; i < lanes.node.size(); ++i) {
     const Node ln = lanes.item(i);
     ln.only_keys({"id", "frame", "encoder_step_mm", "cameras", "laser_plane", "xray", "stripe",
-                  "rectify", "fusion", "inspection"});
+                  "rectify", "fusion", "inspection", "sources"});
     if (!ln.has("id")) ln.bad("missing key 'id'");
     const int id = ln.at("id").integer();
     if (id < 0) ln.at("id").bad("must be >= 0");
     LaneConfig l = read_lane(ln, defaults ? &*defaults : nullptr, default_lane_config(id));
+    // A lane's sensors are its own: never in lane_defaults.
+    if (ln.has("sources")) read_sources(ln.at("sources"), l.sources);
     if (!seen.insert(l.id).second)
       lanes.item(i).at("id").bad("duplicate lane id " + std::to_string(l.id));
+    for (const std::string& d : l.sources.devices())
+      if (!sensors.insert(d).second)
+        ln.at("sources").bad("device '" + d + "' already belongs to another lane");
     p.lanes.push_back(std::move(l));
   }
   return p;

@@ -55,14 +55,17 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
     r.width = info.width;
     r.pixels = info.xray_pixels;
     const float nan = std::numeric_limits<float>::quiet_NaN();
-    r.thickness.assign(size_t(r.lines) * r.pixels, nan);
-    for (auto& s : r.stripe_rows) s.assign(size_t(r.lines) * r.width, nan);
+    if (!opt.missing_lines_ok) {
+      r.thickness.assign(size_t(r.lines) * r.pixels, nan);
+      for (auto& s : r.stripe_rows) s.assign(size_t(r.lines) * r.width, nan);
+    }
     const int delay = lc.xray.delay_lines;
     int64_t first_encoder = 0;
     // Keep what the evaluation and the images need: stripe rows per camera line and the
     // thickness registered to X-ray line n + delay.
     const LinePath::Observer observe = [&](const std::vector<QueuedLine>& lines,
                                            const LineResults& res) {
+      if (opt.missing_lines_ok) return;  // lines are not where their counts say
       for (size_t k = 0; k < lines.size(); ++k) {
         const int64_t n = lines[k].line.encoder - first_encoder;
         for (int c = 0; c < 2; ++c)
@@ -95,7 +98,8 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
         if (enc[k] <= last_encoder)
           fail("lane ", id, ": encoder count ", enc[k], " at line ", n0 + k,
                enc[k] == last_encoder ? " repeats the previous line" : " goes backwards");
-        if (last_encoder != std::numeric_limits<int64_t>::min() && enc[k] != last_encoder + 1)
+        if (!opt.missing_lines_ok && last_encoder != std::numeric_limits<int64_t>::min() &&
+            enc[k] != last_encoder + 1)
           fail("lane ", id, ": encoder jumps from ", last_encoder, " to ", enc[k], " at line ",
                n0 + k, " (lines are missing)");
         last_encoder = enc[k];

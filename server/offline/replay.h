@@ -26,6 +26,10 @@ struct ReplayOptions {
   // A recording made under another calibration is refused unless the caller replays it
   // with a new one on purpose (rangexctl process --calibration).
   bool recalibrated = false;
+  // Lines of a real line may be missing (lost frames, a device that dropped off): replayed as
+  // the server takes them, the gaps bridged or fillets ended alike. The per-line arrays of
+  // LaneReplay (thickness, stripe rows) are then left empty.
+  bool missing_lines_ok = false;
 };
 
 struct LaneReplay {

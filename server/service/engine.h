@@ -40,6 +40,7 @@
 #include "core/plant_config.h"
 #include "pipeline/lane_processor.h"
 #include "pipeline/product_drift.h"
+#include "sensors/sensor_state.h"
 #include "service/decision_recorder.h"
 #include "service/lane_admission.h"
 #include "service/lane_queues.h"
@@ -117,6 +118,7 @@ struct LaneState {
   double implied_frr = -1;
   int drift_fillets = 0;
   bool product_drift = false;
+  std::optional<LaneSensors> sensors;  // a lane fed by its own sensors (plant.yaml sources)
 };
 
 class Engine {
@@ -188,6 +190,12 @@ class Engine {
   // The lane's next line starts it afresh whatever its count (an encoder reset); its open
   // fillets end as not inspected.
   LaneState reset_lane(int lane, const std::string& who, const std::string& reason);
+  // A lane's sensor dropped off: its open fillets end now as not inspected for `why` (audited
+  // as lane.sensor_lost). The lane's counts go on where the sensors take them up again.
+  void sensor_lost(int lane, const std::string& why);
+  // Where lane states, statistics and health read the sensors' states from (the server's
+  // sensor ingest); none: every lane is fed over gRPC.
+  void set_sensor_states(std::function<std::vector<LaneSensors>()> states);
   EngineStats stats();
   Health health();
   const PlantConfig& plant() const { return plant_; }
@@ -205,6 +213,7 @@ class Engine {
     const int width, height, pixels;  // fixed for the server's life
     // Admission (mu_):
     LaneAdmission admission;
+    std::string end_now;  // mu_: the worker ends the open fillets for this reason (a sensor lost)
     std::string admit_calibration;  // lines naming another calibration are refused
     uint64_t accepted = 0;
     int64_t last_line_ns = 0;  // the last line received for the lane, accepted or refused
@@ -309,6 +318,8 @@ class Engine {
 
   std::mutex mu_;
   std::condition_variable cv_;
+  mutable std::mutex sensors_mu_;  // leaf: the provider below
+  std::function<std::vector<LaneSensors>()> sensor_states_;
   LaneQueues queue_;
   bool stopping_ = false, paused_ = false;
   OpenFillets at_stop_ = OpenFillets::kClose;  // mu_; read by the worker once it stops

@@ -15,6 +15,11 @@ std::vector<LaneState> Engine::lanes() {
   return out;
 }
 
+void Engine::set_sensor_states(std::function<std::vector<LaneSensors>()> states) {
+  std::lock_guard<std::mutex> lock(sensors_mu_);
+  sensor_states_ = std::move(states);
+}
+
 LaneState Engine::lane_state(int id) {
   Lane& l = lane(id);
   LaneState s;
@@ -45,6 +50,12 @@ LaneState Engine::lane_state(int id) {
     if (const uint64_t n = l.refused[i]) s.refused[std::string(refusal_name(Refusal(i)))] = n;
   for (size_t i = 0; i < kDropReasons; ++i)
     if (const uint64_t n = l.dropped[i]) s.dropped[std::string(drop_name(DropReason(i)))] = n;
+  {
+    std::lock_guard<std::mutex> lock(sensors_mu_);
+    if (sensor_states_)
+      for (LaneSensors& ls : sensor_states_())
+        if (ls.lane == id) s.sensors = std::move(ls);
+  }
   return s;
 }
 
@@ -151,6 +162,16 @@ LaneState Engine::reset_lane(int id, const std::string& who, const std::string& 
   store_.audit(who, "lane.reset",
                "lane " + std::to_string(id) + (reason.empty() ? "" : " " + reason));
   return lane_state(id);
+}
+
+void Engine::sensor_lost(int id, const std::string& why) {
+  Lane& l = lane(id);
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    l.end_now = why;
+  }
+  cv_.notify_all();
+  store_.audit("sensors", "lane.sensor_lost", "lane " + std::to_string(id) + " " + why);
 }
 
 }  // namespace rangex

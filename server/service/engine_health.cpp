@@ -66,6 +66,16 @@ EngineStats Engine::stats() {
   for (auto& l : lanes_)
     if (l->product_drift)
       s.warnings.push_back(product_drift_warning(l->id, l->drift_fillets, l->implied_frr));
+  {
+    // A sensor not streaming leaves its lane blind: every fillet there goes uninspected.
+    std::lock_guard<std::mutex> lock(sensors_mu_);
+    if (sensor_states_)
+      for (const LaneSensors& ls : sensor_states_())
+        for (const SensorState& d : ls.devices)
+          if (d.state != "streaming")
+            s.warnings.push_back(join("lane ", ls.lane, " ", d.role, " (", d.device, ") ", d.state,
+                                      d.error.empty() ? "" : ": " + d.error));
+  }
   if (opt_.store_reserve_mb > 0) {
     std::error_code ec;
     const auto space = std::filesystem::space(store_.dir(), ec);

@@ -247,6 +247,19 @@ void Engine::close_idle_lanes() {
   const int64_t now = steady_ns();
   for (auto& lp : lanes_) {
     Lane& l = *lp;
+    std::string lost;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      lost.swap(l.end_now);
+    }
+    if (!lost.empty() && l.in_progress) {
+      try {
+        restart_lane(l, lost);
+      } catch (const std::exception& e) {
+        log::error("lane_close_failed", "lane {}: ending its fillets failed: {}", l.id, e.what());
+      }
+      continue;
+    }
     if (!l.in_progress || now - l.last_push_ns < seconds_ns(opt_.idle_close_s)) continue;
     char why[128];
     std::snprintf(why, sizeof why, "lane stopped being fed: no line for %.0f s with a fillet open",

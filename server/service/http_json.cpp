@@ -78,6 +78,33 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
   }
   if (l.product_drift && light == "green")
     light = "amber", why = product_drift_warning(l.config.id, l.drift_fillets, l.implied_frr);
+  json sensors = nullptr;
+  if (l.sensors) {
+    json devices = json::array();
+    for (const SensorState& d : l.sensors->devices) {
+      devices.push_back({{"role", d.role},
+                         {"device", d.device},
+                         {"description", d.description},
+                         {"state", d.state},
+                         {"error", d.error},
+                         {"frames", d.frames},
+                         {"incomplete", d.incomplete},
+                         {"lost_frames", d.lost_frames},
+                         {"wrong_format", d.wrong_format},
+                         {"lacked", d.lacked},
+                         {"underruns", d.underruns},
+                         {"reconnects", d.reconnects}});
+      // A device that is not streaming leaves the lane blind.
+      if (d.state != "streaming" && light != "grey")
+        light = "red",
+        why = d.role + " (" + d.device + ") " + d.state + (d.error.empty() ? "" : ": " + d.error);
+    }
+    sensors = {{"trigger", l.sensors->trigger},
+               {"lines", l.sensors->lines},
+               {"incomplete_lines", l.sensors->incomplete},
+               {"refused_lines", l.sensors->refused},
+               {"devices", devices}};
+  }
   const LearnedDetection& learned = l.config.inspection.learned;
   return {
       {"lane", l.config.id},
@@ -106,7 +133,8 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
       {"not_inspected_rate", ni_rate},
       {"light", light},
       {"light_reason", why},
-      {"backend", backend}};
+      {"backend", backend},
+      {"sensors", sensors}};
 }
 
 json image_kinds(Store& store, int64_t uid) {

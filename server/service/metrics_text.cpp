@@ -128,6 +128,45 @@ std::string prometheus_text(const MetricsInput& m) {
   for (const LaneState& l : m.lanes)
     w.sample("rangex_lane_restarts_total", lane_label(l.config.id), l.restarts);
 
+  // Lanes fed by their own GigE Vision devices.
+  auto device_label = [](int lane, const SensorState& d) {
+    return lane_label(lane) + ",role=" + quoted(d.role) + ",device=" + quoted(d.device);
+  };
+  w.family("rangex_sensor_up", "gauge",
+           "1 while a lane's GigE Vision device streams, 0 otherwise (connecting, lost, refused).");
+  for (const LaneState& l : m.lanes)
+    if (l.sensors)
+      for (const SensorState& d : l.sensors->devices)
+        w.sample("rangex_sensor_up", device_label(l.config.id, d),
+                 uint64_t(d.state == "streaming"));
+  struct Counter {
+    const char* name;
+    const char* help;
+    uint64_t SensorState::*field;
+  };
+  const Counter counters[] = {
+      {"rangex_sensor_frames_total", "Complete frames taken from the device.",
+       &SensorState::frames},
+      {"rangex_sensor_incomplete_frames_total", "Frames with lost packets (missing lines).",
+       &SensorState::incomplete},
+      {"rangex_sensor_lost_frames_total", "Frames that never arrived (gaps in the frame ids).",
+       &SensorState::lost_frames},
+      {"rangex_sensor_wrong_format_frames_total", "Frames of another pixel format or size.",
+       &SensorState::wrong_format},
+      {"rangex_sensor_lacked_lines_total", "Lines given up for want of this device's frame.",
+       &SensorState::lacked},
+      {"rangex_sensor_underruns_total", "Frames dropped for want of a free receive buffer.",
+       &SensorState::underruns},
+      {"rangex_sensor_reconnects_total", "Sessions after the first (the device dropped off).",
+       &SensorState::reconnects}};
+  for (const Counter& c : counters) {
+    w.family(c.name, "counter", c.help);
+    for (const LaneState& l : m.lanes)
+      if (l.sensors)
+        for (const SensorState& d : l.sensors->devices)
+          w.sample(c.name, device_label(l.config.id, d), d.*c.field);
+  }
+
   // Learned thresholds and drift: what the lane's recently passed fillets imply.
   w.family("rangex_lane_implied_false_reject_rate", "gauge",
            "With learned thresholds: the per-fillet false-reject rate the lane's recently passed "

@@ -97,6 +97,29 @@ void fill(pb::LaneInfo* o, const LaneState& s) {
   o->set_implied_false_reject_rate(s.implied_frr);
   o->set_drift_fillets(s.drift_fillets);
   o->set_product_drift(s.product_drift);
+  if (s.sensors) {
+    pb::LaneSensors* ls = o->mutable_sensors();
+    ls->set_trigger(s.sensors->trigger);
+    ls->set_lines(s.sensors->lines);
+    ls->set_incomplete_lines(s.sensors->incomplete);
+    ls->set_refused_lines(s.sensors->refused);
+    for (const SensorState& d : s.sensors->devices) {
+      pb::SensorDevice* pd = ls->add_devices();
+      pd->set_role(d.role);
+      pd->set_device(d.device);
+      pd->set_description(d.description);
+      pd->set_state(d.state);
+      pd->set_error(d.error);
+      pd->set_frames(d.frames);
+      pd->set_incomplete(d.incomplete);
+      pd->set_lost_frames(d.lost_frames);
+      pd->set_wrong_format(d.wrong_format);
+      pd->set_lacked(d.lacked);
+      pd->set_stale(d.stale);
+      pd->set_underruns(d.underruns);
+      pd->set_reconnects(d.reconnects);
+    }
+  }
 }
 
 void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {

@@ -57,6 +57,20 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
   store_ = std::make_unique<Store>(opt_.data_dir);
   hub_ = std::make_unique<ResultsHub>();
   engine_ = std::make_unique<Engine>(plant_, *store_, *hub_, opt_.engine);
+  if (has_sensor_lanes(plant_))
+    sensors_ = std::make_unique<SensorIngest>(
+        plant_,
+        [this](int lane) {
+          LaneSink sink;
+          sink.line = [this](IncomingLine&& in) {
+            if (opt_.sensor_tap) opt_.sensor_tap(in);
+            return engine_->submit(std::move(in)).accepted;
+          };
+          sink.lost = [this, lane](const std::string& why) { engine_->sensor_lost(lane, why); };
+          return sink;
+        },
+        opt_.sensors);
+  if (sensors_) engine_->set_sensor_states([this] { return sensors_->state(); });
   counters_ = std::make_unique<StreamCounters>();
   access_ = std::make_unique<AccessControl>(plant_.security);
   services_ = std::make_unique<RpcServices>(*access_, *engine_, *store_, *hub_, *counters_, opt_,
@@ -90,6 +104,7 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
 
 RangexServer::~RangexServer() {
   shutdown();
+  engine_->set_sensor_states(nullptr);  // the ingest goes first
 }
 
 std::string RangexServer::address() const {
@@ -197,12 +212,17 @@ bool RangexServer::shutdown(OpenFillets open) {
   Health stopping;
   stopping.serving = false;
   set_health(stopping);
+  if (sensors_) sensors_->stop();  // the devices stop; what they made is drained below
   // Every accepted line decided and stored; lines arriving meanwhile are refused in-band.
   const bool drained = engine_->drain_and_stop(opt_.engine.drain_timeout_s, open);
   hub_->close_all();  // subscribers get what is queued for them, then their streams end
   server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   store_->audit("rangexd", "server.stop", drained ? "drained" : "drain timed out");
   return drained;
+}
+
+std::vector<LaneSensors> RangexServer::sensors() const {
+  return sensors_ ? sensors_->state() : std::vector<LaneSensors>{};
 }
 
 void RangexServer::wait() {

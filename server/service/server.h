@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "core/plant_config.h"
+#include "sensors/sensor_ingest.h"
 #include "service/engine.h"
 
 namespace grpc {
@@ -46,6 +47,10 @@ struct ServerOptions {
   // (heap_trim.h); 0: neither.
   double heap_trim_s = 60;
   std::function<void(const Health&)> on_fatal;  // NOT_SERVING for exit_after_s
+  SensorOptions sensors;  // lanes fed by their own GigE Vision devices (plant.yaml sources)
+  // Sees every line a lane's sensors make, before the engine does (tests compare the lines
+  // that came over GigE Vision with a replay of the same lines).
+  std::function<void(const IncomingLine&)> sensor_tap;
 };
 
 class RangexServer {
@@ -61,6 +66,8 @@ class RangexServer {
   bool shutdown(OpenFillets open = OpenFillets::kClose);
   void wait();
   Engine& engine() { return *engine_; }
+  // The lanes fed by their sensors, with every device's state and counters.
+  std::vector<LaneSensors> sensors() const;
   Store& store() { return *store_; }
   ResultsHub& hub() { return *hub_; }
   int ingest_streams() const;
@@ -77,6 +84,7 @@ class RangexServer {
   std::unique_ptr<Store> store_;
   std::unique_ptr<ResultsHub> hub_;
   std::unique_ptr<Engine> engine_;
+  std::unique_ptr<SensorIngest> sensors_;
   std::unique_ptr<StreamCounters> counters_;
   std::unique_ptr<AccessControl> access_;
   std::unique_ptr<RpcServices> services_;

@@ -123,11 +123,25 @@ async function refreshTiles() {
            l.learned_version ? esc(l.learned_version) : "fixed"}</dd>
          ${l.learned_version && l.implied_false_reject_rate >= 0
            ? `<dt>implied false rejects</dt><dd>${pct(l.implied_false_reject_rate)}</dd>` : ""}
+         ${l.sensors ? sensorsRow(l.sensors) : ""}
        </dl>
        ${(l.learned_sensitivity || []).length
          ? `<div class="sens">${esc(l.learned_sensitivity[0])}</div>` : ""}
        <div class="why">${esc(l.light_reason)}</div>
      </div>`).join("");
+}
+
+// A lane fed by its own GigE Vision devices: one mark per device (green streaming, red
+// otherwise, its error on hover) and the share of lines a device lacked.
+function sensorsRow(s) {
+  const marks = s.devices.map((d) =>
+    `<span class="sensor ${d.state === "streaming" ? "ok" : "bad"}" title="${esc(
+      `${d.device} ${d.description}: ${d.state}${d.error ? " - " + d.error : ""}; ` +
+      `${d.frames} frames, ${d.incomplete} incomplete, ${d.lost_frames} lost, ` +
+      `${d.reconnects} reconnects`)}">${esc(d.role)}</span>`).join(" ");
+  const all = s.lines + s.incomplete_lines;
+  return `<dt>sensors</dt><dd class="sensors">${marks}</dd>
+          <dt>lines missing</dt><dd>${pct(all ? s.incomplete_lines / all : 0)}</dd>`;
 }
 
 function chart(id, samples, series) {

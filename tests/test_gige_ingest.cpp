@@ -1,0 +1,338 @@
+// Lanes fed over real GigE Vision on loopback: Aravis's fake cameras in this process serve a
+// simulated recording's frames; rangexd connects to them over GVCP/GVSP as to cameras.
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <regex>
+#include <thread>
+
+#include "core/plant_config.h"
+#include "core/recording.h"
+#include "fake_gige.h"
+#include "offline/replay.h"
+#include "rangex/v1/decision_names.h"
+#include "rangex/v1/rangex.grpc.pb.h"
+#include "server_client.h"
+#include "service/server.h"
+#include "sim/plant_simulator.h"
+#include "temp_dir.h"
+
+using namespace rangex;
+using namespace rangex::test;
+namespace pb = rangex::v1;
+
+namespace {
+
+// The fake devices look for their trigger every 10 ms: about 90 lines/s a lane, and six
+// devices fit a 2-core machine.
+constexpr int kPeriodUs = 10000;
+constexpr int kLead = 200;  // frames before a lane's recording starts (devices connect)
+
+std::string device_address(int lane, int device) {
+  return "127.0.0." + std::to_string(2 + 3 * lane + device);
+}
+
+// The addresses, or why the test cannot run: a failure where the suite requires GigE Vision
+// (RANGEX_REQUIRE_GIGE=1, as the test command sets), a skip elsewhere.
+#define NEED_ADDRESSES(addrs)                                      \
+  if (!(addrs).ok()) {                                             \
+    const char* req = std::getenv("RANGEX_REQUIRE_GIGE");          \
+    if (req && std::string(req) == "1") FAIL() << (addrs).error(); \
+    GTEST_SKIP() << (addrs).error();                               \
+  }
+
+std::vector<std::string> addresses(int lanes) {
+  std::vector<std::string> a;
+  for (int l = 0; l < lanes; ++l)
+    for (int d = 0; d < 3; ++d) a.push_back(device_address(l, d));
+  return a;
+}
+
+PlantConfig plant(int lanes) {
+  PlantConfig p = load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml");
+  p.lanes.resize(size_t(lanes));
+  for (int l = 0; l < lanes; ++l) {
+    SensorSources& s = p.lanes[size_t(l)].sources;
+    s.cameras = {device_address(l, 0), device_address(l, 1)};
+    s.xray = device_address(l, 2);
+    s.trigger = LineTrigger::kEncoder;
+    s.trigger_line = "Software";  // the fakes' "encoder": FakeEncoder's pulses
+  }
+  return p;
+}
+
+// A simulated recording of `lanes` lanes, one fillet each, in t/rec.
+std::string simulate(const TempDir& t, const PlantConfig& p, int lanes, uint64_t seed) {
+  sim::SimulationParams sp;
+  sp.lanes = lanes;
+  sp.scene.fillets = 1;
+  sp.seed = seed;
+  sim::simulate_recording(p, sp, t.str("rec"));
+  return t.str("rec");
+}
+
+ServerOptions options(const TempDir& t) {
+  ServerOptions o;
+  o.listen = "127.0.0.1:0";
+  o.data_dir = t.str("data");
+  o.engine.backend = cpu_request(1);
+  o.sensors.backoff_min_s = 0.1;
+  o.sensors.backoff_max_s = 0.5;
+  return o;
+}
+
+// A lane's fake devices serving its recording, pulsed by its encoder.
+struct FakeLane {
+  ServedLane served;
+  std::vector<std::unique_ptr<FakeDevice>> devices;
+  std::unique_ptr<FakeEncoder> encoder;
+  FakeLane(const RecordingReader& rec, int lane) : served(rec, lane, kLead) {
+    for (int d = 0; d < 3; ++d) devices.push_back(make(lane, d));
+    encoder = std::make_unique<FakeEncoder>(devices);
+  }
+  ~FakeLane() { encoder.reset(); }
+  std::unique_ptr<FakeDevice> make(int lane, int d) {
+    return std::make_unique<FakeDevice>(device_address(lane, d),
+                                        "rx" + std::to_string(lane) + std::to_string(d), kPeriodUs,
+                                        [this, d](int64_t count, uint8_t* out, size_t bytes) {
+                                          served.fill(d, count, out, bytes);
+                                        });
+  }
+};
+
+template <typename Pred>
+bool wait_until(double seconds, Pred pred) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < end) {
+    if (pred()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return pred();
+}
+
+std::string describe(const std::vector<LaneSensors>& lanes) {
+  std::string out;
+  for (const LaneSensors& l : lanes) {
+    out += "lane " + std::to_string(l.lane) + ": lines " + std::to_string(l.lines) +
+           ", incomplete " + std::to_string(l.incomplete) + ", refused " +
+           std::to_string(l.refused) + "\n";
+    for (const SensorState& d : l.devices)
+      out += "  " + d.role + " " + d.state + " frames " + std::to_string(d.frames) +
+             " incomplete " + std::to_string(d.incomplete) + " lost " +
+             std::to_string(d.lost_frames) + " stale " + std::to_string(d.stale) + " lacked " +
+             std::to_string(d.lacked) + " underruns " + std::to_string(d.underruns) + " " +
+             d.error + "\n";
+  }
+  return out;
+}
+
+const SensorState* device_state(const std::vector<LaneSensors>& s, int lane, int d) {
+  for (const LaneSensors& l : s)
+    if (l.lane == lane) return &l.devices[size_t(d)];
+  return nullptr;
+}
+
+}  // namespace
+
+TEST(GigeIngest, TwoLanesOverGigEVisionDecideAsAReplayOfTheirLines) {
+  LoopbackAddresses addrs(addresses(2));
+  NEED_ADDRESSES(addrs);
+  TempDir t;
+  const PlantConfig p = plant(2);
+  const RecordingReader rec(simulate(t, p, 2, 21));
+  std::vector<std::unique_ptr<FakeLane>> fakes;
+  for (int l = 0; l < 2; ++l) fakes.push_back(std::make_unique<FakeLane>(rec, l));
+
+  // What came over GigE Vision, lane by lane, as a recording; and whether each line in the
+  // recording's range is bit for bit the frames the devices served.
+  struct Got {
+    std::unique_ptr<RecordingWriter> out;
+    int64_t last = INT64_MIN, in_range = 0, differ = 0;
+  };
+  std::mutex mu;
+  std::map<int, Got> got;
+  for (int l = 0; l < 2; ++l) {
+    RecordingInfo info = rec.info();
+    info.lanes = {l};
+    info.has_truth = false;
+    got[l].out = std::make_unique<RecordingWriter>(t.str("got" + std::to_string(l)), info);
+  }
+  ServerOptions o = options(t);
+  o.sensor_tap = [&](const IncomingLine& in) {
+    std::lock_guard<std::mutex> lk(mu);
+    Got& g = got[in.lane];
+    g.out->append(in.lane, {reinterpret_cast<const uint8_t*>(in.cam0.data()),
+                            reinterpret_cast<const uint8_t*>(in.cam1.data()),
+                            reinterpret_cast<const uint16_t*>(in.xray.data()), in.encoder});
+    g.last = in.encoder;
+    const ServedLane& s = fakes[size_t(in.lane)]->served;
+    const int64_t n = in.encoder - s.start();
+    if (n < 0 || n >= s.lines()) return;
+    ++g.in_range;
+    const LineBytes* parts[3] = {&in.cam0, &in.cam1, &in.xray};
+    for (int d = 0; d < 3; ++d)
+      if (std::memcmp(parts[d]->data(), s.frame(d, n), parts[d]->size()) != 0) ++g.differ;
+  };
+  RangexServer server(p, o);
+  // Every lane past its recording's end (a bound, not a speed: 100 lines/s).
+  const bool passed = wait_until(120, [&] {
+    std::lock_guard<std::mutex> lk(mu);
+    for (int l = 0; l < 2; ++l) {
+      const ServedLane& s = fakes[size_t(l)]->served;
+      if (got[l].last < s.start() + s.lines() + 20) return false;
+    }
+    return true;
+  });
+  const std::vector<LaneSensors> sensors = server.sensors();
+  ASSERT_TRUE(passed) << "the lanes did not get past their recordings in 120 s\n"
+                      << describe(sensors);
+  {
+    // A client sees each lane's devices in ListLanes.
+    auto stub = pb::ControlService::NewStub(connect(server));
+    grpc::ClientContext ctx;
+    pb::ListLanesResponse resp;
+    ASSERT_TRUE(stub->ListLanes(&ctx, {}, &resp).ok());
+    ASSERT_EQ(resp.lanes_size(), 2);
+    for (const auto& l : resp.lanes()) {
+      ASSERT_TRUE(l.has_sensors()) << "lane " << l.id();
+      ASSERT_EQ(l.sensors().devices_size(), 3);
+      EXPECT_EQ(l.sensors().devices(2).role(), "xray");
+      EXPECT_EQ(l.sensors().devices(2).device(), device_address(l.id(), 2));
+      EXPECT_EQ(l.sensors().devices(0).state(), "streaming");
+      EXPECT_GT(l.sensors().lines(), 0u);
+    }
+  }
+  server.shutdown();
+  fakes.clear();
+  for (const LaneSensors& l : sensors) {
+    EXPECT_EQ(l.trigger, "encoder");
+    for (const SensorState& d : l.devices) {
+      EXPECT_EQ(d.state, "streaming") << d.role << ": " << d.error;
+      EXPECT_GT(d.frames, 0u) << d.role;
+      EXPECT_EQ(d.wrong_format, 0u) << d.role;
+    }
+  }
+  for (int l = 0; l < 2; ++l) {
+    Got& g = got[l];
+    g.out->close();
+    // Lines come whole and unchanged; on a loaded machine a late frame may be missing.
+    EXPECT_EQ(g.differ, 0) << "lane " << l;
+    EXPECT_GE(g.in_range, rec.info().lines * 9 / 10) << "lane " << l << "\n" << describe(sensors);
+    const RecordingReader mine(t.str("got" + std::to_string(l)));
+    ReplayOptions ro;
+    ro.missing_lines_ok = true;  // a frame lost on a loaded machine: the server's gap too
+    const auto offline = replay_recording(mine, p, ro);
+    ASSERT_EQ(offline.size(), 1u);
+    std::vector<StoredFillet> online;
+    for (const StoredFillet& f : all_fillets(server.store()))
+      if (f.lane == l) online.push_back(f);
+    ASSERT_EQ(online.size(), offline[0].fillets.size()) << "lane " << l;
+    ASSERT_GE(online.size(), 1u);
+    for (size_t i = 0; i < online.size(); ++i) {
+      const FilletResult& r = offline[0].fillets[i].result;
+      EXPECT_EQ(online[i].decision, decision_name(r.decision)) << "lane " << l << " fillet " << i;
+      EXPECT_EQ(online[i].first_encoder, r.first_encoder);
+      EXPECT_NEAR(online[i].beta1, r.fit.beta1, 1e-12);
+    }
+  }
+}
+
+TEST(GigeIngest, LostPacketsBecomeMissingLinesCountedForTheDevice) {
+  LoopbackAddresses addrs(addresses(1));
+  NEED_ADDRESSES(addrs);
+  TempDir t;
+  const PlantConfig p = plant(1);
+  const RecordingReader rec(simulate(t, p, 1, 22));
+  FakeLane fake(rec, 0);
+  fake.devices[1]->set_packet_loss(0.002);  // cam1: about one frame in six loses a packet
+  RangexServer server(p, options(t));
+  ASSERT_TRUE(wait_until(60, [&] {
+    const SensorState* d = device_state(server.sensors(), 0, 1);
+    return d && d->incomplete >= 20 && server.sensors()[0].lines >= 100;
+  })) << "cam1's lost packets were not counted within 60 s";
+  const LaneSensors s = server.sensors()[0];
+  EXPECT_GT(s.incomplete, 0u);
+  EXPECT_GT(s.devices[1].lacked, 0u);
+  EXPECT_EQ(s.devices[0].incomplete, 0u);
+  EXPECT_EQ(s.devices[2].incomplete, 0u);
+  // Every count was either a line or a line given up: none is counted twice or lost quietly.
+  EXPECT_GE(s.devices[1].frames + s.devices[1].incomplete + s.devices[1].lost_frames,
+            s.lines + s.devices[1].lacked - 2);
+  EXPECT_GT(server.engine().lane_state(0).received, 0u);
+}
+
+TEST(GigeIngest, ACameraStoppedMidFilletEndsItAndIsReconnected) {
+  LoopbackAddresses addrs(addresses(1));
+  NEED_ADDRESSES(addrs);
+  TempDir t;
+  const PlantConfig p = plant(1);
+  const RecordingReader rec(simulate(t, p, 1, 23));
+  FakeLane fake(rec, 0);
+  RangexServer server(p, options(t));
+  ASSERT_TRUE(wait_until(60, [&] { return server.engine().lane_state(0).fillet_in_progress; }))
+      << "no fillet came within 60 s";
+  fake.encoder->replace(0, nullptr);  // cam0 stops: power, cable or switch
+  ASSERT_TRUE(wait_until(30, [&] {
+    const SensorState* d = device_state(server.sensors(), 0, 0);
+    return d && d->state != "streaming";
+  })) << "cam0's loss was not noticed within 30 s";
+  // Its open fillet ends as not inspected, with the reason.
+  ASSERT_TRUE(wait_until(30, [&] {
+    for (const StoredFillet& f : all_fillets(server.store()))
+      if (f.decision == "not_inspected" && f.reason.find("dropped off") != std::string::npos)
+        return true;
+    return false;
+  })) << "the open fillet was not ended within 30 s";
+  const uint64_t frames_before = device_state(server.sensors(), 0, 0)->frames;
+  fake.encoder->replace(0, fake.make(0, 0));  // cam0 back
+  ASSERT_TRUE(wait_until(30, [&] {
+    const SensorState* d = device_state(server.sensors(), 0, 0);
+    return d && d->state == "streaming" && d->reconnects >= 1 && d->frames > frames_before + 50;
+  })) << "cam0 was not reconnected within 30 s";
+  const uint64_t lines = server.sensors()[0].lines;
+  EXPECT_TRUE(wait_until(30, [&] { return server.sensors()[0].lines > lines + 50; }))
+      << "the lane's lines did not resume\n"
+      << describe(server.sensors());
+  bool audited = false;
+  for (const AuditEntry& a : server.store().audit_entries(1000))
+    audited = audited || a.what == "lane.sensor_lost";
+  EXPECT_TRUE(audited);
+}
+
+TEST(GigeIngest, ADeviceThatRefusesMono8IsNamedAndTheLaneWaits) {
+  LoopbackAddresses addrs(addresses(1));
+  NEED_ADDRESSES(addrs);
+  TempDir t;
+  // A camera whose PixelFormat has no Mono8 (a colour camera on the laser's place).
+  const std::string xml = std::regex_replace(
+      FakeDevice::genicam_xml(), std::regex("<EnumEntry Name=\"Mono8\"[\\s\\S]*?</EnumEntry>"), "");
+  ASSERT_EQ(xml.find("\"Mono8\""), std::string::npos);
+  std::ofstream(t.str("colour.xml")) << xml;
+  const PlantConfig p = plant(1);
+  const RecordingReader rec(simulate(t, p, 1, 1));
+  ServedLane served(rec, 0);
+  auto fill = [&](int d) {
+    return [&served, d](int64_t c, uint8_t* o, size_t b) { served.fill(d, c, o, b); };
+  };
+  FakeDevice cam0(device_address(0, 0), "colour", kPeriodUs, fill(0), t.str("colour.xml"));
+  FakeDevice cam1(device_address(0, 1), "rx01", kPeriodUs, fill(1));
+  FakeDevice xray(device_address(0, 2), "rx02", kPeriodUs, fill(2));
+  RangexServer server(p, options(t));
+  ASSERT_TRUE(wait_until(30, [&] {
+    const SensorState* d = device_state(server.sensors(), 0, 0);
+    return d && d->state == "refused" && !d->error.empty();
+  })) << "cam0's refusal was not shown within 30 s";
+  const SensorState d = *device_state(server.sensors(), 0, 0);
+  EXPECT_NE(d.error.find("PixelFormat=Mono8"), std::string::npos) << d.error;
+  EXPECT_NE(d.error.find(device_address(0, 0)), std::string::npos) << d.error;
+  // Nothing of the lane is passed without cam0: no line is complete.
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  EXPECT_EQ(server.sensors()[0].lines, 0u);
+  EXPECT_EQ(server.engine().lane_state(0).received, 0u);
+}
