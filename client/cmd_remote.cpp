@@ -216,6 +216,19 @@ int cmd_status(int argc, char** argv) {
   std::printf("%s\n", s.serving() ? "SERVING" : "NOT SERVING");
   for (const auto& h : s.health()) std::printf("  %s\n", h.c_str());
   for (const auto& w : s.warnings()) std::printf("warning: %s\n", w.c_str());
+  if (s.has_plc()) {
+    const pb::PlcStatus& p = s.plc();
+    std::printf(
+        "PLC %s %s: %llu released, %llu diverted, %llu late, %llu unreleased, %llu "
+        "waiting%s\n",
+        p.address().c_str(), p.connected() ? "connected" : "UNREACHABLE",
+        (unsigned long long)p.released(), (unsigned long long)p.diverted(),
+        (unsigned long long)p.late(), (unsigned long long)p.unreleased(),
+        (unsigned long long)p.pending(),
+        p.least_spare_ms() >= 0
+            ? (", least spare " + std::to_string(int(p.least_spare_ms())) + " ms").c_str()
+            : "");
+  }
   std::printf(
       "lines: %llu received, %llu accepted, %llu processed, %.0f lines/s; queue %d of %d; %d "
       "ingest streams\n",
@@ -510,6 +523,7 @@ int cmd_lanes(int argc, char** argv) {
                   l.last_restart().empty() ? "" : (l.last_restart() + ")").c_str());
     else
       std::printf("        not fed yet\n");
+    if (!l.plc_state().empty()) std::printf("        PLC: %s\n", l.plc_state().c_str());
     if (l.has_sensors()) {
       const pb::LaneSensors& s = l.sensors();
       std::printf("        sensors (%s): %llu lines, %llu missing, %llu refused\n",

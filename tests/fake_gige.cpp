@@ -140,9 +140,18 @@ bool FakeDevice::acquiring() const {
 
 FakeEncoder::FakeEncoder(std::vector<std::unique_ptr<FakeDevice>>& devices) : devices_(devices) {
   thread_ = std::thread([this] {
+    bool first = true;
     while (!stop_) {
       {
         std::lock_guard<std::mutex> lk(mu_);
+        bool ready = true;
+        for (auto& d : devices_) ready = ready && (!d || d->acquiring());
+        if (!ready) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(2));
+          continue;
+        }
+        if (!first) ++pulses_;
+        first = false;
         for (auto& d : devices_)
           if (d) d->trigger();
         const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
@@ -154,7 +163,6 @@ FakeEncoder::FakeEncoder(std::vector<std::unique_ptr<FakeDevice>>& devices) : de
           std::this_thread::sleep_for(std::chrono::microseconds(300));
         }
       }
-      ++pulses_;
       std::this_thread::sleep_for(std::chrono::microseconds(300));
     }
   });

@@ -29,15 +29,16 @@ class LoopbackAddresses {
   std::string error_;
 };
 
-// One lane's recording as its devices' frames: a device's frame n (0 for its first) shows the
-// recording's line n - lead, so that the lane's devices show the same line in the frames of
-// the same number. Before the lead they show line 0, after the end the last line.
+// One lane's recording as its devices' frames: at the lane's encoder pulse n (0 for the
+// first) the belt shows the recording's line n - lead. Before the lead the devices show line
+// 0, after the end the last line.
 class ServedLane {
  public:
   ServedLane(const RecordingReader& rec, int lane, int lead_frames = 25);
-  // Fills frame n of device `d` (0, 1: cameras; 2: X-ray).
+  // Fills device `d`'s frame (0, 1: cameras; 2: X-ray) at pulse n.
   void fill(int d, int64_t n, uint8_t* out, size_t bytes);
-  // rangexd counts a free-running device's frames from 1: the count that shows line 0.
+  // rangexd counts frames from 1, the devices starting together at pulse 0: the count that
+  // shows line 0.
   int64_t start() const { return lead_ + 1; }
   int64_t lines() const { return lines_; }
   const uint8_t* frame(int d, int64_t line) const;  // what fill() serves for a line
@@ -74,16 +75,18 @@ class FakeDevice {
   std::unique_ptr<Impl> impl_;
 };
 
-// A lane's encoder: pulses every device of the lane, and waits (up to half a second) until
-// every device that is acquiring has taken its pulse before the next, so that the lane's
-// devices send their frames in step whatever the load on the machine.
+// A lane's encoder. The belt stands until every device of the lane is acquiring (as a line
+// is started); then each pulse goes to every device, and the next waits (up to half a
+// second) until each has taken it, so that the lane's devices send their frames in step
+// whatever the load on the machine. A device that is gone is not waited for; one that is
+// back but not yet acquiring stops the belt again.
 class FakeEncoder {
  public:
   explicit FakeEncoder(std::vector<std::unique_ptr<FakeDevice>>& devices);
   ~FakeEncoder();
   // Replaces device d (null: none) between pulses.
   void replace(size_t d, std::unique_ptr<FakeDevice> device);
-  int64_t pulses() const { return pulses_; }
+  int64_t pulse() const { return pulses_; }  // the pulse the devices are showing (0: first)
 
  private:
   std::vector<std::unique_ptr<FakeDevice>>& devices_;

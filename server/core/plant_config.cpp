@@ -277,6 +277,47 @@ void read_sources(const Node& n, SensorSources& s) {
     n.at("packet_size").bad("must be 576..16384 bytes (or 0: negotiated)");
 }
 
+void read_plc(const Node& n, PlcConfig& c) {
+  n.only_keys({"address", "unit_id", "heartbeat_register", "lane_state_base", "ring_head_register",
+               "ring_base", "ring_slots", "reject_station_mm", "margin_mm", "heartbeat_ms",
+               "timeout_ms"});
+  if (!n.has("address")) n.bad("missing key 'address' (host:port of the PLC's Modbus TCP server)");
+  n.get("address", c.address);
+  const auto colon = c.address.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == c.address.size())
+    n.at("address").bad("must be host:port (got '" + c.address + "')");
+  n.get("unit_id", c.unit_id);
+  if (c.unit_id < 0 || c.unit_id > 247) n.at("unit_id").bad("must be 0..247");
+  for (const char* k :
+       {"heartbeat_register", "lane_state_base", "ring_head_register", "ring_base"}) {
+    int v = 0;
+    n.get(k, v);
+    if (n.has(k) && (v < 0 || v > 65535)) n.at(k).bad("must be a register 0..65535");
+  }
+  n.get("heartbeat_register", c.heartbeat_register);
+  n.get("lane_state_base", c.lane_state_base);
+  n.get("ring_head_register", c.ring_head_register);
+  n.get("ring_base", c.ring_base);
+  n.positive("ring_slots", c.ring_slots);
+  if (c.ring_end() > 65536) n.at("ring_slots").bad("the ring runs past register 65535");
+  n.positive("reject_station_mm", c.reject_station_mm);
+  n.get("margin_mm", c.margin_mm);
+  if (c.margin_mm < 0 || c.margin_mm >= c.reject_station_mm)
+    n.at("margin_mm").bad("must be >= 0 and less than reject_station_mm");
+  n.positive("heartbeat_ms", c.heartbeat_ms);
+  n.positive("timeout_ms", c.timeout_ms);
+  // The registers rangex writes must not overlap.
+  const int lanes_end = c.lane_state_base + 2 * PlcConfig::kMaxLanes;
+  auto overlaps = [](int a0, int a1, int b0, int b1) { return a0 < b1 && b0 < a1; };
+  if (overlaps(c.ring_base, c.ring_end(), c.lane_state_base, lanes_end) ||
+      overlaps(c.ring_base, c.ring_end(), c.heartbeat_register, c.heartbeat_register + 1) ||
+      overlaps(c.ring_base, c.ring_end(), c.ring_head_register, c.ring_head_register + 1) ||
+      overlaps(c.lane_state_base, lanes_end, c.heartbeat_register, c.heartbeat_register + 1) ||
+      overlaps(c.lane_state_base, lanes_end, c.ring_head_register, c.ring_head_register + 1) ||
+      c.heartbeat_register == c.ring_head_register)
+    n.bad("the heartbeat, lane state (2 x 64 lanes), ring head and ring registers overlap");
+}
+
 LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
   auto section = [&](const char* key) -> std::optional<Node> {
     if (lane.has(key)) return lane.at(key);
@@ -569,7 +610,7 @@ const LaneConfig& PlantConfig::lane(int id) const {
 PlantConfig parse_plant_config(const std::string& text, const std::string& origin) {
   const YAML::Node root = load_yaml(text, origin);
   const Node top{root, "", &origin};
-  top.only_keys({"plant", "server", "security", "retention", "lane_defaults", "lanes"});
+  top.only_keys({"plant", "server", "security", "retention", "plc", "lane_defaults", "lanes"});
   PlantConfig p;
   if (top.has("plant")) {
     const Node n = top.at("plant");
@@ -600,6 +641,7 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
       n.at("images_days").bad("must be between 1 and days (" + std::to_string(r.days) + ")");
     n.positive("every_h", r.every_h);
   }
+  if (top.has("plc")) read_plc(top.at("plc"), p.plc);
   std::optional<Node> defaults;
   if (top.has("lane_defaults")) defaults = top.at("lane_defaults");
   if (!top.has("lanes")) top.bad("missing key 'lanes'");
@@ -622,6 +664,9 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
     for (const std::string& d : l.sources.devices())
       if (!sensors.insert(d).second)
         ln.at("sources").bad("device '" + d + "' already belongs to another lane");
+    if (p.plc.enabled() && l.id >= PlcConfig::kMaxLanes)
+      ln.at("id").bad("lane ids go up to " + std::to_string(PlcConfig::kMaxLanes - 1) +
+                      " with a PLC (its lane state registers)");
     p.lanes.push_back(std::move(l));
   }
   return p;

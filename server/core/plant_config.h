@@ -6,6 +6,7 @@
 
 #include "core/engine_settings.h"
 #include "core/lane_config.h"
+#include "core/plc_config.h"
 #include "core/security_config.h"
 
 namespace rangex {
@@ -29,6 +30,7 @@ struct PlantConfig {
   EngineSettings engine;    // the `server:` section
   SecurityConfig security;  // the `security:` section
   RetentionSettings retention;
+  PlcConfig plc;  // the `plc:` section (positive release to the line's PLC)
   std::vector<LaneConfig> lanes;
 
   const LaneConfig& lane(int id) const;  // throws Error for an unknown lane

@@ -124,7 +124,7 @@ bool DecisionRecorder::save(Unsaved& u) {
     }
   }
   u.images_stored = true;
-  if (stored_) stored_(s.lane, s.first_encoder);
+  if (stored_) stored_(s);
   const int64_t t1 = steady_ns();
   store_time_.add((t1 - t0) / 1e6);
   if (u.last_arrival_ns) decision_.add((t1 - u.last_arrival_ns) / 1e6);

@@ -25,8 +25,8 @@ class DecisionRecorder {
  public:
   // Unsaved decisions kept while the store fails.
   static constexpr size_t kMaxUnsaved = 4096;
-  // Called once a decision is committed (its lane and first count), before it is published.
-  using Stored = std::function<void(int lane, int64_t first_encoder)>;
+  // Called once a decision is committed (its record, with its uid), before it is published.
+  using Stored = std::function<void(const StoredFillet& record)>;
 
   DecisionRecorder(Store& store, ResultsHub& hub, bool images, Stored stored);
 

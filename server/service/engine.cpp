@@ -27,7 +27,10 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
       store_(store),
       opt_(std::move(opt)),
       recorder_(store, hub, opt_.images,
-                [this](int lane, int64_t first) { fillet_stored(lane, first); }),
+                [this](const StoredFillet& s) {
+                  fillet_stored(s.lane, s.first_encoder);
+                  if (opt_.on_decided) opt_.on_decided(s);
+                }),
       queue_(plant_.lanes.size()) {
   for (const LaneConfig& lc : plant_.lanes) {
     auto l = std::make_unique<Lane>(lc, opt_, lanes_.size());

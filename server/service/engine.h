@@ -40,6 +40,7 @@
 #include "core/plant_config.h"
 #include "pipeline/lane_processor.h"
 #include "pipeline/product_drift.h"
+#include "plc/plc_state.h"
 #include "sensors/sensor_state.h"
 #include "service/decision_recorder.h"
 #include "service/lane_admission.h"
@@ -57,6 +58,9 @@ struct EngineOptions : EngineSettings {
   // Fault injection for tests: runs on the worker before each batch. A hook that blocks
   // stalls the worker the way a hung disk or device would.
   std::function<void()> batch_hook;
+  // Each decision once committed, before it is published (the PLC's release); called on an
+  // inspector under the decision recorder's lock: it must only queue.
+  std::function<void(const StoredFillet&)> on_decided;
 };
 
 struct Health {
@@ -84,6 +88,7 @@ struct EngineStats {
   BackendInfo backend;                // what runs the line stages now
   std::string backend_note;           // why that one (a choice of auto, a fallback)
   StageRunnerStats batches;           // batches, verified on the CPU, mismatches, failures
+  std::optional<PlcStatus> plc;       // with a PLC (plant.yaml plc)
 };
 
 // What a stop does with the fillets still coming in: the end of a recording closes them (one
@@ -119,6 +124,7 @@ struct LaneState {
   int drift_fillets = 0;
   bool product_drift = false;
   std::optional<LaneSensors> sensors;  // a lane fed by its own sensors (plant.yaml sources)
+  std::string plc;  // with a PLC: the lane's state as last written, or why the PLC is not reached
 };
 
 class Engine {
@@ -196,6 +202,8 @@ class Engine {
   // Where lane states, statistics and health read the sensors' states from (the server's
   // sensor ingest); none: every lane is fed over gRPC.
   void set_sensor_states(std::function<std::vector<LaneSensors>()> states);
+  // Where statistics, lane states and warnings read the PLC link's status from.
+  void set_plc_status(std::function<PlcStatus()> status);
   EngineStats stats();
   Health health();
   const PlantConfig& plant() const { return plant_; }
@@ -320,6 +328,7 @@ class Engine {
   std::condition_variable cv_;
   mutable std::mutex sensors_mu_;  // leaf: the provider below
   std::function<std::vector<LaneSensors>()> sensor_states_;
+  std::function<PlcStatus()> plc_status_;  // sensors_mu_
   LaneQueues queue_;
   bool stopping_ = false, paused_ = false;
   OpenFillets at_stop_ = OpenFillets::kClose;  // mu_; read by the worker once it stops

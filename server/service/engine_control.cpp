@@ -20,6 +20,11 @@ void Engine::set_sensor_states(std::function<std::vector<LaneSensors>()> states)
   sensor_states_ = std::move(states);
 }
 
+void Engine::set_plc_status(std::function<PlcStatus()> status) {
+  std::lock_guard<std::mutex> lock(sensors_mu_);
+  plc_status_ = std::move(status);
+}
+
 LaneState Engine::lane_state(int id) {
   Lane& l = lane(id);
   LaneState s;
@@ -55,6 +60,12 @@ LaneState Engine::lane_state(int id) {
     if (sensor_states_)
       for (LaneSensors& ls : sensor_states_())
         if (ls.lane == id) s.sensors = std::move(ls);
+    if (plc_status_) {
+      const PlcStatus p = plc_status_();
+      const auto it = p.lane_states.find(id);
+      s.plc = !p.connected ? "unreachable: " + p.error
+                           : (it == p.lane_states.end() ? "connected" : it->second);
+    }
   }
   return s;
 }

@@ -75,6 +75,14 @@ EngineStats Engine::stats() {
           if (d.state != "streaming")
             s.warnings.push_back(join("lane ", ls.lane, " ", d.role, " (", d.device, ") ", d.state,
                                       d.error.empty() ? "" : ": " + d.error));
+    if (plc_status_) {
+      s.plc = plc_status_();
+      // Lanes go on inspecting and storing; the PLC diverts what it is not told to release.
+      if (!s.plc->connected)
+        s.warnings.push_back(join("PLC ", s.plc->address, " unreachable: ", s.plc->error, "; ",
+                                  s.plc->unreleased, " clean fillets unreleased (diverted), ",
+                                  s.plc->pending, " waiting"));
+    }
   }
   if (opt_.store_reserve_mb > 0) {
     std::error_code ec;

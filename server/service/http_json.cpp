@@ -78,6 +78,8 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
   }
   if (l.product_drift && light == "green")
     light = "amber", why = product_drift_warning(l.config.id, l.drift_fillets, l.implied_frr);
+  if (l.plc.rfind("unreachable", 0) == 0 && light == "green")
+    light = "amber", why = "PLC " + l.plc + ": every fillet is diverted";
   json sensors = nullptr;
   if (l.sensors) {
     json devices = json::array();
@@ -134,7 +136,8 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
       {"light", light},
       {"light_reason", why},
       {"backend", backend},
-      {"sensors", sensors}};
+      {"sensors", sensors},
+      {"plc", l.plc}};
 }
 
 json image_kinds(Store& store, int64_t uid) {

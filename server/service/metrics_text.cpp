@@ -128,6 +128,28 @@ std::string prometheus_text(const MetricsInput& m) {
   for (const LaneState& l : m.lanes)
     w.sample("rangex_lane_restarts_total", lane_label(l.config.id), l.restarts);
 
+  // Positive release to the line's PLC.
+  if (s.plc) {
+    const PlcStatus& p = *s.plc;
+    const std::string at = "plc=" + quoted(p.address);
+    w.family("rangex_plc_up", "gauge", "1 while the PLC's Modbus TCP link is up.");
+    w.sample("rangex_plc_up", at, uint64_t(p.connected));
+    w.family("rangex_plc_fillets_total", "counter",
+             "Fillets by what the PLC was told: released (clean, in time), diverted (rejected or "
+             "not inspected), late (clean, decided after the deadline), unreleased (clean, the "
+             "PLC unreachable until the deadline).");
+    w.sample("rangex_plc_fillets_total", at + ",result=\"released\"", p.released);
+    w.sample("rangex_plc_fillets_total", at + ",result=\"diverted\"", p.diverted);
+    w.sample("rangex_plc_fillets_total", at + ",result=\"late\"", p.late);
+    w.sample("rangex_plc_fillets_total", at + ",result=\"unreleased\"", p.unreleased);
+    w.family("rangex_plc_pending", "gauge", "Releases waiting to be sent.");
+    w.sample("rangex_plc_pending", at, p.pending);
+    w.family("rangex_plc_least_spare_seconds", "gauge",
+             "The least time to spare of a release sent (-1: none yet).");
+    w.sample("rangex_plc_least_spare_seconds", at,
+             p.least_spare_ms < 0 ? -1.0 : p.least_spare_ms / 1e3);
+  }
+
   // Lanes fed by their own GigE Vision devices.
   auto device_label = [](int lane, const SensorState& d) {
     return lane_label(lane) + ",role=" + quoted(d.role) + ",device=" + quoted(d.device);

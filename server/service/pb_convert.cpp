@@ -97,6 +97,7 @@ void fill(pb::LaneInfo* o, const LaneState& s) {
   o->set_implied_false_reject_rate(s.implied_frr);
   o->set_drift_fillets(s.drift_fillets);
   o->set_product_drift(s.product_drift);
+  o->set_plc_state(s.plc);
   if (s.sensors) {
     pb::LaneSensors* ls = o->mutable_sensors();
     ls->set_trigger(s.sensors->trigger);
@@ -123,6 +124,19 @@ void fill(pb::LaneInfo* o, const LaneState& s) {
 }
 
 void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
+  if (s.plc) {
+    pb::PlcStatus* p = o->mutable_plc();
+    p->set_address(s.plc->address);
+    p->set_connected(s.plc->connected);
+    p->set_error(s.plc->error);
+    p->set_released(s.plc->released);
+    p->set_diverted(s.plc->diverted);
+    p->set_late(s.plc->late);
+    p->set_unreleased(s.plc->unreleased);
+    p->set_pending(s.plc->pending);
+    p->set_reconnects(s.plc->reconnects);
+    p->set_least_spare_ms(s.plc->least_spare_ms);
+  }
   o->set_lines_per_second(s.lines_per_second);
   o->set_lines_received(s.received);
   o->set_lines_accepted(s.accepted);

@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "rangex/v1/decision_names.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "service/access_control.h"
 #include "service/heap_trim.h"
@@ -56,7 +57,20 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
   started_ns_ = now_ns();
   store_ = std::make_unique<Store>(opt_.data_dir);
   hub_ = std::make_unique<ResultsHub>();
+  if (plant_.plc.enabled()) {
+    PlcHooks hooks;
+    hooks.lanes = [this] { return plc_lanes(); };
+    hooks.audit = [this](const std::string& what, const std::string& detail) {
+      store_->audit("plc", what, detail);
+    };
+    plc_ = std::make_unique<PlcRelease>(plant_, std::move(hooks));
+    opt_.engine.on_decided = [this](const StoredFillet& s) { plc_->decided(release_of(s)); };
+  }
   engine_ = std::make_unique<Engine>(plant_, *store_, *hub_, opt_.engine);
+  if (plc_) {
+    engine_->set_plc_status([this] { return plc_->status(); });
+    plc_->start();
+  }
   if (has_sensor_lanes(plant_))
     sensors_ = std::make_unique<SensorIngest>(
         plant_,
@@ -105,6 +119,20 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
 RangexServer::~RangexServer() {
   shutdown();
   engine_->set_sensor_states(nullptr);  // the ingest goes first
+}
+
+Release release_of(const StoredFillet& s) {
+  Release r;
+  r.uid = s.uid;
+  r.lane = s.lane;
+  r.first_encoder = s.first_encoder;
+  r.last_encoder = s.first_encoder + std::max(0, s.rows - 1);
+  // Anything but a pass or a reject is diverted as not inspected.
+  const v1::Decision d = decision_from_name(s.decision);
+  r.code = d == v1::DECISION_PASS     ? ReleaseCode::kPass
+           : d == v1::DECISION_REJECT ? ReleaseCode::kReject
+                                      : ReleaseCode::kNotInspected;
+  return r;
 }
 
 std::string RangexServer::address() const {
@@ -215,10 +243,42 @@ bool RangexServer::shutdown(OpenFillets open) {
   if (sensors_) sensors_->stop();  // the devices stop; what they made is drained below
   // Every accepted line decided and stored; lines arriving meanwhile are refused in-band.
   const bool drained = engine_->drain_and_stop(opt_.engine.drain_timeout_s, open);
+  if (plc_) {
+    plc_->flush(2);  // the last decisions to the PLC, then the lanes' stopped state
+    plc_->stop();
+  }
   hub_->close_all();  // subscribers get what is queued for them, then their streams end
   server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   store_->audit("rangexd", "server.stop", drained ? "drained" : "drain timed out");
   return drained;
+}
+
+PlcStatus RangexServer::plc() const {
+  return plc_ ? plc_->status() : PlcStatus{};
+}
+
+std::vector<PlcLaneView> RangexServer::plc_lanes() {
+  std::vector<PlcLaneView> out;
+  const bool store_ok = engine_->health().store_ok;
+  for (const LaneState& l : engine_->lanes()) {
+    PlcLaneView v;
+    v.lane = l.config.id;
+    v.has_count = l.fed;
+    v.belt_count = l.last_encoder;
+    bool blind = false;
+    if (l.sensors)
+      for (const SensorState& d : l.sensors->devices) blind = blind || d.state != "streaming";
+    if (!store_ok)
+      v.state = PackMl::kAborted, v.reason = StateReason::kStoreFailing;
+    else if (blind)
+      v.state = PackMl::kHeld, v.reason = StateReason::kSensorLost;
+    else if (!l.fed || l.idle_ms > 5000)
+      v.state = PackMl::kIdle, v.reason = StateReason::kNotFed;
+    else
+      v.state = PackMl::kExecute, v.reason = StateReason::kNone;
+    out.push_back(v);
+  }
+  return out;
 }
 
 std::vector<LaneSensors> RangexServer::sensors() const {

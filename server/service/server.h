@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "core/plant_config.h"
+#include "plc/plc_release.h"
 #include "sensors/sensor_ingest.h"
 #include "service/engine.h"
 
@@ -53,6 +54,10 @@ struct ServerOptions {
   std::function<void(const IncomingLine&)> sensor_tap;
 };
 
+// A stored decision as the PLC's release of it (rejects and uninspected fillets are sent too,
+// for the PLC's record; only a pass lets a fillet through).
+Release release_of(const StoredFillet& s);
+
 class RangexServer {
  public:
   RangexServer(const PlantConfig& plant, ServerOptions opt);
@@ -68,6 +73,8 @@ class RangexServer {
   Engine& engine() { return *engine_; }
   // The lanes fed by their sensors, with every device's state and counters.
   std::vector<LaneSensors> sensors() const;
+  // The PLC link (plant.yaml plc); enabled false without one.
+  PlcStatus plc() const;
   Store& store() { return *store_; }
   ResultsHub& hub() { return *hub_; }
   int ingest_streams() const;
@@ -78,11 +85,13 @@ class RangexServer {
   void watchdog();
   void retention();  // a pass at start, then every retention.every_h
   void set_health(const Health& h);
+  std::vector<PlcLaneView> plc_lanes();  // belt counts and PackML states for the PLC
 
   PlantConfig plant_;
   ServerOptions opt_;
   std::unique_ptr<Store> store_;
   std::unique_ptr<ResultsHub> hub_;
+  std::unique_ptr<PlcRelease> plc_;  // outlives the engine, whose inspectors queue into it
   std::unique_ptr<Engine> engine_;
   std::unique_ptr<SensorIngest> sensors_;
   std::unique_ptr<StreamCounters> counters_;

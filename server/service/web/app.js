@@ -124,6 +124,7 @@ async function refreshTiles() {
          ${l.learned_version && l.implied_false_reject_rate >= 0
            ? `<dt>implied false rejects</dt><dd>${pct(l.implied_false_reject_rate)}</dd>` : ""}
          ${l.sensors ? sensorsRow(l.sensors) : ""}
+         ${l.plc ? `<dt>PLC</dt><dd class="${l.plc.startsWith("unreachable") ? "bad" : ""}" title="${esc(l.plc)}">${esc(l.plc)}</dd>` : ""}
        </dl>
        ${(l.learned_sensitivity || []).length
          ? `<div class="sens">${esc(l.learned_sensitivity[0])}</div>` : ""}

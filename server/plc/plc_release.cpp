@@ -1,0 +1,268 @@
+#include "plc/plc_release.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "plc/modbus_link.h"
+
+namespace rangex {
+
+namespace {
+
+int64_t now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// Informational entries (rejects, not inspected) kept while the PLC cannot be reached.
+constexpr size_t kMaxQueued = 4096;
+
+}  // namespace
+
+PlcRelease::PlcRelease(const PlantConfig& plant, PlcHooks hooks)
+    : cfg_(plant.plc), hooks_(std::move(hooks)) {
+  for (const LaneConfig& l : plant.lanes) {
+    step_mm_[l.id] = l.encoder_step_mm;
+    deadline_lines_[l.id] =
+        int64_t(std::floor((cfg_.reject_station_mm - cfg_.margin_mm) / l.encoder_step_mm));
+  }
+  link_ = std::make_unique<ModbusLink>(cfg_.address, cfg_.unit_id, cfg_.timeout_ms);
+  status_.enabled = true;
+  status_.address = cfg_.address;
+  status_.error = "not connected yet";
+}
+
+PlcRelease::~PlcRelease() {
+  stop();
+}
+
+void PlcRelease::start() {
+  thread_ = std::thread([this] { run(); });
+}
+
+int64_t PlcRelease::deadline(int lane, int64_t first_encoder) const {
+  const auto it = deadline_lines_.find(lane);
+  return first_encoder + (it == deadline_lines_.end() ? 0 : it->second);
+}
+
+void PlcRelease::decided(const Release& r) {
+  {
+    std::lock_guard<std::mutex> lk(mu_);
+    queue_.push_back({r, now_ns()});
+    // While the PLC cannot be reached, the oldest informational entries go first: a pass is
+    // never dropped here (it is unreleased at its deadline, counted).
+    if (queue_.size() > kMaxQueued) {
+      const auto it = std::find_if(queue_.begin(), queue_.end(),
+                                   [](const Queued& q) { return q.r.code != ReleaseCode::kPass; });
+      if (it != queue_.end()) queue_.erase(it);
+    }
+  }
+  wake_.notify_all();
+}
+
+void PlcRelease::flush(double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < end) {
+    {
+      std::lock_guard<std::mutex> lk(mu_);
+      if (queue_.empty() || !status_.connected) return;
+    }
+    wake_.notify_all();
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
+PlcStatus PlcRelease::status() const {
+  std::lock_guard<std::mutex> lk(mu_);
+  PlcStatus s = status_;
+  s.pending = queue_.size();
+  return s;
+}
+
+void PlcRelease::stop() {
+  {
+    std::lock_guard<std::mutex> lk(mu_);
+    if (stop_ && !thread_.joinable()) return;
+    stop_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+  // The PLC hears that rangex stops (it diverts everything from now on).
+  if (link_->connected()) {
+    try {
+      for (const auto& [lane, step] : step_mm_) {
+        (void)step;
+        const uint16_t regs[2] = {uint16_t(PackMl::kStopped), uint16_t(StateReason::kStopping)};
+        link_->write(cfg_.lane_state_base + 2 * lane, regs, 2);
+      }
+    } catch (const std::exception& e) {
+      log::warn("plc_stop", "could not write the lanes' stopped state: {}", e.what());
+    }
+    link_->close();
+  }
+}
+
+void PlcRelease::run() {
+  const auto period = std::chrono::duration<double, std::milli>(cfg_.heartbeat_ms / 2);
+  while (true) {
+    {
+      std::unique_lock<std::mutex> lk(mu_);
+      wake_.wait_for(lk, period, [this] { return stop_; });
+      if (stop_) break;
+    }
+    connect_if_due();
+    heartbeat_and_states();
+    send_due();
+  }
+}
+
+void PlcRelease::lost(const std::string& why) {
+  link_->close();
+  const bool was = status_.connected;
+  {
+    std::lock_guard<std::mutex> lk(mu_);
+    status_.connected = false;
+    status_.error = why;
+  }
+  if (was) {
+    log::warn("plc_lost", "{}", why);
+    if (hooks_.audit) hooks_.audit("plc.lost", why);
+  }
+  next_connect_ns_ = now_ns() + int64_t(backoff_s_ * 1e9);
+}
+
+void PlcRelease::connect_if_due() {
+  if (link_->connected() || now_ns() < next_connect_ns_) return;
+  try {
+    link_->connect();
+  } catch (const std::exception& e) {
+    {
+      std::lock_guard<std::mutex> lk(mu_);
+      status_.error = e.what();
+    }
+    next_connect_ns_ = now_ns() + int64_t(backoff_s_ * 1e9);
+    backoff_s_ = std::min(5.0, backoff_s_ * 2);
+    return;
+  }
+  backoff_s_ = 0.2;
+  written_.clear();  // the PLC may have restarted: every lane's state again
+  const bool again = ever_connected_;
+  ever_connected_ = true;
+  {
+    std::lock_guard<std::mutex> lk(mu_);
+    status_.connected = true;
+    status_.error.clear();
+    if (again) ++status_.reconnects;
+  }
+  log::info("plc_connected", "PLC {} connected", cfg_.address);
+  if (again && hooks_.audit) hooks_.audit("plc.connected", cfg_.address);
+}
+
+void PlcRelease::heartbeat_and_states() {
+  if (!link_->connected()) return;
+  const int64_t t = now_ns();
+  try {
+    if (t >= next_beat_ns_) {
+      beat_ = uint16_t(beat_ == 65535 ? 1 : beat_ + 1);
+      link_->write(cfg_.heartbeat_register, &beat_, 1);
+      next_beat_ns_ = t + int64_t(cfg_.heartbeat_ms * 1e6);
+    }
+    if (!hooks_.lanes) return;
+    for (const PlcLaneView& v : hooks_.lanes()) {
+      if (v.has_count) {
+        // The belt's speed from the encoder: the count now and a second or so ago.
+        auto& b = belt_[v.lane];
+        if (b.second == 0 || t - b.second > 1'000'000'000) b = {v.belt_count, t};
+      }
+      const auto want = std::make_pair(v.state, v.reason);
+      const auto it = written_.find(v.lane);
+      if (it != written_.end() && it->second == want) continue;
+      const uint16_t regs[2] = {uint16_t(v.state), uint16_t(v.reason)};
+      link_->write(cfg_.lane_state_base + 2 * v.lane, regs, 2);
+      written_[v.lane] = want;
+      std::lock_guard<std::mutex> lk(mu_);
+      status_.lane_states[v.lane] = packml_name(v.state);
+    }
+  } catch (const std::exception& e) {
+    lost(e.what());
+  }
+}
+
+void PlcRelease::send_due() {
+  std::map<int, PlcLaneView> views;
+  if (hooks_.lanes)
+    for (const PlcLaneView& v : hooks_.lanes()) views[v.lane] = v;
+  const int64_t t = now_ns();
+  while (true) {
+    Queued q;
+    {
+      std::lock_guard<std::mutex> lk(mu_);
+      if (queue_.empty()) return;
+      q = queue_.front();
+    }
+    const auto v = views.find(q.r.lane);
+    const bool counted = v != views.end() && v->second.has_count;
+    const int64_t belt = counted ? v->second.belt_count : INT64_MIN;
+    const int64_t dl = deadline(q.r.lane, q.r.first_encoder);
+    const std::string what = join("lane ", q.r.lane, " fillet ", q.r.uid, " (lines ",
+                                  q.r.first_encoder, "..", q.r.last_encoder, ")");
+    if (q.r.code == ReleaseCode::kPass && counted && belt >= dl) {
+      if (!link_->connected()) {
+        // Its deadline passed while the PLC could not be reached: never sent as a pass.
+        {
+          std::lock_guard<std::mutex> lk(mu_);
+          queue_.pop_front();
+          ++status_.unreleased;
+        }
+        if (hooks_.audit)
+          hooks_.audit("release.unreleased",
+                       join(what, ": the PLC was unreachable until its deadline; diverted"));
+        continue;
+      }
+      q.r.code = ReleaseCode::kLate;
+      {
+        std::lock_guard<std::mutex> lk(mu_);
+        queue_.front().r.code = ReleaseCode::kLate;
+        ++status_.late;
+      }
+      if (hooks_.audit)
+        hooks_.audit("release.late",
+                     join(what, ": decided at line ", belt, ", deadline ", dl, "; late: diverted"));
+    }
+    if (!link_->connected()) return;
+    const SlotRegisters regs = release_registers(q.r);
+    const int slot = release_slot(q.r.uid, cfg_.ring_slots);
+    const int base = cfg_.ring_base + kSlotRegisters * slot;
+    try {
+      // The slot's fields, then its sequence (the PLC takes a slot when its sequence changes
+      // and its check holds), then the head.
+      link_->write(base + 1, &regs[1], kSlotRegisters - 1);
+      link_->write(base, &regs[0], 1);
+      const uint16_t head = uint16_t(slot);
+      link_->write(cfg_.ring_head_register, &head, 1);
+    } catch (const std::exception& e) {
+      lost(e.what());
+      return;
+    }
+    std::lock_guard<std::mutex> lk(mu_);
+    queue_.pop_front();
+    if (q.r.code == ReleaseCode::kPass) {
+      ++status_.released;
+      const auto b = belt_.find(q.r.lane);
+      if (counted && b != belt_.end() && t > b->second.second && belt > b->second.first) {
+        const double lines_per_s = double(belt - b->second.first) / ((t - b->second.second) / 1e9);
+        const double spare_ms = 1e3 * double(dl - belt) / lines_per_s;
+        if (status_.least_spare_ms < 0 || spare_ms < status_.least_spare_ms)
+          status_.least_spare_ms = spare_ms;
+      }
+    } else if (q.r.code != ReleaseCode::kLate) {
+      ++status_.diverted;
+    }
+  }
+}
+
+}  // namespace rangex

@@ -1,0 +1,53 @@
+// A PLC for tests: a Modbus TCP server (libmodbus) on loopback holding the registers rangex
+// writes, reading its ring of releases as a PLC program would (docs/plc.md), each release
+// noted with where the lane's belt was when it arrived. The test moves the belts.
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "core/plc_config.h"
+#include "plc/release_registers.h"
+
+namespace rangex::test {
+
+class SimPlc {
+ public:
+  explicit SimPlc(const PlcConfig& cfg);  // cfg.address is ignored: it listens on a free port
+  ~SimPlc();
+  int port() const { return port_; }
+  // Stops answering (connections closed, nothing listening), and starts again: a restarted
+  // PLC has lost its registers.
+  void stop();
+  void start();
+
+  void belt(int lane, int64_t count);  // where the lane's encoder is now
+  struct Received {
+    Release release;
+    uint16_t sequence = 0;
+    int64_t belt = INT64_MIN;  // the lane's belt count when it arrived
+  };
+  std::vector<Received> received() const;
+  uint16_t heartbeat() const;
+  PackMl lane_state(int lane) const;
+  StateReason lane_reason(int lane) const;
+
+ private:
+  void serve();
+  void scan();  // new slots in the ring (under mu_)
+
+  PlcConfig cfg_;
+  int port_ = 0;
+  mutable std::mutex mu_;
+  std::vector<uint16_t> regs_;
+  std::vector<uint16_t> seen_;  // the sequence last taken from each slot
+  std::map<int, int64_t> belt_;
+  std::vector<Received> received_;
+  std::atomic<bool> stop_{false}, serving_{false};
+  std::thread thread_;
+};
+
+}  // namespace rangex::test

@@ -1,0 +1,187 @@
+// Positive release to a PLC over Modbus TCP: rangex's writer against a simulated PLC (a
+// libmodbus server in the test) whose belts the test moves.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "core/plant_config.h"
+#include "plc/plc_release.h"
+#include "sim_plc.h"
+#include "wait_until.h"
+
+using namespace rangex;
+using namespace rangex::test;
+
+namespace {
+
+// Two lanes of 0.4 mm lines, a gate 400 mm (1000 lines) past the X-ray plane, releases due
+// 20 mm (50 lines) before it: a fillet starting at line F is due by line F + 950.
+struct Rig {
+  PlantConfig plant = default_plant_config(2);
+  std::unique_ptr<SimPlc> plc;
+  std::mutex mu;
+  std::map<int, int64_t> belt;  // lane: encoder count now
+  std::vector<std::pair<std::string, std::string>> audit;
+  std::unique_ptr<PlcRelease> release;
+
+  Rig() {
+    plant.plc.reject_station_mm = 400;
+    plant.plc.margin_mm = 20;
+    plant.plc.heartbeat_ms = 20;
+    plant.plc.timeout_ms = 200;
+    plc = std::make_unique<SimPlc>(plant.plc);
+    plant.plc.address = "127.0.0.1:" + std::to_string(plc->port());
+    PlcHooks hooks;
+    hooks.lanes = [this] {
+      std::lock_guard<std::mutex> lk(mu);
+      std::vector<PlcLaneView> v;
+      for (const auto& [lane, count] : belt) {
+        PlcLaneView l;
+        l.lane = lane;
+        l.has_count = true;
+        l.belt_count = count;
+        l.state = PackMl::kExecute;
+        l.reason = StateReason::kNone;
+        v.push_back(l);
+      }
+      return v;
+    };
+    hooks.audit = [this](const std::string& what, const std::string& detail) {
+      std::lock_guard<std::mutex> lk(mu);
+      audit.emplace_back(what, detail);
+    };
+    move(0, 0);
+    move(1, 0);
+    release = std::make_unique<PlcRelease>(plant, hooks);
+    release->start();
+  }
+  void move(int lane, int64_t count) {
+    {
+      std::lock_guard<std::mutex> lk(mu);
+      belt[lane] = count;
+    }
+    plc->belt(lane, count);
+  }
+  int audited(const std::string& what) {
+    std::lock_guard<std::mutex> lk(mu);
+    int n = 0;
+    for (const auto& a : audit) n += a.first == what;
+    return n;
+  }
+  static Release fillet(int64_t uid, int lane, int64_t first, ReleaseCode code) {
+    return Release{uid, lane, first, first + 400, code};
+  }
+};
+
+}  // namespace
+
+TEST(PlcRelease, RegistersRoundTripAndAWrongCheckIsRefused) {
+  const Release r{70001, 3, 123456789, 123457189, ReleaseCode::kReject};
+  SlotRegisters s = release_registers(r);
+  Release back;
+  uint16_t seq = 0;
+  ASSERT_TRUE(decode_release(s, back, seq));
+  EXPECT_EQ(seq, release_sequence(70001));
+  EXPECT_EQ(back.lane, 3);
+  EXPECT_EQ(back.first_encoder, 123456789);
+  EXPECT_EQ(back.last_encoder, 123457189);
+  EXPECT_EQ(back.code, ReleaseCode::kReject);
+  s[4] ^= 1;  // a slot half written
+  EXPECT_FALSE(decode_release(s, back, seq));
+  // Sequences never take 0 ("nothing written") and rise with the uid across the wrap.
+  EXPECT_EQ(release_sequence(65535), 65535);
+  EXPECT_EQ(release_sequence(65536), 1);
+  EXPECT_NE(release_slot(5, 64), release_slot(6, 64));
+}
+
+TEST(PlcRelease, CleanFilletsInTimeAreReleasedAndTheRestDiverted) {
+  Rig rig;
+  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));
+  rig.move(0, 500);
+  rig.move(1, 500);
+  rig.release->decided(Rig::fillet(1, 0, 100, ReleaseCode::kPass));  // due by 1050
+  rig.release->decided(Rig::fillet(2, 1, 120, ReleaseCode::kReject));
+  rig.release->decided(Rig::fillet(3, 0, 300, ReleaseCode::kNotInspected));
+  ASSERT_TRUE(wait_until(10, [&] { return rig.plc->received().size() == 3; }));
+  const auto got = rig.plc->received();
+  EXPECT_EQ(got[0].release.code, ReleaseCode::kPass);
+  EXPECT_EQ(got[0].release.first_encoder, 100);
+  EXPECT_EQ(got[0].release.last_encoder, 500);
+  EXPECT_LT(got[0].belt, 100 + 950);  // arrived before its deadline
+  EXPECT_EQ(got[1].release.code, ReleaseCode::kReject);
+  EXPECT_EQ(got[1].release.lane, 1);
+  EXPECT_EQ(got[2].release.code, ReleaseCode::kNotInspected);
+  const PlcStatus s = rig.release->status();
+  EXPECT_EQ(s.released, 1u);
+  EXPECT_EQ(s.diverted, 2u);
+  EXPECT_EQ(s.late + s.unreleased, 0u);
+  // The heartbeat counts and the lanes' states are written.
+  const uint16_t beat = rig.plc->heartbeat();
+  EXPECT_TRUE(wait_until(5, [&] { return rig.plc->heartbeat() != beat; }));
+  EXPECT_EQ(rig.plc->lane_state(1), PackMl::kExecute);
+  EXPECT_EQ(s.lane_states.at(0), "execute");
+}
+
+TEST(PlcRelease, APassDecidedAfterItsDeadlineIsSentAsLateAndAudited) {
+  Rig rig;
+  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));
+  rig.move(0, 1100);  // past 100 + 950
+  rig.release->decided(Rig::fillet(7, 0, 100, ReleaseCode::kPass));
+  ASSERT_TRUE(wait_until(10, [&] { return rig.plc->received().size() == 1; }));
+  EXPECT_EQ(rig.plc->received()[0].release.code, ReleaseCode::kLate);
+  EXPECT_EQ(rig.release->status().late, 1u);
+  EXPECT_EQ(rig.release->status().released, 0u);
+  EXPECT_EQ(rig.audited("release.late"), 1);
+}
+
+TEST(PlcRelease, AnUnreachablePlcReleasesNothingAndCountsWhatItCouldNot) {
+  Rig rig;
+  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));
+  rig.plc->stop();  // the PLC goes away (and comes back without its registers)
+  rig.release->decided(Rig::fillet(11, 0, 100, ReleaseCode::kPass));
+  ASSERT_TRUE(wait_until(10, [&] { return !rig.release->status().connected; }));
+  EXPECT_FALSE(rig.release->status().error.empty());
+  rig.move(0, 1060);  // its deadline passes while the PLC is away
+  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().unreleased == 1; }));
+  EXPECT_EQ(rig.audited("release.unreleased"), 1);
+  EXPECT_EQ(rig.audited("plc.lost"), 1);
+  rig.plc->start();
+  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));
+  rig.release->decided(Rig::fillet(12, 0, 1000, ReleaseCode::kPass));
+  ASSERT_TRUE(wait_until(10, [&] { return rig.plc->received().size() == 1; }));
+  // Only the new fillet: the one that was due while the PLC was away is never sent as a pass.
+  EXPECT_EQ(rig.plc->received()[0].release.first_encoder, 1000);
+  EXPECT_EQ(rig.release->status().reconnects, 1u);
+  EXPECT_EQ(rig.audited("plc.connected"), 1);
+  // A restarted PLC has its lanes' states written again.
+  EXPECT_TRUE(wait_until(5, [&] { return rig.plc->lane_state(0) == PackMl::kExecute; }));
+}
+
+TEST(PlcRelease, APlcRestartedMidRunGetsEveryLaterReleaseOnce) {
+  Rig rig;
+  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));
+  int64_t uid = 0;
+  for (int k = 0; k < 20; ++k)
+    rig.release->decided(Rig::fillet(++uid, k % 2, 100 + k, ReleaseCode::kPass));
+  ASSERT_TRUE(wait_until(10, [&] { return rig.plc->received().size() == 20; }));
+  rig.plc->stop();
+  rig.plc->start();
+  for (int k = 0; k < 100; ++k)
+    rig.release->decided(Rig::fillet(++uid, k % 2, 200 + k, ReleaseCode::kPass));
+  ASSERT_TRUE(wait_until(20, [&] { return rig.release->status().pending == 0; }));
+  std::map<int64_t, int> times;  // (lane, first) released how often
+  for (const auto& r : rig.plc->received())
+    ++times[r.release.lane * 1000000 + r.release.first_encoder];
+  int twice = 0;
+  for (const auto& [k, n] : times) twice += n > 1;
+  EXPECT_EQ(twice, 0);
+  // Everything decided after the restart reached the PLC (the ring holds 64: it was read
+  // as it was written).
+  int after = 0;
+  for (const auto& r : rig.plc->received()) after += r.release.first_encoder >= 200;
+  EXPECT_EQ(after, 100);
+  EXPECT_EQ(rig.release->status().released, 120u);
+}
