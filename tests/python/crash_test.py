@@ -19,9 +19,16 @@ Checks:
 - the feeder resent what the server had not made durable (lines the server had are answered
   DUPLICATE; the checks above show none was decided again).
 
+With SIM_PLC (tests/sim_plc_main.cpp), each crash run releases to that simulated PLC over
+Modbus TCP (plant.yaml plc), and:
+- no fillet reached the PLC twice across the kills;
+- every release the PLC took is a stored decision, with its decision (a pass may be late);
+- the PLC was told the lanes stopped at the end.
+A pass decided just before a kill and not yet sent never reaches the PLC: the PLC diverts it.
+
 Every wait is bounded.
 
-usage: crash_test.py RANGEXD RANGEXCTL [KILLS] [SEED[,SEED...]] [KILL|TERM]
+usage: crash_test.py RANGEXD RANGEXCTL [KILLS] [SEED[,SEED...]] [KILL|TERM] [SIM_PLC]
 """
 import os
 import random
@@ -41,6 +48,7 @@ rangexd, rangexctl = sys.argv[1:3]
 kills = int(sys.argv[3]) if len(sys.argv) > 3 else 3
 seeds = [int(x) for x in sys.argv[4].split(",")] if len(sys.argv) > 4 else [14]
 how = sys.argv[5] if len(sys.argv) > 5 else "KILL"
+sim_plc = sys.argv[6] if len(sys.argv) > 6 else None
 if how not in ("KILL", "TERM"):
     fail("the last argument is KILL or TERM (got %s)" % how)
 signal.alarm(150 + 200 * len(seeds))  # the whole test, whatever hangs
@@ -57,11 +65,13 @@ def free_port():
 class Server:
     def __init__(self, data, port):
         self.data, self.addr, self.proc, self.log = data, "127.0.0.1:%d" % port, None, []
+        self.config = None  # a plant.yaml of its own (with a PLC); None: RANGEX_CONFIG
 
     def start(self):
         err = open(os.path.join(tmp, "rangexd.log"), "a")
+        extra = ["--config", self.config] if self.config else []
         self.proc = subprocess.Popen([rangexd, "--listen", self.addr, "--http", "off",
-                                      "--backend", "cpu", "--data", self.data],
+                                      "--backend", "cpu", "--data", self.data] + extra,
                                      stdout=subprocess.DEVNULL, stderr=err)
         end = time.time() + 30
         while time.time() < end:
@@ -129,9 +139,62 @@ reference = fillets(ref.data)
 check(len(reference) >= 8, "the reference run decided %d fillets" % len(reference))
 
 # --- the crash runs --------------------------------------------------------------------------
+class Plc:
+    """The simulated PLC process: its port, then what it took when its stdin closes."""
+
+    def __init__(self, name):
+        portfile = os.path.join(tmp, name + ".port")
+        self.proc = subprocess.Popen([sim_plc, portfile], stdin=subprocess.PIPE,
+                                     stdout=subprocess.PIPE, text=True)
+        end = time.time() + 30
+        while not os.path.exists(portfile):
+            if time.time() > end or self.proc.poll() is not None:
+                fail("the simulated PLC did not start")
+            time.sleep(0.05)
+        self.port = int(open(portfile).read())
+
+    def config(self, name):
+        """RANGEX_CONFIG with this PLC."""
+        path = os.path.join(tmp, name + "-plant.yaml")
+        with open(os.environ["RANGEX_CONFIG"]) as f, open(path, "w") as out:
+            out.write(f.read() + "\nplc:\n  address: 127.0.0.1:%d\n" % self.port)
+        return path
+
+    def finish(self):
+        out, _ = self.proc.communicate(input="", timeout=30)
+        releases = [tuple(int(x) for x in l.split()[1:]) for l in out.splitlines()
+                    if l.startswith("release ")]
+        states = [tuple(int(x) for x in l.split()[1:]) for l in out.splitlines()
+                  if l.startswith("state ")]
+        return releases, states
+
+
+def check_releases(plc, stored):
+    """What the simulated PLC took against what the store decided."""
+    releases, states = plc.finish()
+    keys = [(r[0], r[1]) for r in releases]
+    twice = sorted({k for k in keys if keys.count(k) > 1})
+    check(releases and not twice, "no fillet reached the PLC twice across the kills "
+          "(%d releases; twice: %s)" % (len(releases), twice[:5]))
+    by_key = {(f[1], f[2] & 0xffffffff): f[4] for f in stored}
+    codes = {"pass": (1, 4), "reject": (2,), "not_inspected": (3,)}
+    wrong = [r for r in releases if r[3] not in codes.get(by_key.get((r[0], r[1])), ())]
+    check(not wrong, "every release is a stored decision, as decided (%s)" % wrong[:5])
+    passes = [k for k, d in by_key.items() if d == "pass"]
+    sent = set(keys)
+    print("the PLC took %d releases; %d of %d passes released (the rest, decided just before a "
+          "kill, diverted); %d late" % (len(releases), sum(k in sent for k in passes),
+                                         len(passes), sum(r[3] == 4 for r in releases)))
+    stopped = [s for s in states if s[0] in (0, 1) and s[1:] != (2, 4)]
+    check(not stopped, "the PLC was told the lanes stopped (%s)" % stopped)
+
+
 def crash_run(seed):
     rng = random.Random(seed)
     server = Server(os.path.join(tmp, "crash-%d" % seed), free_port())
+    plc = Plc("plc-%d" % seed) if sim_plc else None
+    if plc:
+        server.config = plc.config("crash-%d" % seed)
     server.start()
     cal = os.path.join(tmp, "crash-cal.yaml")
     with open(cal, "w") as f:  # the shipped geometry under a new id: decisions comparable
@@ -229,6 +292,8 @@ def crash_run(seed):
     check(not lost and not extra,
           "the store holds the reference run's %d fillets with their decisions (lost %s, other %s)"
           % (len(want), lost[:4], extra[:4]))
+    if plc:
+        check_releases(plc, stored)
     print("crash_test: all checks passed (seed %d, %d %s, %d decisions seen)"
           % (seed, done_kills, "kills" if how == "KILL" else "stops", len(seen)), flush=True)
 
