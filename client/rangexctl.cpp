@@ -78,6 +78,14 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
   token --name NAME --role viewer|operator|engineer|admin [--out FILE]
       a new bearer token, and the line (its SHA-256) that grants it in plant.yaml
 
+a line without a line (until SIGINT/SIGTERM; docs/sensors.md, docs/plc.md):
+  plc-sim [--port P] [--port-file F] [--list]
+      a simulated PLC taking rangexd's releases over Modbus TCP with plant.yaml's register
+      map (the port from --port, else plc.address); --list: every release at the end
+  fake-lane RECORDING --addresses CAM0,CAM1,XRAY [--lane L] [--period-us 10000] [--lead 200]
+      a lane's three GigE Vision devices (Aravis fake cameras on loopback addresses, added
+      to lo) serving the recording's frames, pulsed in step by an encoder of their own
+
 server commands (--server HOST:PORT, default: plant.yaml's listen address; over TLS:
   --ca CA.pem [--cert C.pem --key K.pem] [--token-file F] [--tls-name NAME], or
   RANGEX_CA, RANGEX_CERT, RANGEX_KEY, RANGEX_TOKEN / RANGEX_TOKEN_FILE):
@@ -132,6 +140,8 @@ int main(int argc, char** argv) {
       return run_bench_binary(argv);
     if (!std::strcmp(cmd, "audit")) return cmd_audit(argc, argv);
     if (!std::strcmp(cmd, "token")) return cmd_token(argc, argv);
+    if (!std::strcmp(cmd, "plc-sim")) return cmd_plc_sim(argc, argv);
+    if (!std::strcmp(cmd, "fake-lane")) return cmd_fake_lane(argc, argv);
     std::fprintf(stderr, "rangexctl: unknown command '%s'\n\n%s", cmd, kUsage);
     return 2;
   });

@@ -16,14 +16,14 @@
 
 #include "core/plant_config.h"
 #include "core/recording.h"
-#include "fake_gige.h"
 #include "offline/replay.h"
+#include "plc/plc_simulator.h"
 #include "rangex/v1/decision_names.h"
 #include "rangex/v1/rangex.grpc.pb.h"
+#include "sensors/fake_devices.h"
 #include "server_client.h"
 #include "service/server.h"
 #include "sim/plant_simulator.h"
-#include "sim_plc.h"
 #include "temp_dir.h"
 #include "wait_until.h"
 

@@ -9,7 +9,7 @@
 
 #include "core/plant_config.h"
 #include "plc/plc_release.h"
-#include "sim_plc.h"
+#include "plc/plc_simulator.h"
 #include "wait_until.h"
 
 using namespace rangex;

@@ -19,7 +19,7 @@ Checks:
 - the feeder resent what the server had not made durable (lines the server had are answered
   DUPLICATE; the checks above show none was decided again).
 
-With SIM_PLC (tests/sim_plc_main.cpp), each crash run releases to that simulated PLC over
+With PLC (the word), each crash run releases to that simulated PLC over
 Modbus TCP (plant.yaml plc), and:
 - no fillet reached the PLC twice across the kills;
 - every release the PLC took is a stored decision, with its decision (a pass may be late);
@@ -28,7 +28,7 @@ A pass decided just before a kill and not yet sent never reaches the PLC: the PL
 
 Every wait is bounded.
 
-usage: crash_test.py RANGEXD RANGEXCTL [KILLS] [SEED[,SEED...]] [KILL|TERM] [SIM_PLC]
+usage: crash_test.py RANGEXD RANGEXCTL [KILLS] [SEED[,SEED...]] [KILL|TERM] [PLC]
 """
 import os
 import random
@@ -48,7 +48,7 @@ rangexd, rangexctl = sys.argv[1:3]
 kills = int(sys.argv[3]) if len(sys.argv) > 3 else 3
 seeds = [int(x) for x in sys.argv[4].split(",")] if len(sys.argv) > 4 else [14]
 how = sys.argv[5] if len(sys.argv) > 5 else "KILL"
-sim_plc = sys.argv[6] if len(sys.argv) > 6 else None
+with_plc = len(sys.argv) > 6 and sys.argv[6] == "PLC"
 if how not in ("KILL", "TERM"):
     fail("the last argument is KILL or TERM (got %s)" % how)
 signal.alarm(150 + 200 * len(seeds))  # the whole test, whatever hangs
@@ -140,12 +140,12 @@ check(len(reference) >= 8, "the reference run decided %d fillets" % len(referenc
 
 # --- the crash runs --------------------------------------------------------------------------
 class Plc:
-    """The simulated PLC process: its port, then what it took when its stdin closes."""
+    """`rangexctl plc-sim`: its port, then what it took when it is stopped."""
 
     def __init__(self, name):
         portfile = os.path.join(tmp, name + ".port")
-        self.proc = subprocess.Popen([sim_plc, portfile], stdin=subprocess.PIPE,
-                                     stdout=subprocess.PIPE, text=True)
+        self.proc = subprocess.Popen([rangexctl, "plc-sim", "--port-file", portfile, "--list",
+                                      "--every", "3600"], stdout=subprocess.PIPE, text=True)
         end = time.time() + 30
         while not os.path.exists(portfile):
             if time.time() > end or self.proc.poll() is not None:
@@ -161,11 +161,12 @@ class Plc:
         return path
 
     def finish(self):
-        out, _ = self.proc.communicate(input="", timeout=30)
-        releases = [tuple(int(x) for x in l.split()[1:]) for l in out.splitlines()
-                    if l.startswith("release ")]
-        states = [tuple(int(x) for x in l.split()[1:]) for l in out.splitlines()
-                  if l.startswith("state ")]
+        self.proc.send_signal(signal.SIGTERM)
+        out, _ = self.proc.communicate(timeout=30)
+        releases = [(int(f[1]), int(f[2]), int(f[3]), f[4], int(f[5]))
+                    for f in (l.split() for l in out.splitlines()) if f[0] == "release"]
+        states = [(int(f[1]), f[2], int(f[3]))
+                  for f in (l.split() for l in out.splitlines()) if f[0] == "state"]
         return releases, states
 
 
@@ -177,22 +178,22 @@ def check_releases(plc, stored):
     check(releases and not twice, "no fillet reached the PLC twice across the kills "
           "(%d releases; twice: %s)" % (len(releases), twice[:5]))
     by_key = {(f[1], f[2] & 0xffffffff): f[4] for f in stored}
-    codes = {"pass": (1, 4), "reject": (2,), "not_inspected": (3,)}
+    codes = {"pass": ("pass", "late"), "reject": ("reject",), "not_inspected": ("not_inspected",)}
     wrong = [r for r in releases if r[3] not in codes.get(by_key.get((r[0], r[1])), ())]
     check(not wrong, "every release is a stored decision, as decided (%s)" % wrong[:5])
     passes = [k for k, d in by_key.items() if d == "pass"]
     sent = set(keys)
     print("the PLC took %d releases; %d of %d passes released (the rest, decided just before a "
           "kill, diverted); %d late" % (len(releases), sum(k in sent for k in passes),
-                                         len(passes), sum(r[3] == 4 for r in releases)))
-    stopped = [s for s in states if s[0] in (0, 1) and s[1:] != (2, 4)]
+                                         len(passes), sum(r[3] == "late" for r in releases)))
+    stopped = [s for s in states if s[0] in (0, 1) and s[1:] != ("stopped", 4)]
     check(not stopped, "the PLC was told the lanes stopped (%s)" % stopped)
 
 
 def crash_run(seed):
     rng = random.Random(seed)
     server = Server(os.path.join(tmp, "crash-%d" % seed), free_port())
-    plc = Plc("plc-%d" % seed) if sim_plc else None
+    plc = Plc("plc-%d" % seed) if with_plc else None
     if plc:
         server.config = plc.config("crash-%d" % seed)
     server.start()

@@ -1,6 +1,8 @@
-// A PLC for tests: a Modbus TCP server (libmodbus) on loopback holding the registers rangex
+// A simulated PLC: a Modbus TCP server (libmodbus) on loopback holding the registers rangex
 // writes, reading its ring of releases as a PLC program would (docs/plc.md), each release
-// noted with where the lane's belt was when it arrived. The test moves the belts.
+// noted with where the lane's belt was when it arrived; whoever runs it moves the belts. For
+// the tests, the bench, the demo and an integrator's dry run (`rangexctl plc-sim`); and the
+// reference for a PLC program's reading of the ring.
 #pragma once
 #include <atomic>
 #include <cstdint>
@@ -12,11 +14,12 @@
 #include "core/plc_config.h"
 #include "plc/release_registers.h"
 
-namespace rangex::test {
+namespace rangex {
 
 class SimPlc {
  public:
-  explicit SimPlc(const PlcConfig& cfg);  // cfg.address is ignored: it listens on a free port
+  // Listens on 127.0.0.1:`port` (0: a free port) with cfg's register map.
+  explicit SimPlc(const PlcConfig& cfg, int port = 0);
   ~SimPlc();
   int port() const { return port_; }
   // Stops answering (connections closed, nothing listening), and starts again: a restarted
@@ -50,4 +53,4 @@ class SimPlc {
   std::thread thread_;
 };
 
-}  // namespace rangex::test
+}  // namespace rangex

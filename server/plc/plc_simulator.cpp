@@ -1,4 +1,4 @@
-#include "sim_plc.h"
+#include "plc/plc_simulator.h"
 
 #include <modbus/modbus.h>
 #include <netinet/in.h>
@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace rangex::test {
+namespace rangex {
 
 namespace {
 
@@ -29,8 +29,11 @@ int free_port() {
 
 }  // namespace
 
-SimPlc::SimPlc(const PlcConfig& cfg)
-    : cfg_(cfg), port_(free_port()), regs_(65536, 0), seen_(size_t(cfg.ring_slots), 0) {
+SimPlc::SimPlc(const PlcConfig& cfg, int port)
+    : cfg_(cfg),
+      port_(port > 0 ? port : free_port()),
+      regs_(65536, 0),
+      seen_(size_t(cfg.ring_slots), 0) {
   start();
 }
 
@@ -143,4 +146,4 @@ StateReason SimPlc::lane_reason(int lane) const {
   return StateReason(regs_[size_t(cfg_.lane_state_base + 2 * lane + 1)]);
 }
 
-}  // namespace rangex::test
+}  // namespace rangex

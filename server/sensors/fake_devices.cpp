@@ -1,4 +1,4 @@
-#include "fake_gige.h"
+#include "sensors/fake_devices.h"
 
 #include <arpa/inet.h>
 #include <arv.h>
@@ -13,7 +13,7 @@
 #include <set>
 #include <stdexcept>
 
-namespace rangex::test {
+namespace rangex {
 
 namespace {
 
@@ -187,4 +187,4 @@ std::string FakeDevice::genicam_xml() {
   return out;
 }
 
-}  // namespace rangex::test
+}  // namespace rangex

@@ -1,6 +1,8 @@
-// GigE Vision devices for tests: Aravis's ArvGvFakeCamera in the test process, each on its own
-// loopback address (GVCP listens on port 3956, so one device per address), serving the frames
-// of a recording. rangexd connects to them over GVCP/GVSP as it would to a camera.
+// GigE Vision devices without a line: Aravis's ArvGvFakeCamera in this process, each on its
+// own loopback address (GVCP listens on port 3956, so one device per address), serving the
+// frames of a recording, pulsed by an encoder of their own. rangexd connects to them over
+// GVCP/GVSP as it would to a camera. For the tests, the demo and an integrator's dry run of
+// a plant.yaml (`rangexctl fake-lane`).
 #pragma once
 #include <atomic>
 #include <cstdint>
@@ -13,7 +15,7 @@
 
 #include "core/recording.h"
 
-namespace rangex::test {
+namespace rangex {
 
 // Adds the addresses `lo` lacks (ip addr add A/32 dev lo) and removes them afterwards. Needs
 // root (or sudo without a password); error() says why not.
@@ -96,4 +98,4 @@ class FakeEncoder {
   std::thread thread_;
 };
 
-}  // namespace rangex::test
+}  // namespace rangex
