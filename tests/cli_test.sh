@@ -61,8 +61,15 @@ pid=$!
 for _ in $(seq 100); do grep -q "listening on" "$work/rangexd.log" && break; sleep 0.1; done
 addr=$(sed -nE 's/.*listening on ([0-9.]+:[0-9]+).*/\1/p' "$work/rangexd.log")
 check "rangexd listens on loopback ($addr)" grep -q "^127.0.0.1:" <<<"$addr"
+"$ctl" record start --server "$addr" --lanes 0 --minutes 5 --name cli-shift >/dev/null || fails=$((fails + 1))
 "$ctl" feed --server "$addr" --simulate --lanes 2 --fillets 1 --seed 3 >"$work/feed.txt" || fails=$((fails + 1))
 check "feed accepted every line" grep -q ", 0 refused" "$work/feed.txt"
+"$ctl" record stop --server "$addr" >"$work/record.txt" || fails=$((fails + 1))
+check "the shift recorded lane 0's lines" grep -qE "ended: [1-9][0-9]* lines" "$work/record.txt"
+expect_error "a second stop" "no recording is running" "$ctl" record stop --server "$addr"
+"$ctl" process "$work/data/recordings/cli-shift/lane0" --out "$work/shift-out" --images none \
+  >"$work/shift.txt" 2>&1 || fails=$((fails + 1))
+check "the recorded shift replays" grep -q "^lane 0: .* 1 fillets" "$work/shift.txt"
 "$ctl" status --server "$addr" >"$work/status.txt" || fails=$((fails + 1))
 check "status shows latencies" grep -q "latency last_line_to_decision" "$work/status.txt"
 "$ctl" lanes --server "$addr" >"$work/lanes.txt" || fails=$((fails + 1))

@@ -392,6 +392,66 @@ TEST(Server, ActivationIsGatedByTheCalibrationReport) {
   EXPECT_TRUE(forced);
 }
 
+// A shift recorded on the server replays, with rangexctl process's replay, to the decisions
+// the server made; one that would not fit the disk is refused before it starts.
+TEST(Server, AShiftRecordedOnTheServerReplaysToItsDecisions) {
+  test::TempDir t;
+  const PlantConfig p = plant();
+  const Lines lane0(p, 2, 3, 0);
+  RangexServer server(p, options(t));
+  auto control = pb::ControlService::NewStub(connect(server));
+  {
+    grpc::ClientContext ctx;
+    pb::StartRecordingRequest req;
+    req.add_lanes(0);
+    req.set_minutes(5);
+    req.set_name("shift-a");
+    pb::StartRecordingResponse resp;
+    ASSERT_TRUE(control->StartRecording(&ctx, req, &resp).ok());
+    EXPECT_TRUE(resp.recording().active());
+    grpc::ClientContext again;
+    const grpc::Status twice = control->StartRecording(&again, req, &resp);
+    EXPECT_EQ(twice.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << twice.error_message();
+  }
+  const auto acks = stream(connect(server), lane0.lines);
+  for (const auto& a : acks) ASSERT_TRUE(a.accepted()) << a.error().message();
+  pb::RecordingStatus rec;
+  {
+    grpc::ClientContext ctx;
+    pb::StopRecordingResponse resp;
+    ASSERT_TRUE(control->StopRecording(&ctx, {}, &resp).ok());
+    rec = resp.recording();
+  }
+  EXPECT_FALSE(rec.active());
+  EXPECT_EQ(rec.lines(), lane0.lines.size());
+  EXPECT_EQ(rec.left_out(), 0u);
+  {
+    // A day of every lane at the rate just seen does not fit this disk: refused, naming why.
+    grpc::ClientContext ctx;
+    pb::StartRecordingRequest req;
+    req.set_minutes(1440);
+    pb::StartRecordingResponse resp;
+    const grpc::Status st = control->StartRecording(&ctx, req, &resp);
+    EXPECT_EQ(st.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << st.error_message();
+    EXPECT_NE(st.error_message().find("MB free"), std::string::npos) << st.error_message();
+  }
+  server.shutdown();
+  const RecordingReader recorded(rec.dir() + "/lane0");
+  EXPECT_EQ(recorded.info().lines, int64_t(lane0.lines.size()));
+  const auto offline = replay_recording(recorded, p, {});
+  const auto online = all_fillets(server.store());
+  ASSERT_EQ(online.size(), offline[0].fillets.size());
+  ASSERT_GE(online.size(), 2u);
+  for (size_t i = 0; i < online.size(); ++i) {
+    EXPECT_EQ(online[i].decision, decision_name(offline[0].fillets[i].result.decision));
+    EXPECT_EQ(online[i].first_encoder, offline[0].fillets[i].result.first_encoder);
+  }
+  int audited = 0;
+  for (const AuditEntry& e : server.store().audit_entries(1000))
+    audited += e.what == "recording.start" || e.what == "recording.end";
+  EXPECT_EQ(audited, 2);
+}
+
 TEST(Server, RestartKeepsResultsAndCalibrations) {
   test::TempDir t;
   const PlantConfig p = plant();

@@ -32,6 +32,11 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
                   if (opt_.on_decided) opt_.on_decided(s);
                 }),
       queue_(plant_.lanes.size()) {
+  shift_ = std::make_unique<ShiftRecorder>(
+      plant_, store_.dir(), opt_.store_reserve_mb,
+      [this](const std::string& who, const std::string& what, const std::string& detail) {
+        store_.audit(who, what, detail);
+      });
   for (const LaneConfig& lc : plant_.lanes) {
     auto l = std::make_unique<Lane>(lc, opt_, lanes_.size());
     l->calibration_id = plant_.calibration_id;

@@ -48,6 +48,7 @@
 #include "service/latency_stats.h"
 #include "service/line_codes.h"
 #include "service/results_hub.h"
+#include "service/shift_recorder.h"
 #include "service/store.h"
 
 namespace rangex {
@@ -89,6 +90,7 @@ struct EngineStats {
   std::string backend_note;           // why that one (a choice of auto, a fallback)
   StageRunnerStats batches;           // batches, verified on the CPU, mismatches, failures
   std::optional<PlcStatus> plc;       // with a PLC (plant.yaml plc)
+  RecordingStatus recording;          // the shift recording running or last ended
 };
 
 // What a stop does with the fillets still coming in: the end of a recording closes them (one
@@ -204,6 +206,10 @@ class Engine {
   void set_sensor_states(std::function<std::vector<LaneSensors>()> states);
   // Where statistics, lane states and warnings read the PLC link's status from.
   void set_plc_status(std::function<PlcStatus()> status);
+  // A shift recorded on the server (shift_recorder.h): the lanes' accepted lines written as
+  // recordings in <data>/recordings/NAME. start refuses what would not fit the disk.
+  RecordingStatus start_recording(const RecordingRequest& req, const std::string& who);
+  RecordingStatus stop_recording(const std::string& who);
   EngineStats stats();
   Health health();
   const PlantConfig& plant() const { return plant_; }
@@ -329,6 +335,7 @@ class Engine {
   mutable std::mutex sensors_mu_;  // leaf: the provider below
   std::function<std::vector<LaneSensors>()> sensor_states_;
   std::function<PlcStatus()> plc_status_;  // sensors_mu_
+  std::unique_ptr<ShiftRecorder> shift_;
   LaneQueues queue_;
   bool stopping_ = false, paused_ = false;
   OpenFillets at_stop_ = OpenFillets::kClose;  // mu_; read by the worker once it stops

@@ -1,6 +1,7 @@
 // Admission: each line checked against its lane (size, count, calibration) and queued, or
 // refused with a code and a message; the feeder's credit and durable count come back with it.
 #include <algorithm>
+#include <optional>
 
 #include "core/error.h"
 #include "service/engine.h"
@@ -49,6 +50,10 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
   ++l->received;
   if (auto bad = check_line_shape({l->id, l->width, l->height, l->pixels}, line))
     return refuse(l, bad->code, std::move(bad->message), queued_.load());
+
+  // A shift recording takes its copy here, outside the lock, and keeps it if the line is taken.
+  std::optional<ShiftRecorder::Line> recorded;
+  if (shift_->wants(l->id)) recorded = ShiftRecorder::copy(line);
 
   // The checks against the lane's state and the update of that state are one step under
   // mu_: two streams on one lane can never both be accepted for a count.
@@ -108,6 +113,7 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
     v.durable = l->durable_saved;
   }
   cv_.notify_one();
+  if (recorded) shift_->offer(std::move(*recorded));
   return v;
 }
 

@@ -20,6 +20,18 @@ void Engine::set_sensor_states(std::function<std::vector<LaneSensors>()> states)
   sensor_states_ = std::move(states);
 }
 
+RecordingStatus Engine::start_recording(const RecordingRequest& req, const std::string& who) {
+  // Each lane's rate now, for the estimate: the plant's lines/s over the lanes fed.
+  const EngineStats s = stats();
+  int fed = 0;
+  for (const LaneState& l : lanes()) fed += l.fed;
+  return shift_->start(req, fed ? s.lines_per_second / fed : 0, who);
+}
+
+RecordingStatus Engine::stop_recording(const std::string& who) {
+  return shift_->stop(who, "stopped by " + who);
+}
+
 void Engine::set_plc_status(std::function<PlcStatus()> status) {
   std::lock_guard<std::mutex> lock(sensors_mu_);
   plc_status_ = std::move(status);

@@ -75,6 +75,10 @@ EngineStats Engine::stats() {
           if (d.state != "streaming")
             s.warnings.push_back(join("lane ", ls.lane, " ", d.role, " (", d.device, ") ", d.state,
                                       d.error.empty() ? "" : ": " + d.error));
+    s.recording = shift_->status();
+    if (s.recording.active && s.recording.left_out)
+      s.warnings.push_back(join("recording ", s.recording.name, ": ", s.recording.left_out,
+                                " lines left out (the disk is slower than the lanes)"));
     if (plc_status_) {
       s.plc = plc_status_();
       // Lanes go on inspecting and storing; the PLC diverts what it is not told to release.

@@ -123,7 +123,23 @@ void fill(pb::LaneInfo* o, const LaneState& s) {
   }
 }
 
+void fill(pb::RecordingStatus* o, const RecordingStatus& r) {
+  o->set_active(r.active);
+  o->set_name(r.name);
+  o->set_dir(r.dir);
+  for (int l : r.lanes) o->add_lanes(l);
+  o->set_minutes(r.minutes);
+  o->set_started_unix_ns(r.started_unix_ns);
+  o->set_lines(r.lines);
+  o->set_left_out(r.left_out);
+  o->set_bytes(r.bytes);
+  o->set_budget_bytes(r.budget_bytes);
+  o->set_estimate_bytes(r.estimate_bytes);
+  o->set_ended(r.ended);
+}
+
 void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
+  if (!s.recording.name.empty()) fill(o->mutable_recording(), s.recording);
   if (s.plc) {
     pb::PlcStatus* p = o->mutable_plc();
     p->set_address(s.plc->address);

@@ -230,6 +230,24 @@ class ControlImpl final : public pb::ControlService::Service {
       return Status::OK;
     });
   }
+  Status StartRecording(ServerContext* ctx, const pb::StartRecordingRequest* req,
+                        pb::StartRecordingResponse* resp) override {
+    return guarded(access_, ctx, Role::operator_, "StartRecording", [&](const Identity& who) {
+      RecordingRequest r;
+      r.lanes.assign(req->lanes().begin(), req->lanes().end());
+      r.minutes = req->minutes();
+      r.name = req->name();
+      fill(resp->mutable_recording(), engine_.start_recording(r, who.name));
+      return Status::OK;
+    });
+  }
+  Status StopRecording(ServerContext* ctx, const pb::StopRecordingRequest*,
+                       pb::StopRecordingResponse* resp) override {
+    return guarded(access_, ctx, Role::operator_, "StopRecording", [&](const Identity& who) {
+      fill(resp->mutable_recording(), engine_.stop_recording(who.name));
+      return Status::OK;
+    });
+  }
   Status UploadLearnedSettings(ServerContext* ctx, const pb::UploadLearnedSettingsRequest* req,
                                pb::UploadLearnedSettingsResponse* resp) override {
     return guarded(access_, ctx, Role::engineer, "UploadLearnedSettings", [&](const Identity& who) {
