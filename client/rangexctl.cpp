@@ -66,6 +66,11 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
       the latency from a fillet's last line to its decision (--rate: lines/s per lane;
       --seconds: a long run, resident memory by minute; --path: the server's stages)
 
+  bench-gige [--fillets 3] [--period-us 2000]
+      a lane over GigE Vision (fake devices in a process of their own, root for their
+      loopback addresses) against the replay of the same recording: CPU time a line, lines/s,
+      bytes copied a line
+
   soak [--minutes 30] [--lanes 4] [--rate 600] [--backend NAME]
       rangexd fed a simulated plant at a fixed rate with a subscriber and queries: per minute
       lines, decisions, fail-safe rejects, decision p50/p99 and resident memory; lines lost
@@ -139,7 +144,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "lanes")) return cmd_lanes(argc, argv);
     if (!std::strcmp(cmd, "learned")) return cmd_learned(argc, argv);
     if (!std::strcmp(cmd, "bench") || !std::strcmp(cmd, "bench-server") ||
-        !std::strcmp(cmd, "soak"))
+        !std::strcmp(cmd, "bench-gige") || !std::strcmp(cmd, "soak"))
       return run_bench_binary(argv);
     if (!std::strcmp(cmd, "audit")) return cmd_audit(argc, argv);
     if (!std::strcmp(cmd, "token")) return cmd_token(argc, argv);

@@ -9,8 +9,9 @@
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fputs("usage: rangex-bench bench|bench-server|soak [options] (see rangexctl --help)\n",
-               stderr);
+    std::fputs(
+        "usage: rangex-bench bench|bench-server|bench-gige|soak [options] (see rangexctl --help)\n",
+        stderr);
     return 2;
   }
   using namespace rangex::cli;
@@ -19,7 +20,10 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "bench")) return cmd_bench(argc, argv);
     if (!std::strcmp(cmd, "bench-server")) return cmd_bench_server(argc, argv);
     if (!std::strcmp(cmd, "soak")) return cmd_soak(argc, argv);
-    std::fprintf(stderr, "rangex-bench: unknown command '%s' (bench, bench-server, soak)\n", cmd);
+    if (!std::strcmp(cmd, "bench-gige")) return cmd_bench_gige(argc, argv);
+    std::fprintf(stderr,
+                 "rangex-bench: unknown command '%s' (bench, bench-server, bench-gige, soak)\n",
+                 cmd);
     return 2;
   });
 }
