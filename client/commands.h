@@ -28,6 +28,7 @@ int cmd_audit(int argc, char** argv);
 int cmd_token(int argc, char** argv);
 int cmd_plc_sim(int argc, char** argv);
 int cmd_record(int argc, char** argv);
+int cmd_verify(int argc, char** argv);
 int cmd_fake_lane(int argc, char** argv);
 
 // bench, bench-server and soak run in rangex-bench (client/bench/), which holds a server in

@@ -109,6 +109,9 @@ server commands (--server HOST:PORT, default: plant.yaml's listen address; over 
   record start [--lanes 0,1] --minutes N [--name NAME]  |  record stop  |  record status
       record a shift on the server (<data>/recordings/NAME/laneL, one recording a lane, for
       `process`); refused when its minutes at the lanes' rate would not fit the disk
+  verify start --lane L --piece NAME --x-mm X [--tolerance-mm T] [--fillets N]  |  verify list
+      a verification run (HACCP): the lane's next fillets must show the declared test piece
+      where it was placed; pass or fail is audited with who, when and the fillet's images
   lanes  |  lanes set --lane L [--z-threshold Z] [--min-area-mm2 A] [--floor-mm F]
   learned upload --lane L --id ID --file PLANT.yaml [--report R.json]  (learn's output)
   learned list [--lane L] [--full]  |  learned activate --lane L --id ID [--force]
@@ -150,6 +153,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "token")) return cmd_token(argc, argv);
     if (!std::strcmp(cmd, "plc-sim")) return cmd_plc_sim(argc, argv);
     if (!std::strcmp(cmd, "record")) return cmd_record(argc, argv);
+    if (!std::strcmp(cmd, "verify")) return cmd_verify(argc, argv);
     if (!std::strcmp(cmd, "fake-lane")) return cmd_fake_lane(argc, argv);
     std::fprintf(stderr, "rangexctl: unknown command '%s'\n\n%s", cmd, kUsage);
     return 2;

@@ -317,3 +317,38 @@ TEST(PlantConfig, LaneSourcesAreReadAndChecked) {
                 .find("unknown key 'mtu'"),
             std::string::npos);
 }
+
+TEST(PlantConfig, PlcAndVerificationSectionsAreReadAndChecked) {
+  const PlantConfig p = parse_plant_config(
+      "plc: {address: 10.0.0.2:502, reject_station_mm: 800, margin_mm: 30}\n"
+      "verification: {every_h: 4, fillets: 3, tolerance_mm: 8}\n"
+      "lanes: [{id: 0}]\n",
+      "test");
+  EXPECT_TRUE(p.plc.enabled());
+  EXPECT_EQ(p.plc.reject_station_mm, 800);
+  EXPECT_EQ(p.plc.ring_base, 200);  // the documented default map
+  EXPECT_EQ(p.verification.every_h, 4);
+  EXPECT_EQ(p.verification.fillets, 3);
+  EXPECT_FALSE(parse_plant_config("lanes: [{id: 0}]\n", "t").plc.enabled());
+  auto error_of = [](const std::string& text) {
+    try {
+      parse_plant_config(text, "t");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(error_of("plc: {address: plc.local}\nlanes: [{id: 0}]\n").find("host:port"),
+            std::string::npos);
+  EXPECT_NE(error_of("plc: {address: a:1, margin_mm: 2000}\nlanes: [{id: 0}]\n")
+                .find("plc.margin_mm: must be >= 0 and less than reject_station_mm"),
+            std::string::npos);
+  EXPECT_NE(error_of("plc: {address: a:1, ring_base: 20}\nlanes: [{id: 0}]\n").find("overlap"),
+            std::string::npos);
+  EXPECT_NE(error_of("plc: {address: a:1}\nlanes: [{id: 64}]\n").find("lane ids go up to 63"),
+            std::string::npos);
+  EXPECT_NE(error_of("verification: {every_h: -1}\nlanes: [{id: 0}]\n").find("every_h"),
+            std::string::npos);
+  EXPECT_NE(error_of("verification: {fillets: 0}\nlanes: [{id: 0}]\n").find("fillets"),
+            std::string::npos);
+}

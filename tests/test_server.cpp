@@ -20,6 +20,7 @@
 #include "service/server.h"
 #include "sim/plant_simulator.h"
 #include "temp_dir.h"
+#include "wait_until.h"
 
 using namespace rangex;
 using namespace rangex::test;
@@ -31,7 +32,15 @@ PlantConfig plant() {
   return load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml");
 }
 
-ServerOptions options(const test::TempDir& t, size_t queue = 2048) {
+ServerOptions options(const test::TempDir& t, size_t queue = 2048);
+// The same with the store in t/`sub`.
+ServerOptions options(const test::TempDir& t, const std::string& sub) {
+  ServerOptions o = options(t);
+  o.data_dir = t.str(sub);
+  return o;
+}
+
+ServerOptions options(const test::TempDir& t, size_t queue) {
   ServerOptions o;
   o.listen = "127.0.0.1:0";
   o.data_dir = t.str("data");
@@ -450,6 +459,71 @@ TEST(Server, AShiftRecordedOnTheServerReplaysToItsDecisions) {
   for (const AuditEntry& e : server.store().audit_entries(1000))
     audited += e.what == "recording.start" || e.what == "recording.end";
   EXPECT_EQ(audited, 2);
+}
+
+// A verification run: the lane's next fillets must show the declared piece where it was
+// placed. A fragment the server found is declared first (pass), then a place with nothing
+// (fail after the fillets allowed); both audited, and the last result read back at restart.
+TEST(Server, AVerificationPassesWhereThePieceIsAndFailsWhereItIsNot) {
+  test::TempDir t;
+  const PlantConfig p = plant();
+  const Lines lane0(p, 3, 3, 0);
+  // Where the piece is: a bone fragment this plant's lines carry (found by a first server).
+  double x = 0;
+  {
+    RangexServer first(p, options(t, "first"));
+    stream(connect(first), lane0.lines);
+    first.shutdown();
+    bool found = false;
+    for (const StoredFillet& f : all_fillets(first.store()))
+      for (const StoredFragment& g : f.fragments)
+        if (!found && g.kind == "bone") x = g.x_mm, found = true;
+    ASSERT_TRUE(found) << "the simulated lane carries no bone to verify with";
+  }
+  RangexServer server(p, options(t, "second"));
+  auto control = pb::ControlService::NewStub(connect(server));
+  auto verify = [&](double at, int fillets) {
+    grpc::ClientContext ctx;
+    pb::StartVerificationRequest req;
+    req.set_lane(0);
+    req.set_piece("2 mm calcified sphere");
+    req.set_x_mm(at);
+    req.set_tolerance_mm(5);
+    req.set_fillets(fillets);
+    pb::StartVerificationResponse resp;
+    return control->StartVerification(&ctx, req, &resp);
+  };
+  ASSERT_TRUE(verify(x, 10).ok());
+  EXPECT_EQ(verify(x, 10).error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  stream(connect(server), lane0.lines);
+  ASSERT_TRUE(test::wait_until(
+      30, [&] { return server.engine().lane_state(0).verification.last.has_value(); }));
+  LaneVerification v = server.engine().lane_state(0).verification;
+  EXPECT_TRUE(v.last->passed) << v.last->detail;
+  EXPECT_GT(v.last->fillet_uid, 0);
+  EXPECT_NEAR(v.last->found_x_mm, x, 5);
+  EXPECT_FALSE(v.overdue);
+  // Nothing 150 mm away from it, over the 3 fillets the same lines carry again.
+  ASSERT_TRUE(verify(x > 0 ? x - 150 : x + 150, 3).ok());
+  Lines again = lane0;
+  for (auto& l : again.lines) l.set_encoder(l.encoder() + 100000);
+  stream(connect(server), again.lines);
+  server.shutdown();
+  v = server.engine().lane_state(0).verification;
+  ASSERT_TRUE(v.last);
+  EXPECT_FALSE(v.last->passed) << v.last->detail;
+  EXPECT_TRUE(v.overdue);  // a failed verification makes the lane due
+  std::vector<std::string> audited;
+  for (const AuditEntry& e : server.store().audit_entries(1000))
+    if (e.what.rfind("verification.", 0) == 0) audited.push_back(e.what);
+  EXPECT_EQ(audited, (std::vector<std::string>{"verification.start", "verification.pass",
+                                               "verification.start", "verification.fail"}));
+  // A restarted server knows the lane's last result.
+  RangexServer restarted(p, options(t, "second"));
+  const LaneVerification back = restarted.engine().lane_state(0).verification;
+  ASSERT_TRUE(back.last);
+  EXPECT_FALSE(back.last->passed);
+  EXPECT_EQ(back.last->piece, "2 mm calcified sphere");
 }
 
 TEST(Server, RestartKeepsResultsAndCalibrations) {

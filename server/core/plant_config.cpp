@@ -610,7 +610,8 @@ const LaneConfig& PlantConfig::lane(int id) const {
 PlantConfig parse_plant_config(const std::string& text, const std::string& origin) {
   const YAML::Node root = load_yaml(text, origin);
   const Node top{root, "", &origin};
-  top.only_keys({"plant", "server", "security", "retention", "plc", "lane_defaults", "lanes"});
+  top.only_keys({"plant", "server", "security", "retention", "plc", "verification", "lane_defaults",
+                 "lanes"});
   PlantConfig p;
   if (top.has("plant")) {
     const Node n = top.at("plant");
@@ -642,6 +643,14 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
     n.positive("every_h", r.every_h);
   }
   if (top.has("plc")) read_plc(top.at("plc"), p.plc);
+  if (top.has("verification")) {
+    const Node n = top.at("verification");
+    n.only_keys({"every_h", "fillets", "tolerance_mm"});
+    n.get("every_h", p.verification.every_h);
+    if (p.verification.every_h < 0) n.at("every_h").bad("must be >= 0 (0: no schedule)");
+    n.positive("fillets", p.verification.fillets);
+    n.positive("tolerance_mm", p.verification.tolerance_mm);
+  }
   std::optional<Node> defaults;
   if (top.has("lane_defaults")) defaults = top.at("lane_defaults");
   if (!top.has("lanes")) top.bad("missing key 'lanes'");

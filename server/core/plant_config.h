@@ -8,6 +8,7 @@
 #include "core/lane_config.h"
 #include "core/plc_config.h"
 #include "core/security_config.h"
+#include "core/verification_config.h"
 
 namespace rangex {
 
@@ -30,7 +31,8 @@ struct PlantConfig {
   EngineSettings engine;    // the `server:` section
   SecurityConfig security;  // the `security:` section
   RetentionSettings retention;
-  PlcConfig plc;  // the `plc:` section (positive release to the line's PLC)
+  PlcConfig plc;                    // the `plc:` section (positive release to the line's PLC)
+  VerificationConfig verification;  // the `verification:` section
   std::vector<LaneConfig> lanes;
 
   const LaneConfig& lane(int id) const;  // throws Error for an unknown lane

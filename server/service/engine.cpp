@@ -29,9 +29,11 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
       recorder_(store, hub, opt_.images,
                 [this](const StoredFillet& s) {
                   fillet_stored(s.lane, s.first_encoder);
+                  verifications_->decided(s);
                   if (opt_.on_decided) opt_.on_decided(s);
                 }),
       queue_(plant_.lanes.size()) {
+  verifications_ = std::make_unique<Verifications>(plant_, store_);
   shift_ = std::make_unique<ShiftRecorder>(
       plant_, store_.dir(), opt_.store_reserve_mb,
       [this](const std::string& who, const std::string& what, const std::string& detail) {

@@ -50,6 +50,7 @@
 #include "service/results_hub.h"
 #include "service/shift_recorder.h"
 #include "service/store.h"
+#include "service/verifications.h"
 
 namespace rangex {
 
@@ -127,6 +128,7 @@ struct LaneState {
   bool product_drift = false;
   std::optional<LaneSensors> sensors;  // a lane fed by its own sensors (plant.yaml sources)
   std::string plc;  // with a PLC: the lane's state as last written, or why the PLC is not reached
+  LaneVerification verification;  // the last verification run, one running, overdue
 };
 
 class Engine {
@@ -210,6 +212,8 @@ class Engine {
   // recordings in <data>/recordings/NAME. start refuses what would not fit the disk.
   RecordingStatus start_recording(const RecordingRequest& req, const std::string& who);
   RecordingStatus stop_recording(const std::string& who);
+  // A verification run on a lane (verifications.h): its next fillets must show the piece.
+  LaneState start_verification(const VerificationRequest& req, const std::string& who);
   EngineStats stats();
   Health health();
   const PlantConfig& plant() const { return plant_; }
@@ -336,6 +340,7 @@ class Engine {
   std::function<std::vector<LaneSensors>()> sensor_states_;
   std::function<PlcStatus()> plc_status_;  // sensors_mu_
   std::unique_ptr<ShiftRecorder> shift_;
+  std::unique_ptr<Verifications> verifications_;  // before the recorder calls into it
   LaneQueues queue_;
   bool stopping_ = false, paused_ = false;
   OpenFillets at_stop_ = OpenFillets::kClose;  // mu_; read by the worker once it stops

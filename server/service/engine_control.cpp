@@ -28,6 +28,11 @@ RecordingStatus Engine::start_recording(const RecordingRequest& req, const std::
   return shift_->start(req, fed ? s.lines_per_second / fed : 0, who);
 }
 
+LaneState Engine::start_verification(const VerificationRequest& req, const std::string& who) {
+  verifications_->start(req, who);
+  return lane_state(req.lane);
+}
+
 RecordingStatus Engine::stop_recording(const std::string& who) {
   return shift_->stop(who, "stopped by " + who);
 }
@@ -67,6 +72,7 @@ LaneState Engine::lane_state(int id) {
     if (const uint64_t n = l.refused[i]) s.refused[std::string(refusal_name(Refusal(i)))] = n;
   for (size_t i = 0; i < kDropReasons; ++i)
     if (const uint64_t n = l.dropped[i]) s.dropped[std::string(drop_name(DropReason(i)))] = n;
+  s.verification = verifications_->lane(id);
   {
     std::lock_guard<std::mutex> lock(sensors_mu_);
     if (sensor_states_)

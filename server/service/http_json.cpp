@@ -80,6 +80,22 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
     light = "amber", why = product_drift_warning(l.config.id, l.drift_fillets, l.implied_frr);
   if (l.plc.rfind("unreachable", 0) == 0 && light == "green")
     light = "amber", why = "PLC " + l.plc + ": every fillet is diverted";
+  const LaneVerification& ver = l.verification;
+  if (ver.overdue && light == "green")
+    light = "amber", why = ver.last && !ver.last->passed
+                               ? "the last verification failed: " + ver.last->detail
+                               : "a verification is due";
+  json verification = {{"running", ver.running},
+                       {"running_piece", ver.running_piece},
+                       {"overdue", ver.overdue},
+                       {"last", nullptr}};
+  if (ver.last)
+    verification["last"] = {{"piece", ver.last->piece},
+                            {"passed", ver.last->passed},
+                            {"who", ver.last->who},
+                            {"unix_ns", ver.last->unix_ns},
+                            {"fillet_uid", ver.last->fillet_uid},
+                            {"detail", ver.last->detail}};
   json sensors = nullptr;
   if (l.sensors) {
     json devices = json::array();
@@ -137,7 +153,8 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
       {"light_reason", why},
       {"backend", backend},
       {"sensors", sensors},
-      {"plc", l.plc}};
+      {"plc", l.plc},
+      {"verification", verification}};
 }
 
 json image_kinds(Store& store, int64_t uid) {

@@ -98,6 +98,24 @@ void fill(pb::LaneInfo* o, const LaneState& s) {
   o->set_drift_fillets(s.drift_fillets);
   o->set_product_drift(s.product_drift);
   o->set_plc_state(s.plc);
+  {
+    const LaneVerification& v = s.verification;
+    pb::LaneVerification* pv = o->mutable_verification();
+    if (v.last) {
+      pv->set_has_last(true);
+      pv->set_piece(v.last->piece);
+      pv->set_passed(v.last->passed);
+      pv->set_who(v.last->who);
+      pv->set_unix_ns(v.last->unix_ns);
+      pv->set_fillet_uid(v.last->fillet_uid);
+      pv->set_found_x_mm(v.last->found_x_mm);
+      pv->set_detail(v.last->detail);
+    }
+    pv->set_running(v.running);
+    pv->set_running_piece(v.running_piece);
+    pv->set_fillets_left(v.fillets_left);
+    pv->set_overdue(v.overdue);
+  }
   if (s.sensors) {
     pb::LaneSensors* ls = o->mutable_sensors();
     ls->set_trigger(s.sensors->trigger);

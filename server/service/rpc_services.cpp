@@ -241,6 +241,19 @@ class ControlImpl final : public pb::ControlService::Service {
       return Status::OK;
     });
   }
+  Status StartVerification(ServerContext* ctx, const pb::StartVerificationRequest* req,
+                           pb::StartVerificationResponse* resp) override {
+    return guarded(access_, ctx, Role::operator_, "StartVerification", [&](const Identity& who) {
+      VerificationRequest r;
+      r.lane = req->lane();
+      r.piece = req->piece();
+      r.x_mm = req->x_mm();
+      r.tolerance_mm = req->tolerance_mm();
+      r.fillets = req->fillets();
+      fill(resp->mutable_lane(), engine_.start_verification(r, who.name));
+      return Status::OK;
+    });
+  }
   Status StopRecording(ServerContext* ctx, const pb::StopRecordingRequest*,
                        pb::StopRecordingResponse* resp) override {
     return guarded(access_, ctx, Role::operator_, "StopRecording", [&](const Identity& who) {

@@ -100,6 +100,8 @@ class Store {
   void audit(const std::string& who, const std::string& what, const std::string& detail);
   std::vector<std::string> audit_log(int limit);     // "ts who what detail", newest last
   std::vector<AuditEntry> audit_entries(int limit);  // the same, field by field
+  // The newest `limit` entries whose action starts with `prefix`, oldest first.
+  std::vector<AuditEntry> audit_entries_of(const std::string& prefix, int limit);
 
   // Checks the hash chain of the store in `dir`, opened read-only (rangexd may be running).
   static ChainReport verify_chain(const std::string& dir);

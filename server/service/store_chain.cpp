@@ -178,6 +178,19 @@ std::vector<AuditEntry> Store::audit_entries(int limit) {
   return out;
 }
 
+std::vector<AuditEntry> Store::audit_entries_of(const std::string& prefix, int limit) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Stmt q(db_,
+         "SELECT ts_ns, who, what, detail FROM (SELECT rowid, * FROM audit WHERE "
+         "substr(what, 1, length(?)) = ? ORDER BY rowid DESC LIMIT ?) ORDER BY rowid");
+  q.bind(1, prefix);
+  q.bind(2, prefix);
+  q.bind(3, int64_t(limit));
+  std::vector<AuditEntry> out;
+  while (q.step()) out.push_back({q.i64(0), q.str(1), q.str(2), q.str(3)});
+  return out;
+}
+
 std::vector<std::string> Store::audit_log(int limit) {
   std::vector<std::string> out;
   for (const AuditEntry& e : audit_entries(limit))

@@ -124,12 +124,26 @@ async function refreshTiles() {
          ${l.learned_version && l.implied_false_reject_rate >= 0
            ? `<dt>implied false rejects</dt><dd>${pct(l.implied_false_reject_rate)}</dd>` : ""}
          ${l.sensors ? sensorsRow(l.sensors) : ""}
+         ${verificationRow(l.verification)}
          ${l.plc ? `<dt>PLC</dt><dd class="${l.plc.startsWith("unreachable") ? "bad" : ""}" title="${esc(l.plc)}">${esc(l.plc)}</dd>` : ""}
        </dl>
        ${(l.learned_sensitivity || []).length
          ? `<div class="sens">${esc(l.learned_sensitivity[0])}</div>` : ""}
        <div class="why">${esc(l.light_reason)}</div>
      </div>`).join("");
+}
+
+// The lane's last verification run (HACCP: a declared test piece found where placed), one
+// running, amber when due or failed.
+function verificationRow(v) {
+  if (!v) return "";
+  let text = "none yet";
+  if (v.running) text = `running: ${v.running_piece}`;
+  else if (v.last) {
+    const h = (Date.now() - v.last.unix_ns / 1e6) / 3.6e6;
+    text = `${v.last.passed ? "passed" : "FAILED"} ${h < 1 ? Math.round(h * 60) + " min" : h.toFixed(1) + " h"} ago`;
+  }
+  return `<dt>verified</dt><dd class="${v.overdue ? "bad" : ""}" title="${esc(v.last ? v.last.detail : "")}">${esc(text)}</dd>`;
 }
 
 // A lane fed by its own GigE Vision devices: one mark per device (green streaming, red
