@@ -32,15 +32,7 @@ PlantConfig plant() {
   return load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml");
 }
 
-ServerOptions options(const test::TempDir& t, size_t queue = 2048);
-// The same with the store in t/`sub`.
-ServerOptions options(const test::TempDir& t, const std::string& sub) {
-  ServerOptions o = options(t);
-  o.data_dir = t.str(sub);
-  return o;
-}
-
-ServerOptions options(const test::TempDir& t, size_t queue) {
+ServerOptions options(const test::TempDir& t, size_t queue = 2048) {
   ServerOptions o;
   o.listen = "127.0.0.1:0";
   o.data_dir = t.str("data");
@@ -461,26 +453,38 @@ TEST(Server, AShiftRecordedOnTheServerReplaysToItsDecisions) {
   EXPECT_EQ(audited, 2);
 }
 
-// A verification run: the lane's next fillets must show the declared piece where it was
-// placed. A fragment the server found is declared first (pass), then a place with nothing
-// (fail after the fillets allowed); both audited, and the last result read back at restart.
+// A verification run: the lane's next fillets or test cards must show the declared piece
+// where it was placed. Simulated test cards carry a 2 mm calcified sphere 20 mm off the
+// lane's centre: declared there it passes; declared 60 mm away it fails after the cards
+// allowed. Both audited, and the last result read back at restart.
 TEST(Server, AVerificationPassesWhereThePieceIsAndFailsWhereItIsNot) {
   test::TempDir t;
   const PlantConfig p = plant();
-  const Lines lane0(p, 3, 3, 0);
-  // Where the piece is: a bone fragment this plant's lines carry (found by a first server).
-  double x = 0;
-  {
-    RangexServer first(p, options(t, "first"));
-    stream(connect(first), lane0.lines);
-    first.shutdown();
-    bool found = false;
-    for (const StoredFillet& f : all_fillets(first.store()))
-      for (const StoredFragment& g : f.fragments)
-        if (!found && g.kind == "bone") x = g.x_mm, found = true;
-    ASSERT_TRUE(found) << "the simulated lane carries no bone to verify with";
-  }
-  RangexServer server(p, options(t, "second"));
+  sim::SimulationParams sp;
+  sp.scene.fillets = 3;
+  sp.seed = 9;
+  sp.scene.test_cards = sim::TestCard{};
+  sp.scene.test_cards->piece_x_mm = 20;
+  const LaneConfig& lc = p.lane(0);
+  const sim::LaneSimulator cards(lc, sp);
+  auto lines_from = [&](int64_t offset) {
+    std::vector<pb::LineScan> out;
+    const size_t frame = size_t(lc.frame_width) * lc.frame_height;
+    for (int64_t n = 0; n < cards.lines(); ++n) {
+      pb::LineScan l;
+      std::string c0(frame, '\0'), c1(frame, '\0'), x(size_t(lc.xray.pixels) * 2, '\0');
+      cards.render(n, reinterpret_cast<uint8_t*>(c0.data()), reinterpret_cast<uint8_t*>(c1.data()),
+                   reinterpret_cast<uint16_t*>(x.data()), nullptr, nullptr, nullptr);
+      l.set_lane(0);
+      l.set_encoder(cards.encoder(n) + offset);
+      l.set_cam0(std::move(c0));
+      l.set_cam1(std::move(c1));
+      l.set_xray(std::move(x));
+      out.push_back(std::move(l));
+    }
+    return out;
+  };
+  RangexServer server(p, options(t));
   auto control = pb::ControlService::NewStub(connect(server));
   auto verify = [&](double at, int fillets) {
     grpc::ClientContext ctx;
@@ -488,26 +492,23 @@ TEST(Server, AVerificationPassesWhereThePieceIsAndFailsWhereItIsNot) {
     req.set_lane(0);
     req.set_piece("2 mm calcified sphere");
     req.set_x_mm(at);
-    req.set_tolerance_mm(5);
+    req.set_tolerance_mm(10);
     req.set_fillets(fillets);
     pb::StartVerificationResponse resp;
     return control->StartVerification(&ctx, req, &resp);
   };
-  ASSERT_TRUE(verify(x, 10).ok());
-  EXPECT_EQ(verify(x, 10).error_code(), grpc::StatusCode::FAILED_PRECONDITION);
-  stream(connect(server), lane0.lines);
+  ASSERT_TRUE(verify(20, 3).ok());
+  EXPECT_EQ(verify(20, 3).error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  stream(connect(server), lines_from(0));
   ASSERT_TRUE(test::wait_until(
       30, [&] { return server.engine().lane_state(0).verification.last.has_value(); }));
   LaneVerification v = server.engine().lane_state(0).verification;
   EXPECT_TRUE(v.last->passed) << v.last->detail;
   EXPECT_GT(v.last->fillet_uid, 0);
-  EXPECT_NEAR(v.last->found_x_mm, x, 5);
+  EXPECT_NEAR(v.last->found_x_mm, 20, 10);
   EXPECT_FALSE(v.overdue);
-  // Nothing 150 mm away from it, over the 3 fillets the same lines carry again.
-  ASSERT_TRUE(verify(x > 0 ? x - 150 : x + 150, 3).ok());
-  Lines again = lane0;
-  for (auto& l : again.lines) l.set_encoder(l.encoder() + 100000);
-  stream(connect(server), again.lines);
+  ASSERT_TRUE(verify(-40, 3).ok());
+  stream(connect(server), lines_from(100000));
   server.shutdown();
   v = server.engine().lane_state(0).verification;
   ASSERT_TRUE(v.last);
@@ -519,7 +520,7 @@ TEST(Server, AVerificationPassesWhereThePieceIsAndFailsWhereItIsNot) {
   EXPECT_EQ(audited, (std::vector<std::string>{"verification.start", "verification.pass",
                                                "verification.start", "verification.fail"}));
   // A restarted server knows the lane's last result.
-  RangexServer restarted(p, options(t, "second"));
+  RangexServer restarted(p, options(t));
   const LaneVerification back = restarted.engine().lane_state(0).verification;
   ASSERT_TRUE(back.last);
   EXPECT_FALSE(back.last->passed);

@@ -322,4 +322,42 @@ Fillet make_debris(Rng& rng, int id, double b_start, double x_center) {
   return f;
 }
 
+Fillet make_test_card(int id, double b_start, const TestCard& card) {
+  Fillet f;
+  f.id = id;
+  const double hw = 0.5 * card.width_mm;
+  f.x_center = 0;
+  f.ix0 = int(std::floor((-hw - 1 - kLaneX0Mm) / kRasterPitchMm));
+  f.ib0 = int(std::floor(b_start / kRasterPitchMm));
+  f.nx = int(std::ceil((card.width_mm + 2) / kRasterPitchMm)) + 1;
+  f.nb = int(std::ceil((card.length_mm + 2) / kRasterPitchMm)) + 1;
+  f.x_min = kLaneX0Mm + f.ix0 * kRasterPitchMm;
+  f.x_max = f.x_min + (f.nx - 1) * kRasterPitchMm;
+  f.b_min = f.b_start = f.ib0 * kRasterPitchMm;
+  f.b_max = f.b_min + (f.nb - 1) * kRasterPitchMm;
+  f.b_center = f.b_min + 1 + 0.5 * card.length_mm;
+  f.height.assign(size_t(f.nx) * f.nb, 0.f);
+  for (int j = 0; j < f.nb; ++j)
+    for (int i = 0; i < f.nx; ++i) {
+      // Distance inside the slab's outline; the edge rounds off as a quarter circle.
+      const double dx = hw - std::abs(f.x_min + i * kRasterPitchMm);
+      const double db = 0.5 * card.length_mm - std::abs(f.b_min + j * kRasterPitchMm - f.b_center);
+      const double in = std::min(dx, db);
+      if (in <= 0) continue;
+      const double e = std::min(1.0, in / card.edge_mm);
+      f.height[size_t(j) * f.nx + i] = float(card.thickness_mm * std::sqrt(1 - (1 - e) * (1 - e)));
+    }
+  Inclusion piece{};
+  piece.kind = Inclusion::kBone;
+  piece.center = {card.piece_x_mm, f.b_center, 0.5 * card.thickness_mm};
+  const double r = 0.5 * card.piece_mm;
+  piece.semi = {r, r, r};
+  constexpr double kBoneMuFull = 0.12;  // as in the fillets
+  piece.dmu = card.calcification * (kBoneMuFull - f.mu);
+  piece.calcification = card.calcification;
+  piece.size_mm = card.piece_mm;
+  f.inclusions.push_back(piece);
+  return f;
+}
+
 }  // namespace rangex::sim

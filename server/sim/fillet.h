@@ -72,4 +72,14 @@ Fillet make_fillet(Rng& rng, Rng& physics, int id, double b_start, double x_cent
 // A small bit of meat (debris) lying on the belt.
 Fillet make_debris(Rng& rng, int id, double b_start, double x_center);
 
+// A verification test card: a slab of meat-equivalent plastic with one test piece (a sphere
+// of bone, calcified as given) at a known place across the belt.
+struct TestCard {
+  double width_mm = 60, length_mm = 120, thickness_mm = 15;
+  double edge_mm = 3;  // the slab's edges round off over this
+  double piece_mm = 2, piece_x_mm = 0, calcification = 1.0;
+};
+// Centred at x = 0 across the belt, its leading edge at b_start.
+Fillet make_test_card(int id, double b_start, const TestCard& card);
+
 }  // namespace rangex::sim

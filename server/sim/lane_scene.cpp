@@ -11,7 +11,8 @@ LaneScene::LaneScene(uint64_t seed, int lane, const SceneParams& p) {
   for (int i = 0; i < p.fillets; ++i) {
     const double x = rng.uniform(-25, 25);
     Rng physics(seed, 0xf11e7, uint64_t(lane), uint64_t(i));
-    fillets_.push_back(make_fillet(rng, physics, i, b, x, p.fillet));
+    fillets_.push_back(p.test_cards ? make_test_card(i, b, *p.test_cards)
+                                    : make_fillet(rng, physics, i, b, x, p.fillet));
     const Fillet& f = fillets_.back();
     end_b_ = f.b_max;
     float peak = 0;

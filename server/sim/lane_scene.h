@@ -2,6 +2,7 @@
 // (x across, b along the belt; the laser plane sees b = belt_offset - y_laser).
 #pragma once
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "sim/fillet.h"
@@ -15,6 +16,8 @@ struct SceneParams {
   double scatter_spread = 0;           // per fillet, the tail scales by exp(spread N(0,1))
   double debris_probability = 0;       // a small bit of meat in a gap between fillets
   FilletParams fillet;
+  // Verification test cards instead of fillets (card.piece_x_mm: where their piece lies).
+  std::optional<TestCard> test_cards;
 };
 
 class LaneScene {
