@@ -41,13 +41,12 @@ ServerOptions options(const test::TempDir& t, size_t queue = 2048) {
   return o;
 }
 
-// Lines of one simulated lane, in memory.
+// Lines of one simulated lane, in memory (counts moved by `offset`).
 struct Lines {
   std::vector<pb::LineScan> lines;
-  Lines(const PlantConfig& p, int fillets, uint64_t seed, int lane = 0) {
-    sim::SimulationParams sp;
-    sp.scene.fillets = fillets;
-    sp.seed = seed;
+  Lines(const PlantConfig& p, int fillets, uint64_t seed, int lane = 0)
+      : Lines(p, params(fillets, seed), lane) {}
+  Lines(const PlantConfig& p, const sim::SimulationParams& sp, int lane, int64_t offset = 0) {
     const LaneConfig& lc = p.lane(lane);
     const sim::LaneSimulator sim(lc, sp);
     const size_t frame = size_t(lc.frame_width) * lc.frame_height;
@@ -57,12 +56,18 @@ struct Lines {
       sim.render(n, reinterpret_cast<uint8_t*>(c0.data()), reinterpret_cast<uint8_t*>(c1.data()),
                  reinterpret_cast<uint16_t*>(x.data()), nullptr, nullptr, nullptr);
       l.set_lane(lane);
-      l.set_encoder(sim.encoder(n));
+      l.set_encoder(sim.encoder(n) + offset);
       l.set_cam0(std::move(c0));
       l.set_cam1(std::move(c1));
       l.set_xray(std::move(x));
       lines.push_back(std::move(l));
     }
+  }
+  static sim::SimulationParams params(int fillets, uint64_t seed) {
+    sim::SimulationParams sp;
+    sp.scene.fillets = fillets;
+    sp.seed = seed;
+    return sp;
   }
 };
 
@@ -465,25 +470,6 @@ TEST(Server, AVerificationPassesWhereThePieceIsAndFailsWhereItIsNot) {
   sp.seed = 9;
   sp.scene.test_cards = sim::TestCard{};
   sp.scene.test_cards->piece_x_mm = 20;
-  const LaneConfig& lc = p.lane(0);
-  const sim::LaneSimulator cards(lc, sp);
-  auto lines_from = [&](int64_t offset) {
-    std::vector<pb::LineScan> out;
-    const size_t frame = size_t(lc.frame_width) * lc.frame_height;
-    for (int64_t n = 0; n < cards.lines(); ++n) {
-      pb::LineScan l;
-      std::string c0(frame, '\0'), c1(frame, '\0'), x(size_t(lc.xray.pixels) * 2, '\0');
-      cards.render(n, reinterpret_cast<uint8_t*>(c0.data()), reinterpret_cast<uint8_t*>(c1.data()),
-                   reinterpret_cast<uint16_t*>(x.data()), nullptr, nullptr, nullptr);
-      l.set_lane(0);
-      l.set_encoder(cards.encoder(n) + offset);
-      l.set_cam0(std::move(c0));
-      l.set_cam1(std::move(c1));
-      l.set_xray(std::move(x));
-      out.push_back(std::move(l));
-    }
-    return out;
-  };
   RangexServer server(p, options(t));
   auto control = pb::ControlService::NewStub(connect(server));
   auto verify = [&](double at, int fillets) {
@@ -499,7 +485,7 @@ TEST(Server, AVerificationPassesWhereThePieceIsAndFailsWhereItIsNot) {
   };
   ASSERT_TRUE(verify(20, 3).ok());
   EXPECT_EQ(verify(20, 3).error_code(), grpc::StatusCode::FAILED_PRECONDITION);
-  stream(connect(server), lines_from(0));
+  stream(connect(server), Lines(p, sp, 0).lines);
   ASSERT_TRUE(test::wait_until(
       30, [&] { return server.engine().lane_state(0).verification.last.has_value(); }));
   LaneVerification v = server.engine().lane_state(0).verification;
@@ -508,7 +494,7 @@ TEST(Server, AVerificationPassesWhereThePieceIsAndFailsWhereItIsNot) {
   EXPECT_NEAR(v.last->found_x_mm, 20, 10);
   EXPECT_FALSE(v.overdue);
   ASSERT_TRUE(verify(-40, 3).ok());
-  stream(connect(server), lines_from(100000));
+  stream(connect(server), Lines(p, sp, 0, 100000).lines);
   server.shutdown();
   v = server.engine().lane_state(0).verification;
   ASSERT_TRUE(v.last);
