@@ -202,6 +202,21 @@ grpc::Status call(const std::shared_ptr<grpc::Channel>& ch, const std::string& m
     pb::LearnProductResponse r;
     return control->LearnProduct(&ctx, q, &r);
   }
+  if (method == "StartVerification") {
+    pb::StartVerificationRequest q;
+    q.set_lane(99);  // no such lane: refused at once
+    pb::StartVerificationResponse r;
+    return control->StartVerification(&ctx, q, &r);
+  }
+  if (method == "StartRecording") {
+    pb::StartRecordingRequest q;  // no minutes: refused at once
+    pb::StartRecordingResponse r;
+    return control->StartRecording(&ctx, q, &r);
+  }
+  if (method == "StopRecording") {
+    pb::StopRecordingResponse r;  // none running: refused at once
+    return control->StopRecording(&ctx, {}, &r);
+  }
   ADD_FAILURE() << "the test cannot call " << method;
   return grpc::Status(Code::INTERNAL, "not called");
 }
@@ -226,6 +241,9 @@ const std::map<std::string, Role> kNeeded = {
     {"ListLearnedSettings", Role::viewer},
     {"ActivateLearnedSettings", Role::engineer},
     {"LearnProduct", Role::engineer},
+    {"StartVerification", Role::operator_},
+    {"StartRecording", Role::operator_},
+    {"StopRecording", Role::operator_},
 };
 
 TEST(Access, TheRoleTableNamesEveryMethodOfEveryService) {
