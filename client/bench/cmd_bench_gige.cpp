@@ -50,57 +50,6 @@ bool write_text(const char* path, const std::string& v) {
   return bool(f);
 }
 
-struct GigeRun {
-  double cpu_s = 0, wall_s = 0;
-  uint64_t lines = 0;
-  EngineStats stats;
-  LaneSensors sensors;
-};
-
-// rangexd with the plant's one lane over GigE Vision, its fakes (`rangexctl fake-lane`) in a
-// process of their own pulsed every `period_us`: this process's CPU and wall time over
-// `lines` lines, from the 100th on (the devices connected, the lead passed).
-GigeRun run_gige(const PlantConfig& plant, const std::string& ctl, const fs::path& dir,
-                 int64_t lines, long period_us, const std::string& name) {
-  const std::string period = std::to_string(period_us);
-  const pid_t fakes = fork();
-  if (fakes == 0) {
-    execl(ctl.c_str(), ctl.c_str(), "fake-lane", (dir / "rec").c_str(), "--addresses",
-          "127.0.0.2,127.0.0.3,127.0.0.4", "--period-us", period.c_str(), "--lead", "100",
-          static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  ServerOptions so;
-  so.listen = "127.0.0.1:0";
-  so.data_dir = (dir / ("data-" + name)).string();
-  so.engine.backend = cpu_request(1);
-  so.engine.images = false;
-  GigeRun r;
-  {
-    RangexServer server(plant, so);
-    const int id = plant.lanes[0].id;
-    auto processed = [&] { return server.engine().lane_state(id).processed; };
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(5);
-    while (processed() < 100 && std::chrono::steady_clock::now() < deadline)
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    const uint64_t p0 = processed();
-    const double c0 = cpu_seconds();
-    const auto t0 = std::chrono::steady_clock::now();
-    while (processed() < p0 + uint64_t(lines) && std::chrono::steady_clock::now() < deadline)
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    r.cpu_s = cpu_seconds() - c0;
-    r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    r.lines = processed() - p0;
-    r.stats = server.engine().stats();
-    const auto s = server.sensors();
-    if (!s.empty()) r.sensors = s[0];
-  }
-  kill(fakes, SIGTERM);
-  waitpid(fakes, nullptr, 0);
-  if (r.lines == 0) fail("no line came over GigE Vision within 5 minutes (see the log above)");
-  return r;
-}
-
 }  // namespace
 
 int cmd_bench_gige(int argc, char** argv) {
@@ -110,6 +59,7 @@ int cmd_bench_gige(int argc, char** argv) {
   PlantConfig plant = load_config(a.get("config", ""));
   plant.lanes.resize(1);
   plant.plc = {};
+  const LaneConfig& lane = plant.lanes[0];
   const fs::path dir =
       fs::temp_directory_path() / ("rangex-bench-gige-" + std::to_string(getpid()));
   fs::remove_all(dir);
@@ -140,26 +90,56 @@ int cmd_bench_gige(int argc, char** argv) {
   const bool raised = write_text(rmem, "33554432");
   const std::string rmem_now = read_text(rmem);
 
+  // The fakes, in their own process.
+  const std::string ctl = (fs::path(argv[0]).parent_path() / "rangexctl").string();
+  const std::string period = std::to_string(a.integer("period-us", 2000));
+  const pid_t fakes = fork();
+  if (fakes == 0) {
+    execl(ctl.c_str(), ctl.c_str(), "fake-lane", (dir / "rec").c_str(), "--addresses",
+          "127.0.0.2,127.0.0.3,127.0.0.4", "--period-us", period.c_str(), "--lead", "100",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
   plant.lanes[0].sources.cameras = {"127.0.0.2", "127.0.0.3"};
   plant.lanes[0].sources.xray = "127.0.0.4";
   plant.lanes[0].sources.trigger = LineTrigger::kEncoder;
   plant.lanes[0].sources.trigger_line = "Software";
   // Jumbo packets, as docs/sensors.md says (0: what the devices negotiate).
   plant.lanes[0].sources.packet_size = int(a.integer("packet-size", 8192));
-  const std::string ctl = (fs::path(argv[0]).parent_path() / "rangexctl").string();
-  // Two rates: rangexd's CPU a second is its fixed costs plus its cost a line times the
-  // lines a second, and the two runs give both.
-  const long period = a.integer("period-us", 2000);
-  GigeRun fast = run_gige(plant, ctl, dir, lines, period, "fast");
-  GigeRun slow = run_gige(plant, ctl, dir, lines, 3 * period, "slow");
+  ServerOptions so;
+  so.listen = "127.0.0.1:0";
+  so.data_dir = (dir / "data").string();
+  so.engine.backend = cpu_request(1);
+  so.engine.images = false;
+  double gige_cpu = 0, gige_wall = 0;
+  uint64_t measured = 0;
+  EngineStats stats;
+  LaneSensors sensors;
+  {
+    RangexServer server(plant, so);
+    auto processed = [&] { return server.engine().lane_state(lane.id).processed; };
+    // From the 100th line on (the devices connected, the lead passed) to the recording's end.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(5);
+    while (processed() < 100 && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    const uint64_t p0 = processed();
+    c0 = cpu_seconds();
+    t0 = std::chrono::steady_clock::now();
+    while (processed() < p0 + uint64_t(lines) && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    gige_cpu = cpu_seconds() - c0;
+    gige_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    measured = processed() - p0;
+    stats = server.engine().stats();
+    const auto s = server.sensors();
+    if (!s.empty()) sensors = s[0];
+  }
+  kill(fakes, SIGTERM);
+  waitpid(fakes, nullptr, 0);
   if (raised) write_text(rmem, rmem_was);
   fs::remove_all(dir);
-  const GigeRun& gige = fast;
-  const double gige_cpu = gige.cpu_s, gige_wall = gige.wall_s;
-  const uint64_t measured = gige.lines;
-  const EngineStats& stats = gige.stats;
-  const LaneSensors& sensors = gige.sensors;
-  const std::string period_text = std::to_string(period);
+  if (measured == 0) fail("no line came over GigE Vision within 5 minutes (see the log above)");
+
   const double replay_us = 1e6 * replay_cpu / double(lines);
   const double gige_us = 1e6 * gige_cpu / double(measured);
   std::printf("bench-gige: one lane, %lld lines (%d fillets), CPU backend on one thread\n",
@@ -169,7 +149,7 @@ int cmd_bench_gige(int argc, char** argv) {
   std::printf(
       "  GigE Vision     %8.1f us CPU a line, %8.0f lines/s as the fakes sent them "
       "(trigger poll %s us)\n",
-      gige_us, double(measured) / gige_wall, period_text.c_str());
+      gige_us, double(measured) / gige_wall, period.c_str());
   std::printf(
       "  ratio           %8.2f  (replay's CPU a line over GigE's: the lines/s rangexd "
       "takes over GigE against replay, per core)\n",
@@ -184,22 +164,6 @@ int cmd_bench_gige(int argc, char** argv) {
               (unsigned long long)sensors.lines, (unsigned long long)sensors.incomplete,
               plant.lanes[0].sources.packet_size, rmem_now.c_str(),
               raised ? "raised for the run" : "as it was: not root");
-  // The cost a line: the slope of CPU a second against lines a second over the two runs.
-  const double rate_f = double(fast.lines) / fast.wall_s, rate_s = double(slow.lines) / slow.wall_s;
-  const double cpu_f = fast.cpu_s / fast.wall_s, cpu_s = slow.cpu_s / slow.wall_s;
-  if (rate_f > rate_s * 1.2) {
-    const double per_line_us = 1e6 * (cpu_f - cpu_s) / (rate_f - rate_s);
-    const double fixed = cpu_f - rate_f * per_line_us / 1e6;
-    std::printf(
-        "  GigE, a line    %8.1f us CPU (at %.0f and %.0f lines/s: %.2f and %.2f CPU "
-        "seconds a second; fixed %.2f)\n",
-        per_line_us, rate_f, rate_s, cpu_f, cpu_s, fixed);
-    std::printf("  ratio, a line   %8.2f  (replay's CPU a line over GigE's cost a line)\n",
-                replay_us / per_line_us);
-  } else {
-    std::printf("  GigE, a line    not separated: the two runs went at %.0f and %.0f lines/s\n",
-                rate_f, rate_s);
-  }
   (void)replayed;
   return 0;
 }
