@@ -59,7 +59,7 @@ sleep 2
 kill $watcher 2>/dev/null || true
 echo
 "$ctl" status --server "$addr"
-"$ctl" lanes --server "$addr" | grep -A5 "^lane 4" || true
+"$ctl" lanes --server "$addr" | grep -A6 "^lane 4" || true
 kill -TERM $server
 wait $server || true
 kill -TERM $lane $plc 2>/dev/null || true
