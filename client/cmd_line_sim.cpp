@@ -41,20 +41,6 @@ void serve(double period_s, F every) {
   }
 }
 
-const char* code_name(ReleaseCode c) {
-  switch (c) {
-    case ReleaseCode::kPass:
-      return "pass";
-    case ReleaseCode::kReject:
-      return "reject";
-    case ReleaseCode::kNotInspected:
-      return "not_inspected";
-    case ReleaseCode::kLate:
-      return "late";
-  }
-  return "?";
-}
-
 }  // namespace
 
 int cmd_plc_sim(int argc, char** argv) {
@@ -89,7 +75,7 @@ int cmd_plc_sim(int argc, char** argv) {
     for (const auto& r : plc.received())
       std::printf("release %d %lld %lld %s %d\n", r.release.lane,
                   (long long)r.release.first_encoder, (long long)r.release.last_encoder,
-                  code_name(r.release.code), int(r.sequence));
+                  release_code_name(r.release.code), int(r.sequence));
     for (const LaneConfig& l : plant.lanes)
       std::printf("state %d %s %d\n", l.id, packml_name(plc.lane_state(l.id)),
                   int(plc.lane_reason(l.id)));

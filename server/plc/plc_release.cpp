@@ -115,8 +115,11 @@ void PlcRelease::run() {
       if (stop_) break;
     }
     connect_if_due();
-    heartbeat_and_states();
-    send_due();
+    // The lanes once a round: the states and the deadlines read the same belt counts.
+    std::vector<PlcLaneView> lanes;
+    if (hooks_.lanes) lanes = hooks_.lanes();
+    heartbeat_and_states(lanes);
+    send_due(lanes);
   }
 }
 
@@ -162,7 +165,7 @@ void PlcRelease::connect_if_due() {
   if (again && hooks_.audit) hooks_.audit("plc.connected", cfg_.address);
 }
 
-void PlcRelease::heartbeat_and_states() {
+void PlcRelease::heartbeat_and_states(const std::vector<PlcLaneView>& lanes) {
   if (!link_->connected()) return;
   const int64_t t = now_ns();
   try {
@@ -171,8 +174,7 @@ void PlcRelease::heartbeat_and_states() {
       link_->write(cfg_.heartbeat_register, &beat_, 1);
       next_beat_ns_ = t + int64_t(cfg_.heartbeat_ms * 1e6);
     }
-    if (!hooks_.lanes) return;
-    for (const PlcLaneView& v : hooks_.lanes()) {
+    for (const PlcLaneView& v : lanes) {
       if (v.has_count) {
         // The belt's speed from the encoder: the count now and a second or so ago.
         auto& b = belt_[v.lane];
@@ -192,10 +194,9 @@ void PlcRelease::heartbeat_and_states() {
   }
 }
 
-void PlcRelease::send_due() {
+void PlcRelease::send_due(const std::vector<PlcLaneView>& lanes) {
   std::map<int, PlcLaneView> views;
-  if (hooks_.lanes)
-    for (const PlcLaneView& v : hooks_.lanes()) views[v.lane] = v;
+  for (const PlcLaneView& v : lanes) views[v.lane] = v;
   const int64_t t = now_ns();
   while (true) {
     Queued q;

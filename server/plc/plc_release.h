@@ -63,8 +63,8 @@ class PlcRelease {
   };
   void run();
   void connect_if_due();
-  void send_due();  // the queue, in order
-  void heartbeat_and_states();
+  void send_due(const std::vector<PlcLaneView>& lanes);  // the queue, in order
+  void heartbeat_and_states(const std::vector<PlcLaneView>& lanes);
   void lost(const std::string& why);
 
   const PlcConfig cfg_;

@@ -38,6 +38,20 @@ bool decode_release(const SlotRegisters& s, Release& out, uint16_t& sequence) {
   return true;
 }
 
+const char* release_code_name(ReleaseCode c) {
+  switch (c) {
+    case ReleaseCode::kPass:
+      return "pass";
+    case ReleaseCode::kReject:
+      return "reject";
+    case ReleaseCode::kNotInspected:
+      return "not_inspected";
+    case ReleaseCode::kLate:
+      return "late";
+  }
+  return "?";
+}
+
 const char* packml_name(PackMl s) {
   switch (s) {
     case PackMl::kStopped:

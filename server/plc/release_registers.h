@@ -43,5 +43,6 @@ enum class StateReason : uint16_t {
   kStopping = 4,      // rangexd is stopping
 };
 const char* packml_name(PackMl s);
+const char* release_code_name(ReleaseCode c);  // pass, reject, not_inspected, late
 
 }  // namespace rangex
