@@ -1,5 +1,5 @@
 // bench-gige: a lane over GigE Vision against the replay of the same recording, in one run.
-// The lane's three fake devices run in a process of their own (`rangexctl fake-lane`), so that
+// The lane's three fake devices run in a process of their own (`fake-lane`), so that
 // this process's CPU time is rangexd's alone: the GigE path (receive threads, joining,
 // admission, line stages, assembly, inspection, the store) per line, against the replay's
 // (line stages, assembly, inspection) per line. The fakes are paced by their trigger poll,
@@ -90,12 +90,11 @@ int cmd_bench_gige(int argc, char** argv) {
   const bool raised = write_text(rmem, "33554432");
   const std::string rmem_now = read_text(rmem);
 
-  // The fakes, in their own process.
-  const std::string ctl = (fs::path(argv[0]).parent_path() / "rangexctl").string();
+  // The fakes, in their own process: this program's `fake-lane` (rangexctl's command).
   const std::string period = std::to_string(a.integer("period-us", 2000));
   const pid_t fakes = fork();
   if (fakes == 0) {
-    execl(ctl.c_str(), ctl.c_str(), "fake-lane", (dir / "rec").c_str(), "--addresses",
+    execl("/proc/self/exe", argv[0], "fake-lane", (dir / "rec").c_str(), "--addresses",
           "127.0.0.2,127.0.0.3,127.0.0.4", "--period-us", period.c_str(), "--lead", "100",
           static_cast<char*>(nullptr));
     _exit(127);

@@ -16,6 +16,7 @@
 #include "args.h"
 #include "backend_args.h"
 #include "bench/bench_commands.h"
+#include "bench/bench_gate.h"
 #include "bench/memory_source.h"
 #include "bench/resident_memory.h"
 #include "commands.h"
@@ -154,12 +155,13 @@ void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans,
 }  // namespace
 
 int cmd_bench_server(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"capacity", "path"},
+  const Args a(argc, argv, 2, {"capacity", "path", "plc"},
                {"lines", "threads", "backend", "device", "rate", "lanes", "seconds"});
-  a.expect_positionals(0,
-                       "bench-server [--lines N] [--backend cpu|opencl|vulkan|auto|all] "
-                       "[--device D] [--lanes 1,4,16] [--rate LINES/S [--seconds S]] [--path] "
-                       "[--capacity]");
+  a.expect_positionals(
+      0,
+      "bench-server [--lines N] [--backend cpu|opencl|vulkan|auto|all] "
+      "[--device D] [--lanes 1,4,16] [--rate LINES/S [--seconds S] [--plc]] [--path] "
+      "[--capacity]");
   const int n = int(a.integer("lines", 1200));
   // A fixed rate per lane (a belt's speed) measures latency at a plant's load; without it
   // the feeders send as fast as the server takes lines (throughput).
@@ -169,6 +171,9 @@ int cmd_bench_server(int argc, char** argv) {
   const double seconds = std::stod(a.get("seconds", "0"));
   if (!(seconds >= 0)) fail("--seconds must be >= 0");
   if (seconds > 0 && rate <= 0) fail("--seconds needs --rate (the run's length is rate x time)");
+  // Releases to a simulated PLC whose belts run at the rate: a release is in time or not.
+  const bool plc = a.flag("plc");
+  if (plc && rate <= 0) fail("--plc needs --rate (the belts' speed)");
   const std::vector<int> lane_counts = a.int_list("lanes", {1, 4, 16}, 16);
   const int threads =
       int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
@@ -245,6 +250,9 @@ int cmd_bench_server(int argc, char** argv) {
       std::string running;
       std::vector<std::pair<double, int64_t>> resident;
       const int64_t resident_before = resident_bytes();
+      std::unique_ptr<BenchGate> gate;
+      if (plc) gate = std::make_unique<BenchGate>(pl, rate);
+      uint64_t clean_late = 0;
       {
         RangexServer server(pl, so);
         auto ch = rangex_channel(server.address());
@@ -260,6 +268,7 @@ int cmd_bench_server(int argc, char** argv) {
               std::this_thread::sleep_for(
                   std::chrono::duration<double>(double(lane) / nl * lines / rate));
             MemorySource src(scans, lane, repeats);
+            if (gate) gate->start_lane(lane, scans.front().encoder());
             FeedOptions fo;
             fo.keep_until_durable = false;  // the server's memory is what is measured
             fo.window = 128;
@@ -286,11 +295,16 @@ int cmd_bench_server(int argc, char** argv) {
                    {"inspection", st.inspection}})
             std::printf("   %-16s p50 %7.1f ms  p99 %7.1f ms\n", name.c_str(), l.p50, l.p99);
         running = st.backend.name;
+        if (gate) clean_late = gate->report(server.plc(), server.store().count_fillets());
         if (refused.load()) std::printf("(%lld lines refused)\n", (long long)refused.load());
       }
+      gate.reset();
       std::filesystem::remove_all(dir);
       std::printf("%-6d %-8s %16.0f %16.0f %8.2f   p50 %7.1f ms  p99 %7.1f ms\n", nl,
                   running.c_str(), inproc, grpc_lps, grpc_lps / inproc, lat.p50, lat.p99);
+      if (plc)
+        std::printf("       clean fillets diverted for lateness: %llu\n",
+                    (unsigned long long)clean_late);
       // Resident memory while the lanes were fed: the server's share (over the process as it
       // was before the server started) at its peak, and its trend from the first fifth of
       // the feed to the last.

@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "bench/bench_commands.h"
+#include "commands.h"
 #include "run_command.h"
 
 int main(int argc, char** argv) {
@@ -21,6 +22,8 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "bench-server")) return cmd_bench_server(argc, argv);
     if (!std::strcmp(cmd, "soak")) return cmd_soak(argc, argv);
     if (!std::strcmp(cmd, "bench-gige")) return cmd_bench_gige(argc, argv);
+    // bench-gige's fakes, in a process of their own (rangexctl fake-lane's command).
+    if (!std::strcmp(cmd, "fake-lane")) return cmd_fake_lane(argc, argv);
     std::fprintf(stderr,
                  "rangex-bench: unknown command '%s' (bench, bench-server, bench-gige, soak)\n",
                  cmd);
