@@ -80,9 +80,10 @@ int connect_to(int port) {
 }
 
 // One slowloris connection: a request head a byte at a time; over TLS either the head in a
-// session (a record a byte) or, before any session, the handshake itself.
+// session (a record a byte) or, before any session, the handshake itself; or a whole head
+// at once and then its small body a byte at a time.
 struct SlowClient {
-  enum Kind { kHead, kTlsHead, kTlsHandshake } kind;
+  enum Kind { kHead, kTlsHead, kTlsHandshake, kBody } kind;
   int fd = -1;
   SSL* ssl = nullptr;
   size_t sent = 0;
@@ -111,8 +112,15 @@ struct SlowClient {
     static const std::string head = "GET /api/statistics HTTP/1.1\r\nHost: rangex\r\nX-Slow: ";
     // A TLS record header announcing 512 bytes of handshake, then its bytes one by one.
     static const std::string hello = std::string("\x16\x03\x01\x02\x00", 5);
+    static const std::string post =
+        "POST /api/lanes/0/verification HTTP/1.1\r\nHost: rangex\r\nContent-Type: "
+        "application/json\r\nContent-Length: 1000\r\n\r\n";
+    if (kind == kBody && sent == 0) {
+      sent = post.size();
+      return ::send(fd, post.data(), post.size(), MSG_NOSIGNAL) == ssize_t(post.size());
+    }
     const std::string& text = kind == kTlsHandshake ? hello : head;
-    const char b = sent < text.size() ? text[sent] : 'x';
+    const char b = sent < text.size() && kind != kBody ? text[sent] : 'x';
     ++sent;
     if (ssl) return SSL_write(ssl, &b, 1) == 1;
     return ::send(fd, &b, 1, MSG_NOSIGNAL) == 1;
@@ -144,7 +152,7 @@ double timed_statistics(int port, bool tls, int answered) {
 // Slowloris: connections that send a request head (or a TLS handshake) a byte every 3 s,
 // reconnecting when the server closes them, while the API is asked for its statistics every
 // 200 ms; returns the slowest answer in seconds (a failed request is a failure of the test).
-double api_under_slow_clients(int clients, double seconds, bool tls = false) {
+double api_under_slow_clients(int clients, double seconds, bool tls = false, bool bodies = false) {
   test::TempDir dir;
   RangexServer server{default_plant_config(1), options(dir)};
   HttpServer web{server.engine(), server.store(), server.hub(), http_options(tls)};
@@ -154,7 +162,8 @@ double api_under_slow_clients(int clients, double seconds, bool tls = false) {
     SSL_CTX* ctx = SSL_CTX_new(TLS_client_method());
     std::vector<SlowClient> conns(static_cast<size_t>(clients));
     for (int k = 0; k < clients; ++k)
-      conns[size_t(k)].kind = !tls    ? SlowClient::kHead
+      conns[size_t(k)].kind = bodies  ? SlowClient::kBody
+                              : !tls  ? SlowClient::kHead
                               : k % 2 ? SlowClient::kTlsHead
                                       : SlowClient::kTlsHandshake;
     while (!done) {
@@ -206,6 +215,26 @@ TEST(HttpHostile, SlowTlsHandshakesAndHeadsLeaveTheApiAnswering) {
   // a session: neither holds a worker (the gate steps handshakes without blocking).
   const double slowest = api_under_slow_clients(300, 15, true);
   EXPECT_LT(slowest, 10.0);  // a hang bound, not a speed test
+}
+
+TEST(HttpHostile, SlowBodiesLeaveTheApiAnsweringAndAWholeOneIsServed) {
+  // Sixty clients send a whole head announcing a 1,000-byte body, then a byte every 3 s: the
+  // gate waits for a body as for a head, so none holds a worker.
+  const double slowest = api_under_slow_clients(60, 10, false, true);
+  EXPECT_LT(slowest, 10.0);  // a hang bound, not a speed test
+  Plant plant;
+  const auto r =
+      plant.client.Post("/api/lanes/0/verification",
+                        R"({"piece": "2 mm calcified sphere", "x_mm": 10})", "application/json");
+  ASSERT_TRUE(r) << httplib::to_string(r.error());
+  EXPECT_EQ(r->status, 200) << r->body;
+  EXPECT_TRUE(plant.server.engine().lane_state(0).verification.running);
+  // A body over the gate's bound is refused unread.
+  const auto big =
+      plant.client.Post("/api/lanes/0/verification", std::string(20000, ' '), "application/json");
+  ASSERT_TRUE(big);
+  EXPECT_EQ(big->status, 413);
+  EXPECT_NE(big->body.find("at most 16384 bytes"), std::string::npos) << big->body;
 }
 
 TEST(HttpHostile, TlsKeepsItsConnectionAliveAcrossRequests) {

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "service/http_params.h"
+#include "service/request_end.h"
 
 using namespace rangex;
 
@@ -59,4 +60,46 @@ TEST(HttpParams, ListsAndPathPartsAreChecked) {
   EXPECT_EQ(checked_image_kind("residual"), "residual");
   EXPECT_NE(refusal([] { checked_image_kind("raw"); }).find("image kind must be"),
             std::string::npos);
+}
+
+TEST(HttpParams, AVerificationBodyIsCheckedFieldByField) {
+  const VerificationRequest r = verification_body(
+      R"({"piece": "2 mm sphere", "x_mm": -12.5, "tolerance_mm": 4, "fillets": 7})");
+  EXPECT_EQ(r.piece, "2 mm sphere");
+  EXPECT_EQ(r.x_mm, -12.5);
+  EXPECT_EQ(r.tolerance_mm, 4);
+  EXPECT_EQ(r.fillets, 7);
+  EXPECT_EQ(verification_body(R"({"piece": "p", "x_mm": 1})").fillets, 0);  // plant.yaml's
+  EXPECT_NE(refusal([] { verification_body("[1]"); }).find("a JSON object"), std::string::npos);
+  EXPECT_NE(refusal([] { verification_body(R"({"x_mm": 1})"); }).find("piece must be"),
+            std::string::npos);
+  EXPECT_NE(refusal([] {
+              verification_body(R"({"piece": "p", "x_mm": "3"})");
+            }).find("x_mm must be a number"),
+            std::string::npos);
+  EXPECT_NE(refusal([] {
+              verification_body(R"({"piece": "p", "x_mm": 1, "fillets": 2.5})");
+            }).find("fillets must be an integer"),
+            std::string::npos);
+  EXPECT_NE(refusal([] {
+              verification_body(R"({"piece": "p", "x_mm": 1, "lane": 2})");
+            }).find("unknown field 'lane'"),
+            std::string::npos);
+}
+
+TEST(HttpParams, ARequestEndsAfterItsHeadAndItsSmallBody) {
+  const std::string head = "POST /a HTTP/1.1\r\nHost: h\r\nContent-Length: 5\r\n\r\n";
+  EXPECT_FALSE(request_end(head.substr(0, 20), 1024, 64).complete);  // the head still coming
+  EXPECT_FALSE(request_end(head + "12", 1024, 64).complete);         // the body still coming
+  const RequestEnd e = request_end(head + "12345GET /next", 1024, 64);
+  EXPECT_TRUE(e.complete);
+  EXPECT_EQ(e.bytes, head.size() + 5);  // the next request stays behind
+  // A body over the bound ends the request at its head (the worker refuses it unread).
+  const std::string big = "POST /a HTTP/1.1\r\ncontent-length:  100000 \r\n\r\n";
+  EXPECT_EQ(request_end(big, 1024, 64).bytes, big.size());
+  EXPECT_EQ(announced_body(big), 100000u);
+  EXPECT_EQ(announced_body("POST / HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n"), SIZE_MAX);
+  EXPECT_EQ(announced_body("POST / HTTP/1.1\r\nContent-Length: 5x\r\n\r\n"), SIZE_MAX);
+  EXPECT_EQ(announced_body("GET / HTTP/1.1\r\n\r\n"), 0u);
+  EXPECT_TRUE(request_end(std::string(2000, 'a'), 1024, 64).too_large);  // no head in 1 kB
 }

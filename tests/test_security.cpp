@@ -446,13 +446,22 @@ TEST(Access, LoopbackAddressesAreRecognised) {
     EXPECT_FALSE(is_loopback_host(a)) << a;
 }
 
-TEST(Access, TheDashboardOverTlsNeedsAViewer) {
+// rangexd with its dashboard, both secured as secured_plant() says.
+struct SecuredDashboard {
   TempDir dir;
-  RangexServer server(secured_plant(), options(dir));
-  HttpOptions ho;
-  ho.listen = "127.0.0.1:0";
-  ho.security = secured_plant().security;
-  HttpServer web(server.engine(), server.store(), server.hub(), ho);
+  RangexServer server{secured_plant(), options(dir)};
+  HttpServer web{server.engine(), server.store(), server.hub(), [] {
+                   HttpOptions ho;
+                   ho.listen = "127.0.0.1:0";
+                   ho.security = secured_plant().security;
+                   return ho;
+                 }()};
+};
+
+TEST(Access, TheDashboardOverTlsNeedsAViewer) {
+  SecuredDashboard d;
+  RangexServer& server = d.server;
+  HttpServer& web = d.web;
   auto client = [&](const std::string& cert) {
     auto c = cert.empty()
                  ? std::make_unique<httplib::SSLClient>("127.0.0.1", web.port())
@@ -505,6 +514,67 @@ TEST(Access, TheDashboardOverTlsNeedsAViewer) {
   untrusting.enable_server_certificate_verification(true);
   untrusting.set_connection_timeout(5);
   EXPECT_FALSE(untrusting.Get("/api/info"));
+  web.stop();
+}
+
+// The dashboard starts a verification run for an operator, from its own origin, with JSON;
+// a viewer, another site's page, a form post and a bad body are refused, each saying why.
+TEST(Access, TheDashboardStartsAVerificationForAnOperatorOnly) {
+  SecuredDashboard d;
+  RangexServer& server = d.server;
+  HttpServer& web = d.web;
+  auto post = [&](const std::string& cert, const std::string& body,
+                  const httplib::Headers& headers = {},
+                  const std::string& type = "application/json", int lane = 1) {
+    httplib::SSLClient c("127.0.0.1", web.port(), pki()(cert + ".crt"), pki()(cert + ".key"));
+    c.set_ca_cert_path(pki()("ca.crt").c_str());
+    c.enable_server_certificate_verification(true);
+    c.set_connection_timeout(5);
+    c.set_read_timeout(5);
+    auto r = c.Post(("/api/lanes/" + std::to_string(lane) + "/verification").c_str(), headers, body,
+                    type.c_str());
+    EXPECT_TRUE(r);
+    return r ? std::make_pair(r->status, r->body) : std::make_pair(0, std::string());
+  };
+  const std::string ok = R"({"piece": "2 mm calcified sphere", "x_mm": 40, "fillets": 3})";
+  auto [st, body] = post("viewer-1", ok);
+  EXPECT_EQ(st, 403);
+  EXPECT_NE(body.find("needs the operator role"), std::string::npos) << body;
+  std::tie(st, body) = post("operator-1", ok, {}, "application/x-www-form-urlencoded");
+  EXPECT_EQ(st, 415) << body;
+  std::tie(st, body) = post("operator-1", ok, {{"Origin", "https://evil.example"}});
+  EXPECT_EQ(st, 403);
+  EXPECT_NE(body.find("origin 'https://evil.example' is refused"), std::string::npos) << body;
+  std::tie(st, body) = post("operator-1", ok, {{"Sec-Fetch-Site", "cross-site"}});
+  EXPECT_EQ(st, 403) << body;
+  std::tie(st, body) = post("operator-1", R"({"piece": "sphere"})");
+  EXPECT_EQ(st, 400);
+  EXPECT_NE(body.find("x_mm is required"), std::string::npos) << body;
+  std::tie(st, body) = post("operator-1", R"({"piece": "sphere", "x_mm": 1, "size": 2})");
+  EXPECT_EQ(st, 400);
+  EXPECT_NE(body.find("unknown field 'size'"), std::string::npos) << body;
+  std::tie(st, body) = post("operator-1", "not json");
+  EXPECT_EQ(st, 400) << body;
+  std::tie(st, body) = post("operator-1", ok, {}, "application/json", 9);
+  EXPECT_EQ(st, 404) << body;
+  EXPECT_FALSE(server.engine().lane_state(1).verification.running);
+
+  // From its own origin, as the dashboard's page sends it.
+  std::tie(st, body) =
+      post("operator-1", ok, {{"Origin", "https://127.0.0.1:" + std::to_string(web.port())}});
+  ASSERT_EQ(st, 200) << body;
+  EXPECT_NE(body.find("\"running\":true"), std::string::npos) << body;
+  const LaneState l = server.engine().lane_state(1);
+  EXPECT_TRUE(l.verification.running);
+  EXPECT_EQ(l.verification.running_piece, "2 mm calcified sphere");
+  EXPECT_EQ(l.verification.fillets_left, 3);
+  std::tie(st, body) = post("operator-1", ok);
+  EXPECT_EQ(st, 409);  // one at a time on a lane
+  EXPECT_NE(body.find("is verifying"), std::string::npos) << body;
+  bool audited = false;
+  for (const AuditEntry& e : server.store().audit_entries_of("verification.", 10))
+    audited |= e.what == "verification.start" && e.who == "cert:operator-1";
+  EXPECT_TRUE(audited);
   web.stop();
 }
 

@@ -23,9 +23,10 @@ class GateConnection {
   GateConnection& operator=(const GateConnection&) = delete;
 
   int fd() const { return fd_; }
-  // Reads toward the next request head, never blocking; kArrived puts the head (ending in
-  // its empty line) in head. kWaitRead/kWaitWrite: call again once the socket is ready so.
-  virtual Head read_head(std::string& head, size_t max_bytes) = 0;
+  // Reads toward the next request, never blocking; kArrived puts its head (ending in its
+  // empty line) and its body, when that is at most max_body bytes, in head
+  // (service/request_end.h). kWaitRead/kWaitWrite: call again once the socket is ready so.
+  virtual Head read_head(std::string& head, size_t max_head, size_t max_body) = 0;
   // Bytes of the next request already taken off the socket (TLS decrypts whole records):
   // poll() will not announce them, so the gate reads again without waiting.
   virtual bool has_read_ahead() const { return false; }

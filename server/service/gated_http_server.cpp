@@ -10,6 +10,7 @@
 #include <csignal>
 
 #include "service/plain_connection.h"
+#include "service/request_end.h"
 #include "service/tls_connection.h"
 
 namespace rangex {
@@ -18,25 +19,11 @@ namespace {
 
 thread_local int t_fd = -1;
 
-// Our API takes no request bodies: one announced is refused before a worker would wait for
-// it (a slow body is the slow head's twin).
-bool announces_body(const std::string& head) {
-  std::string lower(head);
-  std::transform(lower.begin(), lower.end(), lower.begin(),
-                 [](unsigned char c) { return char(std::tolower(c)); });
-  if (lower.find("\r\ntransfer-encoding:") != std::string::npos) return true;
-  const size_t at = lower.find("\r\ncontent-length:");
-  if (at == std::string::npos) return false;
-  size_t k = at + 17;
-  while (k < lower.size() && (lower[k] == ' ' || lower[k] == '\t')) ++k;
-  while (k < lower.size() && lower[k] == '0') ++k;
-  return k < lower.size() && std::isdigit(static_cast<unsigned char>(lower[k]));
-}
-
 }  // namespace
 
 GatedHttpServer::GatedHttpServer(GateOptions opt, ssl_ctx_st* tls)
     : tls_(tls),
+      max_body_(opt.max_body_bytes),
       gate_(std::make_unique<HttpGate>(
           opt, [this](GateConnection& c, std::string& head) { return serve(c, head); })) {
   // Accepting is all that httplib's own pool still does: a few threads are plenty.
@@ -75,11 +62,15 @@ bool GatedHttpServer::process_and_close_socket(socket_t sock) {
 }
 
 bool GatedHttpServer::serve(GateConnection& c, std::string& head) {
-  if (announces_body(head)) {
+  // A body over the gate's bound (or sent chunked) was not waited for: refused unread, as a
+  // worker would otherwise wait for it (a slow body is the slow head's twin).
+  if (announced_body(head) > max_body_) {
+    const std::string body = "{\"error\":\"a request body is at most " + std::to_string(max_body_) +
+                             " bytes, with its Content-Length\"}";
     c.refuse(
         "HTTP/1.1 413 Payload Too Large\r\nConnection: close\r\nContent-Type: "
-        "application/json\r\nContent-Length: 42\r\n\r\n{\"error\":\"this API takes no request "
-        "body\"}");
+        "application/json\r\nContent-Length: " +
+        std::to_string(body.size()) + "\r\n\r\n" + body);
     return false;
   }
   const std::unique_ptr<httplib::Stream> strm =

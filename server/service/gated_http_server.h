@@ -26,6 +26,7 @@ class GatedHttpServer : public httplib::Server {
   bool process_and_close_socket(socket_t sock) override;
   bool serve(GateConnection& c, std::string& head);
   ssl_ctx_st* tls_;
+  size_t max_body_;  // the gate's bound on a body it waits for
   std::unique_ptr<HttpGate> gate_;
 };
 

@@ -130,7 +130,7 @@ void HttpGate::poll_loop() {
       Waiting& w = waiting[k];
       if (fds[k + 1].revents || w.conn->has_read_ahead()) {
         std::string head;
-        switch (w.conn->read_head(head, opt_.max_head_bytes)) {
+        switch (w.conn->read_head(head, opt_.max_head_bytes, opt_.max_body_bytes)) {
           case GateConnection::Head::kArrived:
             heads.emplace_back(std::move(w.conn), std::move(head));
             continue;

@@ -9,6 +9,7 @@
 // - at most max_waiting connections wait for their heads, and at most max_waiting_per_client
 //   from one address; a new one closes the oldest (of its address, when that is over its
 //   bound), so slow clients cannot keep a real one out;
+// - a small body (at most max_body_bytes) must arrive with its head, within the same time;
 // - the workers only ever serve requests that have arrived.
 #pragma once
 #include <condition_variable>
@@ -31,6 +32,9 @@ struct GateOptions {
   size_t max_waiting = 512;
   size_t max_waiting_per_client = 128;
   size_t max_head_bytes = 64 * 1024;
+  // A body up to this size is waited for here with its head (the dashboard's actions send a
+  // few hundred bytes of JSON); a larger one is refused by the worker unread.
+  size_t max_body_bytes = 16 * 1024;
   int workers = 40;
 };
 

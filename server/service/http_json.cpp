@@ -87,6 +87,7 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
                                : "a verification is due";
   json verification = {{"running", ver.running},
                        {"running_piece", ver.running_piece},
+                       {"fillets_left", ver.fillets_left},
                        {"overdue", ver.overdue},
                        {"last", nullptr}};
   if (ver.last)

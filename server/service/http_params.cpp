@@ -1,5 +1,8 @@
 #include "service/http_params.h"
 
+#include <cmath>
+#include <cstdlib>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 namespace rangex {
@@ -93,6 +96,37 @@ const std::string& checked_image_kind(const std::string& kind) {
     throw BadRequest("image kind must be overlay, xray, thickness, pseudo_xray or residual (got '" +
                      kind + "')");
   return kind;
+}
+
+VerificationRequest verification_body(const std::string& body) {
+  const nlohmann::json j = nlohmann::json::parse(body, nullptr, false);
+  if (j.is_discarded() || !j.is_object())
+    throw BadRequest("the body must be a JSON object {\"piece\": ..., \"x_mm\": ...}");
+  for (const auto& [key, v] : j.items())
+    if (key != "piece" && key != "x_mm" && key != "tolerance_mm" && key != "fillets")
+      throw BadRequest("unknown field '" + key + "' (piece, x_mm, tolerance_mm, fillets)");
+  VerificationRequest r;
+  if (!j.contains("piece") || !j["piece"].is_string() || j["piece"].get<std::string>().empty())
+    throw BadRequest("piece must be the test piece's name, e.g. \"2 mm calcified sphere\"");
+  r.piece = j["piece"].get<std::string>();
+  auto number = [&](const char* name, bool required) -> double {
+    if (!j.contains(name)) {
+      if (required) throw BadRequest(std::string(name) + " is required (millimetres)");
+      return 0;
+    }
+    if (!j[name].is_number() || !std::isfinite(j[name].get<double>()))
+      throw BadRequest(std::string(name) + " must be a number");
+    return j[name].get<double>();
+  };
+  r.x_mm = number("x_mm", true);
+  r.tolerance_mm = number("tolerance_mm", false);
+  if (j.contains("fillets")) {
+    // Its range is checked where gRPC's is (Verifications::start).
+    if (!j["fillets"].is_number_integer() || std::llabs(j["fillets"].get<int64_t>()) > 1000000)
+      throw BadRequest("fillets must be an integer (1..1000)");
+    r.fillets = int(j["fillets"].get<int64_t>());
+  }
+  return r;
 }
 
 }  // namespace rangex

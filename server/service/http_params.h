@@ -9,6 +9,7 @@
 #include <string>
 
 #include "service/store.h"
+#include "service/verifications.h"
 
 namespace rangex {
 
@@ -32,5 +33,8 @@ std::set<std::string> decision_set(const QueryParams& p, const char* name);
 // A fillet uid from a path (digits only, as the route matched them) and an image kind.
 int64_t parse_uid(const std::string& digits);
 const std::string& checked_image_kind(const std::string& kind);
+// The JSON body of POST /api/lanes/L/verification: {"piece": NAME, "x_mm": X,
+// "tolerance_mm": T, "fillets": N} (the last two optional); the lane is the path's.
+VerificationRequest verification_body(const std::string& body);
 
 }  // namespace rangex

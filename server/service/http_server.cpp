@@ -162,15 +162,18 @@ bool HttpServer::refuse_hostile(const httplib::Request& req, httplib::Response& 
   return false;
 }
 
+Identity HttpServer::identify(const httplib::Request& req) const {
+  return access_.identify(peer_common_name(req), req.get_header_value("Authorization"),
+                          req.remote_addr);
+}
+
 void HttpServer::authorise(httplib::Server& s) {
   // Every request, before routing: the dashboard's files too, so that a page never loads
   // without its data.
   s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
     if (refuse_hostile(req, res)) return httplib::Server::HandlerResponse::Handled;
     try {
-      const Identity who = access_.identify(peer_common_name(req),
-                                            req.get_header_value("Authorization"), req.remote_addr);
-      AccessControl::require(who, Role::viewer, "reading the dashboard");
+      AccessControl::require(identify(req), Role::viewer, "reading the dashboard");
       return httplib::Server::HandlerResponse::Unhandled;
     } catch (const Unauthenticated& e) {
       res.status = 401;
@@ -215,6 +218,7 @@ void HttpServer::routes() {
   fillet_routes(s);
   record_routes(s);
   event_routes(s);
+  lane_action_routes(s);
 }
 
 }  // namespace rangex

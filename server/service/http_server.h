@@ -17,6 +17,8 @@
 //   GET /api/calibrations          ?lane=: versions, and who uploaded/activated what when
 //   GET /api/audit                 ?limit=: the audit log, newest last
 //   GET /api/events                ?lanes=1,2&decisions=reject: server-sent events
+//   POST /api/lanes/L/verification {"piece", "x_mm", "tolerance_mm", "fillets"}: starts a
+//                                  verification run (operator role; JSON from this origin)
 //   GET /metrics                   Prometheus text format
 #pragma once
 #include <atomic>
@@ -76,7 +78,12 @@ class HttpServer {
   void fillet_routes(httplib::Server& s);
   void record_routes(httplib::Server& s);
   void event_routes(httplib::Server& s);
+  void lane_action_routes(httplib::Server& s);
   void authorise(httplib::Server& s);
+  // Who sent the request: its verified client certificate, or its token.
+  Identity identify(const httplib::Request& req) const;
+  // Why a request that acts may not (another site's, or not JSON); "" when it may.
+  std::string cross_site(const httplib::Request& req) const;
   // Answers (and returns true for) a request too big to serve: too many headers, or more
   // than one range.
   static bool refuse_hostile(const httplib::Request& req, httplib::Response& res);

@@ -7,6 +7,7 @@
 #include <cerrno>
 
 #include "service/gate_stream.h"
+#include "service/request_end.h"
 
 namespace rangex {
 
@@ -27,19 +28,19 @@ class PlainStream : public GateStream {
 };
 }  // namespace
 
-GateConnection::Head PlainConnection::read_head(std::string& head, size_t max_bytes) {
+GateConnection::Head PlainConnection::read_head(std::string& head, size_t max_head,
+                                                size_t max_body) {
   // One buffer for the gate's thread, not one a connection: hundreds may be waiting.
   thread_local std::string peek;
-  peek.resize(max_bytes + 1);
+  peek.resize(max_head + 4 + max_body + 1);
   const ssize_t n = ::recv(fd_, peek.data(), peek.size(), MSG_PEEK | MSG_DONTWAIT);
   if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) return Head::kWaitRead;
   if (n <= 0) return Head::kGone;
-  const std::string_view got(peek.data(), size_t(n));
-  const size_t end = got.find("\r\n\r\n");
-  if (end == std::string_view::npos)
-    return size_t(n) > max_bytes ? Head::kTooLarge : Head::kWaitRead;
-  // Exactly the head: the body (if any) and the next request stay in the socket.
-  head.resize(end + 4);
+  const RequestEnd e = request_end(std::string_view(peek.data(), size_t(n)), max_head, max_body);
+  if (e.too_large) return Head::kTooLarge;
+  if (!e.complete) return Head::kWaitRead;
+  // Exactly the request: the next one stays in the socket.
+  head.resize(e.bytes);
   if (::recv(fd_, head.data(), head.size(), MSG_DONTWAIT) != ssize_t(head.size()))
     return Head::kGone;
   return Head::kArrived;

@@ -8,7 +8,7 @@ namespace rangex {
 class PlainConnection : public GateConnection {
  public:
   using GateConnection::GateConnection;
-  Head read_head(std::string& head, size_t max_bytes) override;
+  Head read_head(std::string& head, size_t max_head, size_t max_body) override;
   void refuse(const std::string& answer) override;
   std::unique_ptr<httplib::Stream> stream(std::string& head, time_t read_s,
                                           time_t write_s) override;

@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "service/gate_stream.h"
+#include "service/request_end.h"
 
 namespace rangex {
 
@@ -71,7 +72,7 @@ TlsConnection::~TlsConnection() {
   SSL_free(ssl_);
 }
 
-GateConnection::Head TlsConnection::read_head(std::string& head, size_t max_bytes) {
+GateConnection::Head TlsConnection::read_head(std::string& head, size_t max_head, size_t max_body) {
   if (!handshaken_) {
     ERR_clear_error();
     const int r = SSL_accept(ssl_);
@@ -83,15 +84,17 @@ GateConnection::Head TlsConnection::read_head(std::string& head, size_t max_byte
     }
     handshaken_ = true;
   }
+  max_head_ = max_head;
+  max_body_ = max_body;
   char buf[16 * 1024];
   while (true) {
-    const size_t end = ahead_.find("\r\n\r\n");
-    if (end != std::string::npos) {
-      head = ahead_.substr(0, end + 4);
-      ahead_.erase(0, end + 4);
+    const RequestEnd end = request_end(ahead_, max_head, max_body);
+    if (end.complete) {
+      head = ahead_.substr(0, end.bytes);
+      ahead_.erase(0, end.bytes);
       return Head::kArrived;
     }
-    if (ahead_.size() > max_bytes) return Head::kTooLarge;
+    if (end.too_large) return Head::kTooLarge;
     ERR_clear_error();
     const int r = SSL_read(ssl_, buf, sizeof buf);
     if (r > 0) {
@@ -106,8 +109,9 @@ GateConnection::Head TlsConnection::read_head(std::string& head, size_t max_byte
 }
 
 bool TlsConnection::has_read_ahead() const {
-  // Only what lets read_head go further: part of a head waits for the socket like any other.
-  return SSL_pending(ssl_) > 0 || ahead_.find("\r\n\r\n") != std::string::npos;
+  // Only what lets read_head go further: part of a request waits for the socket like any
+  // other.
+  return SSL_pending(ssl_) > 0 || request_end(ahead_, max_head_, max_body_).complete;
 }
 
 void TlsConnection::refuse(const std::string& answer) {

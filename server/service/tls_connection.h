@@ -13,7 +13,7 @@ class TlsConnection : public GateConnection {
  public:
   TlsConnection(int fd, ssl_st* ssl);  // takes the SSL object
   ~TlsConnection() override;
-  Head read_head(std::string& head, size_t max_bytes) override;
+  Head read_head(std::string& head, size_t max_head, size_t max_body) override;
   bool has_read_ahead() const override;
   void refuse(const std::string& answer) override;
   std::unique_ptr<httplib::Stream> stream(std::string& head, time_t read_s,
@@ -23,7 +23,8 @@ class TlsConnection : public GateConnection {
  private:
   ssl_st* ssl_;
   bool handshaken_ = false;
-  std::string ahead_;  // decrypted bytes not yet part of a head
+  std::string ahead_;                           // decrypted bytes not yet part of a request
+  size_t max_head_ = 64 * 1024, max_body_ = 0;  // read_head's last limits
 };
 
 }  // namespace rangex

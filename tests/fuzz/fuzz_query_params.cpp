@@ -2,7 +2,10 @@
 // send them: a query string (and a path's uid and image kind) checked by service/http_params
 // and run against a small store. Refusals are BadRequest (400); what is accepted runs, and
 // every fillet the store returns matches the query (lane, decision, time range, limit).
-// Input: "uid/kind?name=value&name=value..." as raw bytes (no percent-decoding).
+// Input: "uid/kind?name=value&name=value..." as raw bytes (no percent-decoding). The same
+// bytes are also a dashboard action's JSON body (verification_body: a request or a
+// BadRequest) and a connection's first bytes at the HTTP gate (request_end: where the
+// request ends, never past what arrived unless waiting, never a body over the bound).
 #include <unistd.h>
 
 #include <cstdlib>
@@ -11,6 +14,7 @@
 
 #include "core/error.h"
 #include "service/http_params.h"
+#include "service/request_end.h"
 #include "service/store.h"
 
 using namespace rangex;
@@ -88,6 +92,18 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (f && f->uid != uid) std::abort();
     if (slash != std::string::npos) st.image_path(uid, checked_image_kind(path.substr(slash + 1)));
   } catch (const BadRequest&) {
+  }
+  try {
+    const VerificationRequest r = verification_body(input);
+    if (r.piece.empty()) std::abort();
+  } catch (const BadRequest&) {
+  }
+  constexpr size_t kHead = 256, kBody = 64;
+  const RequestEnd e = request_end(input, kHead, kBody);
+  if (e.complete && (e.too_large || e.bytes > input.size())) std::abort();
+  if (e.complete) {
+    const size_t head = input.find("\r\n\r\n") + 4;
+    if (head > kHead + 4 || e.bytes < head || e.bytes - head > kBody) std::abort();
   }
   return 0;
 }

@@ -121,6 +121,11 @@ for i, q in enumerate(["12/overlay?lane=1&decision=reject&limit=5",
                        "?from_ns=0&to_ns=5000&newest=1&after=3",
                        "7/residual?lanes=1,2&decisions=reject,pass&minutes=30&limit=10",
                        "99999999999999999999/xray?lane=-1&limit=0",
-                       "3?decision=&lane=2&from_ns=2000"]):
+                       "3?decision=&lane=2&from_ns=2000",
+                       # a dashboard action's body, and requests at the HTTP gate
+                       '{"piece": "2 mm sphere", "x_mm": 40.5, "fillets": 3}',
+                       "POST /api/lanes/1/verification HTTP/1.1\r\nContent-Length: 12\r\n\r\n"
+                       '{"x_mm": 1}',
+                       "POST /x HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n5\r\n"]):
     put("query_params", "q%d" % i, q)
 print("seeds written to", out)

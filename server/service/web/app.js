@@ -91,6 +91,14 @@ function feedItem(f) {
 function lanesView() {
   view.innerHTML =
     `<h2>Lanes</h2><div class="tiles" id="tiles"></div>
+     <form class="search panel verify" id="verify">
+       <strong>Verification run</strong>
+       <label>lane<input name="lane" type="number" min="0" value="0" required></label>
+       <label>test piece<input name="piece" value="2 mm calcified sphere" required></label>
+       <label>across the belt, mm<input name="x_mm" type="number" step="0.1" required></label>
+       <label>within fillets<input name="fillets" type="number" min="1" placeholder="plant.yaml"></label>
+       <button>Start</button><span id="verify-out" class="muted"></span>
+     </form>
      <div class="row">
        <div class="panel feed"><h2>Rejects, live</h2><ul id="feed-list"></ul></div>
        <div class="panel charts"><h2>Last hour</h2>
@@ -101,6 +109,7 @@ function lanesView() {
      </div>`;
   const list = document.getElementById("feed-list");
   state.feed.forEach((f) => list.append(feedItem(f)));
+  document.getElementById("verify").addEventListener("submit", startVerification);
   every(1000, refreshTiles);
   every(5000, refreshCharts);
 }
@@ -131,6 +140,29 @@ async function refreshTiles() {
          ? `<div class="sens">${esc(l.learned_sensitivity[0])}</div>` : ""}
        <div class="why">${esc(l.light_reason)}</div>
      </div>`).join("");
+}
+
+// Starts a verification run on a lane (the operator role: the server answers 401/403 to
+// anyone else, and its message is shown); the lane's tile then shows it running.
+async function startVerification(ev) {
+  ev.preventDefault();
+  const f = new FormData(ev.target);
+  const out = document.getElementById("verify-out");
+  const body = { piece: f.get("piece"), x_mm: Number(f.get("x_mm")) };
+  if (f.get("fillets")) body.fillets = Number(f.get("fillets"));
+  out.className = "muted";
+  out.textContent = "starting...";
+  try {
+    const r = await fetch(`/api/lanes/${Number(f.get("lane"))}/verification`, {
+      method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body) });
+    const answer = await r.json();
+    if (!r.ok) throw new Error(answer.error || r.statusText);
+    const v = answer.lane.verification;
+    out.textContent = `lane ${answer.lane.lane}: ${v.running_piece}, ${v.fillets_left} fillets to go`;
+  } catch (e) {
+    out.className = "error";
+    out.textContent = e.message;
+  }
 }
 
 // The lane's last verification run (HACCP: a declared test piece found where placed), one
