@@ -24,7 +24,8 @@ struct DualEnergyK {
   // Row-major inverse of [[a_lean a_fat a_bone] [b_lean b_fat b_bone] [1 1 1]]: each
   // material's basis lengths per mm, and the laser's thickness as their sum.
   double minv[9];
-  double var_a;  // the calibration's own error at the wedge's steps (A, B recovered), mm^2
+  double basis[6];  // lean, fat, bone per mm: (mm of A-150, mm of Al) each
+  double var_a;     // the calibration's own error at the wedge's steps (A, B recovered), mm^2
   double var_b;
   double gain_low;  // each layer's noise: var(DN) = gain x DN + var_e
   double gain_high;

@@ -115,6 +115,8 @@ DualEnergyFit fit_dual_energy(const WedgeScan& scan, const SandwichDetector& nom
   Eigen::Matrix3d M;
   for (int m = 0; m < 3; ++m) {
     f.basis[size_t(m)] = basis_lengths(mats[m], spectra, f.params);
+    f.params.basis[2 * m] = f.basis[size_t(m)][0];
+    f.params.basis[2 * m + 1] = f.basis[size_t(m)][1];
     M(0, m) = f.basis[size_t(m)][0];
     M(1, m) = f.basis[size_t(m)][1];
     M(2, m) = 1;

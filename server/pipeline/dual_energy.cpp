@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <vector>
 
 namespace rangex {
 
@@ -57,33 +58,73 @@ bool dual_energy_invert(const DualEnergyParams& k, double x, double y, double* a
   return std::isfinite(u) && std::isfinite(v) && std::abs(rx) < 1e-6 && std::abs(ry) < 1e-6;
 }
 
-void dual_energy_decompose(const DualEnergyBatch& b, const DualEnergyParams& k, float* lengths,
-                           float* sigma) {
+void dual_energy_basis(const DualEnergyBatch& b, const DualEnergyParams& k, float* basis) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int p = 0; p < b.pixels; ++p) {
-    float* out = lengths + 3 * p;
-    float* sd = sigma + 3 * p;
-    out[0] = out[1] = out[2] = sd[0] = sd[1] = sd[2] = nan;
+    float* o = basis + 5 * p;
+    o[0] = o[1] = o[2] = o[3] = o[4] = nan;
     const double lo = b.low[p], hi = b.high[p];
     if ((b.use && !b.use[p]) || lo <= 0 || hi <= 0 || !(b.open_low[p] > 0) || !(b.open_high[p] > 0))
       continue;
     const double x = std::log(b.open_low[p] / lo), y = std::log(b.open_high[p] / hi);
     double A, B, J[4];
     if (!dual_energy_invert(k, x, y, &A, &B, J)) continue;
-    const double T = b.thickness[p];
-    const double* m = k.minv;
-    for (int r = 0; r < 3; ++r) out[r] = float(m[3 * r] * A + m[3 * r + 1] * B + m[3 * r + 2] * T);
-    // Covariance of (A, B): the counts through the inverse's Jacobian, plus the calibration's.
+    // The counts through the inverse's Jacobian, plus the calibration's own error.
     const double vx = (k.gain_low * lo + k.var_e_low) / (lo * lo),
                  vy = (k.gain_high * hi + k.var_e_high) / (hi * hi);
-    const double caa = J[0] * J[0] * vx + J[1] * J[1] * vy + k.var_a;
-    const double cbb = J[2] * J[2] * vx + J[3] * J[3] * vy + k.var_b;
-    const double cab = J[0] * J[2] * vx + J[1] * J[3] * vy;
+    o[0] = float(A), o[1] = float(B);
+    o[2] = float(J[0] * J[0] * vx + J[1] * J[1] * vy + k.var_a);
+    o[3] = float(J[0] * J[2] * vx + J[1] * J[3] * vy);
+    o[4] = float(J[2] * J[2] * vx + J[3] * J[3] * vy + k.var_b);
+  }
+}
+
+void dual_energy_lengths(const float* basis, const float* thickness, int pixels,
+                         const DualEnergyParams& k, float* lengths, float* sigma) {
+  const double* m = k.minv;
+  for (int p = 0; p < pixels; ++p) {
+    const float* in = basis + 5 * p;
+    const double A = in[0], B = in[1], T = thickness[p];
     for (int r = 0; r < 3; ++r) {
       const double u = m[3 * r], v = m[3 * r + 1], w = m[3 * r + 2];
-      sd[r] = float(std::sqrt(u * u * caa + 2 * u * v * cab + v * v * cbb + w * w * k.var_t));
+      lengths[3 * p + r] = float(u * A + v * B + w * T);
+      sigma[3 * p + r] =
+          float(std::sqrt(u * u * in[2] + 2 * u * v * in[3] + v * v * in[4] + w * w * k.var_t));
     }
   }
+}
+
+void dual_energy_bone(const float* basis, const float* thickness, const float* phi,
+                      const float* phi_var, int pixels, const DualEnergyParams& k, float* bone,
+                      float* bone_sigma) {
+  const double* L = k.basis;  // lean (a, b), fat (a, b), bone (a, b) per mm
+  for (int p = 0; p < pixels; ++p) {
+    const float* in = basis + 5 * p;
+    const double f = phi[p], T = thickness[p];
+    // The soft tissue's basis per mm, and bone's against it.
+    const double sa = (1 - f) * L[0] + f * L[2], sb = (1 - f) * L[1] + f * L[3];
+    const double da = L[4] - sa, db = L[5] - sb;
+    const double ra = in[0] - sa * T, rb = in[1] - sb * T;
+    // Covariance of (ra, rb): the pair's, the thickness's through s, and phi's through
+    // d s / d phi = fat - lean (per mm, times T).
+    const double ea = (L[2] - L[0]) * T, eb = (L[3] - L[1]) * T, vp = phi_var[p];
+    const double caa = in[2] + sa * sa * k.var_t + ea * ea * vp,
+                 cab = in[3] + sa * sb * k.var_t + ea * eb * vp,
+                 cbb = in[4] + sb * sb * k.var_t + eb * eb * vp;
+    const double det = caa * cbb - cab * cab;
+    // C^-1 d and the weighted sums.
+    const double ia = (cbb * da - cab * db) / det, ib = (caa * db - cab * da) / det;
+    const double info = da * ia + db * ib;
+    bone[p] = float((ra * ia + rb * ib) / info);
+    bone_sigma[p] = float(1 / std::sqrt(info));
+  }
+}
+
+void dual_energy_decompose(const DualEnergyBatch& b, const DualEnergyParams& k, float* lengths,
+                           float* sigma) {
+  std::vector<float> basis(5 * size_t(b.pixels));
+  dual_energy_basis(b, k, basis.data());
+  dual_energy_lengths(basis.data(), b.thickness, b.pixels, k, lengths, sigma);
 }
 
 }  // namespace rangex

@@ -31,9 +31,28 @@ struct DualEnergyBatch {
   int pixels = 0;
 };
 
-// Per pixel: lengths[3 p + m] and sigma[3 p + m], m = 0 lean, 1 fat, 2 bone (mm).
+// Per pixel: lengths[3 p + m] and sigma[3 p + m], m = 0 lean, 1 fat, 2 bone (mm): the two
+// steps below in one.
 void dual_energy_decompose(const DualEnergyBatch& b, const DualEnergyParams& k, float* lengths,
                            float* sigma);
+
+// Step 1, per pixel: basis[5 p ..] = A, B (mm), var A, cov AB, var B (mm^2; the counts
+// and the calibration's own error); NaN for pixels not usable or outside the calibration.
+void dual_energy_basis(const DualEnergyBatch& b, const DualEnergyParams& k, float* basis);
+
+// Step 2, per pixel: the three lengths with the laser's thickness, and their sigmas. Unbiased
+// but noisy: lean and fat attenuate almost alike at both energies, so their split (and the
+// bone that depends on it) carries the counts' noise many times over.
+void dual_energy_lengths(const float* basis, const float* thickness, int pixels,
+                         const DualEnergyParams& k, float* lengths, float* sigma);
+
+// Bone given the fat's share phi of the soft tissue (fat / (lean + fat), smooth over the
+// fillet: pipeline/fat_fraction.h): per pixel the bone length t that best explains (A, B)
+// as soft tissue of that mix over T - t and bone over t, weighted by the pair's covariance
+// the thickness's variance and phi's (generalised least squares, one unknown), and its sigma.
+void dual_energy_bone(const float* basis, const float* thickness, const float* phi,
+                      const float* phi_var, int pixels, const DualEnergyParams& k, float* bone,
+                      float* bone_sigma);
 
 // The polynomial's terms at (u, v), its value and its gradient.
 void dual_energy_terms(double u, double v, double* t);
