@@ -115,11 +115,19 @@ void PlcRelease::run() {
       if (stop_) break;
     }
     connect_if_due();
-    // The lanes once a round: the states and the deadlines read the same belt counts.
+    // The releases queued so far, then the lanes once a round: the states and the deadlines
+    // read the same belt counts, read after those releases were decided. A release judged
+    // on counts from before its decision could be sent as a pass when it was late; one
+    // queued after this read waits for the next round's.
+    size_t queued = 0;
+    {
+      std::lock_guard<std::mutex> lk(mu_);
+      queued = queue_.size();
+    }
     std::vector<PlcLaneView> lanes;
     if (hooks_.lanes) lanes = hooks_.lanes();
     heartbeat_and_states(lanes);
-    send_due(lanes);
+    send_due(lanes, queued);
   }
 }
 
@@ -194,11 +202,11 @@ void PlcRelease::heartbeat_and_states(const std::vector<PlcLaneView>& lanes) {
   }
 }
 
-void PlcRelease::send_due(const std::vector<PlcLaneView>& lanes) {
+void PlcRelease::send_due(const std::vector<PlcLaneView>& lanes, size_t count) {
   std::map<int, PlcLaneView> views;
   for (const PlcLaneView& v : lanes) views[v.lane] = v;
   const int64_t t = now_ns();
-  while (true) {
+  for (size_t taken = 0; taken < count; ++taken) {
     Queued q;
     {
       std::lock_guard<std::mutex> lk(mu_);

@@ -63,7 +63,9 @@ class PlcRelease {
   };
   void run();
   void connect_if_due();
-  void send_due(const std::vector<PlcLaneView>& lanes);  // the queue, in order
+  // The first `count` queued releases, in order, judged against `lanes` (read after they
+  // were queued).
+  void send_due(const std::vector<PlcLaneView>& lanes, size_t count);
   void heartbeat_and_states(const std::vector<PlcLaneView>& lanes);
   void lost(const std::string& why);
 
