@@ -149,6 +149,34 @@ TEST(PlantConfig, RegistrationRoundTripsAndIsChecked) {
             std::string::npos);
 }
 
+TEST(PlantConfig, DualEnergyIsReadCheckedAndRoundTrips) {
+  const LaneConfig single = parse_plant_config("lanes: [{id: 0}]\n", "t").lane(0);
+  EXPECT_EQ(single.xray.energies, 1);
+  const LaneConfig dual =
+      parse_plant_config(
+          "lanes: [{id: 0, xray: {energies: 2, sandwich: {kvp: 90, filter_cu_mm: 0.6}}}]\n", "t")
+          .lane(0);
+  EXPECT_EQ(dual.xray.energies, 2);
+  EXPECT_EQ(dual.xray.sandwich.kvp, 90);
+  EXPECT_EQ(dual.xray.sandwich.filter_cu_mm, 0.6);
+  EXPECT_EQ(dual.xray.sandwich.front_csi_mm, SandwichDetector{}.front_csi_mm);
+  const LaneConfig back = apply_lane_calibration(single, lane_calibration_yaml(dual), "t");
+  EXPECT_EQ(back.xray.energies, 2);
+  EXPECT_EQ(back.xray.sandwich.kvp, 90);
+  EXPECT_NE(
+      error_of("lanes: [{id: 0, xray: {energies: 3}}]\n").find("xray.energies: must be 1 or 2"),
+      std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, xray: {sandwich: {kvp: 90}}}]\n")
+                .find("xray.sandwich: is for energies: 2"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, xray: {energies: 2, sandwich: {kvp: 400}}}]\n")
+                .find("kvp 400 must be 30..150 kV"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, xray: {energies: 2, sandwich: {kv: 90}}}]\n")
+                .find("unknown key 'kv'"),
+            std::string::npos);
+}
+
 TEST(PlantConfig, SecuritySectionIsReadAndChecked) {
   const std::string lanes = "lanes: [{id: 0}]\n";
   const std::string sha(64, 'a');

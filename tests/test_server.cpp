@@ -126,6 +126,7 @@ TEST(Server, BadInputGetsInBandErrorsAndTheStreamCarriesOn) {
       bad([](pb::LineScan& l) { l.mutable_cam1()->resize(10 << 20); }, 1001),  // oversized
       bad([](pb::LineScan& l) { l.mutable_xray()->resize(7); }, 1001),         // X-ray size
       bad([](pb::LineScan& l) { l.set_calibration_id("line-9-old"); }, 1001),  // calibration
+      bad([](pb::LineScan& l) { *l.mutable_xray_high() = l.xray(); }, 1001),   // one energy
       good.lines[1],                                                           // ok again
   };
   const auto acks = stream(connect(server), seq);
@@ -138,6 +139,7 @@ TEST(Server, BadInputGetsInBandErrorsAndTheStreamCarriesOn) {
                                           "OVERSIZED",
                                           "WRONG_XRAY_SIZE",
                                           "CALIBRATION_MISMATCH",
+                                          "WRONG_XRAY_SIZE",
                                           ""};
   for (size_t i = 0; i < acks.size(); ++i) {
     EXPECT_EQ(acks[i].sequence(), i);
@@ -146,9 +148,54 @@ TEST(Server, BadInputGetsInBandErrorsAndTheStreamCarriesOn) {
     if (!codes[i].empty()) EXPECT_FALSE(acks[i].error().message().empty());
     EXPECT_GT(acks[i].credit(), 0);
   }
+  EXPECT_NE(acks[8].error().message().find("has one energy"), std::string::npos)
+      << acks[8].error().message();
   const EngineStats s = server.engine().stats();
   EXPECT_EQ(s.refused.at("WRONG_FRAME_SIZE"), 1u);
   EXPECT_EQ(s.refused.at("DUPLICATE_LINE"), 1u);
+}
+
+// A dual-energy lane takes its high-energy line beside the low one, and refuses a line
+// without it; the fillets it decides carry both X-ray lines into the store's images.
+TEST(Server, ADualEnergyLaneTakesBothXrayLines) {
+  test::TempDir t;
+  PlantConfig p = plant();
+  p.lanes.resize(1);
+  p.lanes[0].xray.energies = 2;
+  RangexServer server(p, options(t));
+  const Lines good(p, 4, 3);
+  std::vector<pb::LineScan> seq;
+  for (const pb::LineScan& l : good.lines) {
+    seq.push_back(l);
+    // The high layer sees the harder beam: less attenuation, a brighter line.
+    std::string hi = l.xray();
+    auto* px = reinterpret_cast<uint16_t*>(hi.data());
+    for (size_t i = 0; i < hi.size() / 2; ++i) px[i] = uint16_t(std::min(4095, px[i] + 200));
+    *seq.back().mutable_xray_high() = hi;
+  }
+  pb::LineScan lacking = seq.back();
+  lacking.set_encoder(lacking.encoder() + 1);
+  lacking.clear_xray_high();
+  seq.push_back(lacking);
+  const auto acks = stream(connect(server), seq);
+  ASSERT_EQ(acks.size(), seq.size());
+  for (size_t i = 0; i + 1 < acks.size(); ++i) ASSERT_TRUE(acks[i].accepted()) << i;
+  EXPECT_EQ(acks.back().error().code(), "WRONG_XRAY_SIZE");
+  EXPECT_NE(acks.back().error().message().find("has two energies"), std::string::npos)
+      << acks.back().error().message();
+  server.shutdown();
+  const auto fillets = server.store().list_fillets({});
+  ASSERT_FALSE(fillets.empty());
+  // Images are kept for the fillets not passed: each has both X-ray lines.
+  int with_low = 0, with_high = 0;
+  for (const StoredFillet& f : fillets) {
+    const auto low = server.store().image_path(f.uid, "xray");
+    const auto high = server.store().image_path(f.uid, "xray_high");
+    with_low += low && std::filesystem::exists(*low);
+    with_high += high && std::filesystem::exists(*high);
+  }
+  EXPECT_GT(with_low, 0);
+  EXPECT_EQ(with_high, with_low);
 }
 
 TEST(Server, ClientDisconnectMidStreamLeavesNothingBehind) {

@@ -265,7 +265,14 @@ void push_line_results(LaneProcessor& proc, const QueuedLine& q, const LineResul
   std::memcpy(xray.data(), q.line.xray.data(), D * sizeof(uint16_t));
   const size_t G = r.profile_valid.size() / std::max<size_t>(1, batch_lines);
   const bool blind = G > 0 && LaneProcessor::blind(&r.profile_valid[k * G], G);
-  proc.push(&r.thickness[k * D], &r.thickness_valid[k * D], xray.data(), q.line.encoder, blind);
+  // A dual-energy lane's high line, aligned the same way (admission checked its size).
+  std::vector<uint16_t> high;
+  if (!q.line.xray_high.empty()) {
+    high.resize(D);
+    std::memcpy(high.data(), q.line.xray_high.data(), D * sizeof(uint16_t));
+  }
+  proc.push(&r.thickness[k * D], &r.thickness_valid[k * D], xray.data(), q.line.encoder, blind,
+            high.empty() ? nullptr : high.data());
 }
 
 }  // namespace rangex

@@ -4,6 +4,8 @@
 #pragma once
 #include <cmath>
 
+#include "core/sandwich_detector.h"
+
 namespace rangex {
 
 struct FanBeam {
@@ -26,6 +28,10 @@ struct FanBeam {
   // (delay_lines). 0: not measured.
   double measured_delay_lines = 0;
   double plane_alpha_deg = 0, plane_beta_deg = 0;
+  // Dual energy (docs/dual-energy.md): 2 for a sandwich detector's low and high lines, read
+  // together (LineScan.xray is the low line, xray_high the high one); its layers and tube.
+  int energies = 1;
+  SandwichDetector sandwich;
 
   // Pixel i's centre at (first_pixel_x_mm + pitch_x() * i, detector_z_mm + pitch_z() * i).
   double pitch_x() const { return pitch_mm * std::cos(tilt_deg * M_PI / 180); }

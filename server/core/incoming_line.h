@@ -15,6 +15,7 @@ struct IncomingLine {
   int lane = 0;
   int64_t encoder = 0;
   LineBytes cam0, cam1, xray;  // raw bytes as received
+  LineBytes xray_high;         // a dual-energy lane's high-energy line (xray is the low one)
   std::string calibration_id;  // what the sender believes active; empty: not checked
   // The sending stream's count of its lines waiting in the queue (for its credit); the
   // engine adds the line when it takes it and removes it when the worker does.

@@ -358,7 +358,8 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
   if (auto n = section("xray")) {
     n->only_keys({"pixels", "pitch_mm", "first_pixel_x_mm", "detector_z_mm", "source_mm",
                   "tilt_deg", "delay_lines", "bits", "detector_sigma_px", "focal_spot_sigma_mm",
-                  "measured_delay_lines", "plane_alpha_deg", "plane_beta_deg"});
+                  "measured_delay_lines", "plane_alpha_deg", "plane_beta_deg", "energies",
+                  "sandwich"});
     n->positive("pixels", c.xray.pixels);
     n->positive("pitch_mm", c.xray.pitch_mm);
     n->get("first_pixel_x_mm", c.xray.first_pixel_x_mm);
@@ -395,6 +396,25 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
         n->at(key).bad("must be within +-5 degrees (the planes are near parallel)");
     n->get("bits", c.xray.bits);
     if (c.xray.bits < 8 || c.xray.bits > 16) n->at("bits").bad("must be 8..16");
+    n->get("energies", c.xray.energies);
+    if (c.xray.energies != 1 && c.xray.energies != 2)
+      n->at("energies").bad("must be 1 or 2 (2: a sandwich detector's low and high lines)");
+    if (n->has("sandwich")) {
+      if (c.xray.energies != 2) n->at("sandwich").bad("is for energies: 2");
+      const Node d = n->at("sandwich");
+      d.only_keys({"kvp", "tube_filter_al_mm", "front_csi_mm", "filter_cu_mm", "back_csi_mm"});
+      SandwichDetector& sd = c.xray.sandwich;
+      d.get("kvp", sd.kvp);
+      d.get("tube_filter_al_mm", sd.tube_filter_al_mm);
+      d.get("front_csi_mm", sd.front_csi_mm);
+      d.get("filter_cu_mm", sd.filter_cu_mm);
+      d.get("back_csi_mm", sd.back_csi_mm);
+      try {
+        layer_spectra(sd);
+      } catch (const Error& e) {
+        d.bad(e.what());
+      }
+    }
   }
   if (auto n = section("stripe")) {
     n->only_keys({"method", "min_peak", "threshold_rel", "max_width"});
@@ -807,6 +827,12 @@ std::string lane_calibration_yaml(const LaneConfig& l) {
     << "\n  measured_delay_lines: " << x.measured_delay_lines
     << "\n  plane_alpha_deg: " << x.plane_alpha_deg << "\n  plane_beta_deg: " << x.plane_beta_deg
     << "\n";
+  if (x.energies == 2) {
+    const SandwichDetector& d = x.sandwich;
+    o << "  energies: 2\n  sandwich: {kvp: " << d.kvp
+      << ", tube_filter_al_mm: " << d.tube_filter_al_mm << ", front_csi_mm: " << d.front_csi_mm
+      << ", filter_cu_mm: " << d.filter_cu_mm << ", back_csi_mm: " << d.back_csi_mm << "}\n";
+  }
   return o.str();
 }
 

@@ -30,9 +30,10 @@ struct FilletImage {
     return shift_lines != 0 || tan_alpha != 0 || tan_beta != 0 || detector_sigma_px > 0 ||
            focal_spot_sigma_mm > 0;
   }
-  std::vector<uint16_t> xray;    // rows * cols, DN
-  std::vector<float> thickness;  // rows * cols, mm of X-ray path; NaN where not measured
-  std::vector<uint8_t> mask;     // rows * cols, 1 on the fillet
+  std::vector<uint16_t> xray;       // rows * cols, DN (a dual-energy lane's low-energy line)
+  std::vector<uint16_t> xray_high;  // a dual-energy lane's high-energy line; empty otherwise
+  std::vector<float> thickness;     // rows * cols, mm of X-ray path; NaN where not measured
+  std::vector<uint8_t> mask;        // rows * cols, 1 on the fillet
   int bits = 12;
   // Fail-safe inputs, filled by the assembly.
   int missing_lines = 0;         // lines of the fillet that never arrived or were dropped

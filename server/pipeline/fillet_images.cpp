@@ -22,6 +22,8 @@ void write_fillet_images(const std::string& dir, const FilletImage& img, const F
   const int W = img.cols, H = img.rows;
   const size_t n = img.size();
   write_png16((fs::path(dir) / "xray.png").string(), img.xray.data(), W, H);
+  if (!img.xray_high.empty())
+    write_png16((fs::path(dir) / "xray_high.png").string(), img.xray_high.data(), W, H);
   std::vector<uint16_t> t(n), p(n), res(n);
   for (size_t i = 0; i < n; ++i) {
     t[i] = std::isfinite(img.thickness[i]) ? clamp16(img.thickness[i] * 100.0) : 65535;

@@ -65,7 +65,7 @@ bool LaneAssembler::advance(int64_t encoder) {
 }
 
 void LaneAssembler::add_missing(int64_t encoder) {
-  Row r{encoder, encoder - first_encoder_, {}, {}, true, false};
+  Row r{encoder, encoder - first_encoder_, {}, {}, {}, true, false};
   // The camera line of this slice may have come before the line went missing: keep what
   // it saw, so that a fillet under the laser is not lost with the X-ray line.
   auto it = thickness_.find(encoder - lane_.xray.delay_lines);
@@ -85,7 +85,8 @@ void LaneAssembler::push_missing(int64_t encoder) {
   next_encoder_ = encoder + 1;
 }
 
-void LaneAssembler::push(int64_t encoder, const float* t, const uint16_t* xray) {
+void LaneAssembler::push(int64_t encoder, const float* t, const uint16_t* xray,
+                         const uint16_t* xray_high) {
   if (!advance(encoder)) return;
   thickness_[encoder].assign(t, t + pixels_);
   // Camera lines wait delay_lines for their X-ray line; older ones can no longer pair.
@@ -93,7 +94,12 @@ void LaneAssembler::push(int64_t encoder, const float* t, const uint16_t* xray) 
     thickness_.erase(thickness_.begin());
   next_encoder_ = encoder + 1;
   ++stats_.lines;
-  Row r{encoder, encoder - first_encoder_, std::vector<uint16_t>(xray, xray + pixels_), {}, false,
+  Row r{encoder,
+        encoder - first_encoder_,
+        std::vector<uint16_t>(xray, xray + pixels_),
+        xray_high ? std::vector<uint16_t>(xray_high, xray_high + pixels_) : std::vector<uint16_t>(),
+        {},
+        false,
         false};
   auto it = thickness_.find(encoder - lane_.xray.delay_lines);
   if (it == thickness_.end()) {
@@ -240,6 +246,9 @@ void LaneAssembler::close_segment() {
     f.missing_lines = missing;
     if (interrupted) f.interrupted = interrupted_;
     f.xray.assign(f.size(), 0);
+    const bool dual = std::any_of(segment_.begin() + r0, segment_.begin() + r1 + 1,
+                                  [](const Row& row) { return !row.xray_high.empty(); });
+    if (dual) f.xray_high.assign(f.size(), 0);
     f.thickness.assign(f.size(), std::numeric_limits<float>::quiet_NaN());
     f.mask.assign(f.size(), 0);
     std::vector<uint8_t> present(f.size(), 0);
@@ -249,6 +258,7 @@ void LaneAssembler::close_segment() {
       for (int i = c0; i <= c1; ++i) {
         const size_t o = size_t(r - r0) * f.cols + (i - c0);
         f.xray[o] = row.xray[i];
+        if (dual && !row.xray_high.empty()) f.xray_high[o] = row.xray_high[i];
         f.thickness[o] = row.thickness[i];
         f.mask[o] = labels[size_t(r) * D + i] == c.label;
         present[o] = 1;

@@ -40,7 +40,9 @@ class LaneAssembler {
   // One line: the camera line's thickness (detector pixels, NaN where not measured), which
   // the X-ray sees delay_lines later, and the X-ray line of the same count. Counts must
   // increase; counts skipped are missing lines.
-  void push(int64_t encoder, const float* thickness, const uint16_t* xray);
+  // xray_high: a dual-energy lane's high-energy line (null for a lane of one energy).
+  void push(int64_t encoder, const float* thickness, const uint16_t* xray,
+            const uint16_t* xray_high = nullptr);
   // A line that was dropped (both thickness and X-ray are unusable).
   void push_missing(int64_t encoder);
   // Ends the open fillets as not inspected with `reason` (fillets already complete are
@@ -69,8 +71,9 @@ class LaneAssembler {
   struct Row {
     int64_t encoder;
     int64_t line;
-    std::vector<uint16_t> xray;    // empty when the X-ray line is missing
-    std::vector<float> thickness;  // empty when no camera line covers this slice
+    std::vector<uint16_t> xray;       // empty when the X-ray line is missing
+    std::vector<uint16_t> xray_high;  // a dual-energy lane's high-energy line
+    std::vector<float> thickness;     // empty when no camera line covers this slice
     bool missing;
     bool occupied;
   };

@@ -43,11 +43,11 @@ LaneProcessor::LaneProcessor(const LaneConfig& lane, LaneProcessorOptions opt, F
       line_(size_t(lane.xray.pixels)) {}
 
 void LaneProcessor::push(const float* thickness, const uint8_t* valid, const uint16_t* xray,
-                         int64_t encoder, bool blind) {
+                         int64_t encoder, bool blind, const uint16_t* xray_high) {
   const int D = lane_.xray.pixels;
   for (int i = 0; i < D; ++i)
     line_[i] = valid[i] && !blind ? thickness[i] : std::numeric_limits<float>::quiet_NaN();
-  assembler_.push(encoder, line_.data(), xray);
+  assembler_.push(encoder, line_.data(), xray, xray_high);
 }
 
 bool LaneProcessor::blind(const uint8_t* profile_valid, size_t n) {

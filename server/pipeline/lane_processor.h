@@ -47,7 +47,7 @@ class LaneProcessor {
   // its X-ray line and its encoder count. blind: neither camera saw the stripe anywhere on
   // the line (lost or black frames): its thickness is unknown, not a bare belt.
   void push(const float* thickness, const uint8_t* valid, const uint16_t* xray, int64_t encoder,
-            bool blind = false);
+            bool blind = false, const uint16_t* xray_high = nullptr);
   // Lines first .. first + count - 1 of `results`, all of this lane, with their X-ray lines
   // ([line][pixel]) and encoder counts.
   void push(const LineResults& results, int first, int count, const uint16_t* xray,

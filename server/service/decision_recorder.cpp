@@ -115,7 +115,8 @@ bool DecisionRecorder::save(Unsaved& u) {
     try {
       const std::string dir = store_.image_dir(s.uid);
       write_fillet_images(dir, u.fillet.image, r);
-      for (const char* kind : {"overlay", "xray", "thickness", "pseudo_xray", "residual"}) {
+      for (const char* kind :
+           {"overlay", "xray", "xray_high", "thickness", "pseudo_xray", "residual"}) {
         const std::string path = (fs::path(dir) / (std::string(kind) + ".png")).string();
         if (fs::exists(path)) store_.add_image(s.uid, kind, path);
       }

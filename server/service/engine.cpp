@@ -19,6 +19,7 @@ Engine::Lane::Lane(const LaneConfig& c, const EngineOptions& o, size_t slot)
       width(c.frame_width),
       height(c.frame_height),
       pixels(c.xray.pixels),
+      energies(c.xray.energies),
       admission(c.id, o.dedup_window, o.auto_reset),
       config(c) {}
 

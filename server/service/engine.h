@@ -227,8 +227,8 @@ class Engine {
   struct Lane {
     Lane(const LaneConfig& c, const EngineOptions& o, size_t slot);
     const int id;
-    const size_t slot;                // its place in lanes_ and in the queues
-    const int width, height, pixels;  // fixed for the server's life
+    const size_t slot;                          // its place in lanes_ and in the queues
+    const int width, height, pixels, energies;  // fixed for the server's life
     // Admission (mu_):
     LaneAdmission admission;
     std::string end_now;  // mu_: the worker ends the open fillets for this reason (a sensor lost)

@@ -40,7 +40,7 @@ int Engine::free_places() const {
 Engine::Verdict Engine::submit(IncomingLine&& line) {
   ++received_;
   // A sensor's lines are lent by its receive buffers: nothing was parsed out of a message.
-  for (const LineBytes* b : {&line.cam0, &line.cam1, &line.xray})
+  for (const LineBytes* b : {&line.cam0, &line.cam1, &line.xray, &line.xray_high})
     if (!b->is_lent()) bytes_parsed_ += b->size();
   const auto found = by_id_.find(line.lane);
   Lane* l = found == by_id_.end() ? nullptr : found->second;
@@ -48,7 +48,7 @@ Engine::Verdict Engine::submit(IncomingLine&& line) {
     return refuse(nullptr, Refusal::kUnknownLane, "unknown lane " + std::to_string(line.lane),
                   queued_.load());
   ++l->received;
-  if (auto bad = check_line_shape({l->id, l->width, l->height, l->pixels}, line))
+  if (auto bad = check_line_shape({l->id, l->width, l->height, l->pixels, l->energies}, line))
     return refuse(l, bad->code, std::move(bad->message), queued_.load());
 
   // A shift recording takes its copy here, outside the lock, and keeps it if the line is taken.

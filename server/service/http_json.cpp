@@ -160,7 +160,7 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
 
 json image_kinds(Store& store, int64_t uid) {
   json kinds = json::array();
-  for (const char* k : {"overlay", "xray", "thickness", "pseudo_xray", "residual"})
+  for (const char* k : {"overlay", "xray", "xray_high", "thickness", "pseudo_xray", "residual"})
     if (store.image_path(uid, k)) kinds.push_back(k);
   return kinds;
 }

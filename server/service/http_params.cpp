@@ -91,10 +91,11 @@ int64_t parse_uid(const std::string& digits) {
 }
 
 const std::string& checked_image_kind(const std::string& kind) {
-  if (kind != "overlay" && kind != "xray" && kind != "thickness" && kind != "pseudo_xray" &&
-      kind != "residual")
-    throw BadRequest("image kind must be overlay, xray, thickness, pseudo_xray or residual (got '" +
-                     kind + "')");
+  if (kind != "overlay" && kind != "xray" && kind != "xray_high" && kind != "thickness" &&
+      kind != "pseudo_xray" && kind != "residual")
+    throw BadRequest(
+        "image kind must be overlay, xray, xray_high, thickness, pseudo_xray or residual (got '" +
+        kind + "')");
   return kind;
 }
 

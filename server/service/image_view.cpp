@@ -29,7 +29,7 @@ std::string display_png(const std::string& path, const std::string& kind) {
   std::vector<uint8_t> out(px.size(), 0);
   std::vector<double> vals;
   vals.reserve(px.size());
-  if (kind == "xray" || kind == "pseudo_xray" || kind == "thickness") {
+  if (kind == "xray" || kind == "xray_high" || kind == "pseudo_xray" || kind == "thickness") {
     // 0 (pseudo-X-ray: not modelled) and 65535 (thickness: not measured) carry no value.
     for (uint16_t v : px)
       if (v != 0 && v != 65535) vals.push_back(v);
@@ -46,7 +46,7 @@ std::string display_png(const std::string& path, const std::string& kind) {
     for (size_t i = 0; i < px.size(); ++i)
       out[i] = to8(128.0 + 127.0 * (double(px[i]) - 32768.0) / (6 * spread));
   } else {
-    fail("no view of image kind '", kind, "' (xray, thickness, pseudo_xray, residual)");
+    fail("no view of image kind '", kind, "' (xray, xray_high, thickness, pseudo_xray, residual)");
   }
   return encode_png8(out.data(), w, h);
 }

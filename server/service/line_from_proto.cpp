@@ -9,6 +9,7 @@ IncomingLine take_line(v1::LineScan& l) {
   in.cam0 = std::move(*l.mutable_cam0());
   in.cam1 = std::move(*l.mutable_cam1());
   in.xray = std::move(*l.mutable_xray());
+  in.xray_high = std::move(*l.mutable_xray_high());
   in.calibration_id = l.calibration_id();
   return in;
 }

@@ -6,8 +6,9 @@ namespace rangex {
 
 std::optional<ShapeRefusal> check_line_shape(const LaneShape& l, const IncomingLine& line) {
   const size_t frame = size_t(l.width) * size_t(l.height);
-  const size_t expected = 2 * frame + size_t(l.pixels) * 2;
-  const size_t size = line.cam0.size() + line.cam1.size() + line.xray.size();
+  const size_t expected = 2 * frame + size_t(l.pixels) * 2 * size_t(l.energies);
+  const size_t size =
+      line.cam0.size() + line.cam1.size() + line.xray.size() + line.xray_high.size();
   if (size > 4 * expected)
     return ShapeRefusal{Refusal::kOversized, join("line of ", size, " bytes; lane ", l.lane,
                                                   " lines are ", expected, " bytes")};
@@ -20,6 +21,17 @@ std::optional<ShapeRefusal> check_line_shape(const LaneShape& l, const IncomingL
     return ShapeRefusal{Refusal::kWrongXraySize,
                         join("X-ray line of ", line.xray.size(), " bytes; lane ", l.lane,
                              " expects ", l.pixels, " 16-bit pixels")};
+  if (l.energies == 2 && line.xray_high.size() != size_t(l.pixels) * 2)
+    return ShapeRefusal{
+        Refusal::kWrongXraySize,
+        join("high-energy X-ray line of ", line.xray_high.size(), " bytes; lane ", l.lane,
+             " has two energies and expects ", l.pixels, " 16-bit pixels in xray_high")};
+  if (l.energies == 1 && !line.xray_high.empty())
+    return ShapeRefusal{
+        Refusal::kWrongXraySize,
+        join("a high-energy X-ray line of ", line.xray_high.size(), " bytes; lane ", l.lane,
+             " has one energy (plant.yaml xray.energies: 1): xray_high must be "
+             "empty")};
   if (line.encoder > kMaxEncoder || line.encoder < -kMaxEncoder)
     return ShapeRefusal{Refusal::kEncoderOutOfRange,
                         join("encoder ", line.encoder, " of lane ", l.lane, " is outside +-2^62")};

@@ -11,6 +11,7 @@ namespace rangex {
 
 struct LaneShape {
   int lane = 0, width = 0, height = 0, pixels = 0;  // Mono8 frames, 16-bit X-ray pixels
+  int energies = 1;  // 2: a high-energy X-ray line comes beside the (low-energy) one
 };
 
 struct ShapeRefusal {
