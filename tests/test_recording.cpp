@@ -59,6 +59,51 @@ TEST(Recording, RoundTrip) {
   EXPECT_EQ(e[1], 104);
 }
 
+TEST(Recording, DualEnergyCarriesTheHighLineAndSingleReadsAsBefore) {
+  test::TempDir t;
+  RecordingInfo info;
+  info.lanes = {0};
+  info.width = 8, info.height = 4, info.xray_pixels = 6;
+  info.xray_energies = 2;
+  {
+    RecordingWriter w(t.str("d"), info);
+    std::vector<uint8_t> f(32, 7);
+    std::vector<uint16_t> lo(6), hi(6);
+    for (int n = 0; n < 3; ++n) {
+      std::fill(lo.begin(), lo.end(), uint16_t(100 + n));
+      std::fill(hi.begin(), hi.end(), uint16_t(900 + n));
+      w.append(0, {f.data(), f.data(), lo.data(), 10 + n, hi.data()});
+    }
+    // A line without its high line is refused, not written half.
+    EXPECT_NE(error_of([&] {
+                w.append(0, {f.data(), f.data(), lo.data(), 13});
+              }).find("without its high X-ray line"),
+              std::string::npos);
+  }
+  const RecordingReader r(t.str("d"));
+  EXPECT_EQ(r.info().xray_energies, 2);
+  std::vector<uint16_t> lo(12), hi(12);
+  std::vector<int64_t> e(2);
+  r.read(0, 1, 2, nullptr, nullptr, lo.data(), e.data());
+  r.read_high(0, 1, 2, hi.data());
+  EXPECT_EQ(lo[6], 102);
+  EXPECT_EQ(hi[0], 901);
+  EXPECT_EQ(hi[11], 902);
+  // Truncated high lines are refused like any array.
+  fs::resize_file(t.path() / "d" / "lane0" / "xray_high.u16", 12 * 2);
+  EXPECT_NE(error_of([&] { RecordingReader bad(t.str("d")); }).find("xray_high.u16 is truncated"),
+            std::string::npos);
+  // A recording of one energy has no xray_energies key and no high line.
+  write_recording(t.str("s"), 8, 4, 2);
+  std::ifstream y(t.path() / "s" / "recording.yaml");
+  const std::string yaml((std::istreambuf_iterator<char>(y)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(yaml.find("xray_energies"), std::string::npos);
+  const RecordingReader s(t.str("s"));
+  EXPECT_EQ(s.info().xray_energies, 1);
+  EXPECT_NE(error_of([&] { s.read_high(0, 0, 1, hi.data()); }).find("one X-ray energy"),
+            std::string::npos);
+}
+
 TEST(Recording, TruncatedFileIsRefusedWithSizes) {
   test::TempDir t;
   write_recording(t.str("r"), 64, 16, 5);

@@ -177,7 +177,10 @@ TEST(Server, ADualEnergyLaneTakesBothXrayLines) {
   lacking.set_encoder(lacking.encoder() + 1);
   lacking.clear_xray_high();
   seq.push_back(lacking);
+  // A shift recorded meanwhile carries the high line too.
+  const RecordingStatus started = server.engine().start_recording({{0}, 5, "dual"}, "test");
   const auto acks = stream(connect(server), seq);
+  const RecordingStatus stopped = server.engine().stop_recording("test");
   ASSERT_EQ(acks.size(), seq.size());
   for (size_t i = 0; i + 1 < acks.size(); ++i) ASSERT_TRUE(acks[i].accepted()) << i;
   EXPECT_EQ(acks.back().error().code(), "WRONG_XRAY_SIZE");
@@ -196,6 +199,13 @@ TEST(Server, ADualEnergyLaneTakesBothXrayLines) {
   }
   EXPECT_GT(with_low, 0);
   EXPECT_EQ(with_high, with_low);
+  const RecordingReader recorded(started.dir + "/lane0");
+  ASSERT_EQ(recorded.info().xray_energies, 2);
+  ASSERT_EQ(recorded.info().lines, int64_t(seq.size() - 1));
+  EXPECT_EQ(stopped.lines, seq.size() - 1);
+  std::vector<uint16_t> high(size_t(p.lanes[0].xray.pixels));
+  recorded.read_high(0, 7, 1, high.data());
+  EXPECT_EQ(0, std::memcmp(high.data(), seq[7].xray_high().data(), seq[7].xray_high().size()));
 }
 
 TEST(Server, ClientDisconnectMidStreamLeavesNothingBehind) {

@@ -35,11 +35,12 @@ struct RecordingWriter::LaneFiles {
   FILE* cam0 = nullptr;
   FILE* cam1 = nullptr;
   FILE* xray = nullptr;
+  FILE* xray_high = nullptr;
   FILE* encoder = nullptr;
   std::vector<std::pair<std::string, FILE*>> truth;
   int64_t lines = 0;
   ~LaneFiles() {
-    for (FILE* f : {cam0, cam1, xray, encoder})
+    for (FILE* f : {cam0, cam1, xray, xray_high, encoder})
       if (f) std::fclose(f);
     for (auto& [n, f] : truth) std::fclose(f);
   }
@@ -47,6 +48,8 @@ struct RecordingWriter::LaneFiles {
 
 RecordingWriter::RecordingWriter(const std::string& dir, RecordingInfo info)
     : dir_(dir), info_(std::move(info)) {
+  if (info_.xray_energies != 1 && info_.xray_energies != 2)
+    fail("recording ", dir, ": xray_energies must be 1 or 2 (got ", info_.xray_energies, ")");
   if (fs::exists(fs::path(dir) / "recording.yaml"))
     fail(dir, ": already holds a recording; choose an empty folder");
   fs::create_directories(dir);
@@ -58,6 +61,7 @@ RecordingWriter::RecordingWriter(const std::string& dir, RecordingInfo info)
     lf->cam0 = open_or_fail(lf->dir / "cam0.u8", "wb");
     lf->cam1 = open_or_fail(lf->dir / "cam1.u8", "wb");
     lf->xray = open_or_fail(lf->dir / "xray.u16", "wb");
+    if (info_.xray_energies == 2) lf->xray_high = open_or_fail(lf->dir / "xray_high.u16", "wb");
     lf->encoder = open_or_fail(lf->dir / "encoder.i64", "wb");
     lanes_.push_back(std::move(lf));
   }
@@ -78,10 +82,15 @@ RecordingWriter::LaneFiles& RecordingWriter::files(int lane) {
 
 void RecordingWriter::append(int lane, const LineView& line) {
   LaneFiles& f = files(lane);
+  // Checked before any byte is written: a line is in every file or in none.
+  if (f.xray_high && !line.xray_high)
+    fail("recording ", dir_, ": lane ", lane, ": a line without its high X-ray line");
   const size_t frame = size_t(info_.width) * info_.height;
   write_all(f.cam0, line.cam0, frame, "cam0.u8");
   write_all(f.cam1, line.cam1, frame, "cam1.u8");
   write_all(f.xray, line.xray, size_t(info_.xray_pixels) * 2, "xray.u16");
+  if (f.xray_high)
+    write_all(f.xray_high, line.xray_high, size_t(info_.xray_pixels) * 2, "xray_high.u16");
   write_all(f.encoder, &line.encoder, 8, "encoder.i64");
   ++f.lines;
 }
@@ -124,6 +133,8 @@ void RecordingWriter::close() {
     << YAML::Value << info_.width << YAML::Key << "height" << YAML::Value << info_.height
     << YAML::EndMap;
   y << YAML::Key << "xray_pixels" << YAML::Value << info_.xray_pixels;
+  // Written for dual energy only: a recording of one energy reads as it always did.
+  if (info_.xray_energies == 2) y << YAML::Key << "xray_energies" << YAML::Value << 2;
   y << YAML::Key << "lines" << YAML::Value << info_.lines;
   y << YAML::Key << "encoder_step_mm" << YAML::Value << info_.encoder_step_mm;
   y << YAML::Key << "calibration_id" << YAML::Value << info_.calibration_id;
@@ -152,21 +163,26 @@ RecordingReader::RecordingReader(const std::string& dir) : dir_(dir) {
     info_.calibration_id = y["calibration_id"].as<std::string>();
     info_.has_truth = y["truth"] && y["truth"].as<bool>();
     if (y["seed"]) info_.seed = y["seed"].as<uint64_t>();
+    if (y["xray_energies"]) info_.xray_energies = y["xray_energies"].as<int>();
   } catch (const YAML::Exception& e) {
     fail(meta.string(), ": malformed (", e.what(), ")");
   }
   if (info_.width <= 0 || info_.height <= 0 || info_.xray_pixels <= 0 || info_.lines < 0 ||
       info_.lanes.empty())
     fail(meta.string(), ": sizes must be positive and at least one lane listed");
+  if (info_.xray_energies != 1 && info_.xray_energies != 2)
+    fail(meta.string(), ": xray_energies must be 1 or 2 (got ", info_.xray_energies, ")");
   const size_t frame = size_t(info_.width) * info_.height;
   struct Expect {
     const char* name;
     size_t per_line;
   };
+  std::vector<Expect> files = {Expect{"cam0.u8", frame}, Expect{"cam1.u8", frame},
+                               Expect{"xray.u16", size_t(info_.xray_pixels) * 2},
+                               Expect{"encoder.i64", 8}};
+  if (info_.xray_energies == 2) files.push_back({"xray_high.u16", size_t(info_.xray_pixels) * 2});
   for (int lane : info_.lanes) {
-    for (const Expect& e :
-         {Expect{"cam0.u8", frame}, Expect{"cam1.u8", frame},
-          Expect{"xray.u16", size_t(info_.xray_pixels) * 2}, Expect{"encoder.i64", 8}}) {
+    for (const Expect& e : files) {
       const fs::path p = fs::path(lane_dir(lane)) / e.name;
       if (!fs::exists(p)) fail("lane ", lane, ": ", e.name, " is missing in ", dir);
       const auto size = fs::file_size(p);
@@ -200,8 +216,18 @@ RecordingReader::MappedFrames RecordingReader::map_frames(int lane) const {
   return m;
 }
 
+void RecordingReader::read_high(int lane, int64_t first, int64_t count, uint16_t* xray_high) const {
+  if (info_.xray_energies != 2) fail("recording ", dir_, ": one X-ray energy; it has no high line");
+  read(lane, first, count, nullptr, nullptr, nullptr, nullptr, xray_high);
+}
+
 void RecordingReader::read(int lane, int64_t first, int64_t count, uint8_t* cam0, uint8_t* cam1,
                            uint16_t* xray, int64_t* encoder) const {
+  read(lane, first, count, cam0, cam1, xray, encoder, nullptr);
+}
+
+void RecordingReader::read(int lane, int64_t first, int64_t count, uint8_t* cam0, uint8_t* cam1,
+                           uint16_t* xray, int64_t* encoder, uint16_t* xray_high) const {
   if (std::find(info_.lanes.begin(), info_.lanes.end(), lane) == info_.lanes.end())
     fail("recording ", dir_, ": unknown lane ", lane);
   if (first < 0 || count < 0 || first + count > info_.lines)
@@ -220,6 +246,7 @@ void RecordingReader::read(int lane, int64_t first, int64_t count, uint8_t* cam0
   chunk("cam1.u8", frame, cam1);
   chunk("xray.u16", size_t(info_.xray_pixels) * 2, xray);
   chunk("encoder.i64", 8, encoder);
+  chunk("xray_high.u16", size_t(info_.xray_pixels) * 2, xray_high);
 }
 
 std::vector<float> RecordingReader::truth_f32(int lane, const std::string& name,

@@ -1,6 +1,7 @@
 // Recordings: a folder with recording.yaml and raw little-endian arrays
 // per lane: lane<ID>/cam0.u8, cam1.u8 (N x H x W), xray.u16 (N x D), encoder.i64 (N), and
-// optionally lane<ID>/truth/ from the simulator.
+// optionally lane<ID>/truth/ from the simulator. A dual-energy recording (xray_energies: 2 in
+// recording.yaml) has xray_high.u16 (N x D) beside xray.u16, which is then the low line.
 #pragma once
 #include <cstdint>
 #include <cstdio>
@@ -17,7 +18,8 @@ struct RecordingInfo {
   int width = 640;
   int height = 200;
   int xray_pixels = 480;
-  int64_t lines = 0;  // per lane
+  int xray_energies = 1;  // 2: xray_high.u16 beside xray.u16
+  int64_t lines = 0;      // per lane
   double encoder_step_mm = 0.4;
   std::string calibration_id;
   bool has_truth = false;
@@ -30,6 +32,7 @@ struct LineView {
   const uint8_t* cam1;
   const uint16_t* xray;
   int64_t encoder;
+  const uint16_t* xray_high = nullptr;  // a dual-energy recording's high line
 };
 
 class RecordingWriter {
@@ -63,6 +66,8 @@ class RecordingReader {
   // Reads `count` lines from `first` of one lane into the caller's buffers.
   void read(int lane, int64_t first, int64_t count, uint8_t* cam0, uint8_t* cam1, uint16_t* xray,
             int64_t* encoder) const;
+  // A dual-energy recording's high lines (throws for a recording of one energy).
+  void read_high(int lane, int64_t first, int64_t count, uint16_t* xray_high) const;
   // Both cameras' frames of one lane, mapped read-only: frame n of camera c starts at
   // frame(c, n). One copy takes them from the page cache to where they are computed.
   struct MappedFrames {
@@ -79,6 +84,9 @@ class RecordingReader {
   std::string lane_dir(int lane) const;
 
  private:
+  void read(int lane, int64_t first, int64_t count, uint8_t* cam0, uint8_t* cam1, uint16_t* xray,
+            int64_t* encoder, uint16_t* xray_high) const;
+
   std::string dir_;
   RecordingInfo info_;
 };

@@ -85,8 +85,9 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
     const size_t frame = size_t(info.width) * info.height;
     // The frames stay where the page cache has them until they are read into the lines.
     const RecordingReader::MappedFrames frames = rec.map_frames(id);
-    std::vector<uint16_t> xray;
+    std::vector<uint16_t> xray, xray_high;
     std::vector<int64_t> enc;
+    const bool dual = info.xray_energies == 2;
     int64_t last_encoder = std::numeric_limits<int64_t>::min();
     const double stages_before = path.stage_seconds();
     for (int64_t n0 = 0; n0 < info.lines; n0 += opt.batch_lines) {
@@ -94,6 +95,10 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
       xray.resize(size_t(info.xray_pixels) * count);
       enc.resize(count);
       rec.read(id, n0, count, nullptr, nullptr, xray.data(), enc.data());
+      if (dual) {
+        xray_high.resize(xray.size());
+        rec.read_high(id, n0, count, xray_high.data());
+      }
       for (int k = 0; k < count; ++k) {
         if (enc[k] <= last_encoder)
           fail("lane ", id, ": encoder count ", enc[k], " at line ", n0 + k,
@@ -113,6 +118,12 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
         std::copy_n(frames.frame(0, n0 + k), frame, in.cam0.data());
         std::copy_n(frames.frame(1, n0 + k), frame, in.cam1.data());
         std::memcpy(in.xray.data(), &xray[size_t(info.xray_pixels) * k], in.xray.size());
+        if (dual)
+          in.xray_high.assign(
+              reinterpret_cast<const char*>(&xray_high[size_t(info.xray_pixels) * k]),
+              in.xray.size());
+        else
+          in.xray_high.resize(0);
       }
       path.run(block, observe);
       done += count;

@@ -33,7 +33,8 @@ std::string utc_name() {
 }
 
 uint64_t line_bytes(const LaneConfig& l) {
-  return 2 * uint64_t(l.frame_width) * uint64_t(l.frame_height) + 2 * uint64_t(l.xray.pixels) + 8;
+  return 2 * uint64_t(l.frame_width) * uint64_t(l.frame_height) +
+         2 * uint64_t(l.xray.pixels) * uint64_t(l.xray.energies) + 8;
 }
 
 }  // namespace
@@ -104,6 +105,7 @@ RecordingStatus ShiftRecorder::start(const RecordingRequest& req, double lines_p
     info.width = l.frame_width;
     info.height = l.frame_height;
     info.xray_pixels = l.xray.pixels;
+    info.xray_energies = l.xray.energies;
     info.encoder_step_mm = l.encoder_step_mm;
     info.calibration_id = plant_.calibration_id;
     writers_[id] =
@@ -179,6 +181,7 @@ ShiftRecorder::Line ShiftRecorder::copy(const IncomingLine& in) {
   l.cam0.assign(in.cam0.data(), in.cam0.size());
   l.cam1.assign(in.cam1.data(), in.cam1.size());
   l.xray.assign(in.xray.data(), in.xray.size());
+  l.xray_high.assign(in.xray_high.data(), in.xray_high.size());
   return l;
 }
 
@@ -216,15 +219,18 @@ void ShiftRecorder::run() {
     for (const Line& l : batch) {
       const auto w = writers_.find(l.lane);
       if (room == 0 || w == writers_.end() || !failed.empty() || full) break;
-      const uint64_t n = l.cam0.size() + l.cam1.size() + l.xray.size() + 8;
+      const uint64_t n = l.cam0.size() + l.cam1.size() + l.xray.size() + l.xray_high.size() + 8;
       if (bytes + n > room) {
         full = true;
         break;
       }
       try {
-        w->second->append(l.lane, {reinterpret_cast<const uint8_t*>(l.cam0.data()),
-                                   reinterpret_cast<const uint8_t*>(l.cam1.data()),
-                                   reinterpret_cast<const uint16_t*>(l.xray.data()), l.encoder});
+        w->second->append(
+            l.lane, {reinterpret_cast<const uint8_t*>(l.cam0.data()),
+                     reinterpret_cast<const uint8_t*>(l.cam1.data()),
+                     reinterpret_cast<const uint16_t*>(l.xray.data()), l.encoder,
+                     l.xray_high.empty() ? nullptr
+                                         : reinterpret_cast<const uint16_t*>(l.xray_high.data())});
       } catch (const std::exception& e) {
         failed = e.what();
         break;

@@ -65,6 +65,7 @@ class ShiftRecorder {
     int lane = 0;
     int64_t encoder = 0;
     std::string cam0, cam1, xray;
+    std::string xray_high;  // a dual-energy lane's
   };
   static Line copy(const IncomingLine& in);
   // An accepted line for the recording (left out, counted, when the queue is full).
