@@ -47,7 +47,7 @@ BackendProbe probe_opencl() {
 BackendProbe probe_vulkan() {
 #if RANGEX_WITH_VULKAN
   return probe_devices("vulkan", vulkan_devices,
-                       "no Vulkan device with the features the shaders need");
+                       "no Vulkan device with a compute queue and 64-bit floats");
 #else
   return {"vulkan", false, false,
           "not built (Vulkan loader or glslangValidator missing at build time)"};

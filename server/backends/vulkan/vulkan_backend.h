@@ -22,7 +22,8 @@ struct VulkanDevice {
   std::string name;
   bool cpu = false;
 };
-// The devices the backend could run on (compute queue, 64-bit floats); empty without a driver.
+// The devices the backend could run on (compute queue, 64-bit floats); throws BackendError
+// naming what failed when no loader or driver answers.
 std::vector<VulkanDevice> vulkan_devices();
 
 class VulkanBackend final : public Backend {
