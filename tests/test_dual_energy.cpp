@@ -91,6 +91,19 @@ TEST(DualEnergyCalibration, RefusesAScanItCannotFit) {
   s = calibrated().scan;
   s.steps[3].high = 0;
   EXPECT_THROW(fit_dual_energy(s, {}, 0.05), Error);
+  // Plenty of steps, but of one aluminium thickness: the fit is not determined.
+  s = calibrated().scan;
+  std::vector<WedgeStep> flat;
+  for (const WedgeStep& st : s.steps)
+    if (st.al_mm == 2) flat.insert(flat.end(), 4, st);
+  s.steps = flat;
+  try {
+    fit_dual_energy(s, {}, 0.05);
+    ADD_FAILURE() << "a wedge of one aluminium thickness was fitted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("must cross both thicknesses"), std::string::npos)
+        << e.what();
+  }
 }
 
 // Rays through `r`, decomposed; the lengths' pulls against `truth` (lean, fat, bone).

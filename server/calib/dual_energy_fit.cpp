@@ -46,7 +46,7 @@ DualEnergyFit fit_dual_energy(const WedgeScan& scan, const SandwichDetector& nom
   const int n = int(scan.steps.size());
   // Each layer's log attenuation from the steps' known lengths, weighted by the precision
   // of the step's mean (var(ln mean) = var / (samples x mean^2)).
-  Eigen::MatrixXd X(n, DE_TERMS), Xw(n, DE_TERMS);
+  Eigen::MatrixXd X(n, DE_TERMS);
   Eigen::VectorXd lx(n), ly(n), wx(n), wy(n);
   for (int i = 0; i < n; ++i) {
     const WedgeStep& s = scan.steps[size_t(i)];
@@ -61,10 +61,14 @@ DualEnergyFit fit_dual_energy(const WedgeScan& scan, const SandwichDetector& nom
     wx(i) = std::sqrt(m * s.low * s.low / std::max(s.var_low, 1e-9));
     wy(i) = std::sqrt(m * s.high * s.high / std::max(s.var_high, 1e-9));
   }
-  const Eigen::VectorXd cl =
-      (wx.asDiagonal() * X).colPivHouseholderQr().solve(wx.asDiagonal() * lx);
-  const Eigen::VectorXd ch =
-      (wy.asDiagonal() * X).colPivHouseholderQr().solve(wy.asDiagonal() * ly);
+  const auto qx = (wx.asDiagonal() * X).colPivHouseholderQr();
+  const auto qy = (wy.asDiagonal() * X).colPivHouseholderQr();
+  // Steps that do not vary both thicknesses cannot fix every term: refused, not guessed.
+  if (qx.rank() < DE_TERMS || qy.rank() < DE_TERMS)
+    fail("dual-energy wedge scan: its steps fix ", std::min(qx.rank(), qy.rank()), " of the ",
+         DE_TERMS, " terms; the steps must cross both thicknesses over their ranges");
+  const Eigen::VectorXd cl = qx.solve(wx.asDiagonal() * lx);
+  const Eigen::VectorXd ch = qy.solve(wy.asDiagonal() * ly);
   DualEnergyFit f;
   for (int j = 0; j < DE_TERMS; ++j) f.params.low[j] = cl(j), f.params.high[j] = ch(j);
   // The calibration's own error: each step's reading taken back to its lengths.
