@@ -78,7 +78,7 @@ TEST(DualEnergyCalibration, RecoversTheWedgeWithinOnePercentOnAnotherScan) {
   // The noise the scan shows is the detector's (var = gain x DN + electronic).
   double m, mh, v;
   c.detector.mean({}, &m, &mh, &v, nullptr);
-  EXPECT_NEAR(c.fit.gain_low * m + c.fit.var_e_low, v, 0.1 * v);
+  EXPECT_NEAR(c.fit.params.gain_low * m + c.fit.params.var_e_low, v, 0.1 * v);
 }
 
 TEST(DualEnergyCalibration, RefusesAScanItCannotFit) {
@@ -190,8 +190,6 @@ TEST(DualEnergyDecomposition, CartilageAndTendonReadAsNoBone) {
               c.err[2], t.err[2], c.sigma[2]);
   EXPECT_LT(c.err[2], 0.02);
   EXPECT_LT(t.err[2], 0.02);
-  // The same attenuation as extra lean reads as bone on one energy: what it replaces.
-  EXPECT_GT(attenuation_per_mm(Material::kCartilage, 45), attenuation_per_mm(Material::kLean, 45));
 }
 
 TEST(DualEnergyDecomposition, PartlyCalcifiedBoneReadsAsItsCalcifiedShare) {

@@ -133,6 +133,17 @@ TEST(Recording, WrongFrameSizeAgainstConfig) {
       << e;
 }
 
+TEST(Recording, EnergiesAgainstConfigAreChecked) {
+  test::TempDir t;
+  write_recording(t.str("r"), 640, 200, 2);
+  PlantConfig plant = default_plant_config(1);
+  plant.lanes[0].xray.energies = 2;
+  const std::string e = error_of([&] { replay_recording(RecordingReader(t.str("r")), plant, {}); });
+  EXPECT_NE(e.find("recording has 1 X-ray energies but the plant configuration says 2"),
+            std::string::npos)
+      << e;
+}
+
 TEST(Recording, CalibrationMismatchIsRefused) {
   test::TempDir t;
   write_recording(t.str("r"), 640, 200, 2);

@@ -261,18 +261,19 @@ void StageRunner::update_lane(int lane_id, const LaneConfig& lane) {
 
 void push_line_results(LaneProcessor& proc, const QueuedLine& q, const LineResults& r, size_t k,
                        size_t batch_lines, std::vector<uint16_t>& xray) {
-  const size_t D = xray.size();
+  const size_t D = q.line.xray.size() / sizeof(uint16_t);
+  // A dual-energy lane's high line goes into the buffer's second half (admission and
+  // replay checked the sizes against the lane's energies).
+  const bool dual = !q.line.xray_high.empty();
+  if (xray.size() < D * (dual ? 2 : 1))
+    fail("lane ", q.line.lane, ": a line of ", dual ? 2 : 1, " X-ray lines of ", D,
+         " pixels for a buffer of ", xray.size());
   std::memcpy(xray.data(), q.line.xray.data(), D * sizeof(uint16_t));
+  if (dual) std::memcpy(xray.data() + D, q.line.xray_high.data(), D * sizeof(uint16_t));
   const size_t G = r.profile_valid.size() / std::max<size_t>(1, batch_lines);
   const bool blind = G > 0 && LaneProcessor::blind(&r.profile_valid[k * G], G);
-  // A dual-energy lane's high line, aligned the same way (admission checked its size).
-  std::vector<uint16_t> high;
-  if (!q.line.xray_high.empty()) {
-    high.resize(D);
-    std::memcpy(high.data(), q.line.xray_high.data(), D * sizeof(uint16_t));
-  }
   proc.push(&r.thickness[k * D], &r.thickness_valid[k * D], xray.data(), q.line.encoder, blind,
-            high.empty() ? nullptr : high.data());
+            dual ? xray.data() + D : nullptr);
 }
 
 }  // namespace rangex

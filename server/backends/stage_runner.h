@@ -114,7 +114,8 @@ class StageRunner {
 
 // Line k of a finished batch of `batch_lines` into its lane's processor, as the line path
 // routes it: its X-ray line copied out of the received bytes into `xray` (aligned, the
-// lane's detector pixels), its thickness line marked blind where no camera saw the stripe.
+// lane's detector pixels times its energies: a dual-energy lane's high line follows the
+// low one), its thickness line marked blind where no camera saw the stripe.
 void push_line_results(LaneProcessor& proc, const QueuedLine& line, const LineResults& results,
                        size_t k, size_t batch_lines, std::vector<uint16_t>& xray);
 

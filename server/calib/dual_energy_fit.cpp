@@ -107,10 +107,8 @@ DualEnergyFit fit_dual_energy(const WedgeScan& scan, const SandwichDetector& nom
     *gain = g(0);
     *var_e = std::max(0.0, g(1));
   };
-  noise(true, &f.gain_low, &f.var_e_low);
-  noise(false, &f.gain_high, &f.var_e_high);
-  f.params.gain_low = f.gain_low, f.params.gain_high = f.gain_high;
-  f.params.var_e_low = f.var_e_low, f.params.var_e_high = f.var_e_high;
+  noise(true, &f.params.gain_low, &f.params.var_e_low);
+  noise(false, &f.params.gain_high, &f.params.var_e_high);
   f.params.var_t = laser_sigma_mm * laser_sigma_mm;
 
   // The materials in the basis, and the inverse the pixels use.
@@ -118,11 +116,9 @@ DualEnergyFit fit_dual_energy(const WedgeScan& scan, const SandwichDetector& nom
   const Material mats[3] = {Material::kLean, Material::kFat, Material::kBone};
   Eigen::Matrix3d M;
   for (int m = 0; m < 3; ++m) {
-    f.basis[size_t(m)] = basis_lengths(mats[m], spectra, f.params);
-    f.params.basis[2 * m] = f.basis[size_t(m)][0];
-    f.params.basis[2 * m + 1] = f.basis[size_t(m)][1];
-    M(0, m) = f.basis[size_t(m)][0];
-    M(1, m) = f.basis[size_t(m)][1];
+    const auto [a, b] = basis_lengths(mats[m], spectra, f.params);
+    f.params.basis[2 * m] = M(0, m) = a;
+    f.params.basis[2 * m + 1] = M(1, m) = b;
     M(2, m) = 1;
   }
   if (std::abs(M.determinant()) < 1e-9)
@@ -153,12 +149,12 @@ std::string dual_energy_report(const DualEnergyFit& f) {
      << " % of a step\n"
      << "  aluminium recovered: rms " << f.b_rms << " mm, worst " << 100 * f.b_worst_rel
      << " % of a step\n"
-     << "  noise: low layer " << f.gain_low << " DN per DN + " << f.var_e_low
-     << " DN^2, high layer " << f.gain_high << " + " << f.var_e_high << "\n";
+     << "  noise: low layer " << f.params.gain_low << " DN per DN + " << f.params.var_e_low
+     << " DN^2, high layer " << f.params.gain_high << " + " << f.params.var_e_high << "\n";
   const char* names[3] = {"lean", "fat", "bone"};
   for (int m = 0; m < 3; ++m)
-    os << "  " << names[m] << " per mm: " << f.basis[size_t(m)][0] << " mm A-150 + "
-       << f.basis[size_t(m)][1] << " mm Al\n";
+    os << "  " << names[m] << " per mm: " << f.params.basis[2 * m] << " mm A-150 + "
+       << f.params.basis[2 * m + 1] << " mm Al\n";
   return os.str();
 }
 

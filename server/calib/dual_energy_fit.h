@@ -24,14 +24,12 @@ namespace rangex {
 
 struct DualEnergyFit {
   DualEnergyParams params{};
-  std::array<std::array<double, 2>, 3> basis{};  // lean, fat, bone: (A-150, Al) mm per mm
   struct Step {
     double a150_mm, al_mm, a_fit, b_fit;
   };
   std::vector<Step> steps;                  // the fit at each step
   double a_rms = 0, b_rms = 0;              // mm
   double a_worst_rel = 0, b_worst_rel = 0;  // largest |error| / thickness, steps >= 1 mm
-  double gain_low = 0, gain_high = 0, var_e_low = 0, var_e_high = 0;
 };
 
 // Throws Error naming what is wrong: too few steps, a step darker than the noise, an open

@@ -23,7 +23,8 @@ LinePath::LinePath(const std::vector<LaneConfig>& lanes, const BackendRequest& b
           [](std::vector<QueuedLine>& lines, const std::string& why) {
             fail(lines.size(), " lines lost: ", why);
           }) {
-  for (const LaneConfig& l : lanes) lanes_[l.id].xray.resize(size_t(l.xray.pixels));
+  for (const LaneConfig& l : lanes)
+    lanes_[l.id].xray.resize(size_t(l.xray.pixels) * size_t(l.xray.energies));
 }
 
 void LinePath::attach(int lane_id, LaneProcessor* proc) {

@@ -38,6 +38,10 @@ std::vector<LaneReplay> replay_recording(const RecordingReader& rec, const Plant
     if (std::abs(lc.encoder_step_mm - info.encoder_step_mm) > 1e-9)
       fail("lane ", id, ": recording encoder step is ", info.encoder_step_mm,
            " mm but the plant configuration says ", lc.encoder_step_mm, " mm");
+    if (lc.xray.energies != info.xray_energies)
+      fail("lane ", id, ": recording has ", info.xray_energies,
+           " X-ray energies but the plant configuration says ", lc.xray.energies,
+           " (xray.energies)");
     if (opt.method) lc.stripe.method = *opt.method;
     configs.push_back(lc);
   }

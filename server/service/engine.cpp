@@ -53,7 +53,7 @@ Engine::Engine(const PlantConfig& plant, Store& store, ResultsHub& hub, EngineOp
     for (const StoredSetting& s : store_.settings(SettingKind::kLearned, lc.id))
       if (s.active) apply_learned(l->config, s);
     l->admit_calibration = l->running_calibration = l->calibration_id;
-    l->xray.resize(size_t(l->pixels));
+    l->xray.resize(size_t(l->pixels) * size_t(l->energies));
     Lane* raw = l.get();
     l->proc = std::make_unique<LaneProcessor>(
         l->config, LaneProcessorOptions{false, opt_.images}, LaneProcessor::FilletSink{},

@@ -252,7 +252,7 @@ class Engine {
     std::deque<std::pair<int64_t, int64_t>> arrivals;  // (encoder, steady ns) of recent lines
     int64_t last_push_ns = 0;
     int64_t assembly_restarts = 0;
-    std::vector<uint16_t> xray;  // one line, aligned for the assembly
+    std::vector<uint16_t> xray;  // one line (low and high: a dual lane), aligned for the assembly
     // Read anywhere:
     std::atomic<bool> in_progress{false};
     std::atomic<uint64_t> restarts{0};

@@ -40,31 +40,26 @@ std::string HttpServer::cross_site(const httplib::Request& req) const {
 }
 
 void HttpServer::lane_action_routes(httplib::Server& s) {
+  // Refusals go to the server's exception handler (401, 403, 400, 404, 409).
   s.Post(R"(/api/lanes/(\d+)/verification)",
          [this](const httplib::Request& req, httplib::Response& res) {
+           const Identity who = identify(req);
+           AccessControl::require(who, Role::operator_, "starting a verification");
+           if (const std::string why = cross_site(req); !why.empty())
+             return answer(res, why.rfind("the body", 0) == 0 ? 415 : 403, why);
+           VerificationRequest r = verification_body(req.body);
+           r.lane = int(parse_int("lane", req.matches[1], 0, 1 << 20));
+           LaneState l;
            try {
-             const Identity who = identify(req);
-             AccessControl::require(who, Role::operator_, "starting a verification");
-             if (const std::string why = cross_site(req); !why.empty())
-               return answer(res, why.rfind("the body", 0) == 0 ? 415 : 403, why);
-             VerificationRequest r = verification_body(req.body);
-             r.lane = int(parse_int("lane", req.matches[1], 0, 1 << 20));
-             const LaneState l = engine_.start_verification(r, who.name);
-             send_json(res, {{"lane", lane_json(l, history_, engine_.backend().name)}});
-           } catch (const Unauthenticated& e) {
-             res.set_header("WWW-Authenticate", "Basic realm=\"rangex\", charset=\"UTF-8\"");
-             answer(res, 401, e.what());
-           } catch (const PermissionDenied& e) {
-             answer(res, 403, e.what());
-           } catch (const BadRequest& e) {
-             answer(res, 400, e.what());
-           } catch (const NotFound& e) {
-             answer(res, 404, e.what());
-           } catch (const FailedPrecondition& e) {
-             answer(res, 409, e.what());
+             l = engine_.start_verification(r, who.name);
+           } catch (const NotFound&) {
+             throw;
+           } catch (const FailedPrecondition&) {
+             throw;
            } catch (const Error& e) {
-             answer(res, 400, e.what());
+             throw BadRequest(e.what());  // a value out of range: the request's
            }
+           send_json(res, {{"lane", lane_json(l, history_, engine_.backend().name)}});
          });
 }
 

@@ -199,6 +199,13 @@ void HttpServer::routes() {
           msg = e.what(), status = 400;
         } catch (const NotFound& e) {
           msg = e.what(), status = 404;
+        } catch (const Unauthenticated& e) {
+          msg = e.what(), status = 401;
+          res.set_header("WWW-Authenticate", "Basic realm=\"rangex\", charset=\"UTF-8\"");
+        } catch (const PermissionDenied& e) {
+          msg = e.what(), status = 403;
+        } catch (const FailedPrecondition& e) {
+          msg = e.what(), status = 409;
         } catch (const std::exception& e) {
           msg = e.what();
         }

@@ -43,13 +43,6 @@ void DualEnergyRenderer::mean(const RayMaterials& r, double* low, double* high, 
     *var_high = p_.open_beam_dn * p_.open_beam_dn * sq_hi / (n_hi * norm_hi_ * norm_hi_) + en2;
 }
 
-void DualEnergyRenderer::render(const RayMaterials& r, Rng& rng, uint16_t* low,
-                                uint16_t* high) const {
-  double m_lo, m_hi, v_lo, v_hi;
-  mean(r, &m_lo, &m_hi, &v_lo, &v_hi);
-  draw(m_lo, m_hi, v_lo, v_hi, rng, low, high);
-}
-
 void DualEnergyRenderer::draw(double m_lo, double m_hi, double v_lo, double v_hi, Rng& rng,
                               uint16_t* low, uint16_t* high) {
   auto dn = [](double v) { return uint16_t(std::clamp(std::lround(v), 0L, 65535L)); };

@@ -31,8 +31,8 @@ class DualEnergyRenderer {
   // Each layer's mean reading (DN) and its variance (DN^2).
   void mean(const RayMaterials& r, double* low, double* high, double* var_low = nullptr,
             double* var_high = nullptr) const;
-  void render(const RayMaterials& r, Rng& rng, uint16_t* low, uint16_t* high) const;
-  // A reading drawn about given means and variances (many rays through the same materials).
+  // A reading drawn about the means and variances mean() gives (a ray's, or many rays'
+  // through the same materials).
   static void draw(double m_lo, double m_hi, double v_lo, double v_hi, Rng& rng, uint16_t* low,
                    uint16_t* high);
   const LayerSpectra& spectra() const { return s_; }
