@@ -1,16 +1,18 @@
-// calib simulate targets|staircase|pins|blocks OUT: calibration scans of one lane from the
-// simulator, through the plant's rig or (--rig-seed) a rig that differs from it as a real
-// one would; the truth (rig, optics, target corners) in OUT/truth or the recording's truth/.
+// calib simulate targets|staircase|pins|blocks|dual-energy OUT: calibration scans of one lane from
+// the simulator, through the plant's rig or (--rig-seed) a rig that differs from it as a real one
+// would; the truth (rig, optics, target corners) in OUT/truth or the recording's truth/.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 
 #include "args.h"
+#include "calib/wedge_scan_file.h"
 #include "commands.h"
 #include "core/error.h"
 #include "core/png_io.h"
 #include "progress_bar.h"
 #include "sim/calib_scenes.h"
+#include "sim/dual_energy_phantom.h"
 #include "sim/perturbed_rig.h"
 #include "sim/plant_physics.h"
 #include "sim/target_scene.h"
@@ -31,8 +33,9 @@ void write_text(const fs::path& p, const std::string& text) {
 
 int cmd_calib_simulate(int argc, char** argv) {
   const Args a(argc, argv, 3, {},
-               {"config", "lane", "rig-seed", "cam", "views", "seed", "physics"});
-  a.expect_positionals(2, "calib simulate targets|staircase|pins|blocks OUT [--rig-seed S]");
+               {"config", "lane", "rig-seed", "cam", "views", "seed", "physics", "step-lines"});
+  a.expect_positionals(
+      2, "calib simulate targets|staircase|pins|blocks|dual-energy OUT [--rig-seed S]");
   const std::string kind = a.positional(0, "scene"), out = a.positional(1, "output folder");
   const PlantConfig plant = load_config(a.get("config", ""));
   const LaneConfig& nominal = plant.lane(int(a.integer("lane", 0)));
@@ -58,6 +61,24 @@ int cmd_calib_simulate(int argc, char** argv) {
     rig.focal_spot_sigma_mm = x.focal_spot_sigma_mm;
   }
   const uint64_t seed = uint64_t(a.integer("seed", 1));
+  if (kind == "dual-energy") {
+    // The step wedge of A-150 and aluminium through the lane's sandwich detector.
+    const LaneConfig& l = rig.lane;
+    if (l.xray.energies != 2)
+      fail("calib simulate dual-energy: lane ", l.id,
+           " has one X-ray energy (set xray.energies: 2 and its sandwich in plant.yaml)");
+    WedgeLayout w;
+    w.step_lines = int(a.integer("step-lines", w.step_lines));
+    if (w.step_lines < 2 * w.margin_lines + 2)
+      fail("--step-lines must be at least ", 2 * w.margin_lines + 2);
+    const sim::DualEnergyRenderer detector(l.xray.sandwich);
+    std::vector<uint16_t> low, high;
+    sim::render_wedge_lines(detector, l.xray, w, seed, low, high);
+    write_wedge_scan(out, w, l.xray.pixels, low, high);
+    std::printf("dual-energy wedge scan of lane %d in %s: %d lines, %zu steps\n", l.id, out.c_str(),
+                w.lines(), w.a150_mm.size() * w.al_mm.size());
+    return 0;
+  }
   if (kind == "targets") {
     const int cam = int(a.integer("cam", 0));
     if (cam < 0 || cam > 1) fail("--cam must be 0 or 1");
@@ -113,7 +134,8 @@ int cmd_calib_simulate(int argc, char** argv) {
     scene = sim::block_scene(b, seed);
     drawing = to_yaml(b), name = "blocks.yaml";
   } else {
-    fail("calib simulate: unknown scene '", kind, "' (targets, staircase, pins, blocks)");
+    fail("calib simulate: unknown scene '", kind,
+         "' (targets, staircase, pins, blocks, dual-energy)");
   }
   ProgressBar bar(kind + " scan");
   sim::simulate_calib_scan(rig.lane, scene, p, out,

@@ -25,55 +25,16 @@
 #include "core/error.h"
 #include "core/recording.h"
 #include "core/text_file.h"
+#include "eval_steps.h"
 #include "offline/detection_eval.h"
 #include "offline/evaluation.h"
 #include "offline/fillet_records.h"
-#include "sim/plant_physics.h"
 
 namespace fs = std::filesystem;
 
 namespace rangex::cli {
 
 namespace {
-
-// Runs `rangexctl ARGS...` in this process with its output going to `log`.
-void run_step(const std::string& log, std::vector<std::string> args) {
-  std::string line = "rangexctl";
-  for (const auto& s : args) line += " " + s;
-  std::vector<char*> argv;
-  std::string self = "rangexctl";
-  argv.push_back(self.data());
-  for (auto& s : args) argv.push_back(s.data());
-  std::fflush(stdout);
-  std::fflush(stderr);
-  const int out = dup(1), err = dup(2);
-  const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-  if (fd < 0) fail(log, ": cannot open");
-  const std::string header = "$ " + line + "\n";
-  if (write(fd, header.data(), header.size()) != ssize_t(header.size()))
-    fail(log, ": write failed");
-  dup2(fd, 1), dup2(fd, 2);
-  int rc = 0;
-  std::string what;
-  try {
-    const std::string cmd = argv[1];
-    const int argc = int(argv.size());
-    rc = cmd == "simulate"  ? cmd_simulate(argc, argv.data())
-         : cmd == "process" ? cmd_process(argc, argv.data())
-         : cmd == "learn"   ? cmd_learn(argc, argv.data())
-                            : cmd_calib(argc, argv.data());
-  } catch (const std::exception& e) {
-    what = e.what();
-    rc = 1;
-  }
-  std::fflush(stdout);
-  std::fflush(stderr);
-  dup2(out, 1), dup2(err, 2);
-  close(out), close(err), close(fd);
-  // A solver's failed report (2) is part of the result; anything else stops the variant.
-  if (rc != 0 && rc != 2)
-    fail(line, " failed", what.empty() ? "" : ": " + what, " (log: ", log, ")");
-}
 
 std::vector<float> read_f32(const fs::path& p, size_t n) {
   std::vector<float> v(n);
@@ -117,13 +78,10 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
   const int fillets = mo.fillets;
   const long seed = mo.seed;
   Row r;
-  const sim::PlantPhysics ph = sim::load_plant_physics(file.string());
-  r.name = ph.name, r.held_out = ph.held_out;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  const std::string log = (dir / "log.txt").string(), V = file.string();
-  const std::string cal = (dir / "lane0.yaml").string();
-  auto at = [&](const char* name) { return (dir / name).string(); };
+  const VariantRun v(file, dir);
+  r.name = v.name, r.held_out = v.held_out;
+  const std::string &log = v.log, &V = v.physics, &cal = v.cal;
+  auto at = [&](const char* name) { return v.at(name); };
   // Every step reads the same plant configuration as this command.
   auto step = [&](std::vector<std::string> args) {
     if (!config.empty()) args.insert(args.end(), {"--config", config});
@@ -172,16 +130,10 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
                                 read_f32(ld / "stripe_cam1.f32", size_t(info.lines) * info.width)};
   const auto t = read_f32(ld / "thickness.f32", size_t(info.lines) * info.xray_pixels);
   r.thickness = evaluate_lane(rec, lc, rows, t).thickness;
-  const fs::path td = fs::path(rec.lane_dir(lane)) / "truth";
-  const auto frags = parse_truth_fragments(read_text_file((td / "fragments.csv").string()), lane);
-  const auto truth = parse_truth_fillets(read_text_file((td / "fillets.csv").string()), lane);
-  const std::vector<float> tt = rec.truth_f32(lane, "thickness.f32", size_t(info.xray_pixels));
-  EdgeMap edges;
-  edges.thickness = tt.data(), edges.lines = info.lines, edges.pixels = info.xray_pixels;
-  edges.first_pixel_x_mm = lc.xray.first_pixel_x_mm, edges.pitch_mm = lc.xray.pitch_mm;
-  edges.step_mm = info.encoder_step_mm, edges.delay_lines = lc.xray.delay_lines;
-  edges.source_x_mm = lc.xray.source_x_mm, edges.source_z_mm = lc.xray.source_z_mm;
-  edges.detector_z_mm = lc.xray.detector_z_mm;
+  const VariantTruth vt(rec, lc);
+  const auto& frags = vt.fragments;
+  const auto& truth = vt.fillets;
+  const EdgeMap& edges = vt.edges;
   add_lane(r.ours, frags, truth, read_records(ld.string(), ""), &edges);
   add_lane(r.base, frags, truth, read_records(ld.string(), "baseline_"), &edges);
   finish(r.ours);
@@ -221,12 +173,6 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
   return r;
 }
 
-std::string shape_recall(const DetectionEval& e, const char* shape) {
-  for (const auto& [name, fb] : e.by_shape)
-    if (name == shape) return std::to_string(fb.first) + "/" + std::to_string(fb.second);
-  return "-";
-}
-
 std::string table(const std::vector<Row>& rows, bool held_out) {
   std::ostringstream os;
   char b[512];
@@ -250,22 +196,6 @@ std::string table(const std::vector<Row>& rows, bool held_out) {
     os << b;
   }
   return os.str();
-}
-
-// Wilson's 95 % interval of k in n, as "lo-hi".
-std::string interval(int k, int n) {
-  if (n == 0) return "-";
-  const double z = 1.959964, p = double(k) / n, d = 1 + z * z / n;
-  const double c = (p + z * z / (2 * n)) / d,
-               h = z * std::sqrt(p * (1 - p) / n + z * z / (4.0 * n * n)) / d;
-  char b[32];
-  std::snprintf(b, sizeof b, "%.1f-%.1f", 100 * std::max(0.0, c - h), 100 * std::min(1.0, c + h));
-  return b;
-}
-
-void calcified_2mm(const DetectionEval& e, int& found, int& total) {
-  found = total = 0;
-  for (int s = 1; s < kSizeBins; ++s) found += e.found[s][1], total += e.total[s][1];
 }
 
 // Each line of `text` indented by two spaces.
@@ -375,11 +305,12 @@ std::string json(const std::vector<Row>& rows) {
 }  // namespace
 
 int cmd_eval_matrix(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"keep-scans"},
+  const Args a(argc, argv, 2, {"keep-scans", "dual-energy"},
                {"variants", "only", "fillets", "seed", "out", "config", "learn", "check", "frr"});
   a.expect_positionals(0,
                        "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] "
-                       "[--seed S] [--learn N (0: none)] [--check N] [--frr N] [--keep-scans]");
+                       "[--seed S] [--learn N (0: none)] [--check N] [--frr N] [--keep-scans] "
+                       "[--dual-energy]");
   const PlantConfig plant = load_config(a.get("config", ""));
   const fs::path vdir = a.get(
       "variants", (fs::path(config_path(a.get("config", ""))).parent_path() / "variants").string());
@@ -412,6 +343,12 @@ int cmd_eval_matrix(int argc, char** argv) {
   const int fillets = mo.fillets;
   const long seed = mo.seed;
   const fs::path out = a.require("out");
+  if (a.flag("dual-energy")) {
+    DualEnergyMatrixOptions d;
+    d.fillets = mo.fillets, d.seed = mo.seed, d.learn_fillets = mo.learn_fillets;
+    d.check_fillets = mo.check_fillets, d.frr_fillets = mo.frr_fillets, d.keep = mo.keep;
+    return run_dual_energy_matrix(files, out, config_path(a.get("config", "")), plant, d);
+  }
   fs::create_directories(out);
   std::vector<Row> rows;
   std::string text;

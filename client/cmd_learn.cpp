@@ -77,6 +77,11 @@ std::string learned_plant_yaml(const std::string& config,
     bool found = false;
     for (YAML::Node ln : root["lanes"])
       if (ln["id"] && ln["id"].as<int>() == lane) {
+        // A lane's own inspection section replaces lane_defaults' whole: it starts as a copy
+        // of the defaults', so that what the plant set there (and the learning ran with)
+        // still holds beside the thresholds.
+        if (!ln["inspection"] && root["lane_defaults"] && root["lane_defaults"]["inspection"])
+          ln["inspection"] = YAML::Clone(root["lane_defaults"]["inspection"]);
         ln["inspection"]["false_reject_target"] = L.target_frr;
         ln["inspection"]["learned"] = YAML::Load(learned_detection_yaml(L));
         found = true;

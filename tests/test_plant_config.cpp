@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstring>
 #include <fstream>
+#include <sstream>
 
 #include "core/error.h"
 #include "core/plant_config.h"
@@ -174,6 +176,49 @@ TEST(PlantConfig, DualEnergyIsReadCheckedAndRoundTrips) {
             std::string::npos);
   EXPECT_NE(error_of("lanes: [{id: 0, xray: {energies: 2, sandwich: {kv: 90}}}]\n")
                 .find("unknown key 'kv'"),
+            std::string::npos);
+  // The wedge's fit (rangexctl calib dual-energy writes it) round-trips whole.
+  LaneConfig fitted = dual;
+  fitted.xray.has_dual_energy = true;
+  fitted.xray.dual_energy_fitted_on = "/scans/wedge";
+  kernel::DualEnergyK& k = fitted.xray.dual_energy;
+  for (int i = 0; i < DE_TERMS; ++i) k.low[i] = 0.1 * i - 0.7, k.high[i] = 1.0 / (i + 3);
+  for (int i = 0; i < 9; ++i) k.minv[i] = i - 4.5;
+  for (int i = 0; i < 6; ++i) k.basis[i] = 0.25 * i - 0.2;
+  k.var_a = 1e-3, k.var_b = 2e-4, k.gain_low = 0.1, k.gain_high = 0.6, k.var_e_low = 4;
+  k.var_e_high = 5, k.var_t = 0.01;
+  const std::string yaml = lane_calibration_yaml(fitted);
+  const LaneConfig again = apply_lane_calibration(single, yaml, "t");
+  ASSERT_TRUE(again.xray.has_dual_energy);
+  EXPECT_EQ(again.xray.dual_energy_fitted_on, "/scans/wedge");
+  EXPECT_EQ(0, std::memcmp(&again.xray.dual_energy, &k, sizeof k));
+  const std::string section = yaml.substr(yaml.find("  dual_energy:"));
+  EXPECT_EQ(lane_calibration_yaml(again).substr(yaml.find("  dual_energy:")), section);
+  EXPECT_NE(error_of("lanes: [{id: 0, xray: {dual_energy: {}}}]\n")
+                .find("xray.dual_energy: is for energies: 2"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, xray: {energies: 2, dual_energy: {low: [1, 2]}}}]\n")
+                .find("xray.dual_energy.low: expected a list of 21 numbers"),
+            std::string::npos);
+  std::string no_gain = yaml.substr(yaml.find("xray:"));
+  const size_t g = no_gain.find("gain_low: ");
+  no_gain.replace(g, no_gain.find('\n', g) - g, "gain_low: 0");
+  const std::string bad_gain = "lane_defaults:\n" + [&] {
+    std::string out;
+    std::istringstream in(no_gain);
+    for (std::string line; std::getline(in, line);) out += "  " + line + "\n";
+    return out;
+  }() + "lanes: [{id: 0}]\n";
+  EXPECT_NE(error_of(bad_gain).find("dual_energy.gain_low: must be > 0"), std::string::npos)
+      << error_of(bad_gain);
+  // How a lane inspects: laser (the default), no_laser, low_line; nothing else.
+  EXPECT_EQ(single.inspection.dual_energy, DualEnergyMethod::kLaser);
+  EXPECT_EQ(parse_plant_config("lanes: [{id: 0, inspection: {dual_energy: no_laser}}]\n", "t")
+                .lane(0)
+                .inspection.dual_energy,
+            DualEnergyMethod::kNoLaser);
+  EXPECT_NE(error_of("lanes: [{id: 0, inspection: {dual_energy: both}}]\n")
+                .find("'both': expected laser, no_laser or low_line"),
             std::string::npos);
 }
 

@@ -3,8 +3,10 @@
 // laser plane and parallel to it.
 #pragma once
 #include <cmath>
+#include <string>
 
 #include "core/sandwich_detector.h"
+#include "shared/dual_energy.h"
 
 namespace rangex {
 
@@ -32,6 +34,11 @@ struct FanBeam {
   // together (LineScan.xray is the low line, xray_high the high one); its layers and tube.
   int energies = 1;
   SandwichDetector sandwich;
+  // The lane's dual-energy calibration (rangexctl calib dual-energy: the step wedge's fit);
+  // without one a dual-energy lane inspects its low line as a lane of one energy does.
+  bool has_dual_energy = false;
+  kernel::DualEnergyK dual_energy{};
+  std::string dual_energy_fitted_on;  // the wedge scan it was fitted on
 
   // Pixel i's centre at (first_pixel_x_mm + pitch_x() * i, detector_z_mm + pitch_z() * i).
   double pitch_x() const { return pitch_mm * std::cos(tilt_deg * M_PI / 180); }

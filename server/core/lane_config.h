@@ -31,6 +31,12 @@ struct FusionParams {
   double max_column_step_mm = 2.0;  // neighbouring columns further apart are not joined
 };
 
+// How a dual-energy lane with its calibration inspects (docs/dual-energy.md): the bone
+// length from both lines and the laser's thickness (laser); from both lines alone, as a
+// dual-energy machine does without a thickness (no_laser: a comparison); or its low line as
+// a lane of one energy (low_line).
+enum class DualEnergyMethod { kLaser, kNoLaser, kLowLine };
+
 // Fillet assembly, compensation and detection (Laser Range Imaging ch. 7).
 struct InspectionParams {
   double floor_mm = 1.5;               // thickness above this is fillet
@@ -74,6 +80,12 @@ struct InspectionParams {
   // An encoder jump further than this ends the lane's open fillets as not inspected and
   // restarts its assembly at the new count (a re-based PLC); shorter gaps are bridged.
   int encoder_horizon_lines = 100000;
+  DualEnergyMethod dual_energy = DualEnergyMethod::kLaser;
+  // Dual energy: the fat share's smoothing (pipeline/fat_fraction.h), px; and how much the
+  // soft tissue's density varies pixel to pixel (relative sigma: cartilage, tendon, texture),
+  // which the bone's estimate discounts along the soft tissue's direction.
+  double fat_share_sigma_px = 12;
+  double soft_density_sigma = 0.03;
 };
 
 struct LaneConfig {

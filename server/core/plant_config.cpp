@@ -8,6 +8,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "core/error.h"
 #include "core/size_limits.h"
@@ -179,6 +180,34 @@ void read_camera(const Node& n, LaneCamera& cam, int w, int h) {
 std::vector<double> number_list(const Node& n, size_t expect) {
   if (!n.node.IsSequence()) n.bad("expected a list of numbers");
   return n.numbers(expect ? expect : n.node.size());
+}
+
+// xray.dual_energy (rangexctl calib dual-energy writes it): the wedge's fit as the kernels
+// read it (kernels/shared/dual_energy.h).
+void read_dual_energy(const Node& n, FanBeam& x) {
+  n.only_keys({"low", "high", "minv", "basis", "var_a", "var_b", "gain_low", "gain_high",
+               "var_e_low", "var_e_high", "var_t", "fitted_on"});
+  kernel::DualEnergyK& k = x.dual_energy;
+  auto copy = [&](const char* key, double* out, size_t count) {
+    const std::vector<double> v = number_list(n.at(key), count);
+    std::copy(v.begin(), v.end(), out);
+  };
+  copy("low", k.low, DE_TERMS);
+  copy("high", k.high, DE_TERMS);
+  copy("minv", k.minv, 9);
+  copy("basis", k.basis, 6);
+  for (auto [key, out, positive] :
+       {std::tuple{"var_a", &k.var_a, false}, std::tuple{"var_b", &k.var_b, false},
+        std::tuple{"gain_low", &k.gain_low, true}, std::tuple{"gain_high", &k.gain_high, true},
+        std::tuple{"var_e_low", &k.var_e_low, false},
+        std::tuple{"var_e_high", &k.var_e_high, false}, std::tuple{"var_t", &k.var_t, false}}) {
+    if (!n.has(key)) n.bad(std::string("missing '") + key + "'");
+    n.get(key, *out);
+    if (!(positive ? *out > 0 : *out >= 0) || !std::isfinite(*out))
+      n.at(key).bad(positive ? "must be > 0" : "must be >= 0");
+  }
+  n.get("fitted_on", x.dual_energy_fitted_on);
+  x.has_dual_energy = true;
 }
 
 // `spread: thickness | fillet` (inspection.spread, and what learned settings were learned
@@ -359,7 +388,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->only_keys({"pixels", "pitch_mm", "first_pixel_x_mm", "detector_z_mm", "source_mm",
                   "tilt_deg", "delay_lines", "bits", "detector_sigma_px", "focal_spot_sigma_mm",
                   "measured_delay_lines", "plane_alpha_deg", "plane_beta_deg", "energies",
-                  "sandwich"});
+                  "sandwich", "dual_energy"});
     n->positive("pixels", c.xray.pixels);
     n->positive("pitch_mm", c.xray.pitch_mm);
     n->get("first_pixel_x_mm", c.xray.first_pixel_x_mm);
@@ -414,6 +443,10 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
       } catch (const Error& e) {
         d.bad(e.what());
       }
+    }
+    if (n->has("dual_energy")) {
+      if (c.xray.energies != 2) n->at("dual_energy").bad("is for energies: 2");
+      read_dual_energy(n->at("dual_energy"), c.xray);
     }
   }
   if (auto n = section("stripe")) {
@@ -472,7 +505,8 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
                   "min_fragment_meat_mm",
                   "false_reject_target",
                   "learned",
-                  "spread"});
+                  "spread",
+                  "dual_energy"});
     n->positive("floor_mm", q.floor_mm);
     n->positive("min_fillet_area_mm2", q.min_fillet_area_mm2);
     n->positive("gap_lines", q.gap_lines);
@@ -498,6 +532,17 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     if (!(q.false_reject_target > 0 && q.false_reject_target < 0.5))
       n->at("false_reject_target").bad("must be in (0, 0.5), a fraction of fillets");
     if (n->has("learned")) read_learned(n->at("learned"), q.learned);
+    if (n->has("dual_energy")) {
+      const std::string m = n->at("dual_energy").str();
+      if (m == "laser")
+        q.dual_energy = DualEnergyMethod::kLaser;
+      else if (m == "no_laser")
+        q.dual_energy = DualEnergyMethod::kNoLaser;
+      else if (m == "low_line")
+        q.dual_energy = DualEnergyMethod::kLowLine;
+      else
+        n->at("dual_energy").bad("'" + m + "': expected laser, no_laser or low_line");
+    }
     n->positive("min_air_area_mm2", q.min_air_area_mm2);
     n->positive("baseline_sigma_mm", q.baseline_sigma_mm);
     n->positive("encoder_horizon_lines", q.encoder_horizon_lines);
@@ -832,6 +877,25 @@ std::string lane_calibration_yaml(const LaneConfig& l) {
     o << "  energies: 2\n  sandwich: {kvp: " << d.kvp
       << ", tube_filter_al_mm: " << d.tube_filter_al_mm << ", front_csi_mm: " << d.front_csi_mm
       << ", filter_cu_mm: " << d.filter_cu_mm << ", back_csi_mm: " << d.back_csi_mm << "}\n";
+    if (x.has_dual_energy) {
+      const kernel::DualEnergyK& k = x.dual_energy;
+      // Every bit of the fit: read back, a pixel's decomposition is the one calibrated.
+      o.precision(17);
+      o << "  dual_energy:\n    low: ";
+      list(k.low, DE_TERMS);
+      o << "\n    high: ";
+      list(k.high, DE_TERMS);
+      o << "\n    minv: ";
+      list(k.minv, 9);
+      o << "\n    basis: ";
+      list(k.basis, 6);
+      o << "\n    var_a: " << k.var_a << "\n    var_b: " << k.var_b
+        << "\n    gain_low: " << k.gain_low << "\n    gain_high: " << k.gain_high
+        << "\n    var_e_low: " << k.var_e_low << "\n    var_e_high: " << k.var_e_high
+        << "\n    var_t: " << k.var_t << "\n";
+      if (!x.dual_energy_fitted_on.empty())
+        o << "    fitted_on: " << yaml_string(x.dual_energy_fitted_on) << "\n";
+    }
   }
   return o.str();
 }

@@ -1,5 +1,6 @@
 #include "offline/fillet_records.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -37,7 +38,7 @@ void RecordSet::add(const FilletResult& r) {
   for (const auto* list : {&r.fragments, &r.air_pockets})
     for (const Blob& b : *list)
       fragments.push_back({r.lane, r.id, list == &r.fragments ? "bone" : "air", b.x_mm, b.y_mm,
-                           b.area_mm2, b.peak_z, b.attenuation_mm2, b.meat_mm});
+                           b.area_mm2, b.peak_z, b.attenuation_mm2, b.meat_mm, b.bone_mg});
 }
 
 void write_records(const std::string& dir, const std::string& prefix, const RecordSet& s) {
@@ -62,11 +63,11 @@ void write_records(const std::string& dir, const std::string& prefix, const Reco
   if (!f) fail(fp.string(), ": write failed");
   const fs::path gp = fs::path(dir) / (prefix + "fragments.csv");
   std::ofstream g(gp);
-  g << "lane,fillet,kind,x_mm,y_mm,area_mm2,peak_z,attenuation_mm2,meat_mm\n";
+  g << "lane,fillet,kind,x_mm,y_mm,area_mm2,peak_z,attenuation_mm2,meat_mm,bone_mg\n";
   for (const FragmentRecord& b : s.fragments) {
-    std::snprintf(buf, sizeof buf, "%d,%lld,%s,%.3f,%.3f,%.3f,%.3f,%.5f,%.3f\n", b.lane,
+    std::snprintf(buf, sizeof buf, "%d,%lld,%s,%.3f,%.3f,%.3f,%.3f,%.5f,%.3f,%.4f\n", b.lane,
                   (long long)b.fillet, b.kind.c_str(), b.x_mm, b.y_mm, b.area_mm2, b.peak_z,
-                  b.attenuation_mm2, b.meat_mm);
+                  b.attenuation_mm2, b.meat_mm, b.bone_mg);
     g << buf;
   }
   if (!g) fail(gp.string(), ": write failed");
@@ -86,12 +87,16 @@ std::vector<std::string> split(const std::string& line, size_t max_fields) {
   return out;
 }
 
+// A table of `fields` columns, or of as many as its header names up to `max_fields` (a
+// column added since: older files read as before).
 template <typename F>
-void read_table(const fs::path& p, size_t fields, F&& row) {
+void read_table(const fs::path& p, size_t fields, F&& row, size_t max_fields = 0) {
   std::ifstream in(p);
   if (!in) fail(p.string(), " is missing (was it written by 'rangexctl process'?)");
   std::string line;
   std::getline(in, line);
+  const size_t named = size_t(std::count(line.begin(), line.end(), ',')) + 1;
+  if (max_fields > fields && named > fields && named <= max_fields) fields = named;
   size_t n = 1;
   while (std::getline(in, line)) {
     ++n;
@@ -134,11 +139,14 @@ RecordSet read_records(const std::string& dir, const std::string& prefix) {
     r.reason = c[19];
     s.fillets.push_back(r);
   });
-  read_table(fs::path(dir) / (prefix + "fragments.csv"), 9, [&](const std::vector<std::string>& c) {
-    s.fragments.push_back({std::stoi(c[0]), std::stoll(c[1]), c[2], std::stod(c[3]),
-                           std::stod(c[4]), std::stod(c[5]), std::stod(c[6]), std::stod(c[7]),
-                           std::stod(c[8])});
-  });
+  read_table(
+      fs::path(dir) / (prefix + "fragments.csv"), 9,
+      [&](const std::vector<std::string>& c) {
+        s.fragments.push_back({std::stoi(c[0]), std::stoll(c[1]), c[2], std::stod(c[3]),
+                               std::stod(c[4]), std::stod(c[5]), std::stod(c[6]), std::stod(c[7]),
+                               std::stod(c[8]), c.size() > 9 ? std::stod(c[9]) : 0.0});
+      },
+      10);
   return s;
 }
 
@@ -164,7 +172,8 @@ std::string fillets_json(const RecordSet& s) {
       if (b.lane != r.lane || b.fillet != r.fillet || b.kind != "bone") continue;
       os << (first ? "" : ", ") << "{\"x_mm\": " << b.x_mm << ", \"y_mm\": " << b.y_mm
          << ", \"area_mm2\": " << b.area_mm2 << ", \"peak_z\": " << b.peak_z
-         << ", \"attenuation_mm2\": " << b.attenuation_mm2 << ", \"meat_mm\": " << b.meat_mm << "}";
+         << ", \"attenuation_mm2\": " << b.attenuation_mm2 << ", \"meat_mm\": " << b.meat_mm
+         << ", \"bone_mg\": " << b.bone_mg << "}";
       first = false;
     }
     os << "], \"air_pockets\": " << r.air_pockets << "}";

@@ -32,6 +32,7 @@ struct FragmentRecord {
   std::string kind;  // bone | air
   double x_mm = 0, y_mm = 0, area_mm2 = 0, peak_z = 0, attenuation_mm2 = 0;
   double meat_mm = 0;  // excess attenuation at its peak, in mm of the fillet's meat
+  double bone_mg = 0;  // dual energy: bone-equivalent mass (0 at one energy)
 };
 
 struct RecordSet {

@@ -52,7 +52,9 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
               delay = lc.xray.delay_lines;
     const size_t frame = size_t(W) * H;
     constexpr int kBlock = 64;
-    std::vector<uint16_t> xray(size_t(D) * kBlock);
+    std::vector<uint16_t> xray(size_t(D) * kBlock),
+        high(lc.xray.energies == 2 ? xray.size() : 0);  // a lane of two energies' high lines
+    const bool dual = !high.empty();
     std::vector<float> rows(size_t(2 * W) * kBlock), truth_t(size_t(D) * kBlock);
     const TruthHeights truth_heights[2] = {TruthHeights(lc, 0), TruthHeights(lc, 1)};
     ErrorAccumulator stripe_all[2], stripe_fillet[2], thick;
@@ -111,12 +113,16 @@ std::vector<PlantRunLane> run_simulated_plant(const PlantConfig& plant,
             sim.render(n0 + k, reinterpret_cast<uint8_t*>(block[k].line.cam0.data()),
                        reinterpret_cast<uint8_t*>(block[k].line.cam1.data()), &xray[size_t(D) * k],
                        &rows[size_t(2 * k) * W], &rows[size_t(2 * k + 1) * W],
-                       &truth_t[size_t(D) * k]);
+                       &truth_t[size_t(D) * k], dual ? &high[size_t(D) * k] : nullptr);
         });
       for (auto& t : pool) t.join();
       for (int k = 0; k < count; ++k) {
         block[k].line.encoder = sim.encoder(n0 + k);
         std::memcpy(block[k].line.xray.data(), &xray[size_t(D) * k], size_t(D) * sizeof(uint16_t));
+        block[k].line.xray_high.resize(dual ? size_t(D) * sizeof(uint16_t) : 0);
+        if (dual)
+          std::memcpy(block[k].line.xray_high.data(), &high[size_t(D) * k],
+                      size_t(D) * sizeof(uint16_t));
       }
       lane.render_s += since(t0);
       path.run(block, observe);

@@ -6,10 +6,21 @@
 
 namespace rangex {
 
+namespace {
+// x^0 .. x^DE_DEGREE by products (a kernel's loop; pow costs 50x more).
+void powers(double x, double* p) {
+  p[0] = 1;
+  for (int i = 1; i <= DE_DEGREE; ++i) p[i] = p[i - 1] * x;
+}
+}  // namespace
+
 void dual_energy_terms(double u, double v, double* t) {
+  double pu[DE_DEGREE + 1], pv[DE_DEGREE + 1];
+  powers(u, pu);
+  powers(v, pv);
   int k = 0;
   for (int d = 0; d <= DE_DEGREE; ++d)
-    for (int j = 0; j <= d; ++j) t[k++] = std::pow(u, d - j) * std::pow(v, j);
+    for (int j = 0; j <= d; ++j) t[k++] = pu[d - j] * pv[j];
 }
 
 double dual_energy_poly(const double* c, double u, double v) {
@@ -21,13 +32,16 @@ double dual_energy_poly(const double* c, double u, double v) {
 }
 
 void dual_energy_gradient(const double* c, double u, double v, double* du, double* dv) {
+  double pu[DE_DEGREE + 1], pv[DE_DEGREE + 1];
+  powers(u, pu);
+  powers(v, pv);
   double gu = 0, gv = 0;
   int k = 0;
   for (int d = 0; d <= DE_DEGREE; ++d)
     for (int j = 0; j <= d; ++j, ++k) {
       const int i = d - j;
-      if (i > 0) gu += c[k] * i * std::pow(u, i - 1) * std::pow(v, j);
-      if (j > 0) gv += c[k] * j * std::pow(u, i) * std::pow(v, j - 1);
+      if (i > 0) gu += c[k] * i * pu[i - 1] * pv[j];
+      if (j > 0) gv += c[k] * j * pu[i] * pv[j - 1];
     }
   *du = gu, *dv = gv;
 }
@@ -96,7 +110,7 @@ void dual_energy_lengths(const float* basis, const float* thickness, int pixels,
 
 void dual_energy_bone(const float* basis, const float* thickness, const float* phi,
                       const float* phi_var, int pixels, const DualEnergyParams& k, float* bone,
-                      float* bone_sigma) {
+                      float* bone_sigma, double density_var) {
   const double* L = k.basis;  // lean (a, b), fat (a, b), bone (a, b) per mm
   for (int p = 0; p < pixels; ++p) {
     const float* in = basis + 5 * p;
@@ -105,12 +119,14 @@ void dual_energy_bone(const float* basis, const float* thickness, const float* p
     const double sa = (1 - f) * L[0] + f * L[2], sb = (1 - f) * L[1] + f * L[3];
     const double da = L[4] - sa, db = L[5] - sb;
     const double ra = in[0] - sa * T, rb = in[1] - sb * T;
-    // Covariance of (ra, rb): the pair's, the thickness's through s, and phi's through
-    // d s / d phi = fat - lean (per mm, times T).
+    // Covariance of (ra, rb): the pair's, the thickness's through s, phi's through
+    // d s / d phi = fat - lean (per mm, times T), and the soft tissue's own density along s
+    // (relative variance density_var: denser tissue is more of s, never bone).
     const double ea = (L[2] - L[0]) * T, eb = (L[3] - L[1]) * T, vp = phi_var[p];
-    const double caa = in[2] + sa * sa * k.var_t + ea * ea * vp,
-                 cab = in[3] + sa * sb * k.var_t + ea * eb * vp,
-                 cbb = in[4] + sb * sb * k.var_t + eb * eb * vp;
+    const double vt = k.var_t + density_var * T * T;
+    const double caa = in[2] + sa * sa * vt + ea * ea * vp,
+                 cab = in[3] + sa * sb * vt + ea * eb * vp,
+                 cbb = in[4] + sb * sb * vt + eb * eb * vp;
     const double det = caa * cbb - cab * cab;
     // C^-1 d and the weighted sums.
     const double ia = (cbb * da - cab * db) / det, ib = (caa * db - cab * da) / det;

@@ -50,9 +50,11 @@ void dual_energy_lengths(const float* basis, const float* thickness, int pixels,
 // fillet: pipeline/fat_fraction.h): per pixel the bone length t that best explains (A, B)
 // as soft tissue of that mix over T - t and bone over t, weighted by the pair's covariance
 // the thickness's variance and phi's (generalised least squares, one unknown), and its sigma.
+// density_var: the soft tissue's density varies pixel to pixel by this relative variance
+// (cartilage, tendon, texture); it enters like the thickness's variance, along s.
 void dual_energy_bone(const float* basis, const float* thickness, const float* phi,
                       const float* phi_var, int pixels, const DualEnergyParams& k, float* bone,
-                      float* bone_sigma);
+                      float* bone_sigma, double density_var = 0);
 
 // The polynomial's terms at (u, v), its value and its gradient.
 void dual_energy_terms(double u, double v, double* t);

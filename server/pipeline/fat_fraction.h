@@ -10,9 +10,11 @@
 namespace rangex {
 
 // lengths, sigma: 3 per pixel (lean, fat, bone), rows x cols; phi clamped to 0..1 and its
-// variance (the fat lengths' noise through the smoothing), NaN outside the mask.
+// variance (the fat lengths' noise through the smoothing), measured over `mask` and given on
+// `fill` (null: the mask; a pixel of fill off the mask takes its neighbourhood's), NaN
+// elsewhere.
 void fat_fraction_map(const float* lengths, const float* sigma, const uint8_t* mask, int rows,
                       int cols, double sigma_px, std::vector<float>& phi,
-                      std::vector<float>& phi_var);
+                      std::vector<float>& phi_var, const uint8_t* fill = nullptr);
 
 }  // namespace rangex

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "shared/dual_energy.h"
+
 namespace rangex {
 
 struct FilletImage {
@@ -32,8 +34,11 @@ struct FilletImage {
   }
   std::vector<uint16_t> xray;       // rows * cols, DN (a dual-energy lane's low-energy line)
   std::vector<uint16_t> xray_high;  // a dual-energy lane's high-energy line; empty otherwise
-  std::vector<float> thickness;     // rows * cols, mm of X-ray path; NaN where not measured
-  std::vector<uint8_t> mask;        // rows * cols, 1 on the fillet
+  // The lane's dual-energy calibration, when it has one (core/fan_beam.h).
+  bool has_dual_energy = false;
+  kernel::DualEnergyK dual_energy{};
+  std::vector<float> thickness;  // rows * cols, mm of X-ray path; NaN where not measured
+  std::vector<uint8_t> mask;     // rows * cols, 1 on the fillet
   int bits = 12;
   // Fail-safe inputs, filled by the assembly.
   int missing_lines = 0;         // lines of the fillet that never arrived or were dropped

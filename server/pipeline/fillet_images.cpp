@@ -36,6 +36,19 @@ void write_fillet_images(const std::string& dir, const FilletImage& img, const F
     write_png16((fs::path(dir) / "pseudo_xray.png").string(), p.data(), W, H);
     write_png16((fs::path(dir) / "residual.png").string(), res.data(), W, H);
   }
+  // Dual energy: bone-equivalent length in um + 32768 (32768 off the fillet), and the fat's
+  // share of the soft tissue in 1/65535 (0 off the fillet).
+  if (!r.bone_mm.empty()) {
+    std::vector<uint16_t> bone(n), fat(n, 0);
+    for (size_t i = 0; i < n; ++i)
+      bone[i] = std::isfinite(r.bone_mm[i]) ? clamp16(r.bone_mm[i] * 1000.0 + 32768.0) : 32768;
+    write_png16((fs::path(dir) / "bone.png").string(), bone.data(), W, H);
+    if (r.fat_share.size() == n) {
+      for (size_t i = 0; i < n; ++i)
+        if (std::isfinite(r.fat_share[i])) fat[i] = clamp16(r.fat_share[i] * 65535.0);
+      write_png16((fs::path(dir) / "fat_share.png").string(), fat.data(), W, H);
+    }
+  }
   // Overlay at twice the size so that millimetre fragments can be seen.
   constexpr int S = 2;
   const double top = double((1 << img.bits) - 1);

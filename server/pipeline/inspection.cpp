@@ -9,6 +9,7 @@
 #include "pipeline/component_extreme.h"
 #include "pipeline/connected_components.h"
 #include "pipeline/detector_match.h"
+#include "pipeline/inspection_steps.h"
 #include "pipeline/masked_smooth.h"
 #include "pipeline/thickness_spread.h"
 
@@ -32,10 +33,10 @@ const char* inspect_stage_name(int stage) {
 }
 
 namespace {
-
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+}  // namespace
 
-FilletResult header(const FilletImage& img) {
+FilletResult result_header(const FilletImage& img) {
   FilletResult r;
   r.lane = img.lane;
   r.id = img.id;
@@ -51,7 +52,6 @@ FilletResult header(const FilletImage& img) {
   return r;
 }
 
-// The fail-safe checks that need no fit; empty when the fillet can be inspected.
 std::string not_inspectable(const FilletImage& img, const InspectionParams& p) {
   if (!img.interrupted.empty()) return img.interrupted;
   if (img.calibration_mismatch) return "calibration mismatch";
@@ -67,6 +67,8 @@ std::string not_inspectable(const FilletImage& img, const InspectionParams& p) {
   }
   return "";
 }
+
+namespace {
 
 // Pixels that take part: on the fillet, with a thickness and an X-ray count.
 std::vector<uint8_t> usable(const FilletImage& img) {
@@ -253,10 +255,22 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
       grad2[i] = float(gx * gx + gy * gy);
     }
   res.noise.c = estimate_gradient_term(res.noise, pred.data(), resid.data(), grad2.data(), n);
-  std::vector<float> z(n, kNaN), zs;
+  std::vector<float> z(n, kNaN);
   for (size_t i = 0; i < n; ++i)
     if (use[i]) z[i] = float(resid[i] / res.noise.sigma_ln(pred[i], grad2[i]));
   lap(kStageNoise);
+  detect_from_z(img, use, z, resid, fit, p, keep, res);
+  if (keep) res.pseudo = std::move(pred);
+}
+
+}  // namespace
+
+void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
+                   const std::vector<float>& z, std::vector<float>& resid, const RobustFit* fit,
+                   const InspectionParams& p, bool keep, FilletResult& res) {
+  StageLap lap(res);
+  const size_t n = img.size();
+  std::vector<float> zs;
   // Each statistic is brought to unit spread where it is computed: after its kernel, by
   // thickness, robustly (thickness_spread.h). What compensation leaves is not white (meat
   // texture, thickness error), smoothing shrinks white noise far more than that, and thick
@@ -329,16 +343,15 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
                  (res.fragments.size() > 1 ? "s" : "");
   }
   if (keep) {
-    res.pseudo = std::move(pred);
     res.residual = std::move(resid);
     res.zs = std::move(stat[kStatAir]);
   }
 }
 
-}  // namespace
-
 FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, bool keep) {
-  FilletResult res = header(raw);
+  if (!raw.xray_high.empty() && raw.has_dual_energy && p.dual_energy != DualEnergyMethod::kLowLine)
+    return inspect_fillet_dual_energy(raw, p, keep);
+  FilletResult res = result_header(raw);
   if (const std::string why = not_inspectable(raw, p); !why.empty()) {
     res.reason = why;
     return res;
@@ -411,7 +424,7 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
 
 FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionParams& p,
                                       bool keep) {
-  FilletResult res = header(img);
+  FilletResult res = result_header(img);
   if (const std::string why = not_inspectable(img, p); !why.empty()) {
     res.reason = why;
     return res;

@@ -5,6 +5,8 @@
 //   pockets (reported only). Fail-safe: missing lines, too much meat without thickness, a
 //   fillet on the lane edge, a fit that did not converge or a calibration mismatch give
 //   "not inspected", which is a reject.
+// A dual-energy lane with its calibration inspects its bone image instead
+// (docs/dual-energy.md): inspection.dual_energy picks how.
 // The X-ray-only baseline runs the same noise model and detector with a smooth background
 // of ln I in place of the thickness model, so the laser's gain is measured.
 #pragma once
@@ -33,6 +35,9 @@ struct Blob {
   double meat_mm = 0;
   int pixels = 0;
   int row0 = 0, row1 = 0, col0 = 0, col1 = 0;  // bounding box in the fillet image
+  // Dual energy: the fragment's bone-equivalent mass (its bone lengths over its area, as
+  // cortical bone of 1.92 mg/mm3), mg; 0 at one energy.
+  double bone_mg = 0;
 };
 
 // The inspection's stages, timed per fillet (benchmarks, latency statistics).
@@ -70,6 +75,7 @@ struct FilletResult {
   std::string reason;
   bool fitted = false;
   RobustFit fit;
+  bool dual_energy = false;  // inspected on the bone image of both X-ray lines (no fit)
   NoiseModel noise;
   std::vector<Blob> fragments, air_pockets;
   int pixels = 0;            // fillet pixels used
@@ -81,6 +87,9 @@ struct FilletResult {
   // Images over the fillet's box (kept on request): pseudo-X-ray (DN), residual ln I - ln P,
   // smoothed z; NaN off the fillet.
   std::vector<float> pseudo, residual, zs;
+  // Dual energy (kept on request): bone-equivalent length per pixel (mm) and the fat's share
+  // of the soft tissue (0..1; with the laser only); NaN off the fillet.
+  std::vector<float> bone_mm, fat_share;
 };
 
 // keep_images: fill pseudo / residual / zs.

@@ -242,6 +242,8 @@ void LaneAssembler::close_segment() {
     f.tan_beta = std::tan(fb.plane_beta_deg * M_PI / 180);
     f.detector_sigma_px = fb.detector_sigma_px;
     f.focal_spot_sigma_mm = fb.focal_spot_sigma_mm;
+    f.has_dual_energy = fb.energies == 2 && fb.has_dual_energy;
+    if (f.has_dual_energy) f.dual_energy = fb.dual_energy;
     f.touches_lane_edge = c.col0 == 0 || c.col1 == D - 1;
     f.missing_lines = missing;
     if (interrupted) f.interrupted = interrupted_;

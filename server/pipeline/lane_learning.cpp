@@ -5,7 +5,7 @@
 namespace rangex {
 
 bool LearningSet::teaches(const FilletResult& r) {
-  return r.decision != Decision::kNotInspected && r.fitted;
+  return r.decision != Decision::kNotInspected && (r.fitted || r.dual_energy);
 }
 
 void LearningSet::add(const FilletResult& r, FilletImage image) {

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "pipeline/inspection.h"
+#include "pipeline/inspection_steps.h"
 
 namespace rangex {
 
@@ -88,9 +89,20 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
         }
         if (placed.empty()) continue;
         FilletImage img = base;
-        for (const TestPiece& q : placed)
-          inject_test_piece(img, q, f.meat_mu(base.thickness[size_t(q.row) * base.cols + q.col]),
-                            opt.material);
+        const bool dual = base.has_dual_energy && base.xray_high.size() == base.size();
+        for (const TestPiece& q : placed) {
+          const size_t at = size_t(q.row) * base.cols + q.col;
+          if (!dual) {
+            inject_test_piece(img, q, f.meat_mu(base.thickness[at]), opt.material);
+            continue;
+          }
+          // Dual energy: the piece is bone calcified so that the low line sees the material's
+          // excess over the meat; the high line sees that bone's own.
+          double lean[2], bone[2];
+          if (!dual_energy_slopes(base, at, lean, bone)) continue;
+          const double calcified = opt.material.excess(lean[0]) / (bone[0] - lean[0]);
+          inject_test_piece(img, q, lean[0], opt.material, calcified * (bone[1] - lean[1]));
+        }
         const FilletResult r = inspect_fillet(img, p, false);
         ++res.inspections;
         for (const TestPiece& q : placed) {

@@ -23,12 +23,25 @@ double chord(const TestPiece& p, double dx, double dy, double needle_d) {
   return q > 0 ? 2 * std::sqrt(q) : 0.0;
 }
 
+void inject_layer(FilletImage& img, const TestPiece& p, double dmu, double needle_d,
+                  std::vector<uint16_t>& counts);
+
 }  // namespace
 
 void inject_test_piece(FilletImage& img, const TestPiece& p, double meat_mu,
-                       const TestPieceMaterial& m) {
+                       const TestPieceMaterial& m, double high_excess) {
   const double dmu = m.excess(meat_mu);
   if (!(dmu > 0)) return;
+  // One pass per line it attenuates: the low (or only) line, and a dual-energy high line.
+  const bool high = high_excess > 0 && img.xray_high.size() == img.size();
+  for (int layer = 0; layer < (high ? 2 : 1); ++layer)
+    inject_layer(img, p, layer == 0 ? dmu : high_excess, m.needle_diameter_mm,
+                 layer == 0 ? img.xray : img.xray_high);
+}
+
+namespace {
+void inject_layer(FilletImage& img, const TestPiece& p, double dmu, double needle_d,
+                  std::vector<uint16_t>& counts) {
   // The fan beam magnifies across the belt by (zs - zd) / (zs - h); along the belt a line
   // scan does not magnify.
   const double mag = (img.source_z_mm - img.detector_z_mm) / (img.source_z_mm - p.height_mm);
@@ -53,7 +66,7 @@ void inject_test_piece(FilletImage& img, const TestPiece& p, double meat_mu,
         for (int j = 0; j < kSub; ++j) {
           const double dy = (r - p.row + (i + 0.5) / kSub - 0.5) * img.step_mm;
           const double dx_det = (c - p.col + (j + 0.5) / kSub - 0.5) * img.pitch_mm;
-          t += std::exp(-dmu * chord(p, dx_det / mag, dy, m.needle_diameter_mm));
+          t += std::exp(-dmu * chord(p, dx_det / mag, dy, needle_d));
         }
       trans[size_t(c - c0)] = t / (kSub * kSub);
     }
@@ -73,10 +86,12 @@ void inject_test_piece(FilletImage& img, const TestPiece& p, double meat_mu,
       blurred = trans;
     }
     for (int c = c0; c <= c1; ++c) {
-      uint16_t& v = img.xray[size_t(r) * img.cols + c];
+      uint16_t& v = counts[size_t(r) * img.cols + c];
       v = uint16_t(std::lround(v * blurred[size_t(c - c0)]));
     }
   }
 }
+
+}  // namespace
 
 }  // namespace rangex

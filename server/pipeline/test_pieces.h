@@ -31,7 +31,9 @@ struct TestPieceMaterial {
 
 // Multiplies img.xray under the piece (meat_mu_per_mm: the meat's attenuation there, e.g.
 // the fillet's fitted slope).
+// high_excess_per_mm: a dual-energy fillet's high line attenuated too, by this excess (the
+// piece's own in that layer; 0: the low line only).
 void inject_test_piece(FilletImage& img, const TestPiece& piece, double meat_mu_per_mm,
-                       const TestPieceMaterial& material);
+                       const TestPieceMaterial& material, double high_excess_per_mm = 0);
 
 }  // namespace rangex

@@ -36,8 +36,8 @@ StoredFillet DecisionRecorder::record_of(const FilletResult& r, const std::strin
   for (const auto* list : {&r.fragments, &r.air_pockets})
     for (const Blob& b : *list)
       s.fragments.push_back({list == &r.fragments ? "bone" : "air", b.x_mm, b.y_mm, b.area_mm2,
-                             b.peak_z, b.attenuation_mm2, b.meat_mm, b.row0, b.row1, b.col0,
-                             b.col1});
+                             b.peak_z, b.attenuation_mm2, b.meat_mm, b.row0, b.row1, b.col0, b.col1,
+                             b.bone_mg});
   return s;
 }
 

@@ -14,7 +14,7 @@ json fragment_json(const StoredFragment& g) {
   return {{"kind", g.kind},         {"x_mm", g.x_mm},     {"y_mm", g.y_mm},
           {"area_mm2", g.area_mm2}, {"peak_z", g.peak_z}, {"attenuation_mm2", g.attenuation_mm2},
           {"meat_mm", g.meat_mm},   {"row0", g.row0},     {"row1", g.row1},
-          {"col0", g.col0},         {"col1", g.col1}};
+          {"col0", g.col0},         {"col1", g.col1},     {"bone_mg", g.bone_mg}};
 }
 
 const LaneCounts* find_lane(const HistorySample& s, int lane) {

@@ -35,6 +35,7 @@ void fill(pb::FilletResult* o, const StoredFillet& f) {
     p->set_peak_z(g.peak_z);
     p->set_attenuation_mm2(g.attenuation_mm2);
     p->set_meat_mm(g.meat_mm);
+    p->set_bone_mg(g.bone_mg);
     p->set_row0(g.row0);
     p->set_row1(g.row1);
     p->set_col0(g.col0);

@@ -54,6 +54,9 @@ std::string chain_content(const StoredFillet& f) {
     for (double v : {g.x_mm, g.y_mm, g.area_mm2, g.peak_z, g.attenuation_mm2, g.meat_mm})
       field(s, "v", v);
     for (int v : {g.row0, g.row1, g.col0, g.col1}) field(s, "px", int64_t(v));
+    // Dual energy's mass joins the chain only where there is one: records of one energy
+    // keep the bytes they were chained with.
+    if (g.bone_mg != 0) field(s, "bone_mg", g.bone_mg);
   }
   return s;
 }

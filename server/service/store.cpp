@@ -44,10 +44,11 @@ constexpr const char* kFilletColumns =
     "uid, lane, lane_fillet, first_encoder, rows, decision, reason, beta0, beta1, "
     "resid_mean_dn, resid_std_dn, calibration_id, decided_ns, belt_y0_mm, beta2";
 constexpr const char* kFragmentColumns =
-    "kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2, meat_mm, row0, row1, col0, col1";
+    "kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2, meat_mm, row0, row1, col0, col1, "
+    "bone_mg";
 StoredFragment fragment_row(const Stmt& g) {
-  return {g.str(0), g.dbl(1),      g.dbl(2),      g.dbl(3),      g.dbl(4),      g.dbl(5),
-          g.dbl(6), int(g.i64(7)), int(g.i64(8)), int(g.i64(9)), int(g.i64(10))};
+  return {g.str(0), g.dbl(1),      g.dbl(2),      g.dbl(3),      g.dbl(4),       g.dbl(5),
+          g.dbl(6), int(g.i64(7)), int(g.i64(8)), int(g.i64(9)), int(g.i64(10)), g.dbl(11)};
 }
 }  // namespace
 
@@ -125,6 +126,7 @@ Store::Store(const std::string& dir) : dir_(dir) {
   add_column("calibrations", "report", "TEXT DEFAULT ''");
   add_column("fillets", "beta2", "REAL DEFAULT 0");
   add_column("fragments", "meat_mm", "REAL DEFAULT 0");
+  add_column("fragments", "bone_mg", "REAL DEFAULT 0");
   for (const char* c : {"row0", "row1", "col0", "col1"})
     add_column("fragments", c, "INTEGER DEFAULT 0");
   exec("CREATE TABLE IF NOT EXISTS audit (ts_ns INTEGER, who TEXT, what TEXT, detail TEXT)");
@@ -256,12 +258,12 @@ int64_t Store::add_fillet(const StoredFillet& f) {
     const int64_t uid = sqlite3_last_insert_rowid(db_);
     for (const StoredFragment& g : f.fragments) {
       Stmt r(db_, (std::string("INSERT INTO fragments (fillet_uid, ") + kFragmentColumns +
-                   ") VALUES (?,?,?,?,?,?,?,?,?,?,?,?)")
+                   ") VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)")
                       .c_str());
       r.bind(1, uid).bind(2, g.kind).bind(3, g.x_mm).bind(4, g.y_mm).bind(5, g.area_mm2);
       r.bind(6, g.peak_z).bind(7, g.attenuation_mm2).bind(8, g.meat_mm);
       r.bind(9, int64_t(g.row0)).bind(10, int64_t(g.row1)).bind(11, int64_t(g.col0));
-      r.bind(12, int64_t(g.col1));
+      r.bind(12, int64_t(g.col1)).bind(13, g.bone_mg);
       r.step();
     }
     // The decision joins the chain in the same transaction: stored means chained.

@@ -13,6 +13,7 @@ struct StoredFragment {
   double x_mm, y_mm, area_mm2, peak_z, attenuation_mm2;
   double meat_mm = 0;                          // peak excess attenuation in mm of the fillet's meat
   int row0 = 0, row1 = 0, col0 = 0, col1 = 0;  // bounding box in the fillet's images
+  double bone_mg = 0;                          // dual energy: bone-equivalent mass; 0 at one energy
 };
 
 struct StoredFillet {

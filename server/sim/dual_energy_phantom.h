@@ -9,11 +9,19 @@
 #include <cstdint>
 
 #include "core/dual_energy_wedge.h"
+#include "core/fan_beam.h"
 #include "sim/dual_energy_renderer.h"
 
 namespace rangex::sim {
 
 WedgeScan simulate_wedge_scan(const DualEnergyRenderer& detector, uint64_t seed,
                               int pixels_per_step = 100000);
+
+// The wedge laid on the belt as `w` draws it and scanned line by line through the lane's fan
+// beam (each ray's path through the slabs slanted as the fan gives it): each layer's lines
+// (lines x pixels), bare belt outside the wedge. The steps' edges are sharp.
+void render_wedge_lines(const DualEnergyRenderer& detector, const FanBeam& beam,
+                        const WedgeLayout& w, uint64_t seed, std::vector<uint16_t>& low,
+                        std::vector<uint16_t>& high);
 
 }  // namespace rangex::sim

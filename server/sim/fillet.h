@@ -41,6 +41,7 @@ struct Fillet {
   std::vector<Inclusion> inclusions;
   double mu = 0.03;          // meat attenuation, 1/mm
   double scatter_scale = 1;  // this fillet's scattering against the plant's usual
+  double fat_share = 0.05;   // fat's share of the meat (dual energy renders lean and fat)
   bool debris = false;
   double texture_amp = 0, texture_kx = 0, texture_kb = 0, texture_phase = 0;
   MeatTexture rough;  // a plant's rough meat (empty in the nominal simulator)

@@ -25,11 +25,14 @@ LaneScene::LaneScene(uint64_t seed, int lane, const SceneParams& p) {
     b = f.b_max + gap;
   }
   // A plant's own physics draws from streams of its own, so the nominal scene is unchanged.
-  for (Fillet& f : fillets_)
+  for (Fillet& f : fillets_) {
     if (p.scatter_spread > 0) {
       Rng r(seed, 0x5ca7, uint64_t(lane), uint64_t(f.id));
       f.scatter_scale = std::exp(p.scatter_spread * r.normal());
     }
+    Rng r(seed, 0xfa75, uint64_t(lane), uint64_t(f.id));
+    f.fat_share = r.uniform(p.fat_share_min, p.fat_share_max);
+  }
   if (p.debris_probability > 0) {
     Rng r(seed, 0xdeb, uint64_t(lane));
     const size_t n = fillets_.size();

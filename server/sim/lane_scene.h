@@ -15,6 +15,7 @@ struct SceneParams {
   double close_gap_probability = 0.2;  // fillets almost touching
   double scatter_spread = 0;           // per fillet, the tail scales by exp(spread N(0,1))
   double debris_probability = 0;       // a small bit of meat in a gap between fillets
+  double fat_share_min = 0.02, fat_share_max = 0.10;  // each fillet's fat share (dual energy)
   FilletParams fillet;
   // Verification test cards instead of fillets (card.piece_x_mm: where their piece lies).
   std::optional<TestCard> test_cards;

@@ -54,15 +54,29 @@ double upper_quantile(double p) {
 
 }  // namespace
 
-double MeatTexture::at(double x, double b) const {
-  if (factor.empty()) return 0;
-  const double fx = (x - x0) / pitch, fb = (b - b0) / pitch;
-  if (fx < 0 || fb < 0 || fx >= nx - 1 || fb >= nb - 1) return 0;
+namespace {
+double bilinear(const std::vector<float>& v, const MeatTexture& t, double x, double b) {
+  if (v.empty()) return 0;
+  const double fx = (x - t.x0) / t.pitch, fb = (b - t.b0) / t.pitch;
+  if (fx < 0 || fb < 0 || fx >= t.nx - 1 || fb >= t.nb - 1) return 0;
   const int i = int(fx), j = int(fb);
   const double u = fx - i, w = fb - j;
-  const float* r0 = &factor[size_t(j) * nx + i];
-  const float* r1 = r0 + nx;
+  const float* r0 = &v[size_t(j) * t.nx + i];
+  const float* r1 = r0 + t.nx;
   return (1 - w) * ((1 - u) * r0[0] + u * r0[1]) + w * ((1 - u) * r1[0] + u * r1[1]);
+}
+}  // namespace
+
+double MeatTexture::at(double x, double b) const {
+  return bilinear(factor, *this, x, b);
+}
+
+double MeatTexture::fat_at(double x, double b) const {
+  return bilinear(fat, *this, x, b);
+}
+
+double MeatTexture::density_at(double x, double b) const {
+  return (1 + at(x, b)) / (1 - contrast * fat_at(x, b)) - 1;
 }
 
 MeatTexture make_meat_texture(Rng& rng, double x_min, double x_max, double b_min, double b_max,
@@ -86,8 +100,11 @@ MeatTexture make_meat_texture(Rng& rng, double x_min, double x_max, double b_min
     // rotation the raster does not have): narrow across, long along.
     const auto m = field(rng, t.nx, t.nb, t.pitch, rng.uniform(0.5, 1.0), rng.uniform(2.0, 4.0));
     const double q = upper_quantile(p.marbling);
+    t.fat.assign(t.factor.size(), 0.f);
+    t.contrast = p.marbling_contrast;
     for (size_t i = 0; i < t.factor.size(); ++i) {
       const double fat = std::clamp((m[i] - q) / 0.5 + 0.5, 0.0, 1.0);
+      t.fat[i] = float(fat);
       t.factor[i] = float((1 + t.factor[i]) * (1 - p.marbling_contrast * fat) - 1);
     }
   }

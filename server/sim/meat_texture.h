@@ -15,8 +15,15 @@ struct MeatTexture {
   double x0 = 0, b0 = 0, pitch = 0.4;
   int nx = 0, nb = 0;
   std::vector<float> factor;  // relative attenuation - 1, per node
+  // The marbling alone: fat's share of the meat per node (0..1; empty without marbling), and
+  // how much less fat attenuates (the single-energy renderer's contrast).
+  std::vector<float> fat;
+  double contrast = 0;
   bool empty() const { return factor.empty(); }
-  double at(double x, double b) const;  // bilinear; 0 outside
+  double at(double x, double b) const;      // bilinear; 0 outside
+  double fat_at(double x, double b) const;  // bilinear; 0 outside or without marbling
+  // The texture alone (the marbling's attenuation taken out): relative density - 1.
+  double density_at(double x, double b) const;
 };
 
 struct MeatTextureParams {

@@ -89,7 +89,12 @@ PlantPhysics parse_plant_physics(const std::string& yaml, const std::string& ori
       .num("texture_std", p.meat.texture_std, 0, 0.2)
       .num("marbling", p.meat.marbling, 0, 0.5)
       .num("marbling_contrast", p.meat.marbling_contrast, 0, 0.6)
+      .num("fat_share_min", p.meat.fat_share_min, 0, 0.9)
+      .num("fat_share_max", p.meat.fat_share_max, 0, 0.9)
       .done();
+  if (p.meat.fat_share_min > p.meat.fat_share_max)
+    fail(origin, ": meat.fat_share_min (", p.meat.fat_share_min, ") exceeds fat_share_max (",
+         p.meat.fat_share_max, ")");
   Section(root, "laser", origin)
       .num("core_sigma_px", p.laser.core_sigma_px, 0.3, 5)
       .num("defocus_px_per_mm", p.laser.defocus_px_per_mm, 0, 0.2)
@@ -179,7 +184,9 @@ std::string to_yaml(const PlantPhysics& p) {
     << ", debris_probability: " << p.belt.debris_probability << ", texture: " << p.belt.texture
     << ", encoder_jitter_mm: " << p.belt.encoder_jitter_mm << "}\n"
     << "meat: {texture_std: " << p.meat.texture_std << ", marbling: " << p.meat.marbling
-    << ", marbling_contrast: " << p.meat.marbling_contrast << "}\n";
+    << ", marbling_contrast: " << p.meat.marbling_contrast
+    << ", fat_share_min: " << p.meat.fat_share_min << ", fat_share_max: " << p.meat.fat_share_max
+    << "}\n";
   return o.str();
 }
 

@@ -63,6 +63,9 @@ struct MeatPhysics {
   double texture_std = 0;
   double marbling = 0;
   double marbling_contrast = 0.15;
+  // Dual energy renders the meat as lean and fat (ICRU muscle and adipose tissue): each
+  // fillet's fat share of its meat is drawn within these (the marbling's streaks add theirs).
+  double fat_share_min = 0.02, fat_share_max = 0.10;
 };
 
 struct BeltPhysics {

@@ -17,6 +17,7 @@ SceneParams scene_params(const SimulationParams& p) {
   s.close_gap_probability = ph.shapes.touching_probability;
   s.scatter_spread = ph.scatter.spread;
   s.debris_probability = ph.belt.debris_probability;
+  s.fat_share_min = ph.meat.fat_share_min, s.fat_share_max = ph.meat.fat_share_max;
   FilletParams& f = s.fillet;
   f.bone_probability = ph.bones.probability;
   f.calcification_min = ph.bones.calcification_min;
@@ -69,7 +70,8 @@ bool LaneSimulator::dropped(int64_t n) const {
 }
 
 void LaneSimulator::render(int64_t n, uint8_t* cam0, uint8_t* cam1, uint16_t* xray,
-                           float* truth_row0, float* truth_row1, float* truth_thickness) const {
+                           float* truth_row0, float* truth_row1, float* truth_thickness,
+                           uint16_t* xray_high) const {
   const double s = double(n) * lane_.encoder_step_mm;
   std::vector<float> scratch_rows(lane_.frame_width), scratch_t(lane_.xray.pixels);
   Rng r0(seed_, uint64_t(lane_.id) * 3 + 0, uint64_t(n), 0xc0);
@@ -91,7 +93,8 @@ void LaneSimulator::render(int64_t n, uint8_t* cam0, uint8_t* cam1, uint16_t* xr
     std::fill(cam0, cam0 + frame, uint8_t(0));
     std::fill(cam1, cam1 + frame, uint8_t(0));
   }
-  xray_.render(scene_, s_xray, rx, xray, truth_thickness ? truth_thickness : scratch_t.data());
+  xray_.render(scene_, s_xray, rx, xray, truth_thickness ? truth_thickness : scratch_t.data(),
+               xray_high);
 }
 
 std::string LaneSimulator::fragments_csv() const {
@@ -147,9 +150,11 @@ void simulate_recording(const PlantConfig& plant, const SimulationParams& p, con
   for (int i = 0; i < p.lanes; ++i) {
     const LaneConfig& l = plant.lanes[i];
     if (l.frame_width != first.frame_width || l.frame_height != first.frame_height ||
-        l.xray.pixels != first.xray.pixels || l.encoder_step_mm != first.encoder_step_mm)
+        l.xray.pixels != first.xray.pixels || l.encoder_step_mm != first.encoder_step_mm ||
+        l.xray.energies != first.xray.energies)
       fail("lane ", l.id,
-           ": a recording needs equal frame sizes, detector pixels and encoder step on every lane");
+           ": a recording needs equal frame sizes, detector pixels, X-ray energies and encoder "
+           "step on every lane");
     sims.emplace_back(l, p);
     info.lanes.push_back(l.id);
   }
@@ -158,6 +163,7 @@ void simulate_recording(const PlantConfig& plant, const SimulationParams& p, con
   info.width = first.frame_width;
   info.height = first.frame_height;
   info.xray_pixels = first.xray.pixels;
+  info.xray_energies = first.xray.energies;
   info.encoder_step_mm = first.encoder_step_mm;
   info.calibration_id = plant.calibration_id;
   info.has_truth = true;
@@ -169,7 +175,8 @@ void simulate_recording(const PlantConfig& plant, const SimulationParams& p, con
   constexpr int kBlock = 32;  // lines rendered in parallel before they are written in order
   const unsigned workers = std::max(1u, std::thread::hardware_concurrency());
   std::vector<uint8_t> cam0(frame * kBlock), cam1(frame * kBlock);
-  std::vector<uint16_t> xray(size_t(D) * kBlock);
+  std::vector<uint16_t> xray(size_t(D) * kBlock), high(info.xray_energies == 2 ? xray.size() : 0);
+  const bool dual = !high.empty();
   std::vector<float> row0(size_t(W) * kBlock), row1(size_t(W) * kBlock), thick(size_t(D) * kBlock);
   const int64_t total = lines * int64_t(sims.size());
   int64_t done = 0;
@@ -182,12 +189,13 @@ void simulate_recording(const PlantConfig& plant, const SimulationParams& p, con
         pool.emplace_back([&, w] {
           for (int k = int(w); k < count; k += int(workers))
             sim.render(n0 + k, &cam0[frame * k], &cam1[frame * k], &xray[size_t(D) * k],
-                       &row0[size_t(W) * k], &row1[size_t(W) * k], &thick[size_t(D) * k]);
+                       &row0[size_t(W) * k], &row1[size_t(W) * k], &thick[size_t(D) * k],
+                       dual ? &high[size_t(D) * k] : nullptr);
         });
       for (auto& t : pool) t.join();
       for (int k = 0; k < count; ++k)
         writer.append(info.lanes[li], {&cam0[frame * k], &cam1[frame * k], &xray[size_t(D) * k],
-                                       sim.encoder(n0 + k)});
+                                       sim.encoder(n0 + k), dual ? &high[size_t(D) * k] : nullptr});
       writer.append_truth(info.lanes[li], "stripe_cam0.f32", row0.data(), size_t(W) * count * 4);
       writer.append_truth(info.lanes[li], "stripe_cam1.f32", row1.data(), size_t(W) * count * 4);
       writer.append_truth(info.lanes[li], "thickness.f32", thick.data(), size_t(D) * count * 4);

@@ -37,9 +37,11 @@ class LaneSimulator {
   int64_t lines() const { return lines_; }  // enough to carry every fillet past both planes
   // Lines lost on the way (the plant's dropped_line_rate): never delivered.
   bool dropped(int64_t n) const;
-  // Line n of the lane; truth pointers may be null.
+  // Line n of the lane; truth pointers may be null. xray_high: a lane of two energies'
+  // high line (`xray` is then the low one); null for a lane of one.
   void render(int64_t n, uint8_t* cam0, uint8_t* cam1, uint16_t* xray, float* truth_row0,
-              float* truth_row1, float* truth_thickness) const;
+              float* truth_row1, float* truth_thickness, uint16_t* xray_high = nullptr) const;
+  int energies() const { return lane_.xray.energies; }
   int64_t encoder(int64_t n) const { return encoder_start_ + n; }
   const LaneScene& scene() const { return scene_; }
   // CSV of the bone fragments with their belt positions and X-ray line.

@@ -1,0 +1,204 @@
+// A dual-energy fillet's inspection (docs/dual-energy.md): its bone image from both X-ray
+// lines, with the laser's thickness (pipeline/dual_energy.h, fat_fraction.h) or without it as
+// a dual-energy machine alone would (a two-material decomposition whose soft tissue is the
+// fillet's own median), then the detection every inspection shares on z = -bone / sigma.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "pipeline/dual_energy.h"
+#include "pipeline/fat_fraction.h"
+#include "pipeline/inspection_steps.h"
+#include "pipeline/masked_smooth.h"
+#include "pipeline/robust_fit.h"
+
+namespace rangex {
+
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr double kBoneMgPerMm3 = 1.92;  // cortical bone (ICRU 44)
+constexpr int kMinBeltPixels = 20;
+
+// The open beam of both layers: the mean of the bare belt in the fillet's box (off the
+// fillet, a thickness measured under 0.5 mm); 0 when too few such pixels.
+void open_beam(const FilletImage& img, double* lo, double* hi) {
+  double s_lo = 0, s_hi = 0;
+  int n = 0;
+  for (size_t i = 0; i < img.size(); ++i)
+    if (!img.mask[i] && std::isfinite(img.thickness[i]) && img.thickness[i] < 0.5 &&
+        img.xray[i] > 0 && img.xray_high[i] > 0)
+      s_lo += img.xray[i], s_hi += img.xray_high[i], ++n;
+  *lo = n >= kMinBeltPixels ? s_lo / n : 0;
+  *hi = n >= kMinBeltPixels ? s_hi / n : 0;
+}
+
+// Without the laser: (A, B) = soft tissue t_s (1, r) + bone t_b (a_bone, b_bone), r the
+// fillet's median B / A over meat thicker than 5 mm of A-150.
+void bone_without_laser(const std::vector<float>& basis, const std::vector<uint8_t>& use,
+                        const DualEnergyParams& k, std::vector<float>& bone,
+                        std::vector<float>& sigma) {
+  const size_t n = use.size();
+  std::vector<double> ratios;
+  for (size_t i = 0; i < n; ++i)
+    if (use[i] && basis[5 * i] > 5) ratios.push_back(double(basis[5 * i + 1]) / basis[5 * i]);
+  bone.assign(n, kNaN), sigma.assign(n, kNaN);
+  if (ratios.empty()) return;
+  const double r = median_inplace(ratios.data(), ratios.size());
+  const double den = k.basis[5] - r * k.basis[4];
+  for (size_t i = 0; i < n; ++i) {
+    if (!use[i] || !std::isfinite(basis[5 * i])) continue;
+    const double a = basis[5 * i], b = basis[5 * i + 1];
+    const double va = basis[5 * i + 2], cab = basis[5 * i + 3], vb = basis[5 * i + 4];
+    bone[i] = float((b - r * a) / den);
+    sigma[i] = float(std::sqrt(std::max(1e-12, vb - 2 * r * cab + r * r * va)) / std::abs(den));
+  }
+}
+
+}  // namespace
+
+bool dual_energy_slopes(const FilletImage& img, size_t i, double lean[2], double bone[2]) {
+  double open_lo = 0, open_hi = 0;
+  open_beam(img, &open_lo, &open_hi);
+  if (!(open_lo > 0 && open_hi > 0) || img.xray_high.size() != img.size() || !img.xray[i] ||
+      !img.xray_high[i])
+    return false;
+  const DualEnergyParams& k = img.dual_energy;
+  double a, b, j[4];
+  if (!dual_energy_invert(k, std::log(open_lo / img.xray[i]), std::log(open_hi / img.xray_high[i]),
+                          &a, &b, j))
+    return false;
+  double lu, lv, hu, hv;
+  dual_energy_gradient(k.low, a / DE_A_MM, b / DE_B_MM, &lu, &lv);
+  dual_energy_gradient(k.high, a / DE_A_MM, b / DE_B_MM, &hu, &hv);
+  // d(x, y) / d(length): the gradient in (A, B) along the material's basis lengths.
+  for (int m = 0; m < 2; ++m) {
+    const double da = k.basis[m == 0 ? 0 : 4] / DE_A_MM, db = k.basis[m == 0 ? 1 : 5] / DE_B_MM;
+    double* out = m == 0 ? lean : bone;
+    out[0] = lu * da + lv * db;
+    out[1] = hu * da + hv * db;
+  }
+  return lean[0] > 0 && lean[1] > 0 && bone[0] > lean[0] && bone[1] > lean[1];
+}
+
+FilletResult inspect_fillet_dual_energy(const FilletImage& img, const InspectionParams& p,
+                                        bool keep) {
+  FilletResult res = result_header(img);
+  if (const std::string why = not_inspectable(img, p); !why.empty()) {
+    res.reason = why;
+    return res;
+  }
+  if (img.xray_high.size() != img.size()) {
+    res.reason = "dual energy: the high-energy line is missing";
+    return res;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  double open_lo = 0, open_hi = 0;
+  open_beam(img, &open_lo, &open_hi);
+  if (!(open_lo > 0 && open_hi > 0)) {
+    res.reason = "dual energy: too little bare belt beside the fillet to read the open beam";
+    return res;
+  }
+  const size_t n = img.size();
+  std::vector<uint8_t> use(n);
+  for (size_t i = 0; i < n; ++i)
+    use[i] =
+        img.mask[i] && std::isfinite(img.thickness[i]) && img.xray[i] > 0 && img.xray_high[i] > 0;
+  const std::vector<float> o_lo(n, float(open_lo)), o_hi(n, float(open_hi));
+  DualEnergyBatch b;
+  b.low = img.xray.data(), b.high = img.xray_high.data();
+  b.open_low = o_lo.data(), b.open_high = o_hi.data();
+  b.thickness = img.thickness.data(), b.use = use.data(), b.pixels = int(n);
+  const DualEnergyParams& k = img.dual_energy;
+  std::vector<float> basis(5 * n);
+  dual_energy_basis(b, k, basis.data());
+  // A pixel Newton's method could not take back (outside the wedge) takes no part.
+  int outside = 0;
+  for (size_t i = 0; i < n; ++i)
+    if (use[i] && !std::isfinite(basis[5 * i])) use[i] = 0, ++outside;
+  std::vector<float> bone, sigma, phi, phi_var;
+  if (p.dual_energy == DualEnergyMethod::kNoLaser) {
+    bone_without_laser(basis, use, k, bone, sigma);
+  } else {
+    std::vector<float> lengths(3 * n), lsig(3 * n);
+    dual_energy_lengths(basis.data(), img.thickness.data(), int(n), k, lengths.data(), lsig.data());
+    fat_fraction_map(lengths.data(), lsig.data(), use.data(), img.rows, img.cols,
+                     p.fat_share_sigma_px, phi, phi_var);
+    bone.assign(n, kNaN), sigma.assign(n, kNaN);
+    const double dv = p.soft_density_sigma * p.soft_density_sigma;
+    dual_energy_bone(basis.data(), img.thickness.data(), phi.data(), phi_var.data(), int(n), k,
+                     bone.data(), sigma.data(), dv);
+    // What is not lean and fat pulls the smoothed fat share around it and paints a halo of
+    // bone there: what holds far less than the thickness promises (air pockets, lumps of
+    // fat: bone below -3 sigma), and tissue denser than lean (cartilage, tendon: a fat
+    // length below -3 sigma over a few pixels, which no mix of lean and fat gives). The fat
+    // share is measured again without them (and 3 px around). A pixel reading as more bone
+    // is never left out: a streak of lean would then read as bone.
+    std::vector<float> fat(n), fat_var(n), fat_s, var_s;
+    for (size_t i = 0; i < n; ++i) {
+      fat[i] = use[i] && std::isfinite(lengths[3 * i + 1]) ? lengths[3 * i + 1] : 0.f;
+      fat_var[i] =
+          use[i] && std::isfinite(lsig[3 * i + 1]) ? lsig[3 * i + 1] * lsig[3 * i + 1] : 0.f;
+    }
+    constexpr double kLocalPx = 3;
+    masked_gaussian(fat.data(), use.data(), img.rows, img.cols, kLocalPx, fat_s);
+    masked_gaussian(fat_var.data(), use.data(), img.rows, img.cols, kLocalPx, var_s);
+    const double gain = gaussian_noise_gain(kLocalPx);
+    std::vector<uint8_t> soft = use;
+    const int R = 3;
+    for (int r = 0; r < img.rows; ++r)
+      for (int c = 0; c < img.cols; ++c) {
+        const size_t i = size_t(r) * img.cols + c;
+        if (!use[i]) continue;
+        const bool hollow = bone[i] < -3 * sigma[i];
+        const bool dense = fat_s[i] < -3 * gain * std::sqrt(std::max(0.f, var_s[i]));
+        if (!hollow && !dense) continue;
+        for (int dr = -R; dr <= R; ++dr)
+          for (int dc = -R; dc <= R; ++dc) {
+            const int rr = r + dr, cc = c + dc;
+            if (rr >= 0 && rr < img.rows && cc >= 0 && cc < img.cols)
+              soft[size_t(rr) * img.cols + cc] = 0;
+          }
+      }
+    fat_fraction_map(lengths.data(), lsig.data(), soft.data(), img.rows, img.cols,
+                     p.fat_share_sigma_px, phi, phi_var, use.data());
+    dual_energy_bone(basis.data(), img.thickness.data(), phi.data(), phi_var.data(), int(n), k,
+                     bone.data(), sigma.data(), dv);
+  }
+  std::vector<float> z(n, kNaN), resid(n, kNaN);
+  int count = 0;
+  double sum = 0, sum2 = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!use[i] || !std::isfinite(bone[i]) || !(sigma[i] > 0)) {
+      use[i] = 0;
+      continue;
+    }
+    resid[i] = -bone[i];
+    z[i] = -bone[i] / sigma[i];
+    sum += bone[i], sum2 += double(bone[i]) * bone[i], ++count;
+  }
+  if (count < 100 || outside > p.max_invalid_fraction * (count + outside)) {
+    res.reason = "dual energy: " + std::to_string(outside) + " of the fillet's " +
+                 std::to_string(count + outside) + " pixels lie outside what the wedge calibrated";
+    return res;
+  }
+  // The residual statistics in the bone image's terms (mm of bone-equivalent).
+  res.pixels = count;
+  res.resid_mean_dn = sum / count;
+  res.resid_std_dn = std::sqrt(std::max(0.0, sum2 / count - res.resid_mean_dn * res.resid_mean_dn));
+  res.stage_seconds[kStageFit] +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  res.dual_energy = true;
+  detect_from_z(img, use, z, resid, nullptr, p, keep, res);
+  for (Blob& f : res.fragments) f.bone_mg = kBoneMgPerMm3 * f.attenuation_mm2;
+  if (keep) {
+    res.bone_mm.assign(n, kNaN);
+    for (size_t i = 0; i < n; ++i)
+      if (use[i]) res.bone_mm[i] = bone[i];
+    res.fat_share = std::move(phi);
+  }
+  return res;
+}
+
+}  // namespace rangex

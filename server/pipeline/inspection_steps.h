@@ -1,0 +1,35 @@
+// The inspection's steps that every way of modelling a fillet shares (pipeline/inspection.h:
+// one energy with the laser's thickness, the X-ray-only baseline, dual energy): the
+// result's header, the fail-safe checks, and the detection from a z image on.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "pipeline/inspection.h"
+
+namespace rangex {
+
+FilletResult result_header(const FilletImage& img);
+
+// The fail-safe checks that need no model; empty when the fillet can be inspected.
+std::string not_inspectable(const FilletImage& img, const InspectionParams& p);
+
+// From z (per pixel: the residual over its sigma, negative where the pixel holds more than
+// the model: bone) on the usable pixels: the statistics brought to unit spread, the
+// thresholds (learned or fixed), fragments and air pockets, the band extremes and the
+// decision. resid: what z was made of, summed over a blob as its attenuation (ln I, or mm of
+// bone in dual energy); moved into the result when images are kept. fit: the single-energy
+// model of ln I (a blob's contrast in mm of meat), else null.
+void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
+                   const std::vector<float>& z, std::vector<float>& resid, const RobustFit* fit,
+                   const InspectionParams& p, bool keep, FilletResult& res);
+
+// Dual energy (pipeline/dual_energy_inspection.cpp).
+FilletResult inspect_fillet_dual_energy(const FilletImage& img, const InspectionParams& p,
+                                        bool keep);
+// Each layer's log attenuation per mm of lean and of cortical bone at pixel i of a
+// dual-energy fillet (the calibration's slopes where the pixel's reading lies): what a test
+// piece adds to each line; false where the pixel cannot be taken back.
+bool dual_energy_slopes(const FilletImage& img, size_t i, double lean[2], double bone[2]);
+
+}  // namespace rangex
