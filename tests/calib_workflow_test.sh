@@ -122,5 +122,17 @@ rm -f pins/pin_phantom.yaml
 out=$("$ctl" calib xray pins 2>&1); rc=$?
 check "xray without the phantom's drawing names it" grep -q "pin_phantom.yaml" <<<"$out"
 
+# Dual energy: the step wedge scanned on the belt and fitted into the lane calibration; a
+# lane of one energy refuses both.
+sed 's/^    bits: 12$/    bits: 12\n    energies: 2/' "$RANGEX_CONFIG" > dual.yaml
+run "$ctl" calib simulate dual-energy wedge --config dual.yaml
+run "$ctl" calib dual-energy wedge --config dual.yaml --calibration lane0.yaml --out dual0.yaml
+check "dual-energy fit written into the lane calibration" grep -q "^  dual_energy:" dual0.yaml
+check "its report beside it" test -f dual0.yaml.reports/dual-energy-lane_0.json
+check "the wedge recovered within 1 %" grep -q '"passed": true' dual0.yaml.reports/dual-energy-lane_0.json
+out=$("$ctl" calib dual-energy wedge --calibration lane0.yaml 2>&1); rc=$?
+check "a lane of one energy refuses the wedge" test $rc -eq 1
+check "naming why" grep -q "has one X-ray energy" <<<"$out"
+
 echo "$fails failed"
 exit $((fails > 0))

@@ -4,6 +4,7 @@
 // uncertainty it states (the pull (t - truth) / sigma: mean near 0, spread near 1).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -355,7 +356,8 @@ struct DualFillet {
   int bone_r = 0, bone_c = 0;
 };
 
-DualFillet dual_fillet(uint64_t seed, bool fragment) {
+// blur_px: the detector's line spread across it (Gaussian), on both layers' readings.
+DualFillet dual_fillet(uint64_t seed, bool fragment, double blur_px = 0) {
   const Calibrated& c = calibrated();
   DualFillet d;
   FilletImage& f = d.img;
@@ -367,6 +369,8 @@ DualFillet dual_fillet(uint64_t seed, bool fragment) {
   f.xray.resize(n), f.xray_high.resize(n), f.thickness.resize(n), f.mask.resize(n);
   sim::Rng rng(seed, 5);
   d.bone_r = 50, d.bone_c = 40;
+  std::vector<double> mean[4];  // low, high, their variances
+  for (auto& v : mean) v.resize(n);
   for (int r = 0; r < f.rows; ++r)
     for (int q = 0; q < f.cols; ++q) {
       const size_t p = size_t(r) * f.cols + q;
@@ -386,11 +390,24 @@ DualFillet dual_fillet(uint64_t seed, bool fragment) {
       m.bone = t > 0 ? bone : 0;
       m.cartilage = t > 0 ? cart : 0;
       d.bone_mg += m.bone * 0.4 * 0.4 * 1.92;
-      double mlo, mhi, vlo, vhi;
-      c.detector.mean(m, &mlo, &mhi, &vlo, &vhi);
-      sim::DualEnergyRenderer::draw(mlo, mhi, vlo, vhi, rng, &f.xray[p], &f.xray_high[p]);
+      c.detector.mean(m, &mean[0][p], &mean[1][p], &mean[2][p], &mean[3][p]);
       f.thickness[p] = float(t > 0 ? t + 0.05 * rng.normal() : 0.02 * rng.normal());
       f.mask[p] = t > 1.5;
+    }
+  f.detector_sigma_px = blur_px;
+  for (int r = 0; r < f.rows; ++r)
+    for (int q = 0; q < f.cols; ++q) {
+      double b[4] = {0, 0, 0, 0}, wsum = 0;
+      const int R = blur_px > 0 ? int(std::ceil(4 * blur_px)) : 0;
+      for (int k = -R; k <= R; ++k) {
+        const int qq = std::clamp(q + k, 0, f.cols - 1);
+        const double w = R ? std::exp(-0.5 * k * k / (blur_px * blur_px)) : 1.0;
+        for (int j = 0; j < 4; ++j) b[j] += w * mean[j][size_t(r) * f.cols + qq];
+        wsum += w;
+      }
+      const size_t p = size_t(r) * f.cols + q;
+      sim::DualEnergyRenderer::draw(b[0] / wsum, b[1] / wsum, b[2] / wsum, b[3] / wsum, rng,
+                                    &f.xray[p], &f.xray_high[p]);
     }
   return d;
 }
@@ -424,6 +441,36 @@ TEST(DualEnergyInspection, FindsTheFragmentAndNeitherCartilageNorAirNorFat) {
   const FilletResult clean = inspect_fillet(dual_fillet(4, false).img, p, false);
   EXPECT_EQ(clean.decision, Decision::kPass) << clean.reason;
   EXPECT_TRUE(clean.fragments.empty());
+}
+
+// The detector's blur across the fillet's steep sides: without matching the thickness to
+// it, the rim reads as bone; matched (as at one energy), the clean fillet passes.
+TEST(DualEnergyInspection, TheThicknessIsMatchedToTheDetectorsBlur) {
+  InspectionParams p;
+  const DualFillet blurred = dual_fillet(4, false, 1.2);
+  const FilletResult matched = inspect_fillet(blurred.img, p, true);
+  FilletImage unmatched_img = blurred.img;
+  unmatched_img.detector_sigma_px = 0;
+  const FilletResult unmatched = inspect_fillet(unmatched_img, p, true);
+  // The bone image's extremes on the fillet's rim (the outer 3 px of the mask).
+  auto rim_extreme = [&](const FilletResult& r) {
+    const FilletImage& f = blurred.img;
+    double worst = 0;
+    for (int row = 3; row < f.rows - 3; ++row)
+      for (int q = 3; q < f.cols - 3; ++q) {
+        const size_t i = size_t(row) * f.cols + q;
+        if (!f.mask[i] || !std::isfinite(r.bone_mm[i])) continue;
+        if (f.mask[i - 3] && f.mask[i + 3] && f.mask[i - 3 * f.cols] && f.mask[i + 3 * f.cols])
+          continue;
+        worst = std::max(worst, std::abs(double(r.bone_mm[i])));
+      }
+    return worst;
+  };
+  std::printf("rim |bone| at most %.3f mm matched, %.3f mm not\n", rim_extreme(matched),
+              rim_extreme(unmatched));
+  EXPECT_LT(rim_extreme(matched), 0.7 * rim_extreme(unmatched));
+  EXPECT_EQ(matched.decision, Decision::kPass) << matched.reason;
+  EXPECT_TRUE(matched.fragments.empty());
 }
 
 TEST(DualEnergyInspection, EachMethodRunsAndFailsSafe) {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "pipeline/detector_match.h"
 #include "pipeline/dual_energy.h"
 #include "pipeline/fat_fraction.h"
 #include "pipeline/inspection_steps.h"
@@ -101,15 +102,29 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
     return res;
   }
   const size_t n = img.size();
+  // The thickness as the detector sees it (its blur and registration, measured: pipeline/
+  // detector_match.h), over the low layer's transmission with this fillet's attenuation
+  // per mm, as one energy does before its fit.
+  std::vector<float> thickness = img.thickness;
+  if (img.matches_detector()) {
+    std::vector<double> mu;
+    for (size_t i = 0; i < n; ++i)
+      if (img.mask[i] && img.thickness[i] > 5 && img.xray[i] > 0)
+        mu.push_back(std::log(open_lo / img.xray[i]) / img.thickness[i]);
+    if (!mu.empty()) {
+      FilletImage matched = img;
+      match_detector(matched, std::clamp(median_inplace(mu.data(), mu.size()), 0.005, 0.3));
+      thickness = std::move(matched.thickness);
+    }
+  }
   std::vector<uint8_t> use(n);
   for (size_t i = 0; i < n; ++i)
-    use[i] =
-        img.mask[i] && std::isfinite(img.thickness[i]) && img.xray[i] > 0 && img.xray_high[i] > 0;
+    use[i] = img.mask[i] && std::isfinite(thickness[i]) && img.xray[i] > 0 && img.xray_high[i] > 0;
   const std::vector<float> o_lo(n, float(open_lo)), o_hi(n, float(open_hi));
   DualEnergyBatch b;
   b.low = img.xray.data(), b.high = img.xray_high.data();
   b.open_low = o_lo.data(), b.open_high = o_hi.data();
-  b.thickness = img.thickness.data(), b.use = use.data(), b.pixels = int(n);
+  b.thickness = thickness.data(), b.use = use.data(), b.pixels = int(n);
   const DualEnergyParams& k = img.dual_energy;
   std::vector<float> basis(5 * n);
   dual_energy_basis(b, k, basis.data());
@@ -122,12 +137,12 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
     bone_without_laser(basis, use, k, bone, sigma);
   } else {
     std::vector<float> lengths(3 * n), lsig(3 * n);
-    dual_energy_lengths(basis.data(), img.thickness.data(), int(n), k, lengths.data(), lsig.data());
+    dual_energy_lengths(basis.data(), thickness.data(), int(n), k, lengths.data(), lsig.data());
     fat_fraction_map(lengths.data(), lsig.data(), use.data(), img.rows, img.cols,
                      p.fat_share_sigma_px, phi, phi_var);
     bone.assign(n, kNaN), sigma.assign(n, kNaN);
     const double dv = p.soft_density_sigma * p.soft_density_sigma;
-    dual_energy_bone(basis.data(), img.thickness.data(), phi.data(), phi_var.data(), int(n), k,
+    dual_energy_bone(basis.data(), thickness.data(), phi.data(), phi_var.data(), int(n), k,
                      bone.data(), sigma.data(), dv);
     // What is not lean and fat pulls the smoothed fat share around it and paints a halo of
     // bone there: what holds far less than the thickness promises (air pockets, lumps of
@@ -163,7 +178,7 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
       }
     fat_fraction_map(lengths.data(), lsig.data(), soft.data(), img.rows, img.cols,
                      p.fat_share_sigma_px, phi, phi_var, use.data());
-    dual_energy_bone(basis.data(), img.thickness.data(), phi.data(), phi_var.data(), int(n), k,
+    dual_energy_bone(basis.data(), thickness.data(), phi.data(), phi_var.data(), int(n), k,
                      bone.data(), sigma.data(), dv);
   }
   std::vector<float> z(n, kNaN), resid(n, kNaN);

@@ -8,6 +8,7 @@
 #include "core/log.h"
 #include "pipeline/fillet_images.h"
 #include "rangex/v1/decision_names.h"
+#include "service/image_view.h"
 #include "service/steady_ns.h"
 
 namespace fs = std::filesystem;
@@ -115,8 +116,7 @@ bool DecisionRecorder::save(Unsaved& u) {
     try {
       const std::string dir = store_.image_dir(s.uid);
       write_fillet_images(dir, u.fillet.image, r);
-      for (const char* kind :
-           {"overlay", "xray", "xray_high", "thickness", "pseudo_xray", "residual"}) {
+      for (const char* kind : kImageKinds) {
         const std::string path = (fs::path(dir) / (std::string(kind) + ".png")).string();
         if (fs::exists(path)) store_.add_image(s.uid, kind, path);
       }

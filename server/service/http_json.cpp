@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "pipeline/product_drift.h"
+#include "service/image_view.h"
 
 namespace rangex {
 
@@ -160,7 +161,7 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
 
 json image_kinds(Store& store, int64_t uid) {
   json kinds = json::array();
-  for (const char* k : {"overlay", "xray", "xray_high", "thickness", "pseudo_xray", "residual"})
+  for (const char* k : kImageKinds)
     if (store.image_path(uid, k)) kinds.push_back(k);
   return kinds;
 }

@@ -5,6 +5,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "service/image_view.h"
+
 namespace rangex {
 
 namespace {
@@ -91,10 +93,10 @@ int64_t parse_uid(const std::string& digits) {
 }
 
 const std::string& checked_image_kind(const std::string& kind) {
-  if (kind != "overlay" && kind != "xray" && kind != "xray_high" && kind != "thickness" &&
-      kind != "pseudo_xray" && kind != "residual")
+  if (!is_image_kind(kind))
     throw BadRequest(
-        "image kind must be overlay, xray, xray_high, thickness, pseudo_xray or residual (got '" +
+        "image kind must be overlay, xray, xray_high, thickness, pseudo_xray, residual, bone or "
+        "fat_share (got '" +
         kind + "')");
   return kind;
 }

@@ -45,8 +45,16 @@ std::string display_png(const std::string& path, const std::string& kind) {
     const double spread = std::max(1.0, 1.4826 * quantile(vals, 0.5));
     for (size_t i = 0; i < px.size(); ++i)
       out[i] = to8(128.0 + 127.0 * (double(px[i]) - 32768.0) / (6 * spread));
+  } else if (kind == "bone") {
+    // Dual energy: grey at no bone, darker with more (as the residual), over 1 mm.
+    for (size_t i = 0; i < px.size(); ++i)
+      out[i] = to8(128.0 - 127.0 * (double(px[i]) - 32768.0) / 1000.0);
+  } else if (kind == "fat_share") {
+    // 0 .. 50 % fat of the soft tissue as black .. white.
+    for (size_t i = 0; i < px.size(); ++i) out[i] = to8(255.0 * px[i] / 32768.0);
   } else {
-    fail("no view of image kind '", kind, "' (xray, xray_high, thickness, pseudo_xray, residual)");
+    fail("no view of image kind '", kind,
+         "' (xray, xray_high, thickness, pseudo_xray, residual, bone, fat_share)");
   }
   return encode_png8(out.data(), w, h);
 }

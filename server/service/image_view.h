@@ -7,8 +7,18 @@
 
 namespace rangex {
 
-// kind: xray | thickness | pseudo_xray | residual. Throws Error for another kind or a file
-// that is not a 16-bit grayscale PNG.
+// Every kind of image a fillet's record may hold, in the order a viewer shows them (the
+// dual-energy kinds only for a lane of two energies).
+inline constexpr const char* kImageKinds[] = {"overlay",     "xray",     "xray_high", "thickness",
+                                              "pseudo_xray", "residual", "bone",      "fat_share"};
+inline bool is_image_kind(const std::string& kind) {
+  for (const char* k : kImageKinds)
+    if (kind == k) return true;
+  return false;
+}
+
+// kind: one of kImageKinds but the overlay. Throws Error for another kind or a file that is
+// not a 16-bit grayscale PNG.
 std::string display_png(const std::string& path, const std::string& kind);
 
 }  // namespace rangex

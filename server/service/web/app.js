@@ -235,8 +235,8 @@ async function refreshCharts() {
 async function filletView(uid) {
   view.innerHTML = `<h2>Fillet ${esc(uid)}</h2><div id="fillet">loading</div>`;
   const f = await api("/api/fillets/" + encodeURIComponent(uid));
-  const kinds = ["xray", "thickness", "pseudo_xray", "residual"].filter((k) => f.images.includes(k));
-  const names = { xray: "X-ray", thickness: "thickness", pseudo_xray: "pseudo-X-ray", residual: "residual" };
+  const kinds = ["xray", "thickness", "pseudo_xray", "residual", "bone", "fat_share"].filter((k) => f.images.includes(k));
+  const names = { xray: "X-ray", thickness: "thickness", pseudo_xray: "pseudo-X-ray", residual: "residual", bone: "bone (dual energy)", fat_share: "fat share" };
   const boxes = (W, H) => f.fragments.map((g) => {
     const l = (100 * Math.max(0, g.col0 - 2)) / W, t = (100 * Math.max(0, g.row0 - 2)) / H;
     const bw = (100 * (g.col1 - g.col0 + 5)) / W, bh = (100 * (g.row1 - g.row0 + 5)) / H;
