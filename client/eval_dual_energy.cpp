@@ -11,7 +11,6 @@
 // calibration from its own step-wedge scan.
 #include <yaml-cpp/yaml.h>
 
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -45,7 +44,6 @@ struct Row {
   bool held_out = false;
   MethodRun m[kMethods];
   DetectionEval base;  // X-ray only, fixed thresholds
-  double minutes = 0;
 };
 
 // The plant configuration with every lane on two energies, inspecting as `method` says.
@@ -264,10 +262,7 @@ int run_dual_energy_matrix(const std::vector<fs::path>& files, const fs::path& o
     std::printf("[%zu/%zu] %s: calibrating, simulating, learning and inspecting 3 ways ...\n",
                 k + 1, files.size(), files[k].stem().c_str());
     std::fflush(stdout);
-    const auto t0 = std::chrono::steady_clock::now();
     rows.push_back(run_variant(files[k], out / files[k].stem(), out, plant, mo));
-    rows.back().minutes =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / 60;
     text = report(rows, mo);
     std::ofstream(out / "dual_energy.txt") << text;
   }

@@ -18,6 +18,12 @@ namespace rangex {
 namespace {
 
 std::vector<uint16_t> read_lines(const fs::path& p, size_t count) {
+  // The drawing's size is checked against the file before anything is allocated for it.
+  std::error_code ec;
+  const auto bytes = fs::file_size(p, ec);
+  if (ec) fail(p.string(), ": cannot open");
+  if (bytes < count * 2)
+    fail(p.string(), ": shorter than the ", count, " readings wedge.yaml asks for");
   std::vector<uint16_t> v(count);
   std::ifstream in(p, std::ios::binary);
   if (!in) fail(p.string(), ": cannot open");
@@ -35,11 +41,6 @@ std::string list(const std::vector<double>& v) {
 }
 
 }  // namespace
-
-double slab_path_factor(const FanBeam& b, int pixel) {
-  const double dx = b.source_x_mm - b.pixel_x(pixel), dz = b.source_z_mm - b.pixel_z(pixel);
-  return std::hypot(dx, dz) / dz;
-}
 
 std::string wedge_layout_yaml(const WedgeLayout& w, int pixels) {
   std::ostringstream o;
@@ -126,7 +127,7 @@ WedgeScan read_wedge_scan(const std::string& dir, const FanBeam& beam) {
       std::vector<double> col_lo(size_t(cols), 0.0);
       double q_lo = 0, q_hi = 0;
       for (int p = p0; p < p1; ++p) {
-        factor += slab_path_factor(beam, p) / cols;
+        factor += beam.slab_path_factor(p) / cols;
         for (int l = l0; l < l1; ++l) {
           const double lo = low[size_t(l) * pixels + p], hi = high[size_t(l) * pixels + p];
           col_lo[size_t(p - p0)] += lo / rows;

@@ -20,7 +20,4 @@ void write_wedge_scan(const std::string& dir, const WedgeLayout& w, int pixels,
 // detector, a step whose middle is not flat (the wedge not where the drawing puts it).
 WedgeScan read_wedge_scan(const std::string& dir, const FanBeam& beam);
 
-// Path length along pixel i's ray through a horizontal slab of 1 mm.
-double slab_path_factor(const FanBeam& beam, int pixel);
-
 }  // namespace rangex

@@ -45,6 +45,12 @@ struct FanBeam {
   double pitch_z() const { return pitch_mm * std::sin(tilt_deg * M_PI / 180); }
   double pixel_x(int i) const { return first_pixel_x_mm + pitch_x() * i; }
   double pixel_z(int i) const { return detector_z_mm + pitch_z() * i; }
+  // Path length along pixel i's ray through a horizontal slab of 1 mm: 1 / cos(theta), theta
+  // the ray's angle from the vertical.
+  double slab_path_factor(int i) const {
+    const double dz = source_z_mm - pixel_z(i);
+    return std::hypot(source_x_mm - pixel_x(i), dz) / dz;
+  }
 };
 
 }  // namespace rangex

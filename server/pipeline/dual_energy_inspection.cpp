@@ -85,11 +85,8 @@ bool dual_energy_slopes(const FilletImage& img, size_t i, double lean[2], double
 
 FilletResult inspect_fillet_dual_energy(const FilletImage& img, const InspectionParams& p,
                                         bool keep) {
-  FilletResult res = result_header(img);
-  if (const std::string why = not_inspectable(img, p); !why.empty()) {
-    res.reason = why;
-    return res;
-  }
+  FilletResult res;
+  if (!start_inspection(img, p, res)) return res;
   if (img.xray_high.size() != img.size()) {
     res.reason = "dual energy: the high-energy line is missing";
     return res;

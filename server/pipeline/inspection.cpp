@@ -33,10 +33,10 @@ const char* inspect_stage_name(int stage) {
 }
 
 namespace {
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-}  // namespace
 
-FilletResult result_header(const FilletImage& img) {
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+FilletResult header(const FilletImage& img) {
   FilletResult r;
   r.lane = img.lane;
   r.id = img.id;
@@ -52,6 +52,7 @@ FilletResult result_header(const FilletImage& img) {
   return r;
 }
 
+// The fail-safe checks that need no fit; empty when the fillet can be inspected.
 std::string not_inspectable(const FilletImage& img, const InspectionParams& p) {
   if (!img.interrupted.empty()) return img.interrupted;
   if (img.calibration_mismatch) return "calibration mismatch";
@@ -66,6 +67,14 @@ std::string not_inspectable(const FilletImage& img, const InspectionParams& p) {
     return buf;
   }
   return "";
+}
+
+}  // namespace
+
+bool start_inspection(const FilletImage& img, const InspectionParams& p, FilletResult& res) {
+  res = header(img);
+  res.reason = not_inspectable(img, p);
+  return res.reason.empty();
 }
 
 namespace {
@@ -351,11 +360,8 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
 FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, bool keep) {
   if (!raw.xray_high.empty() && raw.has_dual_energy && p.dual_energy != DualEnergyMethod::kLowLine)
     return inspect_fillet_dual_energy(raw, p, keep);
-  FilletResult res = result_header(raw);
-  if (const std::string why = not_inspectable(raw, p); !why.empty()) {
-    res.reason = why;
-    return res;
-  }
+  FilletResult res;
+  if (!start_inspection(raw, p, res)) return res;
   // The fit of ln I against the thickness, over the usable pixels of `img`: the parabola
   // of a hardened beam (degree 2) where the fillet's thicknesses determine one, else the
   // line. A fillet of nearly one thickness (a plateau and its wall) leaves the parabola
@@ -424,11 +430,8 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
 
 FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionParams& p,
                                       bool keep) {
-  FilletResult res = result_header(img);
-  if (const std::string why = not_inspectable(img, p); !why.empty()) {
-    res.reason = why;
-    return res;
-  }
+  FilletResult res;
+  if (!start_inspection(img, p, res)) return res;
   const std::vector<uint8_t> use = usable(img);
   std::vector<float> ln(img.size(), kNaN), background;
   for (size_t i = 0; i < use.size(); ++i)

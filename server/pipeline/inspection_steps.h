@@ -9,10 +9,9 @@
 
 namespace rangex {
 
-FilletResult result_header(const FilletImage& img);
-
-// The fail-safe checks that need no model; empty when the fillet can be inspected.
-std::string not_inspectable(const FilletImage& img, const InspectionParams& p);
+// The result's header and the fail-safe checks that need no model: false (with the
+// result's reason) when the fillet cannot be inspected.
+bool start_inspection(const FilletImage& img, const InspectionParams& p, FilletResult& res);
 
 // From z (per pixel: the residual over its sigma, negative where the pixel holds more than
 // the model: bone) on the usable pixels: the statistics brought to unit spread, the

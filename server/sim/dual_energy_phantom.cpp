@@ -50,8 +50,7 @@ void render_wedge_lines(const DualEnergyRenderer& detector, const FanBeam& beam,
       const int i = (p - w.first_pixel) / w.step_pixels;
       const bool on = j > 0 && p >= w.first_pixel && p < w.last_pixel();
       // A ray through a slab of d mm travels d / cos(theta) in it (the fan's slant).
-      const double dz = beam.source_z_mm - beam.pixel_z(p);
-      const double slant = std::hypot(beam.source_x_mm - beam.pixel_x(p), dz) / dz;
+      const double slant = beam.slab_path_factor(p);
       if (on) m.a150 = w.a150_mm[size_t(i)] * slant, m.aluminium = w.al_mm[j - 1] * slant;
       Reading& q = r[j * size_t(P) + size_t(p)];
       detector.mean(m, &q.m_lo, &q.m_hi, &q.v_lo, &q.v_hi);
