@@ -134,7 +134,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
   std::printf("%-12s %5s %6s %21s %13s %9s %9s %9s\n", "backend", "lanes", "lines", "frames/s", "",
               "up", "compute", "down");
   std::map<std::pair<int, int>, Cell> cpu_stripes, cpu_path;
-  std::map<std::string, double> best_stripe_bytes;
+  std::map<std::string, double> best_stripe_bytes, best_lines;
   for (int nl : opt.lanes)
     for (int lines : opt.batches) {
       const LineBatchInputs bb = interleave_lines(rendered, frame, nl, lines);
@@ -171,6 +171,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
       const LineBatchInputs bb = interleave_lines(rendered, frame, nl, lines);
       for (auto& b : backends) {
         const Cell c = line_path(*b, bb, opt.seconds);
+        best_lines[b->info().name] = std::max(best_lines[b->info().name], c.per_s * lines);
         const bool is_cpu = b->info().name == "cpu";
         if (is_cpu) cpu_path[{nl, lines}] = c;
         print_cell(b->info().name.c_str(), nl, lines, lines, double(bb.frames.size()), c,
@@ -182,13 +183,14 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
   // every backend) on the largest batch and 16 fillets of 60,000 pixels (a 500 x 250 px
   // fillet holds about that many); the robust fit beside them.
   const int nl = max_lanes, lines = *std::max_element(opt.batches.begin(), opt.batches.end());
-  const StageWork work = make_stage_work(lc, nl, lines, 16, 60000);
+  const StageWork work = make_stage_work(lc, nl, lines, 16, 60000, 60000);
   const std::vector<StageCase> cases = stage_cases(work);
   std::printf("\nstage cases alone, %d lanes, %d lines per batch, %d fillets of %d pixels\n", nl,
               lines, 16, 60000);
   std::printf("%-12s %-12s %14s %-8s %9s %9s %9s\n", "backend", "stage", "items/s", "", "up",
               "compute", "down");
   std::map<std::string, double> cpu_stage;
+  std::map<std::string, std::map<std::string, double>> stage_rate;  // backend, stage: items/s
   const FilletBatch fb = work.fillets();
   for (auto& b : backends) {
     const std::string name = b->info().name;
@@ -205,12 +207,28 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
     };
     for (const StageCase& sc : cases) {
       StageOutput out;
-      row(sc.stage, sc.items, sc.unit, measure(*b, opt.seconds, [&] { sc.run(*b, work, out); }));
+      const Cell c = measure(*b, opt.seconds, [&] { sc.run(*b, work, out); });
+      stage_rate[name][sc.stage] = c.per_s * sc.items;
+      row(sc.stage, sc.items, sc.unit, c);
     }
     // The whole robust fit: every iteration's per-pixel work on the backend, the iteration
     // logic (MAD scale, weighted line, deviance) on the host.
     row("fit", double(fb.pixels()), "pixels",
         measure(*b, opt.seconds, [&] { fit_tukey_lines(*b, fb); }));
+  }
+
+  // Dual energy beside the line stages, per X-ray line: the decomposition (basis and lengths)
+  // and the bone given the fat share, per line of the detector's pixels, against the line
+  // path's cost per line at its best batch.
+  std::printf("\ndual energy per X-ray line of %d pixels, beside the line path (best batch):\n",
+              lc.xray.pixels);
+  std::printf("%-12s %14s %14s %14s\n", "backend", "decomposition", "bone", "line path");
+  for (auto& b : backends) {
+    const std::string name = b->info().name;
+    auto us = [&](double per_s) { return per_s > 0 ? 1e6 / per_s : 0.0; };
+    std::printf("%-12s %11.1f us %11.1f us %11.1f us\n", name.c_str(),
+                us(stage_rate[name]["dual-energy"] / lc.xray.pixels),
+                us(stage_rate[name]["dual-energy-bone"] / lc.xray.pixels), us(best_lines[name]));
   }
 
   std::printf("\nstripe stage at its best batch, against the device's host-to-device copy:\n");

@@ -42,9 +42,17 @@ struct FilletPush {
   int pad2;
 };
 
+// The dual-energy stages: a batch of pixels; the bone's soft-tissue density variance.
+struct DualEnergyPush {
+  int pixels;
+  int pad0;
+  double density_var;
+};
+
 #ifdef __cplusplus
 static_assert(sizeof(StripePush) == 16 && sizeof(RectifyPush) == 16 && sizeof(FusePush) == 16 &&
-                  sizeof(ProjectPush) == 16 && sizeof(FilletPush) == 16,
+                  sizeof(ProjectPush) == 16 && sizeof(FilletPush) == 16 &&
+                  sizeof(DualEnergyPush) == 16,
               "push constants must match the shaders' blocks");
 }  // namespace rangex::kernel
 #endif

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/lane_config.h"
+#include "pipeline/dual_energy.h"
 #include "pipeline/line_pipeline.h"
 #include "pipeline/pseudo_xray.h"
 
@@ -93,6 +94,15 @@ class Backend {
   virtual void pseudo_xray(const FilletBatch& b, float* ln_p, float* p, float* residual,
                            float* z) = 0;
   virtual void irls_sums(const FilletBatch& b, double* r, double* sums) = 0;
+
+  // The dual-energy stages over a batch of pixels (pipeline/dual_energy.h); they need no
+  // lanes set. dual_energy: each pixel's basis (A, B and their covariance: 5 floats; NaN where
+  // it cannot be inverted), its lean, fat and bone lengths and their sigmas (3 each).
+  // dual_energy_bone: the bone length given the fat share, and its sigma.
+  virtual void dual_energy(const DualEnergyBatch& b, const DualEnergyParams& k, float* basis,
+                           float* lengths, float* sigma) = 0;
+  virtual void dual_energy_bone(const DualEnergyBoneBatch& b, const DualEnergyParams& k,
+                                float* bone, float* bone_sigma) = 0;
 
   const StageTimes& last_times() const { return times_; }
 

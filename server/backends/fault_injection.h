@@ -46,6 +46,14 @@ class FaultInjectingBackend final : public Backend {
   void irls_sums(const FilletBatch& b, double* r, double* sums) override {
     inner_->irls_sums(b, r, sums);
   }
+  void dual_energy(const DualEnergyBatch& b, const DualEnergyParams& k, float* basis,
+                   float* lengths, float* sigma) override {
+    inner_->dual_energy(b, k, basis, lengths, sigma);
+  }
+  void dual_energy_bone(const DualEnergyBoneBatch& b, const DualEnergyParams& k, float* bone,
+                        float* bone_sigma) override {
+    inner_->dual_energy_bone(b, k, bone, bone_sigma);
+  }
 
  private:
   std::unique_ptr<Backend> inner_;

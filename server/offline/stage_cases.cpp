@@ -55,6 +55,15 @@ FilletBatch StageWork::fillets() const {
           fillet_offsets.data(),   int(fillet_models.size()), fillet_models.data()};
 }
 
+DualEnergyBoneBatch StageWork::de_bone() const {
+  DualEnergyBoneBatch b;
+  b.basis = de_basis.data(), b.thickness = de_rays.thickness.data();
+  b.phi = de_phi.data(), b.phi_var = de_phi_var.data();
+  b.pixels = de_rays.pixels();
+  b.density_var = 0.03 * 0.03;
+  return b;
+}
+
 std::vector<uint8_t> render_distinct_lines(const LaneConfig& lane, int count) {
   sim::SimulationParams sp;
   sp.scene.fillets = 2;
@@ -87,7 +96,7 @@ LineBatchInputs interleave_lines(const std::vector<uint8_t>& rendered, size_t fr
 }
 
 StageWork make_stage_work(const LaneConfig& lane, int lanes, int lines, int fillets,
-                          int fillet_pixels) {
+                          int fillet_pixels, int dual_energy_pixels) {
   StageWork w;
   w.lanes = varied_lanes(lane, lanes);
   const size_t frame = size_t(lane.frame_width) * lane.frame_height;
@@ -106,6 +115,17 @@ StageWork make_stage_work(const LaneConfig& lane, int lanes, int lines, int fill
       w.fillet_xray.push_back(uint16_t(3600.0 * std::exp(-0.03 * t) * (1 + 0.01 * ((i % 13) - 6))));
       w.fillet_use.push_back(i % 17 != 0);
     }
+  }
+  // Dual energy: rays of every mix, the CPU's basis of them, a fat share that varies.
+  const DualEnergyCalibrated c = calibrate_dual_energy(20000);
+  w.de_params = c.params;
+  w.de_rays = mixed_dual_energy_rays(c, dual_energy_pixels, 5);
+  const size_t n = size_t(dual_energy_pixels);
+  w.de_basis.resize(5 * n);
+  dual_energy_basis(w.de_rays.batch(), w.de_params, w.de_basis.data());
+  for (size_t i = 0; i < n; ++i) {
+    w.de_phi.push_back(float(0.02 + 0.2 * double(i % 101) / 100));
+    w.de_phi_var.push_back(float(1e-4 * double(1 + i % 7)));
   }
   return w;
 }
@@ -204,6 +224,65 @@ std::vector<StageCase> stage_cases(const StageWork& w) {
        [fillet_px, nsums](const StageOutput& g, const StageOutput& r) {
          std::string d = first_difference("IRLS residual", g.r, r.r, fillet_px, 1e-12, 0);
          if (d.empty()) d = first_difference("IRLS sum", g.sums, r.sums, nsums, 1e-12, 1e-11);
+         return d;
+       }});
+  // Dual energy: the same doubles in another order of nothing; log to a few ulp and float
+  // results (a basis length one float step apart moves the lengths by the 3 x 3 inverse's
+  // row times it, far inside a thousandth of their sigma).
+  const int de_px = w.de_rays.pixels();
+  const size_t de_n = size_t(de_px);
+  cases.push_back(
+      {"dual-energy",
+       "NaNs exact; A, B 2e-5 mm + 2e-6 relative, covariance 1e-5 relative; "
+       "lengths within 1e-3 of their sigma, sigmas 1e-5 relative",
+       double(de_px), "pixels",
+       [de_n](Backend& b, const StageWork& w, StageOutput& o) {
+         o.basis.resize(5 * de_n), o.lengths.resize(3 * de_n), o.length_sigma.resize(3 * de_n);
+         b.dual_energy(w.de_rays.batch(), w.de_params, o.basis.data(), o.lengths.data(),
+                       o.length_sigma.data());
+       },
+       [de_n](const StageOutput& g, const StageOutput& r) {
+         if (g.basis.size() < 5 * de_n || g.lengths.size() < 3 * de_n ||
+             g.length_sigma.size() < 3 * de_n)
+           return std::string("dual energy: too few items");
+         for (size_t p = 0; p < de_n; ++p) {
+           const float* gb = &g.basis[5 * p];
+           const float* rb = &r.basis[5 * p];
+           std::ostringstream s;
+           s.precision(9);
+           for (int i = 0; i < 5; ++i) {
+             const bool ok =
+                 i < 2 ? within(gb[i], rb[i], 2e-5, 2e-6) : within(gb[i], rb[i], 1e-12, 1e-5);
+             if (!ok) {
+               s << "basis " << i << " of pixel " << p << ": " << gb[i] << ", the reference "
+                 << rb[i];
+               return s.str();
+             }
+           }
+           for (size_t m = 0; m < 3; ++m) {
+             const size_t i = 3 * p + m;
+             const double sd = r.length_sigma[i];
+             if (!within(g.lengths[i], r.lengths[i], 1e-3 * (std::isnan(sd) ? 0 : sd), 0) ||
+                 !within(g.length_sigma[i], sd, 0, 1e-5)) {
+               s << "length " << m << " of pixel " << p << ": " << g.lengths[i] << " +- "
+                 << g.length_sigma[i] << ", the reference " << r.lengths[i] << " +- " << sd;
+               return s.str();
+             }
+           }
+         }
+         return std::string();
+       }});
+  cases.push_back(
+      {"dual-energy-bone", "bone 1e-5 mm + 1e-5 relative, its sigma 1e-5 relative", double(de_px),
+       "pixels",
+       [de_n](Backend& b, const StageWork& w, StageOutput& o) {
+         o.bone.resize(de_n), o.bone_sigma.resize(de_n);
+         b.dual_energy_bone(w.de_bone(), w.de_params, o.bone.data(), o.bone_sigma.data());
+       },
+       [de_n](const StageOutput& g, const StageOutput& r) {
+         std::string d = first_difference("bone", g.bone, r.bone, de_n, 1e-5, 1e-5);
+         if (d.empty())
+           d = first_difference("bone sigma", g.bone_sigma, r.bone_sigma, de_n, 0, 1e-5);
          return d;
        }});
   return cases;

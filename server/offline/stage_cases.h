@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "backends/backend.h"
+#include "offline/dual_energy_work.h"
 #include "pipeline/pseudo_xray.h"
 
 namespace rangex {
@@ -43,10 +44,17 @@ struct StageWork {
   std::vector<int32_t> fillet_offsets;
   std::vector<FilletModel> fillet_models;
   FilletBatch fillets() const;
+  // A batch of pixels for the dual-energy stages (offline/dual_energy_work.h) with the
+  // calibration they were drawn for; the CPU reference's basis of them and a fat share for
+  // the bone stage.
+  DualEnergyParams de_params{};
+  DualEnergyRays de_rays;
+  std::vector<float> de_basis, de_phi, de_phi_var;
+  DualEnergyBoneBatch de_bone() const;
 };
 // `lane`: the lane every lane of the work starts from (its frame size and geometry).
 StageWork make_stage_work(const LaneConfig& lane, int lanes, int lines, int fillets = 4,
-                          int fillet_pixels = 20000);
+                          int fillet_pixels = 20000, int dual_energy_pixels = 20000);
 
 // What a stage writes (only its own fields are filled).
 struct StageOutput {
@@ -55,10 +63,11 @@ struct StageOutput {
   std::vector<uint8_t> xz_valid, profile_valid, thickness_valid;
   std::vector<float> ln_p, p, residual, score;
   std::vector<double> r, sums;
+  std::vector<float> basis, lengths, length_sigma, bone, bone_sigma;
 };
 
 struct StageCase {
-  std::string stage;  // stripe, rectify, fuse, project, pseudo-xray, irls
+  std::string stage;  // stripe, rectify, fuse, project, pseudo-xray, irls, dual-energy(-bone)
   std::string what;   // what its tolerance allows, for a reader of a failure
   double items = 0;   // per run: columns, lines or pixels
   std::string unit;

@@ -2,7 +2,10 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
+
+#include "core/error.h"
 
 namespace rangex {
 
@@ -46,30 +49,83 @@ void dual_energy_gradient(const double* c, double u, double v, double* du, doubl
   *du = gu, *dv = gv;
 }
 
+namespace {
+void check_params(const DualEnergyParams& k) {
+  const double det = k.low[1] * k.high[2] - k.low[2] * k.high[1];
+  bool finite = std::isfinite(det) && det != 0 && std::isfinite(k.var_t);
+  for (double v : k.minv) finite = finite && std::isfinite(v);
+  for (double v : k.basis) finite = finite && std::isfinite(v);
+  if (!finite)
+    fail(
+        "dual energy: the parameters are no calibration (the polynomials' linear terms cannot "
+        "be inverted, or a value is not finite): calibrate the lane with `rangexctl calib "
+        "dual-energy`");
+}
+void check_count(int pixels) {
+  if (pixels < 0) fail("dual energy: a batch of " + std::to_string(pixels) + " pixels");
+}
+}  // namespace
+
+void check_dual_energy_batch(const DualEnergyBatch& b, const DualEnergyParams& k) {
+  check_count(b.pixels);
+  if (b.pixels > 0 && (!b.low || !b.high || !b.open_low || !b.open_high || !b.thickness))
+    fail("dual energy: a batch without both layers' readings, their open beams or the thickness");
+  check_params(k);
+}
+
+void check_dual_energy_batch(const DualEnergyBoneBatch& b, const DualEnergyParams& k) {
+  check_count(b.pixels);
+  if (b.pixels > 0 && (!b.basis || !b.thickness || !b.phi || !b.phi_var))
+    fail("dual energy: a bone batch without the basis, the thickness or the fat share");
+  if (!(b.density_var >= 0) || !std::isfinite(b.density_var))
+    fail("dual energy: the soft tissue's density variance must be finite and >= 0, not " +
+         std::to_string(b.density_var));
+  check_params(k);
+}
+
+namespace {
+// The value and both partial derivatives of polynomial c at the powers pu, pv: one pass over
+// the terms (the kernels' loop).
+void evaluate(const double* c, const double* pu, const double* pv, double* f, double* du,
+              double* dv) {
+  double s = 0, gu = 0, gv = 0;
+  int k = 0;
+  for (int d = 0; d <= DE_DEGREE; ++d)
+    for (int j = 0; j <= d; ++j, ++k) {
+      const int i = d - j;
+      s += c[k] * (pu[i] * pv[j]);
+      if (i > 0) gu += c[k] * i * pu[i - 1] * pv[j];
+      if (j > 0) gv += c[k] * j * pu[i] * pv[j - 1];
+    }
+  *f = s, *du = gu, *dv = gv;
+}
+}  // namespace
+
 bool dual_energy_invert(const DualEnergyParams& k, double x, double y, double* a, double* b,
                         double jinv[4]) {
-  // The linear terms' inverse starts it; a fixed number of steps (a kernel's loop).
+  // The linear terms' inverse starts it; at most DE_NEWTON steps, until a step is below
+  // 1e-14 (of the scaled lengths: double precision).
   double det = k.low[1] * k.high[2] - k.low[2] * k.high[1];
   double u = (k.high[2] * (x - k.low[0]) - k.low[2] * (y - k.high[0])) / det;
   double v = (k.low[1] * (y - k.high[0]) - k.high[1] * (x - k.low[0])) / det;
-  double lu = 0, lv = 0, hu = 0, hv = 0;
-  for (int it = 0; it < DE_NEWTON; ++it) {
-    const double fx = dual_energy_poly(k.low, u, v) - x, fy = dual_energy_poly(k.high, u, v) - y;
-    dual_energy_gradient(k.low, u, v, &lu, &lv);
-    dual_energy_gradient(k.high, u, v, &hu, &hv);
+  double pu[DE_DEGREE + 1], pv[DE_DEGREE + 1], fx = 0, fy = 0, lu = 0, lv = 0, hu = 0, hv = 0;
+  for (int it = 0;; ++it) {
+    powers(u, pu);
+    powers(v, pv);
+    evaluate(k.low, pu, pv, &fx, &lu, &lv);
+    evaluate(k.high, pu, pv, &fy, &hu, &hv);
+    fx -= x, fy -= y;
     det = lu * hv - lv * hu;
-    u -= (hv * fx - lv * fy) / det;
-    v -= (lu * fy - hu * fx) / det;
+    if (it == DE_NEWTON) break;
+    const double su = (hv * fx - lv * fy) / det, sv = (lu * fy - hu * fx) / det;
+    u -= su, v -= sv;
+    if (std::abs(su) < 1e-14 && std::abs(sv) < 1e-14) it = DE_NEWTON - 1;  // one last look
   }
-  dual_energy_gradient(k.low, u, v, &lu, &lv);
-  dual_energy_gradient(k.high, u, v, &hu, &hv);
-  det = lu * hv - lv * hu;
-  // d(A, B) / d(x, y), in mm.
+  // d(A, B) / d(x, y), in mm, and the residual, at the last (u, v).
   jinv[0] = DE_A_MM * hv / det, jinv[1] = -DE_A_MM * lv / det;
   jinv[2] = -DE_B_MM * hu / det, jinv[3] = DE_B_MM * lu / det;
   *a = DE_A_MM * u, *b = DE_B_MM * v;
-  const double rx = dual_energy_poly(k.low, u, v) - x, ry = dual_energy_poly(k.high, u, v) - y;
-  return std::isfinite(u) && std::isfinite(v) && std::abs(rx) < 1e-6 && std::abs(ry) < 1e-6;
+  return std::isfinite(u) && std::isfinite(v) && std::abs(fx) < 1e-6 && std::abs(fy) < 1e-6;
 }
 
 void dual_energy_basis(const DualEnergyBatch& b, const DualEnergyParams& k, float* basis) {

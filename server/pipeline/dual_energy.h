@@ -31,6 +31,21 @@ struct DualEnergyBatch {
   int pixels = 0;
 };
 
+// Step 4's inputs over a batch (the backends' bone stage).
+struct DualEnergyBoneBatch {
+  const float* basis = nullptr;      // step 1's: 5 a pixel
+  const float* thickness = nullptr;  // mm
+  const float* phi = nullptr;        // the fat's share of the soft tissue, and its variance
+  const float* phi_var = nullptr;
+  int pixels = 0;
+  double density_var = 0;  // see dual_energy_bone
+};
+
+// Throw Error naming what is wrong: an input missing, a negative count, parameters that are
+// no calibration (the linear terms cannot be inverted, or not finite).
+void check_dual_energy_batch(const DualEnergyBatch& b, const DualEnergyParams& k);
+void check_dual_energy_batch(const DualEnergyBoneBatch& b, const DualEnergyParams& k);
+
 // Per pixel: lengths[3 p + m] and sigma[3 p + m], m = 0 lean, 1 fat, 2 bone (mm): the two
 // steps below in one.
 void dual_energy_decompose(const DualEnergyBatch& b, const DualEnergyParams& k, float* lengths,

@@ -144,4 +144,22 @@ void CpuBackend::irls_sums(const FilletBatch& b, double* r, double* sums) {
   times_ = {0, since(t0), 0};
 }
 
+void CpuBackend::dual_energy(const DualEnergyBatch& b, const DualEnergyParams& k, float* basis,
+                             float* lengths, float* sigma) {
+  check_dual_energy_batch(b, k);
+  const auto t0 = std::chrono::steady_clock::now();
+  dual_energy_basis(b, k, basis);
+  dual_energy_lengths(basis, b.thickness, b.pixels, k, lengths, sigma);
+  times_ = {0, since(t0), 0};
+}
+
+void CpuBackend::dual_energy_bone(const DualEnergyBoneBatch& b, const DualEnergyParams& k,
+                                  float* bone, float* bone_sigma) {
+  check_dual_energy_batch(b, k);
+  const auto t0 = std::chrono::steady_clock::now();
+  rangex::dual_energy_bone(b.basis, b.thickness, b.phi, b.phi_var, b.pixels, k, bone, bone_sigma,
+                           b.density_var);
+  times_ = {0, since(t0), 0};
+}
+
 }  // namespace rangex

@@ -79,7 +79,8 @@ struct OpenClBackend::Impl {
   std::unique_ptr<cl::Context> cx;
   cl_program program = nullptr;
   cl_kernel k_stripe = nullptr, k_rectify = nullptr, k_resample = nullptr, k_merge = nullptr,
-            k_project = nullptr, k_pseudo = nullptr, k_irls = nullptr, k_stripe16 = nullptr;
+            k_project = nullptr, k_pseudo = nullptr, k_irls = nullptr, k_stripe16 = nullptr,
+            k_dual = nullptr, k_bone = nullptr;
   bool cpu_device = false;
   size_t align = 128;
   KernelTables tables;
@@ -100,6 +101,48 @@ struct OpenClBackend::Impl {
   };
   Fillets fb;
   cl::Buffer t_ln_dn;  // ln(I) of every 16-bit DN, in double
+
+  // Buffers of the dual-energy stages (a batch of pixels), grown as needed.
+  struct Pixels {
+    size_t pixels = 0;
+    cl::Buffer low, high, open_low, open_high, thickness, use, params, basis, lengths, sigma, phi,
+        phi_var, bone, bone_sigma;
+    std::vector<const cl::Buffer*> all() const {
+      return {&low,   &high,    &open_low, &open_high, &thickness, &use,  &params,
+              &basis, &lengths, &sigma,    &phi,       &phi_var,   &bone, &bone_sigma};
+    }
+  };
+  Pixels px;
+  std::vector<uint8_t> every_pixel;  // use flags of a batch that has none
+
+  // A dual-energy batch's buffers, grown to `pixels`, with the parameters' upload enqueued.
+  Pixels& begin_pixels(cl_command_queue qq, int pixels, const DualEnergyParams& k,
+                       std::vector<cl_event>& up) {
+    ensure(px, size_t(pixels));
+    write(qq, px.params.mem(), &k, sizeof k, up);
+    return px;
+  }
+  void finish_pixels(cl_command_queue qq) {
+    finish(qq);
+    if (opt.guards)
+      for (const cl::Buffer* x : px.all()) x->check_guards(qq, "dual energy");
+  }
+
+  void ensure(Pixels& d, size_t pixels) {
+    const size_t n = std::max<size_t>(pixels, 1);
+    if (!d.params.mem()) d.params = buffer(sizeof(kernel::DualEnergyK), CL_MEM_READ_ONLY);
+    if (n <= d.pixels) return;
+    for (cl::Buffer* x : {&d.low, &d.high}) *x = buffer(n * 2, CL_MEM_READ_ONLY);
+    for (cl::Buffer* x : {&d.open_low, &d.open_high, &d.thickness, &d.phi, &d.phi_var})
+      *x = buffer(n * 4, CL_MEM_READ_ONLY);
+    d.use = buffer(n, CL_MEM_READ_ONLY);
+    d.basis = buffer(n * 20);
+    d.lengths = buffer(n * 12);
+    d.sigma = buffer(n * 12);
+    d.bone = buffer(n * 4);
+    d.bone_sigma = buffer(n * 4);
+    d.pixels = n;
+  }
 
   void ensure(Fillets& d, const FilletBatch& b) {
     const size_t n = std::max<size_t>(size_t(b.pixels()), 1);
@@ -265,6 +308,8 @@ OpenClBackend::OpenClBackend(const OpenClOptions& opt) : impl_(std::make_unique<
   m.k_project = kernel("project");
   m.k_pseudo = kernel("pseudo_xray");
   m.k_irls = kernel("irls_sums");
+  m.k_dual = kernel("dual_energy");
+  m.k_bone = kernel("dual_energy_bone");
   info_.name = "opencl";
   info_.device = d.name + " (" + d.platform_name + ")";
   info_.driver = d.version + ", driver " + d.driver;
@@ -282,7 +327,7 @@ OpenClBackend::~OpenClBackend() {
   for (int i = 0; i < 2; ++i)
     if (m.cx) clFinish(m.q(i));
   for (cl_kernel k : {m.k_stripe, m.k_stripe16, m.k_rectify, m.k_resample, m.k_merge, m.k_project,
-                      m.k_pseudo, m.k_irls})
+                      m.k_pseudo, m.k_irls, m.k_dual, m.k_bone})
     if (k) clReleaseKernel(k);
   if (m.program) clReleaseProgram(m.program);
   for (auto& s : m.slots)
@@ -557,6 +602,59 @@ void OpenClBackend::irls_sums(const FilletBatch& b, double* r, double* sums) {
   read(qq, d.sums.mem(), sums, size_t(b.fillets) * IRLS_SUMS * 8, down);
   m.finish(qq);
   m.check_guards(d, qq);
+  times_ = {seconds(up), seconds(run), seconds(down)};
+}
+
+void OpenClBackend::dual_energy(const DualEnergyBatch& b, const DualEnergyParams& k, float* basis,
+                                float* lengths, float* sigma) {
+  check_dual_energy_batch(b, k);
+  if (b.pixels == 0) return;
+  Impl& m = *impl_;
+  const cl_command_queue qq = m.q(0);
+  std::vector<cl_event> up, run, down;
+  Impl::Pixels& d = m.begin_pixels(qq, b.pixels, k, up);
+  const size_t n = size_t(b.pixels);
+  const uint8_t* use = b.use;
+  if (!use) {
+    m.every_pixel.assign(n, 1);
+    use = m.every_pixel.data();
+  }
+  write(qq, d.low.mem(), b.low, n * 2, up);
+  write(qq, d.high.mem(), b.high, n * 2, up);
+  write(qq, d.open_low.mem(), b.open_low, n * 4, up);
+  write(qq, d.open_high.mem(), b.open_high, n * 4, up);
+  write(qq, d.thickness.mem(), b.thickness, n * 4, up);
+  write(qq, d.use.mem(), use, n, up);
+  args(m.k_dual, d.low.mem(), d.high.mem(), d.open_low.mem(), d.open_high.mem(), d.thickness.mem(),
+       d.use.mem(), d.params.mem(), cl_int(b.pixels), d.basis.mem(), d.lengths.mem(),
+       d.sigma.mem());
+  launch(qq, m.k_dual, n, run);
+  read(qq, d.basis.mem(), basis, n * 20, down);
+  read(qq, d.lengths.mem(), lengths, n * 12, down);
+  read(qq, d.sigma.mem(), sigma, n * 12, down);
+  m.finish_pixels(qq);
+  times_ = {seconds(up), seconds(run), seconds(down)};
+}
+
+void OpenClBackend::dual_energy_bone(const DualEnergyBoneBatch& b, const DualEnergyParams& k,
+                                     float* bone, float* bone_sigma) {
+  check_dual_energy_batch(b, k);
+  if (b.pixels == 0) return;
+  Impl& m = *impl_;
+  const cl_command_queue qq = m.q(0);
+  std::vector<cl_event> up, run, down;
+  Impl::Pixels& d = m.begin_pixels(qq, b.pixels, k, up);
+  const size_t n = size_t(b.pixels);
+  write(qq, d.basis.mem(), b.basis, n * 20, up);
+  write(qq, d.thickness.mem(), b.thickness, n * 4, up);
+  write(qq, d.phi.mem(), b.phi, n * 4, up);
+  write(qq, d.phi_var.mem(), b.phi_var, n * 4, up);
+  args(m.k_bone, d.basis.mem(), d.thickness.mem(), d.phi.mem(), d.phi_var.mem(), d.params.mem(),
+       cl_int(b.pixels), cl_double(b.density_var), d.bone.mem(), d.bone_sigma.mem());
+  launch(qq, m.k_bone, n, run);
+  read(qq, d.bone.mem(), bone, n * 4, down);
+  read(qq, d.bone_sigma.mem(), bone_sigma, n * 4, down);
+  m.finish_pixels(qq);
   times_ = {seconds(up), seconds(run), seconds(down)};
 }
 

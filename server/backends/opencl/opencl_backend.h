@@ -38,6 +38,10 @@ class OpenClBackend final : public Backend {
                float* thickness, uint8_t* thickness_valid) override;
   void pseudo_xray(const FilletBatch& b, float* ln_p, float* p, float* residual, float* z) override;
   void irls_sums(const FilletBatch& b, double* r, double* sums) override;
+  void dual_energy(const DualEnergyBatch& b, const DualEnergyParams& k, float* basis,
+                   float* lengths, float* sigma) override;
+  void dual_energy_bone(const DualEnergyBoneBatch& b, const DualEnergyParams& k, float* bone,
+                        float* bone_sigma) override;
   double upload_bandwidth(size_t bytes) override;
 
  private:

@@ -28,7 +28,20 @@ std::vector<VulkanDevice> vulkan_devices() {
 
 namespace {
 
-enum K { kStripe, kRectify, kResample, kMerge, kProject, kPseudo, kIrls, kKernels };
+enum K {
+  kStripe,
+  kRectify,
+  kResample,
+  kMerge,
+  kProject,
+  kPseudo,
+  kIrls,
+  kDualEnergy,
+  kDualEnergyBone,
+  kKernels
+};
+
+static_assert(sizeof(kernel::DualEnergyK) == 512, "the std430 layout of shared/dual_energy.h");
 
 // An array the shaders use: on the device, and (when the device's memory is not mappable)
 // a host mirror that inputs are written to and results read from, copied in the command
@@ -101,6 +114,67 @@ struct VulkanBackend::Impl {
   };
   Fillets fb;
   vk::Buffer t_ln_dn;  // ln(I) of every 16-bit DN, in double
+
+  // Buffers of the dual-energy stages (a batch of pixels), grown as needed; their commands
+  // run on the scratch command buffer with its descriptor sets for kDualEnergy(Bone).
+  struct Pixels {
+    size_t pixels = 0;
+    Arr low, high, open_low, open_high, thickness, use, params, basis, lengths, sigma, phi, phi_var,
+        bone, bone_sigma;
+    std::vector<Arr*> all() {
+      return {&low,   &high,    &open_low, &open_high, &thickness, &use,  &params,
+              &basis, &lengths, &sigma,    &phi,       &phi_var,   &bone, &bone_sigma};
+    }
+  };
+  Pixels px;
+
+  void ensure(Pixels& d, size_t pixels) {
+    const size_t n = std::max<size_t>(pixels, 4);
+    if (n <= d.pixels) return;
+    for (Arr* a : d.all()) free(*a);
+    d.low = array((n * 2 + 3) / 4 * 4);
+    d.high = array((n * 2 + 3) / 4 * 4);
+    for (Arr* a :
+         {&d.open_low, &d.open_high, &d.thickness, &d.phi, &d.phi_var, &d.bone, &d.bone_sigma})
+      *a = array(n * 4);
+    d.use = array((n + 3) / 4 * 4);
+    d.params = array(sizeof(kernel::DualEnergyK));
+    d.basis = array(n * 20);
+    d.lengths = array(n * 12);
+    d.sigma = array(n * 12);
+    d.pixels = n;
+    Lines& s = lines_bufs[2];
+    write_set(s.sets[kDualEnergy],
+              {&d.low.dev, &d.high.dev, &d.open_low.dev, &d.open_high.dev, &d.thickness.dev,
+               &d.use.dev, &d.params.dev, &d.basis.dev, &d.lengths.dev, &d.sigma.dev});
+    write_set(s.sets[kDualEnergyBone], {&d.basis.dev, &d.thickness.dev, &d.phi.dev, &d.phi_var.dev,
+                                        &d.params.dev, &d.bone.dev, &d.bone_sigma.dev});
+  }
+  // A dual-energy batch's buffers, grown to `pixels`, with the parameters written.
+  Pixels& begin_pixels(int pixels, const DualEnergyParams& k) {
+    ensure(px, size_t(pixels));
+    std::memcpy(px.params.ptr(), &k, sizeof k);
+    return px;
+  }
+  // Runs one dual-energy stage on the scratch command buffer: `ins` copied in, the stage,
+  // `outs` copied out, waited for.
+  void run_pixels(K which, const kernel::DualEnergyPush& push,
+                  std::initializer_list<std::pair<Arr*, VkDeviceSize>> ins,
+                  const std::vector<std::pair<Arr*, VkDeviceSize>>& outs) {
+    Lines& s = lines_bufs[2];
+    begin(s);
+    stamp(s, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
+    copy_in(s, ins);
+    stamp(s, 1, VK_PIPELINE_STAGE_TRANSFER_BIT);
+    dispatch(s, which, &push, uint32_t(push.pixels));
+    stamp(s, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+    copy_out(s, outs);
+    stamp(s, 3, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
+    end_and_submit(s);
+    wait(s);
+    if (opt.guards)
+      for (Arr* a : px.all()) dev->check_guards(a->dev, "dual energy");
+  }
 
   void ensure(Fillets& d, const FilletBatch& b) {
     const size_t n = std::max<size_t>(size_t(b.pixels()), 4);
@@ -393,10 +467,16 @@ VulkanBackend::VulkanBackend(const VulkanOptions& opt) : impl_(std::make_unique<
                                  sizeof(kernel::FilletPush));
   m.k[kIrls] = vk::make_kernel(*m.dev, shaders::kIrlsSums, sizeof shaders::kIrlsSums, 8,
                                sizeof(kernel::FilletPush));
+  m.k[kDualEnergy] = vk::make_kernel(*m.dev, shaders::kDualEnergy, sizeof shaders::kDualEnergy, 10,
+                                     sizeof(kernel::DualEnergyPush));
+  m.k[kDualEnergyBone] =
+      vk::make_kernel(*m.dev, shaders::kDualEnergyBone, sizeof shaders::kDualEnergyBone, 7,
+                      sizeof(kernel::DualEnergyPush));
   m.dev->save_cache();
   // Descriptor sets for the three buffer groups, allocated once and updated when buffers
   // or tables change (never while a batch that uses them is in flight).
-  VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3 * (10 + 8 + 6 + 7 + 7 + 10 + 8)};
+  VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                          3 * (10 + 8 + 6 + 7 + 7 + 10 + 8 + 10 + 7)};
   VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   pi.maxSets = 3 * kKernels;
   pi.poolSizeCount = 1;
@@ -462,6 +542,7 @@ VulkanBackend::~VulkanBackend() {
   for (vk::Buffer* b : {&m.t_stripe, &m.t_rect, &m.t_nodes, &m.t_geom, &m.t_ln, &m.t_ln_dn})
     m.dev->destroy(*b);
   for (Arr* a : m.fb.all()) m.free(*a);
+  for (Arr* a : m.px.all()) m.free(*a);
   if (m.queries) vkDestroyQueryPool(dv, m.queries, nullptr);
   if (m.cmd_pool) vkDestroyCommandPool(dv, m.cmd_pool, nullptr);
   if (m.pool) vkDestroyDescriptorPool(dv, m.pool, nullptr);
@@ -753,6 +834,61 @@ void VulkanBackend::irls_sums(const FilletBatch& b, double* r, double* sums) {
   std::memcpy(r, d.r.ptr(), n * 8);
   std::memcpy(sums, d.sums.ptr(), k);
   times_ = m.times(s);
+}
+
+void VulkanBackend::dual_energy(const DualEnergyBatch& b, const DualEnergyParams& k, float* basis,
+                                float* lengths, float* sigma) {
+  check_dual_energy_batch(b, k);
+  if (b.pixels == 0) return;
+  Impl& m = *impl_;
+  Impl::Pixels& d = m.begin_pixels(b.pixels, k);
+  const size_t n = size_t(b.pixels);
+  std::memcpy(d.low.ptr(), b.low, n * 2);
+  std::memcpy(d.high.ptr(), b.high, n * 2);
+  std::memcpy(d.open_low.ptr(), b.open_low, n * 4);
+  std::memcpy(d.open_high.ptr(), b.open_high, n * 4);
+  std::memcpy(d.thickness.ptr(), b.thickness, n * 4);
+  if (b.use)
+    std::memcpy(d.use.ptr(), b.use, n);
+  else
+    std::memset(d.use.ptr(), 1, n);
+  const VkDeviceSize w16 = VkDeviceSize((n * 2 + 3) / 4 * 4), w8 = VkDeviceSize((n + 3) / 4 * 4);
+  m.run_pixels(kDualEnergy, {b.pixels, 0, 0.0},
+               {{&d.low, w16},
+                {&d.high, w16},
+                {&d.open_low, n * 4},
+                {&d.open_high, n * 4},
+                {&d.thickness, n * 4},
+                {&d.use, w8},
+                {&d.params, sizeof k}},
+               {{&d.basis, n * 20}, {&d.lengths, n * 12}, {&d.sigma, n * 12}});
+  std::memcpy(basis, d.basis.ptr(), n * 20);
+  std::memcpy(lengths, d.lengths.ptr(), n * 12);
+  std::memcpy(sigma, d.sigma.ptr(), n * 12);
+  times_ = m.times(m.lines_bufs[2]);
+}
+
+void VulkanBackend::dual_energy_bone(const DualEnergyBoneBatch& b, const DualEnergyParams& k,
+                                     float* bone, float* bone_sigma) {
+  check_dual_energy_batch(b, k);
+  if (b.pixels == 0) return;
+  Impl& m = *impl_;
+  Impl::Pixels& d = m.begin_pixels(b.pixels, k);
+  const size_t n = size_t(b.pixels);
+  std::memcpy(d.basis.ptr(), b.basis, n * 20);
+  std::memcpy(d.thickness.ptr(), b.thickness, n * 4);
+  std::memcpy(d.phi.ptr(), b.phi, n * 4);
+  std::memcpy(d.phi_var.ptr(), b.phi_var, n * 4);
+  m.run_pixels(kDualEnergyBone, {b.pixels, 0, b.density_var},
+               {{&d.basis, n * 20},
+                {&d.thickness, n * 4},
+                {&d.phi, n * 4},
+                {&d.phi_var, n * 4},
+                {&d.params, sizeof k}},
+               {{&d.bone, n * 4}, {&d.bone_sigma, n * 4}});
+  std::memcpy(bone, d.bone.ptr(), n * 4);
+  std::memcpy(bone_sigma, d.bone_sigma.ptr(), n * 4);
+  times_ = m.times(m.lines_bufs[2]);
 }
 
 }  // namespace rangex
