@@ -227,8 +227,8 @@ int cmd_bench(int argc, char** argv) {
 
   // Dual energy (docs/dual-energy.md): the same fillet's thickness on a sandwich detector
   // (lean with 8 % fat, both lines rendered through NIST's coefficients, the wedge fitted),
-  // inspected on its bone image, beside one energy on its low line, in the same run. CPU
-  // only: the kernels are not written yet.
+  // inspected on its bone image, beside one energy on its low line, in the same run. On the
+  // CPU, as the server's inspections run; the kernels' cost is in `bench --backend`.
   const SandwichDetector sandwich;
   const sim::DualEnergyRenderer det(sandwich);
   FilletImage dual = fillet;
