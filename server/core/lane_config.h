@@ -81,10 +81,13 @@ struct InspectionParams {
   // restarts its assembly at the new count (a re-based PLC); shorter gaps are bridged.
   int encoder_horizon_lines = 100000;
   DualEnergyMethod dual_energy = DualEnergyMethod::kLaser;
-  // Dual energy: the fat share's smoothing (pipeline/fat_fraction.h), px; and how much the
-  // soft tissue's density varies pixel to pixel (relative sigma: cartilage, tendon, texture),
-  // which the bone's estimate discounts along the soft tissue's direction.
+  // Dual energy: the fat share's smoothing (pipeline/fat_fraction.h), px: the finest of
+  // `fat_share_scales` (each twice the last), each fillet taking the one whose bone image
+  // spreads least; and how much the soft tissue's density varies pixel to pixel (relative
+  // sigma: cartilage, tendon, texture), which the bone's estimate discounts along the soft
+  // tissue's direction.
   double fat_share_sigma_px = 12;
+  int fat_share_scales = 3;
   double soft_density_sigma = 0.03;
 };
 

@@ -57,6 +57,82 @@ void bone_without_laser(const std::vector<float>& basis, const std::vector<uint8
   }
 }
 
+// The inputs of the bone with the laser (one fillet).
+struct LaserBone {
+  const FilletImage& img;
+  const std::vector<float>& basis;
+  const std::vector<float>& thickness;
+  const std::vector<float>& lengths;  // step 2's, and their sigmas
+  const std::vector<float>& lsig;
+  const std::vector<uint8_t>& use;
+  const DualEnergyParams& k;
+  const InspectionParams& p;
+};
+
+// The bone given the fat share smoothed over sigma_px (steps 3 and 4), in two passes.
+void bone_with_laser(const LaserBone& in, double sigma_px, std::vector<float>& bone,
+                     std::vector<float>& sigma, std::vector<float>& phi,
+                     std::vector<float>& phi_var) {
+  const FilletImage& img = in.img;
+  const size_t n = img.size();
+  const std::vector<float>&basis = in.basis, &thickness = in.thickness, &lengths = in.lengths,
+        &lsig = in.lsig;
+  const std::vector<uint8_t>& use = in.use;
+  const DualEnergyParams& k = in.k;
+  fat_fraction_map(lengths.data(), lsig.data(), use.data(), img.rows, img.cols, sigma_px, phi,
+                   phi_var);
+  bone.assign(n, kNaN), sigma.assign(n, kNaN);
+  const double dv = in.p.soft_density_sigma * in.p.soft_density_sigma;
+  dual_energy_bone(basis.data(), thickness.data(), phi.data(), phi_var.data(), int(n), k,
+                   bone.data(), sigma.data(), dv);
+  // What is not lean and fat pulls the smoothed fat share around it and paints a halo of
+  // bone there: what holds far less than the thickness promises (air pockets, lumps of
+  // fat: bone below -3 sigma), and tissue denser than lean (cartilage, tendon: a fat
+  // length below -3 sigma over a few pixels, which no mix of lean and fat gives). The fat
+  // share is measured again without them (and 3 px around). A pixel reading as more bone
+  // is never left out: a streak of lean would then read as bone.
+  std::vector<float> fat(n), fat_var(n), fat_s, var_s;
+  for (size_t i = 0; i < n; ++i) {
+    fat[i] = use[i] && std::isfinite(lengths[3 * i + 1]) ? lengths[3 * i + 1] : 0.f;
+    fat_var[i] = use[i] && std::isfinite(lsig[3 * i + 1]) ? lsig[3 * i + 1] * lsig[3 * i + 1] : 0.f;
+  }
+  constexpr double kLocalPx = 3;
+  masked_gaussian(fat.data(), use.data(), img.rows, img.cols, kLocalPx, fat_s);
+  masked_gaussian(fat_var.data(), use.data(), img.rows, img.cols, kLocalPx, var_s);
+  const double gain = gaussian_noise_gain(kLocalPx);
+  std::vector<uint8_t> soft = use;
+  const int R = 3;
+  for (int r = 0; r < img.rows; ++r)
+    for (int c = 0; c < img.cols; ++c) {
+      const size_t i = size_t(r) * img.cols + c;
+      if (!use[i]) continue;
+      const bool hollow = bone[i] < -3 * sigma[i];
+      const bool dense = fat_s[i] < -3 * gain * std::sqrt(std::max(0.f, var_s[i]));
+      if (!hollow && !dense) continue;
+      for (int dr = -R; dr <= R; ++dr)
+        for (int dc = -R; dc <= R; ++dc) {
+          const int rr = r + dr, cc = c + dc;
+          if (rr >= 0 && rr < img.rows && cc >= 0 && cc < img.cols)
+            soft[size_t(rr) * img.cols + cc] = 0;
+        }
+    }
+  fat_fraction_map(lengths.data(), lsig.data(), soft.data(), img.rows, img.cols, sigma_px, phi,
+                   phi_var, use.data());
+  dual_energy_bone(basis.data(), thickness.data(), phi.data(), phi_var.data(), int(n), k,
+                   bone.data(), sigma.data(), dv);
+}
+
+// The robust spread (1.4826 MAD) of v over the pixels in use.
+double robust_spread(const std::vector<float>& v, const std::vector<uint8_t>& use) {
+  std::vector<double> x;
+  for (size_t i = 0; i < v.size(); ++i)
+    if (use[i] && std::isfinite(v[i])) x.push_back(v[i]);
+  if (x.empty()) return std::numeric_limits<double>::infinity();
+  const double m = median_inplace(x.data(), x.size());
+  for (double& e : x) e = std::abs(e - m);
+  return 1.4826 * median_inplace(x.data(), x.size());
+}
+
 }  // namespace
 
 bool dual_energy_slopes(const FilletImage& img, size_t i, double lean[2], double bone[2]) {
@@ -135,48 +211,20 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
   } else {
     std::vector<float> lengths(3 * n), lsig(3 * n);
     dual_energy_lengths(basis.data(), thickness.data(), int(n), k, lengths.data(), lsig.data());
-    fat_fraction_map(lengths.data(), lsig.data(), use.data(), img.rows, img.cols,
-                     p.fat_share_sigma_px, phi, phi_var);
-    bone.assign(n, kNaN), sigma.assign(n, kNaN);
-    const double dv = p.soft_density_sigma * p.soft_density_sigma;
-    dual_energy_bone(basis.data(), thickness.data(), phi.data(), phi_var.data(), int(n), k,
-                     bone.data(), sigma.data(), dv);
-    // What is not lean and fat pulls the smoothed fat share around it and paints a halo of
-    // bone there: what holds far less than the thickness promises (air pockets, lumps of
-    // fat: bone below -3 sigma), and tissue denser than lean (cartilage, tendon: a fat
-    // length below -3 sigma over a few pixels, which no mix of lean and fat gives). The fat
-    // share is measured again without them (and 3 px around). A pixel reading as more bone
-    // is never left out: a streak of lean would then read as bone.
-    std::vector<float> fat(n), fat_var(n), fat_s, var_s;
-    for (size_t i = 0; i < n; ++i) {
-      fat[i] = use[i] && std::isfinite(lengths[3 * i + 1]) ? lengths[3 * i + 1] : 0.f;
-      fat_var[i] =
-          use[i] && std::isfinite(lsig[3 * i + 1]) ? lsig[3 * i + 1] * lsig[3 * i + 1] : 0.f;
+    // The fat share's smoothing trades its noise against following the fat where it varies:
+    // each fillet takes the scale (the finest, twice and four times it) whose bone image
+    // spreads least (robustly: a fragment is a few pixels of it).
+    const LaserBone in{img, basis, thickness, lengths, lsig, use, k, p};
+    double best = 0;
+    for (int s = 0; s < std::max(1, p.fat_share_scales); ++s) {
+      std::vector<float> b_s, sg_s, phi_s, pv_s;
+      bone_with_laser(in, p.fat_share_sigma_px * double(1 << s), b_s, sg_s, phi_s, pv_s);
+      const double spread = robust_spread(b_s, use);
+      if (s > 0 && !(spread < best)) continue;
+      best = spread;
+      bone = std::move(b_s), sigma = std::move(sg_s), phi = std::move(phi_s);
+      phi_var = std::move(pv_s);
     }
-    constexpr double kLocalPx = 3;
-    masked_gaussian(fat.data(), use.data(), img.rows, img.cols, kLocalPx, fat_s);
-    masked_gaussian(fat_var.data(), use.data(), img.rows, img.cols, kLocalPx, var_s);
-    const double gain = gaussian_noise_gain(kLocalPx);
-    std::vector<uint8_t> soft = use;
-    const int R = 3;
-    for (int r = 0; r < img.rows; ++r)
-      for (int c = 0; c < img.cols; ++c) {
-        const size_t i = size_t(r) * img.cols + c;
-        if (!use[i]) continue;
-        const bool hollow = bone[i] < -3 * sigma[i];
-        const bool dense = fat_s[i] < -3 * gain * std::sqrt(std::max(0.f, var_s[i]));
-        if (!hollow && !dense) continue;
-        for (int dr = -R; dr <= R; ++dr)
-          for (int dc = -R; dc <= R; ++dc) {
-            const int rr = r + dr, cc = c + dc;
-            if (rr >= 0 && rr < img.rows && cc >= 0 && cc < img.cols)
-              soft[size_t(rr) * img.cols + cc] = 0;
-          }
-      }
-    fat_fraction_map(lengths.data(), lsig.data(), soft.data(), img.rows, img.cols,
-                     p.fat_share_sigma_px, phi, phi_var, use.data());
-    dual_energy_bone(basis.data(), thickness.data(), phi.data(), phi_var.data(), int(n), k,
-                     bone.data(), sigma.data(), dv);
   }
   std::vector<float> z(n, kNaN), resid(n, kNaN);
   int count = 0;
