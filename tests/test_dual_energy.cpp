@@ -16,6 +16,8 @@
 #include "pipeline/dual_energy.h"
 #include "pipeline/fat_fraction.h"
 #include "pipeline/inspection.h"
+#include "pipeline/masked_smooth.h"
+#include "pipeline/robust_fit.h"
 #include "sim/dual_energy_phantom.h"
 #include "temp_dir.h"
 
@@ -471,6 +473,39 @@ TEST(DualEnergyInspection, TheThicknessIsMatchedToTheDetectorsBlur) {
   EXPECT_LT(rim_extreme(matched), 0.7 * rim_extreme(unmatched));
   EXPECT_EQ(matched.decision, Decision::kPass) << matched.reason;
   EXPECT_TRUE(matched.fragments.empty());
+}
+
+// Each fillet smooths its fat share at the scale whose bone image, as the detection smooths
+// it, spreads least: the inspection's bone image is that of the best of the three scales
+// forced one at a time, and the fragment is still read.
+TEST(DualEnergyInspection, EachFilletChoosesTheFatShareScaleThatSpreadsLeast) {
+  const DualFillet d = dual_fillet(5, true);
+  const InspectionParams p;
+  auto spread = [&](const FilletResult& r) {
+    std::vector<float> s;
+    masked_gaussian(r.bone_mm.data(), d.img.mask.data(), d.img.rows, d.img.cols, p.smooth_sigma_px,
+                    s);
+    std::vector<double> v;
+    for (size_t i = 0; i < d.img.size(); ++i)
+      if (d.img.mask[i] && std::isfinite(s[i])) v.push_back(s[i]);
+    const double m = median_inplace(v.data(), v.size());
+    for (double& e : v) e = std::abs(e - m);
+    return 1.4826 * median_inplace(v.data(), v.size());
+  };
+  double best = 1e9;
+  for (double px : {12.0, 24.0, 48.0}) {
+    InspectionParams forced = p;
+    forced.fat_share_sigma_px = px;
+    forced.fat_share_scales = 1;
+    const double s = spread(inspect_fillet(d.img, forced, true));
+    std::printf("fat share over %.0f px: the bone image spreads %.4f mm\n", px, s);
+    best = std::min(best, s);
+  }
+  const FilletResult chosen = inspect_fillet(d.img, p, true);
+  EXPECT_NEAR(spread(chosen), best, 1e-6);
+  ASSERT_EQ(chosen.fragments.size(), 1u);
+  EXPECT_GT(chosen.fragments[0].bone_mg, 0.6 * d.bone_mg);
+  EXPECT_LT(chosen.fragments[0].bone_mg, 1.15 * d.bone_mg);
 }
 
 TEST(DualEnergyInspection, EachMethodRunsAndFailsSafe) {

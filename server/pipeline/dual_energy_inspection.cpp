@@ -122,11 +122,15 @@ void bone_with_laser(const LaserBone& in, double sigma_px, std::vector<float>& b
                    bone.data(), sigma.data(), dv);
 }
 
-// The robust spread (1.4826 MAD) of v over the pixels in use.
-double robust_spread(const std::vector<float>& v, const std::vector<uint8_t>& use) {
+// The robust spread (1.4826 MAD) of the bone image as the detection sees it: smoothed by its
+// round kernel (which shrinks the counts' noise, not what the fat share's error paints).
+double bone_spread(const FilletImage& img, const std::vector<float>& bone,
+                   const std::vector<uint8_t>& use, double smooth_px) {
+  std::vector<float> bs;
+  masked_gaussian(bone.data(), use.data(), img.rows, img.cols, smooth_px, bs);
   std::vector<double> x;
-  for (size_t i = 0; i < v.size(); ++i)
-    if (use[i] && std::isfinite(v[i])) x.push_back(v[i]);
+  for (size_t i = 0; i < bs.size(); ++i)
+    if (use[i] && std::isfinite(bs[i])) x.push_back(bs[i]);
   if (x.empty()) return std::numeric_limits<double>::infinity();
   const double m = median_inplace(x.data(), x.size());
   for (double& e : x) e = std::abs(e - m);
@@ -212,14 +216,14 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
     std::vector<float> lengths(3 * n), lsig(3 * n);
     dual_energy_lengths(basis.data(), thickness.data(), int(n), k, lengths.data(), lsig.data());
     // The fat share's smoothing trades its noise against following the fat where it varies:
-    // each fillet takes the scale (the finest, twice and four times it) whose bone image
-    // spreads least (robustly: a fragment is a few pixels of it).
+    // each fillet takes the scale (the finest, twice and four times it) whose bone image, as
+    // the detection smooths it, spreads least (robustly: a fragment is a few pixels of it).
     const LaserBone in{img, basis, thickness, lengths, lsig, use, k, p};
     double best = 0;
     for (int s = 0; s < std::max(1, p.fat_share_scales); ++s) {
       std::vector<float> b_s, sg_s, phi_s, pv_s;
       bone_with_laser(in, p.fat_share_sigma_px * double(1 << s), b_s, sg_s, phi_s, pv_s);
-      const double spread = robust_spread(b_s, use);
+      const double spread = bone_spread(img, b_s, use, p.smooth_sigma_px);
       if (s > 0 && !(spread < best)) continue;
       best = spread;
       bone = std::move(b_s), sigma = std::move(sg_s), phi = std::move(phi_s);
