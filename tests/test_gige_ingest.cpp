@@ -275,6 +275,51 @@ TEST(GigeIngest, TwoLanesOverGigEVisionAndModbusDecideAsAReplayAndReleaseInTime)
   }
 }
 
+// A dual-energy detector (xray.energies: 2) sends both layers' lines as the two rows of one
+// Mono16 frame: rangexd takes row 0 as the low line and row 1 as the high one, each bit for
+// bit what the device served for that count.
+TEST(GigeIngest, ADualEnergyDetectorsTwoRowsBecomeTheLowAndHighLines) {
+  LoopbackAddresses addrs(addresses(1));
+  NEED_ADDRESSES(addrs);
+  TempDir t;
+  PlantConfig p = plant(1);
+  p.lanes[0].xray.energies = 2;
+  const RecordingReader rec(simulate(t, p, 1, 24));
+  ASSERT_EQ(rec.info().xray_energies, 2);
+  FakeLane fake(rec, 0);
+  const size_t row = size_t(rec.info().xray_pixels) * 2;
+  std::mutex mu;
+  int64_t in_range = 0, differ = 0, wrong_size = 0;
+  ServerOptions o = options(t);
+  o.sensor_tap = [&](const IncomingLine& in) {
+    std::lock_guard<std::mutex> lk(mu);
+    if (in.xray.size() != row || in.xray_high.size() != row) ++wrong_size;
+    const int64_t n = in.encoder - fake.served.start();
+    if (n < 0 || n >= fake.served.lines() || in.xray.size() != row) return;
+    ++in_range;
+    const uint8_t* served = fake.served.frame(2, n);
+    if (std::memcmp(in.xray.data(), served, row) != 0 ||
+        std::memcmp(in.xray_high.data(), served + row, row) != 0)
+      ++differ;
+  };
+  RangexServer server(p, o);
+  // A bound, not a speed: 100 lines/s.
+  ASSERT_TRUE(wait_until(60,
+                         [&] {
+                           std::lock_guard<std::mutex> lk(mu);
+                           return in_range >= 100;
+                         }))
+      << "fewer than 100 lines of the recording in 60 s\n"
+      << describe(server.sensors());
+  std::lock_guard<std::mutex> lk(mu);
+  EXPECT_EQ(wrong_size, 0);
+  EXPECT_EQ(differ, 0);
+  // The recording's own high line for one count, against what arrived as it.
+  std::vector<uint16_t> high(row / 2);
+  rec.read_high(0, 10, 1, high.data());
+  EXPECT_EQ(std::memcmp(fake.served.frame(2, 10) + row, high.data(), row), 0);
+}
+
 TEST(GigeIngest, LostPacketsBecomeMissingLinesCountedForTheDevice) {
   LoopbackAddresses addrs(addresses(1));
   NEED_ADDRESSES(addrs);

@@ -39,6 +39,13 @@ class LineBytes {
     own_.resize(n);
   }
   void assign(const char* p, size_t n) { *this = std::string(p, n); }
+  // The first n bytes only (a lent buffer stays lent).
+  void truncate(size_t n) {
+    if (lent_)
+      lent_size_ = n < lent_size_ ? n : lent_size_;
+    else if (n < own_.size())
+      own_.resize(n);
+  }
   void assign(size_t n, char c) { *this = std::string(n, c); }
 
  private:

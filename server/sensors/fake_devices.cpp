@@ -60,19 +60,32 @@ ServedLane::ServedLane(const RecordingReader& rec, int lane, int lead_frames)
   const RecordingInfo& info = rec.info();
   frame_bytes_ = size_t(info.width) * size_t(info.height);
   xray_pixels_ = size_t(info.xray_pixels);
+  energies_ = info.xray_energies == 2 ? 2 : 1;
   lines_ = info.lines;
-  xray_.resize(xray_pixels_ * size_t(lines_));
-  rec.read(lane, 0, lines_, nullptr, nullptr, xray_.data(), nullptr);  // frames stay mapped
+  // Per line the detector's frame: the low row, then (two energies) the high row.
+  std::vector<uint16_t> low(xray_pixels_ * size_t(lines_)), high;
+  rec.read(lane, 0, lines_, nullptr, nullptr, low.data(), nullptr);  // frames stay mapped
+  if (energies_ == 2) {
+    high.resize(low.size());
+    rec.read_high(lane, 0, lines_, high.data());
+  }
+  xray_.resize(xray_pixels_ * size_t(energies_) * size_t(lines_));
+  for (int64_t l = 0; l < lines_; ++l) {
+    uint16_t* row = &xray_[xray_pixels_ * size_t(energies_) * size_t(l)];
+    std::copy_n(&low[xray_pixels_ * size_t(l)], xray_pixels_, row);
+    if (energies_ == 2)
+      std::copy_n(&high[xray_pixels_ * size_t(l)], xray_pixels_, row + xray_pixels_);
+  }
 }
 
 const uint8_t* ServedLane::frame(int d, int64_t line) const {
   line = std::clamp<int64_t>(line, 0, lines_ - 1);
   if (d < 2) return frames_.frame(d, line);
-  return reinterpret_cast<const uint8_t*>(&xray_[xray_pixels_ * size_t(line)]);
+  return reinterpret_cast<const uint8_t*>(&xray_[xray_pixels_ * size_t(energies_) * size_t(line)]);
 }
 
 void ServedLane::fill(int d, int64_t n, uint8_t* out, size_t bytes) {
-  const size_t want = d < 2 ? frame_bytes_ : xray_pixels_ * 2;
+  const size_t want = d < 2 ? frame_bytes_ : xray_pixels_ * 2 * size_t(energies_);
   std::memcpy(out, frame(d, n - lead_), std::min(bytes, want));
 }
 

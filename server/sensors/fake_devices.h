@@ -37,7 +37,8 @@ class LoopbackAddresses {
 class ServedLane {
  public:
   ServedLane(const RecordingReader& rec, int lane, int lead_frames = 25);
-  // Fills device `d`'s frame (0, 1: cameras; 2: X-ray) at pulse n.
+  // Fills device `d`'s frame (0, 1: cameras; 2: X-ray, one row a layer: a recording of two
+  // energies serves the low row, then the high) at pulse n.
   void fill(int d, int64_t n, uint8_t* out, size_t bytes);
   // rangexd counts frames from 1, the devices starting together at pulse 0: the count that
   // shows line 0.
@@ -49,6 +50,7 @@ class ServedLane {
   RecordingReader::MappedFrames frames_;
   std::vector<uint16_t> xray_;
   size_t frame_bytes_ = 0, xray_pixels_ = 0;
+  int energies_ = 1;
   int64_t lines_ = 0;
   int lead_ = 25;
 };

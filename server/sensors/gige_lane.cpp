@@ -16,7 +16,8 @@ DeviceSetup setup_of(const LaneConfig& lane, int index, int buffers) {
   d.id = s.devices()[size_t(index)];
   d.role = index < 2 ? DeviceRole::kCamera : DeviceRole::kXray;
   d.width = d.role == DeviceRole::kXray ? lane.xray.pixels : lane.frame_width;
-  d.height = d.role == DeviceRole::kXray ? 1 : lane.frame_height;
+  // A dual-energy detector sends both layers' lines as the two rows of one frame: low, high.
+  d.height = d.role == DeviceRole::kXray ? std::max(1, lane.xray.energies) : lane.frame_height;
   d.trigger = s.trigger;
   d.trigger_line = s.trigger_line;
   d.offset_y = d.role == DeviceRole::kXray ? -1 : s.offset_y;
@@ -39,6 +40,13 @@ GigeLane::GigeLane(const LaneConfig& lane, LaneSink sink, SensorOptions opt)
         in.encoder = count;
         in.cam0 = std::move(f[0]);
         in.cam1 = std::move(f[1]);
+        if (config_.xray.energies == 2) {
+          // Row 1 of the X-ray frame is the high layer's line (a copy of 2 bytes a pixel);
+          // row 0 stays where the device put it.
+          const size_t row = f[2].size() / 2;
+          in.xray_high.assign(f[2].data() + row, row);
+          f[2].truncate(row);
+        }
         in.xray = std::move(f[2]);
         if (!sink_.line(std::move(in))) ++refused_;
       }) {
