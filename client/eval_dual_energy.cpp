@@ -11,6 +11,7 @@
 // calibration from its own step-wedge scan.
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -170,7 +171,7 @@ std::string method_line(const std::string& variant, const std::string& method,
 std::string size_line(const std::string& variant, const std::string& method,
                       const DetectionEval& e) {
   std::string out = variant;
-  out.resize(15, ' ');
+  out.resize(std::max<size_t>(15, out.size() + 1), ' ');
   std::string mm = method;
   mm.resize(22, ' ');
   out += mm + " |";
