@@ -19,12 +19,11 @@
 #include "bench/bench_commands.h"
 #include "bench/bench_path.h"
 #include "bench/naive_inspection.h"
-#include "calib/dual_energy_fit.h"
 #include "commands.h"
 #include "core/error.h"
+#include "offline/dual_energy_work.h"
 #include "pipeline/inspection.h"
 #include "pipeline/stripe_extract.h"
-#include "sim/dual_energy_phantom.h"
 #include "sim/plant_simulator.h"
 #include "sim/synthetic_fillet.h"
 
@@ -229,11 +228,11 @@ int cmd_bench(int argc, char** argv) {
   // (lean with 8 % fat, both lines rendered through NIST's coefficients, the wedge fitted),
   // inspected on its bone image, beside one energy on its low line, in the same run. On the
   // CPU, as the server's inspections run; the kernels' cost is in `bench --backend`.
-  const SandwichDetector sandwich;
-  const sim::DualEnergyRenderer det(sandwich);
+  const DualEnergyCalibrated cal = calibrate_dual_energy(20000);
+  const sim::DualEnergyRenderer& det = cal.detector;
   FilletImage dual = fillet;
   dual.has_dual_energy = true;
-  dual.dual_energy = fit_dual_energy(sim::simulate_wedge_scan(det, 1, 20000), sandwich, 0.1).params;
+  dual.dual_energy = cal.params;
   dual.xray_high.resize(dual.size());
   sim::Rng rng(7, 0xde);
   for (size_t i = 0; i < dual.size(); ++i) {

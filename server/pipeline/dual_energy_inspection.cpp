@@ -13,6 +13,7 @@
 #include "pipeline/inspection_steps.h"
 #include "pipeline/masked_smooth.h"
 #include "pipeline/robust_fit.h"
+#include "pipeline/thickness_spread.h"
 
 namespace rangex {
 
@@ -65,9 +66,32 @@ struct LaserBone {
   const std::vector<float>& lengths;  // step 2's, and their sigmas
   const std::vector<float>& lsig;
   const std::vector<uint8_t>& use;
+  // Tissue denser than lean (cartilage, tendon): a fat length below -3 sigma over a few
+  // pixels, which no mix of lean and fat gives. It depends on step 2 alone.
+  const std::vector<uint8_t>& dense;
   const DualEnergyParams& k;
   const InspectionParams& p;
 };
+
+// The pixels of tissue denser than lean (LaserBone::dense), from step 2's fat lengths.
+std::vector<uint8_t> denser_than_lean(const FilletImage& img, const std::vector<float>& lengths,
+                                      const std::vector<float>& lsig,
+                                      const std::vector<uint8_t>& use) {
+  const size_t n = img.size();
+  std::vector<float> fat(n), fat_var(n), fat_s, var_s;
+  for (size_t i = 0; i < n; ++i) {
+    fat[i] = use[i] && std::isfinite(lengths[3 * i + 1]) ? lengths[3 * i + 1] : 0.f;
+    fat_var[i] = use[i] && std::isfinite(lsig[3 * i + 1]) ? lsig[3 * i + 1] * lsig[3 * i + 1] : 0.f;
+  }
+  constexpr double kLocalPx = 3;
+  masked_gaussian(fat.data(), use.data(), img.rows, img.cols, kLocalPx, fat_s);
+  masked_gaussian(fat_var.data(), use.data(), img.rows, img.cols, kLocalPx, var_s);
+  const double gain = gaussian_noise_gain(kLocalPx);
+  std::vector<uint8_t> dense(n, 0);
+  for (size_t i = 0; i < n; ++i)
+    dense[i] = use[i] && fat_s[i] < -3 * gain * std::sqrt(std::max(0.f, var_s[i]));
+  return dense;
+}
 
 // The bone given the fat share smoothed over sigma_px (steps 3 and 4), in two passes.
 void bone_with_laser(const LaserBone& in, double sigma_px, std::vector<float>& bone,
@@ -87,28 +111,16 @@ void bone_with_laser(const LaserBone& in, double sigma_px, std::vector<float>& b
                    bone.data(), sigma.data(), dv);
   // What is not lean and fat pulls the smoothed fat share around it and paints a halo of
   // bone there: what holds far less than the thickness promises (air pockets, lumps of
-  // fat: bone below -3 sigma), and tissue denser than lean (cartilage, tendon: a fat
-  // length below -3 sigma over a few pixels, which no mix of lean and fat gives). The fat
-  // share is measured again without them (and 3 px around). A pixel reading as more bone
-  // is never left out: a streak of lean would then read as bone.
-  std::vector<float> fat(n), fat_var(n), fat_s, var_s;
-  for (size_t i = 0; i < n; ++i) {
-    fat[i] = use[i] && std::isfinite(lengths[3 * i + 1]) ? lengths[3 * i + 1] : 0.f;
-    fat_var[i] = use[i] && std::isfinite(lsig[3 * i + 1]) ? lsig[3 * i + 1] * lsig[3 * i + 1] : 0.f;
-  }
-  constexpr double kLocalPx = 3;
-  masked_gaussian(fat.data(), use.data(), img.rows, img.cols, kLocalPx, fat_s);
-  masked_gaussian(fat_var.data(), use.data(), img.rows, img.cols, kLocalPx, var_s);
-  const double gain = gaussian_noise_gain(kLocalPx);
+  // fat: bone below -3 sigma), and tissue denser than lean (in.dense). The fat share is
+  // measured again without them (and 3 px around). A pixel reading as more bone is never
+  // left out: a streak of lean would then read as bone.
   std::vector<uint8_t> soft = use;
   const int R = 3;
   for (int r = 0; r < img.rows; ++r)
     for (int c = 0; c < img.cols; ++c) {
       const size_t i = size_t(r) * img.cols + c;
       if (!use[i]) continue;
-      const bool hollow = bone[i] < -3 * sigma[i];
-      const bool dense = fat_s[i] < -3 * gain * std::sqrt(std::max(0.f, var_s[i]));
-      if (!hollow && !dense) continue;
+      if (!(bone[i] < -3 * sigma[i]) && !in.dense[i]) continue;
       for (int dr = -R; dr <= R; ++dr)
         for (int dc = -R; dc <= R; ++dc) {
           const int rr = r + dr, cc = c + dc;
@@ -120,21 +132,6 @@ void bone_with_laser(const LaserBone& in, double sigma_px, std::vector<float>& b
                    phi_var, use.data());
   dual_energy_bone(basis.data(), thickness.data(), phi.data(), phi_var.data(), int(n), k,
                    bone.data(), sigma.data(), dv);
-}
-
-// The robust spread (1.4826 MAD) of the bone image as the detection sees it: smoothed by its
-// round kernel (which shrinks the counts' noise, not what the fat share's error paints).
-double bone_spread(const FilletImage& img, const std::vector<float>& bone,
-                   const std::vector<uint8_t>& use, double smooth_px) {
-  std::vector<float> bs;
-  masked_gaussian(bone.data(), use.data(), img.rows, img.cols, smooth_px, bs);
-  std::vector<double> x;
-  for (size_t i = 0; i < bs.size(); ++i)
-    if (use[i] && std::isfinite(bs[i])) x.push_back(bs[i]);
-  if (x.empty()) return std::numeric_limits<double>::infinity();
-  const double m = median_inplace(x.data(), x.size());
-  for (double& e : x) e = std::abs(e - m);
-  return 1.4826 * median_inplace(x.data(), x.size());
 }
 
 }  // namespace
@@ -218,12 +215,20 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
     // The fat share's smoothing trades its noise against following the fat where it varies:
     // each fillet takes the scale (the finest, twice and four times it) whose bone image, as
     // the detection smooths it, spreads least (robustly: a fragment is a few pixels of it).
-    const LaserBone in{img, basis, thickness, lengths, lsig, use, k, p};
+    // The spread is the robust one every statistic is brought to (thickness_spread.h), over
+    // the whole fillet, after the round kernel (which shrinks the counts' noise, not what the
+    // fat share's error paints).
+    const std::vector<uint8_t> dense = denser_than_lean(img, lengths, lsig, use);
+    const LaserBone in{img, basis, thickness, lengths, lsig, use, dense, k, p};
+    const ThicknessBins whole = thickness_bins(thickness.data(), use.data(), n, 1);
     double best = 0;
     for (int s = 0; s < std::max(1, p.fat_share_scales); ++s) {
-      std::vector<float> b_s, sg_s, phi_s, pv_s;
+      std::vector<float> b_s, sg_s, phi_s, pv_s, smoothed;
       bone_with_laser(in, p.fat_share_sigma_px * double(1 << s), b_s, sg_s, phi_s, pv_s);
-      const double spread = bone_spread(img, b_s, use, p.smooth_sigma_px);
+      masked_gaussian(b_s.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, smoothed);
+      const SpreadProfile sp = spread_profile(smoothed, whole, 0);
+      const double spread =
+          sp.scale.empty() ? std::numeric_limits<double>::infinity() : sp.scale[0];
       if (s > 0 && !(spread < best)) continue;
       best = spread;
       bone = std::move(b_s), sigma = std::move(sg_s), phi = std::move(phi_s);
