@@ -56,6 +56,25 @@ TEST(SandwichDetector, TheBackLayerSeesTheHarderBeam) {
   EXPECT_THROW(layer_spectra(bad), Error);
 }
 
+TEST(SandwichDetector, FourTimesTheDoseHalvesTheCountsNoise) {
+  SandwichDetector d;
+  const sim::DualEnergyRenderer nominal(d);
+  d.low_photons *= 4;
+  const sim::DualEnergyRenderer more(d);
+  sim::RayMaterials r;
+  r.lean = 20, r.fat = 3;
+  double m1[2], m4[2], v1[2], v4[2];
+  nominal.mean(r, &m1[0], &m1[1], &v1[0], &v1[1]);
+  more.mean(r, &m4[0], &m4[1], &v4[0], &v4[1]);
+  // The means do not depend on the dose; the counts' variance (less the electronics') does.
+  const double en2 = sim::DualEnergyRenderParams{}.electronic_noise *
+                     sim::DualEnergyRenderParams{}.electronic_noise;
+  for (int l = 0; l < 2; ++l) {
+    EXPECT_DOUBLE_EQ(m1[l], m4[l]);
+    EXPECT_NEAR((v4[l] - en2) / (v1[l] - en2), 0.25, 1e-12);
+  }
+}
+
 struct Calibrated {
   sim::DualEnergyRenderer detector{SandwichDetector{}};
   WedgeScan scan = sim::simulate_wedge_scan(detector, 1);

@@ -156,7 +156,9 @@ TEST(PlantConfig, DualEnergyIsReadCheckedAndRoundTrips) {
   EXPECT_EQ(single.xray.energies, 1);
   const LaneConfig dual =
       parse_plant_config(
-          "lanes: [{id: 0, xray: {energies: 2, sandwich: {kvp: 90, filter_cu_mm: 0.6}}}]\n", "t")
+          "lanes: [{id: 0, xray: {energies: 2, sandwich: {kvp: 90, filter_cu_mm: 0.6, "
+          "low_photons: 160000}}}]\n",
+          "t")
           .lane(0);
   EXPECT_EQ(dual.xray.energies, 2);
   EXPECT_EQ(dual.xray.sandwich.kvp, 90);
@@ -165,6 +167,14 @@ TEST(PlantConfig, DualEnergyIsReadCheckedAndRoundTrips) {
   const LaneConfig back = apply_lane_calibration(single, lane_calibration_yaml(dual), "t");
   EXPECT_EQ(back.xray.energies, 2);
   EXPECT_EQ(back.xray.sandwich.kvp, 90);
+  EXPECT_EQ(dual.xray.sandwich.low_photons, 160000);
+  EXPECT_EQ(back.xray.sandwich.low_photons, 160000);
+  EXPECT_NE(error_of("lanes: [{id: 0, xray: {energies: 2, sandwich: {low_photons: 0}}}]\n")
+                .find("low_photons"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, inspection: {soft_density_sigma: -0.1}}]\n")
+                .find("soft_density_sigma: must be within 0..0.5"),
+            std::string::npos);
   EXPECT_NE(
       error_of("lanes: [{id: 0, xray: {energies: 3}}]\n").find("xray.energies: must be 1 or 2"),
       std::string::npos);

@@ -431,13 +431,15 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     if (n->has("sandwich")) {
       if (c.xray.energies != 2) n->at("sandwich").bad("is for energies: 2");
       const Node d = n->at("sandwich");
-      d.only_keys({"kvp", "tube_filter_al_mm", "front_csi_mm", "filter_cu_mm", "back_csi_mm"});
+      d.only_keys({"kvp", "tube_filter_al_mm", "front_csi_mm", "filter_cu_mm", "back_csi_mm",
+                   "low_photons"});
       SandwichDetector& sd = c.xray.sandwich;
       d.get("kvp", sd.kvp);
       d.get("tube_filter_al_mm", sd.tube_filter_al_mm);
       d.get("front_csi_mm", sd.front_csi_mm);
       d.get("filter_cu_mm", sd.filter_cu_mm);
       d.get("back_csi_mm", sd.back_csi_mm);
+      d.positive("low_photons", sd.low_photons);
       try {
         layer_spectra(sd);
       } catch (const Error& e) {
@@ -497,6 +499,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
                   "air_z_threshold",
                   "min_air_area_mm2",
                   "baseline_sigma_mm",
+                  "soft_density_sigma",
                   "encoder_horizon_lines",
                   "max_wall_gap_px",
                   "line_sigma_along_px",
@@ -545,6 +548,9 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     }
     n->positive("min_air_area_mm2", q.min_air_area_mm2);
     n->positive("baseline_sigma_mm", q.baseline_sigma_mm);
+    n->get("soft_density_sigma", q.soft_density_sigma);
+    if (!(q.soft_density_sigma >= 0 && q.soft_density_sigma <= 0.5))
+      n->at("soft_density_sigma").bad("must be within 0..0.5 (a relative sigma)");
     n->positive("encoder_horizon_lines", q.encoder_horizon_lines);
     n->get("line_sigma_along_px", q.line_sigma_along_px);
     if (!(q.line_sigma_along_px >= 0 && q.line_sigma_along_px <= 20))
@@ -876,7 +882,8 @@ std::string lane_calibration_yaml(const LaneConfig& l) {
     const SandwichDetector& d = x.sandwich;
     o << "  energies: 2\n  sandwich: {kvp: " << d.kvp
       << ", tube_filter_al_mm: " << d.tube_filter_al_mm << ", front_csi_mm: " << d.front_csi_mm
-      << ", filter_cu_mm: " << d.filter_cu_mm << ", back_csi_mm: " << d.back_csi_mm << "}\n";
+      << ", filter_cu_mm: " << d.filter_cu_mm << ", back_csi_mm: " << d.back_csi_mm
+      << ", low_photons: " << d.low_photons << "}\n";
     if (x.has_dual_energy) {
       const kernel::DualEnergyK& k = x.dual_energy;
       // Every bit of the fit: read back, a pixel's decomposition is the one calibrated.

@@ -16,6 +16,10 @@ struct SandwichDetector {
   double front_csi_mm = 0.15;      // the low-energy layer
   double filter_cu_mm = 0.4;       // between the layers
   double back_csi_mm = 0.8;        // the high-energy layer
+  // The dose: photons the low layer absorbs per pixel and line from the open beam (the tube's
+  // current over a line's integration time). The simulator draws its noise from it; the
+  // pipeline measures the noise it gets from the wedge and the counts themselves.
+  double low_photons = 40000;
 };
 
 // Per 1 keV bin (centres from 15.5 keV to kVp), the photons each layer absorbs from the

@@ -6,7 +6,7 @@
 namespace rangex::sim {
 
 DualEnergyRenderer::DualEnergyRenderer(const SandwichDetector& d, DualEnergyRenderParams p)
-    : s_(layer_spectra(d)), p_(p) {
+    : s_(layer_spectra(d)), p_(p), low_photons_(d.low_photons) {
   for (size_t k = 0; k < s_.kev.size(); ++k) {
     const double e = s_.kev[k];
     norm_lo_ += s_.low[k] * e;
@@ -32,7 +32,7 @@ void DualEnergyRenderer::mean(const RayMaterials& r, double* low, double* high, 
     sig_hi += s_.high[k] * t * e, sq_hi += s_.high[k] * t * e * e;
   }
   // Photons absorbed in the open beam: N (low layer), N x high_photons_per_low (high).
-  const double n_lo = p_.low_photons, n_hi = p_.low_photons * s_.high_photons_per_low;
+  const double n_lo = low_photons_, n_hi = low_photons_ * s_.high_photons_per_low;
   *low = p_.open_beam_dn * sig_lo / norm_lo_;
   *high = p_.open_beam_dn * sig_hi / norm_hi_;
   const double en2 = p_.electronic_noise * p_.electronic_noise;

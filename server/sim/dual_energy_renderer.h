@@ -21,7 +21,6 @@ struct RayMaterials {
 
 struct DualEnergyRenderParams {
   double open_beam_dn = 3600;   // each layer's open-beam reading (gains set so)
-  double low_photons = 40000;   // photons the low layer absorbs per pixel and line, open beam
   double electronic_noise = 2;  // DN
 };
 
@@ -40,6 +39,7 @@ class DualEnergyRenderer {
  private:
   LayerSpectra s_;
   DualEnergyRenderParams p_;
+  double low_photons_ = 0;            // SandwichDetector::low_photons
   double norm_lo_ = 0, norm_hi_ = 0;  // open-beam sum of photons x keV per layer
   std::vector<std::array<double, 7>>
       mu_;  // per bin, per mm: lean fat cartilage tendon bone a150 al
