@@ -92,6 +92,21 @@ ServerOptions options(const TempDir& t) {
   return o;
 }
 
+// A fake device fills its frame when its own thread takes the trigger, which on a loaded
+// machine can be a pulse or a few early or late (the fake's timing). The offset k (nearest
+// first, within 8) of the line n + k that device d served byte for byte as `data` (size
+// bytes, and `high` as the frame's second row when given); INT_MIN when none was.
+int served_offset(const ServedLane& s, int d, int64_t n, const void* data, size_t size,
+                  const void* high = nullptr) {
+  for (int k : {0, -1, 1, -2, 2, -3, 3, -4, 4, -5, 5, -6, 6, -7, 7, -8, 8}) {
+    if (n + k < 0 || n + k >= s.lines()) continue;
+    const uint8_t* f = s.frame(d, n + k);
+    if (std::memcmp(data, f, size) == 0 && (!high || std::memcmp(high, f + size, size) == 0))
+      return k;
+  }
+  return INT_MIN;
+}
+
 // A lane's fake devices serving its recording, pulsed by its encoder.
 struct FakeLane {
   ServedLane served;
@@ -180,19 +195,11 @@ TEST(GigeIngest, TwoLanesOverGigEVisionAndModbusDecideAsAReplayAndReleaseInTime)
     const int64_t n = in.encoder - s.start();
     if (n < 0 || n >= s.lines()) return;
     ++g.in_range;
-    // A fake device fills its frame when its own thread takes the trigger, which on a loaded
-    // machine can be a pulse or a few early or late (the fake's timing). So a frame must be
-    // one of the lines served near its count, byte for byte, and the same one line after
-    // line (below).
+    // A frame must be one of the lines served near its count (served_offset), byte for
+    // byte, and at the same offset line after line (below).
     const LineBytes* parts[3] = {&in.cam0, &in.cam1, &in.xray};
     for (int d = 0; d < 3; ++d) {
-      int match = INT_MIN;
-      for (int k : {0, -1, 1, -2, 2, -3, 3, -4, 4, -5, 5, -6, 6, -7, 7, -8, 8})
-        if (n + k >= 0 && n + k < s.lines() &&
-            std::memcmp(parts[d]->data(), s.frame(d, n + k), parts[d]->size()) == 0) {
-          match = k;
-          break;
-        }
+      const int match = served_offset(s, d, n, parts[d]->data(), parts[d]->size());
       if (match == INT_MIN)
         ++g.differ;
       else
@@ -326,16 +333,9 @@ TEST(GigeIngest, ADualEnergyDetectorsTwoRowsBecomeTheLowAndHighLines) {
     const int64_t n = in.encoder - fake.served.start();
     if (n < 0 || n >= fake.served.lines() || in.xray.size() != row) return;
     ++in_range;
-    // The line served near its count (the fake's fill can run a pulse early or late under
-    // load: the two-lane test), both rows of the same frame.
-    bool found = false;
-    for (int k = -8; k <= 8 && !found; ++k) {
-      if (n + k < 0 || n + k >= fake.served.lines()) continue;
-      const uint8_t* served = fake.served.frame(2, n + k);
-      found = std::memcmp(in.xray.data(), served, row) == 0 &&
-              std::memcmp(in.xray_high.data(), served + row, row) == 0;
-    }
-    if (!found) ++differ;
+    // The line served near its count (served_offset), both rows of the same frame.
+    if (served_offset(fake.served, 2, n, in.xray.data(), row, in.xray_high.data()) == INT_MIN)
+      ++differ;
   };
   RangexServer server(p, o);
   // A bound, not a speed: 100 lines/s.
