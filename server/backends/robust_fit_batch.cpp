@@ -14,7 +14,9 @@ constexpr double kMadNormal = 0.6744897501960817;  // as robust_fit.cpp
 struct State {
   bool active = false;
   double b0 = 0, b1 = 0, scale = 0, dev_prev = 0;
-  std::vector<double> w;  // the weights of the last fit, per used pixel
+  double prev[3] = {0, 0, 0};                // the line before this iteration's
+  double t_lo = HUGE_VAL, t_hi = -HUGE_VAL;  // the used pixels' thickness range
+  std::vector<double> w;                     // the weights of the last fit, per used pixel
 };
 
 // The weighted line from one fillet's sums (raw moments; centred here).
@@ -88,6 +90,8 @@ std::vector<BatchFit> fit_tukey_lines(Backend& backend, const FilletBatch& batch
       if (b.use[i]) {
         ++n;
         finite &= std::isfinite(b.thickness[i]) && b.xray[i] > 0;
+        st[f].t_lo = std::min(st[f].t_lo, double(b.thickness[i]));
+        st[f].t_hi = std::max(st[f].t_hi, double(b.thickness[i]));
       }
     out[f].fit.n = n;
     st[f].active = true;
@@ -142,6 +146,7 @@ std::vector<BatchFit> fit_tukey_lines(Backend& backend, const FilletBatch& batch
         const double z = r_prev[i] / st[f].scale / o.c;
         st[f].w.push_back(std::abs(z) <= 1 ? (1 - z * z) * (1 - z * z) : 0.0);
       }
+      st[f].prev[0] = st[f].b0, st[f].prev[1] = st[f].b1;
       if (!line_from(&sums[size_t(f) * IRLS_SUMS], st[f].b0, st[f].b1)) {
         fail_fit(f,
                  "robust fit: every point but those at one thickness was rejected as an "
@@ -162,7 +167,10 @@ std::vector<BatchFit> fit_tukey_lines(Backend& backend, const FilletBatch& batch
       const double dev = deviance(r.data(), b.use, from, to, &s.w, o.c);
       ++fit.iterations;
       const double allowed = o.relative_tol ? o.tol * std::max(1.0, std::abs(dev)) : o.tol;
-      const bool settled = std::abs(dev - s.dev_prev) <= allowed;
+      const double cur[3] = {s.b0, s.b1, 0};
+      const bool settled = std::abs(dev - s.dev_prev) <= allowed ||
+                           (o.relative_tol && o.settled_move > 0 &&
+                            fit_move(s.prev, cur, s.t_lo, s.t_hi) <= o.settled_move * s.scale);
       s.dev_prev = dev;
       if (settled) {
         fit.converged = true;

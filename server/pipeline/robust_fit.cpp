@@ -154,6 +154,15 @@ bool weighted_poly(const double* x, const double* y, const double* w, size_t n, 
 
 }  // namespace
 
+double fit_move(const double prev[3], const double cur[3], double lo, double hi) {
+  double most = 0;
+  for (const double t : {lo, 0.5 * (lo + hi), hi}) {
+    const double d = (cur[0] - prev[0]) + t * ((cur[1] - prev[1]) + t * (cur[2] - prev[2]));
+    most = std::max(most, std::abs(d));
+  }
+  return most;
+}
+
 RobustFit fit_tukey_line(const double* x, const double* y, size_t n, const RobustFitOptions& o) {
   return fit_tukey_poly(x, y, n, 1, o);
 }
@@ -212,6 +221,7 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
     return d;
   };
 
+  const auto [x_lo, x_hi] = std::minmax_element(x, x + n);
   residuals(nullptr);
   RobustFit f;
   f.n = n;
@@ -227,6 +237,7 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
       const double z = r[i] / f.scale / o.c;
       w[i] = std::abs(z) <= 1 ? (1 - z * z) * (1 - z * z) : 0.0;
     }
+    const Poly prev = line;
     if (!weighted_poly(x, y, w.data(), n, ctr, line))
       fail("robust fit: every point but those at ",
            degree == 1 ? "one thickness" : "two thicknesses", " was rejected as an outlier (", n,
@@ -236,7 +247,9 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
     const double dev = deviance();
     ++f.iterations;
     const double allowed = o.relative_tol ? o.tol * std::max(1.0, std::abs(dev)) : o.tol;
-    const bool settled = std::abs(dev - dev_prev) <= allowed;
+    const bool settled = std::abs(dev - dev_prev) <= allowed ||
+                         (o.relative_tol && o.settled_move > 0 &&
+                          fit_move(prev.b, line.b, *x_lo, *x_hi) <= o.settled_move * f.scale);
     dev_prev = dev;
     if (settled) {
       f.converged = true;
