@@ -1,11 +1,12 @@
 // eval-matrix --dual-energy: each plant variant's lane with a sandwich detector, inspected
-// in one run four ways on the same fillets (docs/dual-energy.md):
+// in one run five ways on the same fillets (docs/dual-energy.md):
 // - one energy, as rangex did (the low line with the laser's thickness);
 // - dual energy without the laser (a two-material decomposition: a dual-energy machine
 //   alone);
 // - dual energy with the laser (lean, fat and bone);
+// - dual energy with the laser and one energy together (their z images summed);
 // - the X-ray-only baseline (the low line).
-// Each of the first three learns its thresholds from the variant's own clean fillets (the
+// Each of the first four learns its thresholds from the variant's own clean fillets (the
 // same ones) and is checked on the same recording and the same clean run; the baseline runs
 // with its fixed thresholds. The lane is calibrated from its own scenes, its dual-energy
 // calibration from its own step-wedge scan.
@@ -29,10 +30,11 @@ namespace rangex::cli {
 
 namespace {
 
-constexpr int kMethods = 3;
-const char* const kMethodKeys[kMethods] = {"low_line", "no_laser", "laser"};
+constexpr int kMethods = 4;
+const char* const kMethodKeys[kMethods] = {"low_line", "no_laser", "laser", "laser_and_low_line"};
 const char* const kMethodNames[kMethods] = {"one energy + laser", "dual energy, no laser",
-                                            "dual energy + laser"};
+                                            "dual energy + laser", "dual + one energy, laser"};
+constexpr int kLaser = 2;  // the method: its misses are listed
 
 struct MethodRun {
   DetectionEval eval;
@@ -123,7 +125,7 @@ Row run_variant(const fs::path& file, const fs::path& dir, const fs::path& confi
     const fs::path od = dir / ("out_" + key) / lane_dir;
     add_lane(m.eval, vt.fragments, vt.fillets, read_records(od.string(), ""), &vt.edges);
     finish(m.eval);
-    if (k == kMethods - 1) {
+    if (k == kLaser) {
       add_lane(r.base, vt.fragments, vt.fillets, read_records(od.string(), "baseline_"), &vt.edges);
       finish(r.base);
     }
@@ -159,7 +161,7 @@ std::string method_line(const std::string& variant, const std::string& method,
   calcified_2mm(e, k, n);
   for (int s = 1; s < kSizeBins; ++s) wk += e.found[s][0], wn += e.total[s][0];
   char b[640];
-  std::snprintf(b, sizeof b, "%-14s %-22s | %-26s | %-24s | %7s | %-24s | %6.3f | %-24s %6s\n",
+  std::snprintf(b, sizeof b, "%-14s %-24s | %-26s | %-24s | %7s | %-24s | %6.3f | %-24s %6s\n",
                 variant.c_str(), method.c_str(), pct(k, n).c_str(), pct(wk, wn).c_str(),
                 shape_recall(e, "needle").c_str(), pct(e.clean_rejected, e.clean_fillets).c_str(),
                 e.fillets ? double(e.false_fragments) / e.fillets : 0.0,
@@ -173,7 +175,7 @@ std::string size_line(const std::string& variant, const std::string& method,
   std::string out = variant;
   out.resize(std::max<size_t>(15, out.size() + 1), ' ');
   std::string mm = method;
-  mm.resize(22, ' ');
+  mm.resize(24, ' ');
   out += mm + " |";
   for (int c = 1; c >= 0; --c)
     for (int s = 0; s < kSizeBins; ++s) {
@@ -195,7 +197,7 @@ std::string report(const std::vector<Row>& rows, const DualEnergyMatrixOptions& 
         "f.rej: the recording's clean fillets rejected; f.det/f: detections matching no bone "
         "per fillet\n\n";
   char h[640];
-  std::snprintf(h, sizeof h, "%-14s %-22s | %-26s | %-24s | %7s | %-24s | %6s | %-24s %6s\n",
+  std::snprintf(h, sizeof h, "%-14s %-24s | %-26s | %-24s | %7s | %-24s | %6s | %-24s %6s\n",
                 "variant", "method", "recall >= 2 mm", "weak >= 2 mm", "needle", "f.rej", "f.det/f",
                 "clean run: f.rej", "learn");
   for (int held = 0; held < 2; ++held) {
@@ -242,7 +244,8 @@ std::string report(const std::vector<Row>& rows, const DualEnergyMatrixOptions& 
   }
   os << "\nwhere dual energy with the laser missed calcified fragments >= 2 mm:\n";
   for (const Row& r : rows)
-    os << r.name << ": " << missed_summary(r.m[2].eval) << "\n" << missed_lines(r.m[2].eval);
+    os << r.name << ": " << missed_summary(r.m[kLaser].eval) << "\n"
+       << missed_lines(r.m[kLaser].eval);
   return os.str();
 }
 
@@ -260,7 +263,7 @@ int run_dual_energy_matrix(const std::vector<fs::path>& files, const fs::path& o
   std::vector<Row> rows;
   std::string text;
   for (size_t k = 0; k < files.size(); ++k) {
-    std::printf("[%zu/%zu] %s: calibrating, simulating, learning and inspecting 3 ways ...\n",
+    std::printf("[%zu/%zu] %s: calibrating, simulating, learning and inspecting 5 ways ...\n",
                 k + 1, files.size(), files[k].stem().c_str());
     std::fflush(stdout);
     rows.push_back(run_variant(files[k], out / files[k].stem(), out, plant, mo));

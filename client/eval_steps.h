@@ -55,7 +55,8 @@ struct DualEnergyMatrixOptions {
 };
 
 // eval-matrix --dual-energy (client/eval_dual_energy.cpp): the variants in `files`, each
-// inspected by one energy, dual energy without and with the laser, and X-ray only.
+// inspected by one energy, dual energy without and with the laser, both with the laser, and
+// X-ray only.
 int run_dual_energy_matrix(const std::vector<std::filesystem::path>& files,
                            const std::filesystem::path& out, const std::string& config,
                            const PlantConfig& plant, const DualEnergyMatrixOptions& mo);

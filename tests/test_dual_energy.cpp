@@ -527,6 +527,51 @@ TEST(DualEnergyInspection, EachFilletChoosesTheFatShareScaleThatSpreadsLeast) {
   EXPECT_LT(chosen.fragments[0].bone_mg, 1.15 * d.bone_mg);
 }
 
+// laser_and_low_line: the laser's bone image and the low line's one-energy z, each at unit
+// spread under the round kernel, summed. It finds the fragment both see, passes
+// the clean fillet's cartilage, air and fat, reads the fragment's mass from the bone image,
+// and fails safe when the low line's fit cannot be made.
+TEST(DualEnergyInspection, LaserAndLowLineSumsWhatBothSee) {
+  InspectionParams p;
+  const DualFillet d = dual_fillet(3, true);
+  auto peak = [&](DualEnergyMethod m) {
+    p.dual_energy = m;
+    const FilletResult r = inspect_fillet(d.img, p, false);
+    double z = 0;
+    for (const Blob& b : r.fragments) z = std::max(z, -b.peak_z);
+    return std::pair{r, z};
+  };
+  const auto [laser, z_laser] = peak(DualEnergyMethod::kLaser);
+  const auto [low, z_low] = peak(DualEnergyMethod::kLowLine);
+  const auto [both, z_both] = peak(DualEnergyMethod::kLaserAndLowLine);
+  std::printf("fragment's peak z: laser %.1f, low line %.1f, both %.1f\n", z_laser, z_low, z_both);
+  EXPECT_TRUE(both.dual_energy);
+  ASSERT_EQ(both.decision, Decision::kReject) << both.reason;
+  ASSERT_EQ(both.fragments.size(), 1u);
+  const Blob& b = both.fragments[0];
+  EXPECT_NEAR(b.row0 + 0.5 * (b.row1 - b.row0), d.bone_r, 3);
+  EXPECT_NEAR(b.col0 + 0.5 * (b.col1 - b.col0), d.bone_c, 3);
+  EXPECT_GT(b.bone_mg, 0.6 * d.bone_mg);
+  EXPECT_LT(b.bone_mg, 1.15 * d.bone_mg);
+  // The sum stands out further than the weaker image and nearly as far as the stronger
+  // (the two images' noise is partly the same: the low line's counts).
+  EXPECT_GT(z_both, std::min(z_laser, z_low));
+  EXPECT_GT(z_both, 0.9 * std::max(z_laser, z_low));
+  EXPECT_GT(std::abs(z_both - z_low), 0.01 * z_low);  // neither image alone
+  EXPECT_GT(std::abs(z_both - z_laser), 0.01 * z_laser);
+  const FilletResult clean = inspect_fillet(dual_fillet(4, false).img, p, false);
+  EXPECT_EQ(clean.decision, Decision::kPass) << clean.reason;
+  // The low line's fit cannot settle in one iteration: not inspected, though the bone image
+  // alone could be read.
+  p.max_iter = 1;
+  const FilletResult unfit = inspect_fillet(d.img, p, false);
+  EXPECT_EQ(unfit.decision, Decision::kNotInspected);
+  EXPECT_NE(unfit.reason.find("dual energy with the low line: robust fit"), std::string::npos)
+      << unfit.reason;
+  p.dual_energy = DualEnergyMethod::kLaser;
+  EXPECT_EQ(inspect_fillet(d.img, p, false).decision, Decision::kReject);
+}
+
 TEST(DualEnergyInspection, EachMethodRunsAndFailsSafe) {
   InspectionParams p;
   DualFillet d = dual_fillet(3, true);

@@ -221,14 +221,20 @@ TEST(PlantConfig, DualEnergyIsReadCheckedAndRoundTrips) {
   }() + "lanes: [{id: 0}]\n";
   EXPECT_NE(error_of(bad_gain).find("dual_energy.gain_low: must be > 0"), std::string::npos)
       << error_of(bad_gain);
-  // How a lane inspects: laser (the default), no_laser, low_line; nothing else.
+  // How a lane inspects: laser (the default), no_laser, low_line, laser_and_low_line;
+  // nothing else.
   EXPECT_EQ(single.inspection.dual_energy, DualEnergyMethod::kLaser);
   EXPECT_EQ(parse_plant_config("lanes: [{id: 0, inspection: {dual_energy: no_laser}}]\n", "t")
                 .lane(0)
                 .inspection.dual_energy,
             DualEnergyMethod::kNoLaser);
+  EXPECT_EQ(
+      parse_plant_config("lanes: [{id: 0, inspection: {dual_energy: laser_and_low_line}}]\n", "t")
+          .lane(0)
+          .inspection.dual_energy,
+      DualEnergyMethod::kLaserAndLowLine);
   EXPECT_NE(error_of("lanes: [{id: 0, inspection: {dual_energy: both}}]\n")
-                .find("'both': expected laser, no_laser or low_line"),
+                .find("'both': expected laser, no_laser, low_line or laser_and_low_line"),
             std::string::npos);
 }
 

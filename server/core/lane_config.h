@@ -34,8 +34,10 @@ struct FusionParams {
 // How a dual-energy lane with its calibration inspects (docs/dual-energy.md): the bone
 // length from both lines and the laser's thickness (laser); from both lines alone, as a
 // dual-energy machine does without a thickness (no_laser: a comparison); or its low line as
-// a lane of one energy (low_line).
-enum class DualEnergyMethod { kLaser, kNoLaser, kLowLine };
+// a lane of one energy (low_line); or the laser's bone image and the low line's one-energy
+// z together (laser_and_low_line: each at unit spread under the detection's round kernel,
+// summed, so that what shows in both shows more than the clutter of either).
+enum class DualEnergyMethod { kLaser, kNoLaser, kLowLine, kLaserAndLowLine };
 
 // Fillet assembly, compensation and detection (Laser Range Imaging ch. 7).
 struct InspectionParams {

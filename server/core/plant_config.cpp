@@ -543,8 +543,11 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
         q.dual_energy = DualEnergyMethod::kNoLaser;
       else if (m == "low_line")
         q.dual_energy = DualEnergyMethod::kLowLine;
+      else if (m == "laser_and_low_line")
+        q.dual_energy = DualEnergyMethod::kLaserAndLowLine;
       else
-        n->at("dual_energy").bad("'" + m + "': expected laser, no_laser or low_line");
+        n->at("dual_energy")
+            .bad("'" + m + "': expected laser, no_laser, low_line or laser_and_low_line");
     }
     n->positive("min_air_area_mm2", q.min_air_area_mm2);
     n->positive("baseline_sigma_mm", q.baseline_sigma_mm);

@@ -134,6 +134,27 @@ void bone_with_laser(const LaserBone& in, double sigma_px, std::vector<float>& b
                    bone.data(), sigma.data(), dv);
 }
 
+// laser_and_low_line: z <- z / s + z1 / s1 where both are usable, s and s1 each z's robust
+// spread over the fillet under the detection's round kernel (the counts' noise and the
+// meat's clutter at the scale a fragment is seen at), z1 the low line's one-energy z. The
+// detection brings the sum to unit spread again; a fragment that stands out in both
+// stands out further, as far as the two images' clutter is not the same.
+void add_one_energy(const FilletImage& img, const InspectionParams& p, const OneEnergyModel& one,
+                    std::vector<uint8_t>& use, std::vector<float>& z) {
+  const size_t n = img.size();
+  for (size_t i = 0; i < n; ++i) use[i] = use[i] && one.use[i] && std::isfinite(one.z[i]);
+  const ThicknessBins whole = thickness_bins(img.thickness.data(), use.data(), n, 1);
+  auto spread = [&](const std::vector<float>& v) {
+    std::vector<float> smoothed;
+    masked_gaussian(v.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, smoothed);
+    const SpreadProfile sp = spread_profile(smoothed, whole, 0);
+    return sp.scale.empty() ? 0.0 : sp.scale[0];
+  };
+  const double s = spread(z), s1 = spread(one.z);
+  if (!(s > 0 && s1 > 0)) return;  // too few pixels: the detection's own checks decide
+  for (size_t i = 0; i < n; ++i) z[i] = use[i] ? float(z[i] / s + one.z[i] / s1) : kNaN;
+}
+
 }  // namespace
 
 bool dual_energy_slopes(const FilletImage& img, size_t i, double lean[2], double bone[2]) {
@@ -251,6 +272,17 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
     res.reason = "dual energy: " + std::to_string(outside) + " of the fillet's " +
                  std::to_string(count + outside) + " pixels lie outside what the wedge calibrated";
     return res;
+  }
+  if (p.dual_energy == DualEnergyMethod::kLaserAndLowLine) {
+    FilletResult low;
+    OneEnergyModel one;
+    start_inspection(img, p, low);
+    if (!one_energy_model(img, p, low, one)) {
+      res.reason = "dual energy with the low line: " + low.reason;
+      return res;
+    }
+    for (int s = 0; s < kStages; ++s) res.stage_seconds[s] += low.stage_seconds[s];
+    add_one_energy(img, p, one, use, z);
   }
   // The residual statistics in the bone image's terms (mm of bone-equivalent).
   res.pixels = count;

@@ -222,13 +222,14 @@ void band_extremes(const FilletImage& img, const std::vector<uint8_t>& use,
   }
 }
 
-// Everything after the model of ln I: noise model, z, detection, decision, statistics.
-void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
-                       const std::vector<float>& predicted_ln, const RobustFit* fit,
-                       const InspectionParams& p, bool keep, FilletResult& res) {
+// From the model of ln I to z: the residual, the noise model (into res) and z, with the
+// prediction P (DN) per pixel.
+void one_energy_z(const FilletImage& img, const std::vector<uint8_t>& use,
+                  const std::vector<float>& predicted_ln, FilletResult& res, std::vector<float>& z,
+                  std::vector<float>& resid, std::vector<float>& pred) {
   StageLap lap(res);
   const size_t n = img.size();
-  std::vector<float> pred(n, kNaN), resid(n, kNaN);
+  pred.assign(n, kNaN), resid.assign(n, kNaN);
   double sum = 0, sum2 = 0;
   int count = 0;
   for (size_t i = 0; i < n; ++i) {
@@ -264,10 +265,18 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
       grad2[i] = float(gx * gx + gy * gy);
     }
   res.noise.c = estimate_gradient_term(res.noise, pred.data(), resid.data(), grad2.data(), n);
-  std::vector<float> z(n, kNaN);
+  z.assign(n, kNaN);
   for (size_t i = 0; i < n; ++i)
     if (use[i]) z[i] = float(resid[i] / res.noise.sigma_ln(pred[i], grad2[i]));
   lap(kStageNoise);
+}
+
+// Everything after the model of ln I: noise model, z, detection, decision, statistics.
+void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
+                       const std::vector<float>& predicted_ln, const RobustFit* fit,
+                       const InspectionParams& p, bool keep, FilletResult& res) {
+  std::vector<float> z, resid, pred;
+  one_energy_z(img, use, predicted_ln, res, z, resid, pred);
   detect_from_z(img, use, z, resid, fit, p, keep, res);
   if (keep) res.pseudo = std::move(pred);
 }
@@ -357,11 +366,8 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   }
 }
 
-FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, bool keep) {
-  if (!raw.xray_high.empty() && raw.has_dual_energy && p.dual_energy != DualEnergyMethod::kLowLine)
-    return inspect_fillet_dual_energy(raw, p, keep);
-  FilletResult res;
-  if (!start_inspection(raw, p, res)) return res;
+bool one_energy_model(const FilletImage& raw, const InspectionParams& p, FilletResult& res,
+                      OneEnergyModel& m) {
   // The fit of ln I against the thickness, over the usable pixels of `img`: the parabola
   // of a hardened beam (degree 2) where the fillet's thicknesses determine one, else the
   // line. A fillet of nearly one thickness (a plateau and its wall) leaves the parabola
@@ -402,20 +408,20 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
     return true;
   };
   StageLap lap(res);
-  std::vector<uint8_t> use;
+  std::vector<uint8_t>& use = m.use;
   // Before a detector match the fit only gives the meat's attenuation: the line will do.
-  if (!fit(raw, use, raw.matches_detector() ? 1 : p.attenuation_degree)) return res;
+  if (!fit(raw, use, raw.matches_detector() ? 1 : p.attenuation_degree)) return false;
   lap(kStageFit);
   // With the lane's detector known, the thickness is made what the detector would see
   // (the meat's attenuation from this first fit), and fitted again.
-  FilletImage matched;
+  m.matched = raw.matches_detector();
   const FilletImage* img = &raw;
-  if (raw.matches_detector()) {
-    matched = raw;
-    match_detector(matched, std::clamp(-res.fit.beta1, 0.005, 0.3));
-    img = &matched;
+  if (m.matched) {
+    m.matched_image = raw;
+    match_detector(m.matched_image, std::clamp(-res.fit.beta1, 0.005, 0.3));
+    img = &m.matched_image;
     lap(kStageMatch);
-    if (!fit(matched, use, p.attenuation_degree)) return res;
+    if (!fit(m.matched_image, use, p.attenuation_degree)) return false;
     lap(kStageFit);
   }
   std::vector<float> predicted(img->size(), kNaN);
@@ -424,7 +430,19 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
       const double t = img->thickness[i];
       predicted[i] = float(res.fit.beta0 + t * (res.fit.beta1 + res.fit.beta2 * t));
     }
-  detect_and_decide(*img, use, predicted, &res.fit, p, keep, res);
+  one_energy_z(*img, use, predicted, res, m.z, m.resid, m.pred);
+  return true;
+}
+
+FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, bool keep) {
+  if (!raw.xray_high.empty() && raw.has_dual_energy && p.dual_energy != DualEnergyMethod::kLowLine)
+    return inspect_fillet_dual_energy(raw, p, keep);
+  FilletResult res;
+  if (!start_inspection(raw, p, res)) return res;
+  OneEnergyModel m;
+  if (!one_energy_model(raw, p, res, m)) return res;
+  detect_from_z(m.image(raw), m.use, m.z, m.resid, &res.fit, p, keep, res);
+  if (keep) res.pseudo = std::move(m.pred);
   return res;
 }
 

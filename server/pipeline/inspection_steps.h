@@ -23,6 +23,21 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
                    const std::vector<float>& z, std::vector<float>& resid, const RobustFit* fit,
                    const InspectionParams& p, bool keep, FilletResult& res);
 
+// One energy's model of a fillet: the fit of ln I against the thickness (as the detector
+// sees it, where the lane's detector is measured), the noise model, and z on the usable
+// pixels.
+struct OneEnergyModel {
+  bool matched = false;  // the thickness was matched to the detector: matched_image
+  FilletImage matched_image;
+  std::vector<uint8_t> use;
+  std::vector<float> z, resid, pred;  // resid: ln I - ln P; pred: P (DN)
+  // The image the model was made on.
+  const FilletImage& image(const FilletImage& raw) const { return matched ? matched_image : raw; }
+};
+// Into res: the fit and the noise model; false (with res.reason) when the fit fails.
+bool one_energy_model(const FilletImage& raw, const InspectionParams& p, FilletResult& res,
+                      OneEnergyModel& m);
+
 // Dual energy (pipeline/dual_energy_inspection.cpp).
 FilletResult inspect_fillet_dual_energy(const FilletImage& img, const InspectionParams& p,
                                         bool keep);
