@@ -134,6 +134,17 @@ void bone_with_laser(const LaserBone& in, double sigma_px, std::vector<float>& b
                    bone.data(), sigma.data(), dv);
 }
 
+// v's robust spread over the fillet (`whole`: one bin) under the detection's round kernel;
+// infinity when too few pixels.
+double round_spread(const FilletImage& img, const std::vector<float>& v,
+                    const std::vector<uint8_t>& use, const ThicknessBins& whole,
+                    const InspectionParams& p) {
+  std::vector<float> smoothed;
+  masked_gaussian(v.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, smoothed);
+  const SpreadProfile sp = spread_profile(smoothed, whole, 0);
+  return sp.scale.empty() ? std::numeric_limits<double>::infinity() : sp.scale[0];
+}
+
 // laser_and_low_line: z <- z / s + z1 / s1 where both are usable, s and s1 each z's robust
 // spread over the fillet under the detection's round kernel (the counts' noise and the
 // meat's clutter at the scale a fragment is seen at), z1 the low line's one-energy z. The
@@ -144,14 +155,10 @@ void add_one_energy(const FilletImage& img, const InspectionParams& p, const One
   const size_t n = img.size();
   for (size_t i = 0; i < n; ++i) use[i] = use[i] && one.use[i] && std::isfinite(one.z[i]);
   const ThicknessBins whole = thickness_bins(img.thickness.data(), use.data(), n, 1);
-  auto spread = [&](const std::vector<float>& v) {
-    std::vector<float> smoothed;
-    masked_gaussian(v.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, smoothed);
-    const SpreadProfile sp = spread_profile(smoothed, whole, 0);
-    return sp.scale.empty() ? 0.0 : sp.scale[0];
-  };
-  const double s = spread(z), s1 = spread(one.z);
-  if (!(s > 0 && s1 > 0)) return;  // too few pixels: the detection's own checks decide
+  const double s = round_spread(img, z, use, whole, p),
+               s1 = round_spread(img, one.z, use, whole, p);
+  // Too few pixels: the detection's own checks decide.
+  if (!(s > 0 && s1 > 0 && std::isfinite(s) && std::isfinite(s1))) return;
   for (size_t i = 0; i < n; ++i) z[i] = use[i] ? float(z[i] / s + one.z[i] / s1) : kNaN;
 }
 
@@ -244,12 +251,9 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
     const ThicknessBins whole = thickness_bins(thickness.data(), use.data(), n, 1);
     double best = 0;
     for (int s = 0; s < std::max(1, p.fat_share_scales); ++s) {
-      std::vector<float> b_s, sg_s, phi_s, pv_s, smoothed;
+      std::vector<float> b_s, sg_s, phi_s, pv_s;
       bone_with_laser(in, p.fat_share_sigma_px * double(1 << s), b_s, sg_s, phi_s, pv_s);
-      masked_gaussian(b_s.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, smoothed);
-      const SpreadProfile sp = spread_profile(smoothed, whole, 0);
-      const double spread =
-          sp.scale.empty() ? std::numeric_limits<double>::infinity() : sp.scale[0];
+      const double spread = round_spread(img, b_s, use, whole, p);
       if (s > 0 && !(spread < best)) continue;
       best = spread;
       bone = std::move(b_s), sigma = std::move(sg_s), phi = std::move(phi_s);
@@ -274,9 +278,8 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
     return res;
   }
   if (p.dual_energy == DualEnergyMethod::kLaserAndLowLine) {
-    FilletResult low;
+    FilletResult low;  // the low line's fit, noise model and times (the checks passed above)
     OneEnergyModel one;
-    start_inspection(img, p, low);
     if (!one_energy_model(img, p, low, one)) {
       res.reason = "dual energy with the low line: " + low.reason;
       return res;
