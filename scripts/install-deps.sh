@@ -15,6 +15,7 @@ packages=(
   python3-statsmodels python3-grpcio python3-protobuf
   chromium chromium-driver python3-selenium python3-prometheus-client
   libaravis-dev libusb-1.0-0-dev aravis-tools iproute2 libmodbus-dev
+  libpq-dev postgresql-15
 )
 
 missing=()

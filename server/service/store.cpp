@@ -130,6 +130,25 @@ Store::Store(const std::string& dir) : dir_(dir) {
   for (const char* c : {"row0", "row1", "col0", "col1"})
     add_column("fragments", c, "INTEGER DEFAULT 0");
   exec("CREATE TABLE IF NOT EXISTS audit (ts_ns INTEGER, who TEXT, what TEXT, detail TEXT)");
+  // Every image reference in the order it was stored, under a key never reused (the images
+  // table's rowids are, once its last rows are pruned): what the forwarder follows. A store
+  // made before it has its images logged once, in their order.
+  bool had_log = false;
+  {
+    Stmt t(db_, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'image_log'");
+    had_log = t.step();
+  }
+  exec(
+      "CREATE TABLE IF NOT EXISTS image_log (seq INTEGER PRIMARY KEY AUTOINCREMENT, fillet_uid "
+      "INTEGER, kind TEXT)");
+  if (!had_log)
+    exec(
+        "INSERT INTO image_log (fillet_uid, kind) SELECT fillet_uid, kind FROM images ORDER BY "
+        "rowid");
+  // What the plant-wide database holds of this store (one row; store_forward.cpp).
+  exec(
+      "CREATE TABLE IF NOT EXISTS forward_state (id INTEGER PRIMARY KEY CHECK (id = 1), seq "
+      "INTEGER, image_seq INTEGER, calibration_row INTEGER, learned_row INTEGER)");
   // The hash chain over fillets and audit entries (service/record_chain.h).
   exec(
       "CREATE TABLE IF NOT EXISTS ledger (seq INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT, "
@@ -286,9 +305,19 @@ std::string Store::image_dir(int64_t uid) const {
 
 void Store::add_image(int64_t uid, const std::string& kind, const std::string& path) {
   std::lock_guard<std::mutex> lock(mu_);
-  Stmt q(db_, "INSERT OR REPLACE INTO images VALUES (?,?,?)");
-  q.bind(1, uid).bind(2, kind).bind(3, path);
-  q.step();
+  exec("BEGIN");
+  try {
+    Stmt q(db_, "INSERT OR REPLACE INTO images VALUES (?,?,?)");
+    q.bind(1, uid).bind(2, kind).bind(3, path);
+    q.step();
+    Stmt l(db_, "INSERT INTO image_log (fillet_uid, kind) VALUES (?,?)");
+    l.bind(1, uid).bind(2, kind);
+    l.step();
+    exec("COMMIT");
+  } catch (...) {
+    rollback();
+    throw;
+  }
 }
 
 std::optional<std::string> Store::image_path(int64_t uid, const std::string& kind) {

@@ -2,6 +2,7 @@
 // image files, calibration versions and an audit log of every control-plane change. Images
 // live as PNG files beside the database; the database holds their paths.
 #pragma once
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -9,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "service/forward_batch.h"
 #include "service/stored_records.h"
 
 struct sqlite3;
@@ -131,6 +133,18 @@ class Store {
   // At most max_rows images and max_rows links per call.
   PruneReport prune(int64_t records_before_ns, int64_t images_before_ns, int max_rows = 5000);
 
+  // Forwarding to the plant-wide database (store_forward.cpp). The records after `after`,
+  // at most `limit` links (images and settings as many), with every active setting when
+  // `with_active`.
+  ForwardBatch forward_batch(const ForwardCursor& after, int limit, bool with_active);
+  // The chain link's hash at `seq` (nullopt: not in the store, or pruned).
+  std::optional<std::string> link_hash(int64_t seq);
+  // What the plant-wide database holds, kept here too: while forwarding is on, retention
+  // prunes nothing after it (hold_unforwarded).
+  void set_forwarded(const ForwardCursor& c);
+  ForwardCursor forwarded();
+  void hold_unforwarded(bool on) { hold_unforwarded_ = on; }
+
   std::string chain_head() {
     std::lock_guard<std::mutex> lock(mu_);
     return head_;
@@ -149,6 +163,7 @@ class Store {
   void chain_existing();
   std::string append_link(const char* kind, int64_t ref, int64_t ts_ns, const std::string& content,
                           const std::string& prev);
+  ForwardCursor forwarded_locked();       // mu_ held
   StoredFillet read_fillet(int64_t uid);  // with its fragments in stored order; mu_ held
   // An audit entry and its link, inside the caller's transaction (mu_ held); the new head.
   std::string append_audit(const AuditEntry& e, const std::string& prev);
@@ -157,6 +172,7 @@ class Store {
   sqlite3* db_ = nullptr;
   std::mutex mu_;
   std::string head_;  // the chain's last hash
+  std::atomic<bool> hold_unforwarded_{false};
 };
 
 int64_t now_ns();

@@ -45,6 +45,22 @@ PruneReport Store::prune(int64_t records_before_ns, int64_t images_before_ns, in
     std::lock_guard<std::mutex> lock(mu_);
     exec("BEGIN");
     try {
+      // While forwarding is on, nothing the plant-wide database lacks is pruned: the cutoffs
+      // stop at the first record it does not hold (a link, or an image of a fillet).
+      if (hold_unforwarded_) {
+        const ForwardCursor done = forwarded_locked();
+        Stmt l(db_, "SELECT ts_ns FROM ledger WHERE seq > ? ORDER BY seq LIMIT 1");
+        l.bind(1, done.seq);
+        if (l.step()) records_before_ns = std::min(records_before_ns, l.i64(0));
+        Stmt i(db_,
+               "SELECT f.decided_ns FROM image_log l JOIN fillets f ON f.uid = l.fillet_uid "
+               "WHERE l.seq > ? ORDER BY l.seq LIMIT 1");
+        i.bind(1, done.image_seq);
+        if (i.step()) {
+          records_before_ns = std::min(records_before_ns, i.i64(0));
+          images_before_ns = std::min(images_before_ns, i.i64(0));
+        }
+      }
       rep.images = prune_images(std::max(images_before_ns, records_before_ns), max_rows, files);
       rep.more = rep.images == max_rows;
       // The prefix of the chain stamped before the cutoff: it ends at the first link inside
@@ -74,6 +90,7 @@ PruneReport Store::prune(int64_t records_before_ns, int64_t images_before_ns, in
           p.bind(1, l.ref);
           while (p.step()) files.push_back(p.str(0));
           for (const char* sql : {"DELETE FROM images WHERE fillet_uid = ?",
+                                  "DELETE FROM image_log WHERE fillet_uid = ?",
                                   "DELETE FROM fragments WHERE fillet_uid = ?",
                                   "DELETE FROM fillets WHERE uid = ?"}) {
             Stmt d(db_, sql);

@@ -1,0 +1,81 @@
+// Store and forward: everything a rangexd stores (decisions with their fragments, audit
+// entries with their chain links, image references, calibration and learned-settings
+// versions) goes on to the plant-wide PostgreSQL once it is durable locally. Exactly once:
+// each batch is one transaction of writes keyed by the server and its local keys, with the
+// cursor that says how far the database holds; after an outage, a cut or a crash it resumes
+// from that cursor. Inspection never waits for it. docs/plant-wide.md.
+#pragma once
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+
+#include "service/forward_batch.h"
+
+namespace rangex {
+
+class PgConnection;
+class Store;
+
+struct ForwarderOptions {
+  std::string conninfo;    // plant.results_db
+  std::string server_id;   // plant.server_id
+  std::string host, http;  // where this server runs and serves its dashboard (for the fleet)
+  int batch_links = 500;
+  double idle_s = 0.25;     // how often a caught-up forwarder looks for new records
+  double retry_max_s = 30;  // backoff after a failure: 1 s, doubling, up to this
+  int connect_timeout_s = 5;
+  double heartbeat_s = 5;  // how often a caught-up forwarder says it is alive
+};
+
+struct ForwarderStatus {
+  bool connected = false;
+  std::string state;       // forwarding | caught up | unreachable | refused
+  std::string last_error;  // the last failure ("" once forwarding again)
+  int64_t head_seq = 0, forwarded_seq = 0;
+  int64_t lag_records = 0;  // chain links stored here and not yet in the database
+  double lag_seconds = 0;   // age of the oldest of them
+  int64_t batches = 0, links = 0, images = 0, settings = 0;  // forwarded by this process
+  int64_t failures = 0;
+};
+
+class Forwarder {
+ public:
+  Forwarder(Store& store, ForwarderOptions opt);
+  ~Forwarder();  // stops
+  Forwarder(const Forwarder&) = delete;
+  Forwarder& operator=(const Forwarder&) = delete;
+
+  void start();
+  void stop();
+  ForwarderStatus status() const;
+  // Caught up with everything stored when it was called, within timeout_s (tests, a stop).
+  bool wait_caught_up(double timeout_s);
+
+ private:
+  void run();
+  void connect();                         // throws Error
+  void forward(const ForwardBatch& b);    // one transaction; throws Error
+  void heartbeat(const ForwardBatch& b);  // the servers row's lag, while caught up
+  void note_lag(const ForwardBatch& b);
+
+  Store& store_;
+  const ForwarderOptions opt_;
+  std::unique_ptr<PgConnection> db_;
+  ForwardCursor cursor_;
+  bool need_active_ = true;
+  std::set<std::string> days_;  // day partitions known to exist
+  mutable std::mutex mu_;
+  std::condition_variable cv_;
+  bool stop_ = false;
+  ForwarderStatus status_;
+  std::thread thread_;
+};
+
+// The UTC day of a time (ns since the epoch), as PostgreSQL reads a date: "2026-11-27".
+std::string utc_day(int64_t ns);
+
+}  // namespace rangex

@@ -1,0 +1,122 @@
+#include "plantdb/pg_connection.h"
+
+#include <libpq-fe.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+#include "core/error.h"
+
+namespace rangex {
+
+PgRows::PgRows(pg_result* r) : r_(r) {}
+PgRows::~PgRows() {
+  if (r_) PQclear(r_);
+}
+PgRows& PgRows::operator=(PgRows&& o) noexcept {
+  if (this != &o) {
+    if (r_) PQclear(r_);
+    r_ = o.r_;
+    o.r_ = nullptr;
+  }
+  return *this;
+}
+int PgRows::rows() const {
+  return r_ ? PQntuples(r_) : 0;
+}
+bool PgRows::null(int row, int col) const {
+  return !r_ || PQgetisnull(r_, row, col);
+}
+std::string PgRows::str(int row, int col) const {
+  return null(row, col) ? std::string() : std::string(PQgetvalue(r_, row, col));
+}
+long long PgRows::i64(int row, int col) const {
+  return null(row, col) ? 0 : std::strtoll(PQgetvalue(r_, row, col), nullptr, 10);
+}
+double PgRows::dbl(int row, int col) const {
+  return null(row, col) ? 0.0 : std::strtod(PQgetvalue(r_, row, col), nullptr);
+}
+
+std::string pg_where(const std::string& conninfo) {
+  char* err = nullptr;
+  PQconninfoOption* opts = PQconninfoParse(conninfo.c_str(), &err);
+  if (!opts) {
+    std::string why = err ? err : "cannot be parsed";
+    if (err) PQfreemem(err);
+    while (!why.empty() && why.back() == '\n') why.pop_back();
+    fail("results_db: ", why);
+  }
+  std::string out;
+  for (PQconninfoOption* o = opts; o->keyword; ++o)
+    for (const char* k : {"host", "hostaddr", "port", "dbname", "user"})
+      if (std::strcmp(o->keyword, k) == 0 && o->val && *o->val)
+        out += (out.empty() ? "" : " ") + std::string(k) + "=" + o->val;
+  PQconninfoFree(opts);
+  return out.empty() ? "the default PostgreSQL server" : out;
+}
+
+PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s)
+    : where_(pg_where(conninfo)) {
+  // A URI takes its timeout as a parameter; a key=value string as one more key. Later keys
+  // win in key=value strings, so the user's own connect_timeout is kept by putting ours first.
+  const bool uri = conninfo.rfind("postgres://", 0) == 0 || conninfo.rfind("postgresql://", 0) == 0;
+  std::string full = conninfo;
+  if (!uri) full = "connect_timeout=" + std::to_string(connect_timeout_s) + " " + conninfo;
+  c_ = PQconnectdb(full.c_str());
+  if (!c_ || PQstatus(c_) != CONNECTION_OK) {
+    std::string why = c_ ? PQerrorMessage(c_) : "out of memory";
+    while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
+    if (c_) PQfinish(c_);
+    c_ = nullptr;
+    fail("PostgreSQL at ", where_, ": cannot connect: ", why);
+  }
+  // Notices (e.g. "relation already exists, skipping") are not errors; keep them off stderr.
+  PQsetNoticeProcessor(
+      c_, [](void*, const char*) {}, nullptr);
+}
+
+PgConnection::~PgConnection() {
+  if (c_) PQfinish(c_);
+}
+
+bool PgConnection::ok() const {
+  return c_ && PQstatus(c_) == CONNECTION_OK;
+}
+
+namespace {
+std::string first_line(const std::string& sql) {
+  const std::string head = sql.substr(0, sql.find('\n'));
+  return head.size() > 80 ? head.substr(0, 77) + "..." : head;
+}
+}  // namespace
+
+PgRows PgConnection::exec(const std::string& sql) {
+  return exec(sql, {});
+}
+
+PgRows PgConnection::exec(const std::string& sql, const std::vector<PgParam>& params) {
+  std::vector<const char*> values;
+  values.reserve(params.size());
+  for (const PgParam& p : params) values.push_back(p ? p->c_str() : nullptr);
+  pg_result* r = params.empty() ? PQexec(c_, sql.c_str())
+                                : PQexecParams(c_, sql.c_str(), int(values.size()), nullptr,
+                                               values.data(), nullptr, nullptr, 0);
+  PgRows rows(r);
+  const ExecStatusType st = r ? PQresultStatus(r) : PGRES_FATAL_ERROR;
+  if (st != PGRES_COMMAND_OK && st != PGRES_TUPLES_OK) {
+    std::string why = r ? PQresultErrorMessage(r) : "";
+    if (why.empty()) why = PQerrorMessage(c_);
+    while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
+    fail("PostgreSQL at ", where_, ": '", first_line(sql), "': ", why);
+  }
+  return rows;
+}
+
+std::string pg_exact(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+}  // namespace rangex

@@ -1,0 +1,64 @@
+// A PostgreSQL connection (libpq) that throws Error naming the statement and the server's
+// complaint. libpq's header stays in the .cpp: the forwarder, the migrations and the chain
+// check hold a PgConnection and nothing of libpq.
+#pragma once
+#include <optional>
+#include <string>
+#include <vector>
+
+struct pg_conn;
+struct pg_result;
+
+namespace rangex {
+
+// Rows of one result, as text (PostgreSQL's text format; NULL is nullopt).
+class PgRows {
+ public:
+  PgRows() = default;
+  explicit PgRows(pg_result* r);
+  ~PgRows();
+  PgRows(PgRows&& o) noexcept : r_(o.r_) { o.r_ = nullptr; }
+  PgRows& operator=(PgRows&& o) noexcept;
+  PgRows(const PgRows&) = delete;
+  PgRows& operator=(const PgRows&) = delete;
+  int rows() const;
+  bool null(int row, int col) const;
+  std::string str(int row, int col) const;  // "" for NULL
+  long long i64(int row, int col) const;
+  double dbl(int row, int col) const;
+
+ private:
+  pg_result* r_ = nullptr;
+};
+
+using PgParam = std::optional<std::string>;  // nullopt: NULL
+
+class PgConnection {
+ public:
+  // A libpq connection string ("host=... dbname=... sslmode=verify-full", or a URI);
+  // passwords come from PGPASSFILE or ~/.pgpass, never the command line. connect_timeout
+  // (seconds) is added unless the string sets one.
+  explicit PgConnection(const std::string& conninfo, int connect_timeout_s = 5);
+  ~PgConnection();
+  PgConnection(const PgConnection&) = delete;
+  PgConnection& operator=(const PgConnection&) = delete;
+
+  PgRows exec(const std::string& sql);
+  PgRows exec(const std::string& sql, const std::vector<PgParam>& params);
+  bool ok() const;  // the connection still stands (false after a cut or a server restart)
+  // The server's address as the user gave it, without any password (for messages).
+  const std::string& where() const { return where_; }
+
+ private:
+  pg_conn* c_ = nullptr;
+  std::string where_;
+};
+
+// Text of a double that reads back to the same double (for hashed content).
+std::string pg_exact(double v);
+
+// A connection string's parts that name the server (host, port, dbname, user), for logs
+// and errors: never its password.
+std::string pg_where(const std::string& conninfo);
+
+}  // namespace rangex

@@ -1,0 +1,261 @@
+// The plant-wide PostgreSQL against a real server (tests/pg_instance.h): migrations, store
+// and forward exactly once, through a stopped, a killed and a refused database.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <thread>
+
+#include "core/error.h"
+#include "pg_instance.h"
+#include "plantdb/forwarder.h"
+#include "plantdb/pg_connection.h"
+#include "plantdb/plant_db_schema.h"
+#include "service/record_chain.h"
+#include "service/store.h"
+#include "temp_dir.h"
+#include "wait_until.h"
+
+using namespace rangex;
+using rangex::test::PgInstance;
+using rangex::test::TempDir;
+using rangex::test::wait_until;
+
+namespace {
+
+StoredFillet fillet(int lane, int64_t n, bool reject) {
+  StoredFillet f;
+  f.lane = lane;
+  f.lane_fillet = n;
+  f.first_encoder = 1000 * n;
+  f.rows = 400;
+  f.decision = reject ? "reject" : "pass";
+  f.reason = reject ? "1 bone fragment" : "";
+  f.calibration_id = "cal \"quoted\" \\ and {braces}, commas";
+  f.beta0 = 8.1234567890123456;
+  f.beta1 = -0.0312345678901234;
+  f.beta2 = 1e-5 / 3;
+  f.resid_mean_dn = 0.1, f.resid_std_dn = 18.6, f.belt_y0_mm = 123.456;
+  f.decided_ns = now_ns();
+  if (reject)
+    f.fragments.push_back({"round", 1.0 / 3, -2.5, 4.2, 7.77, 0.123, 1.9, 10, 14, 20, 25, 0});
+  return f;
+}
+
+// Stores `n` fillets (every third a reject with an image) and an audit entry per ten.
+void fill(Store& s, int n, int lane = 0) {
+  for (int i = 0; i < n; ++i) {
+    const int64_t uid = s.add_fillet(fillet(lane, i, i % 3 == 0));
+    if (i % 3 == 0) s.add_image(uid, "xray", s.image_dir(uid) + "/xray.png");
+    if (i % 10 == 0) s.audit("test", "note", "after fillet " + std::to_string(uid));
+  }
+}
+
+int64_t count(PgConnection& db, const std::string& table, const std::string& server) {
+  return db.exec("SELECT count(*) FROM " + table + " WHERE server_id = $1", {server}).i64(0, 0);
+}
+
+ForwarderOptions options(const PgInstance& pg, const std::string& id) {
+  ForwarderOptions o;
+  o.conninfo = pg.conninfo();
+  o.server_id = id;
+  o.host = "test-host";
+  o.idle_s = 0.05;
+  o.retry_max_s = 0.5;
+  o.batch_links = 37;  // several batches for a few hundred records
+  return o;
+}
+
+// Every local record is in PostgreSQL once, with the content the local chain hashed.
+void expect_all_forwarded(Store& s, PgConnection& db, const std::string& id) {
+  const ForwardBatch all = s.forward_batch(ForwardCursor{}, 1 << 20, true);
+  EXPECT_EQ(count(db, "ledger", id), int64_t(all.links.size()));
+  EXPECT_EQ(count(db, "fillets", id), int64_t(all.fillets.size()));
+  EXPECT_EQ(count(db, "audit", id), int64_t(all.audit.size()));
+  EXPECT_EQ(count(db, "images", id), int64_t(all.images.size()));
+  int64_t fragments = 0;
+  for (const StoredFillet& f : all.fillets) fragments += int64_t(f.fragments.size());
+  EXPECT_EQ(count(db, "fragments", id), fragments);
+  // The ledger's hashes, link by link, and each fillet's content read back from PostgreSQL.
+  const PgRows links =
+      db.exec("SELECT seq, hash FROM ledger WHERE server_id = $1 ORDER BY seq", {id});
+  ASSERT_EQ(links.rows(), int(all.links.size()));
+  for (int i = 0; i < links.rows(); ++i) {
+    EXPECT_EQ(links.i64(i, 0), all.links[size_t(i)].seq);
+    EXPECT_EQ(links.str(i, 1), all.links[size_t(i)].hash);
+  }
+  const PgRows f = db.exec(
+      "SELECT uid, lane, lane_fillet, first_encoder, rows, decision, reason, calibration_id, "
+      "beta0, beta1, beta2, resid_mean_dn, resid_std_dn, belt_y0_mm, decided_ns FROM fillets "
+      "WHERE server_id = $1 ORDER BY uid",
+      {id});
+  ASSERT_EQ(f.rows(), int(all.fillets.size()));
+  for (int i = 0; i < f.rows(); ++i) {
+    StoredFillet g;
+    g.uid = f.i64(i, 0), g.lane = int(f.i64(i, 1)), g.lane_fillet = f.i64(i, 2);
+    g.first_encoder = f.i64(i, 3), g.rows = int(f.i64(i, 4)), g.decision = f.str(i, 5);
+    g.reason = f.str(i, 6), g.calibration_id = f.str(i, 7), g.beta0 = f.dbl(i, 8);
+    g.beta1 = f.dbl(i, 9), g.beta2 = f.dbl(i, 10), g.resid_mean_dn = f.dbl(i, 11);
+    g.resid_std_dn = f.dbl(i, 12), g.belt_y0_mm = f.dbl(i, 13), g.decided_ns = f.i64(i, 14);
+    const PgRows q = db.exec(
+        "SELECT kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2, meat_mm, row0, row1, col0, "
+        "col1, bone_mg FROM fragments WHERE server_id = $1 AND fillet_uid = $2 ORDER BY idx",
+        {id, std::to_string(g.uid)});
+    for (int k = 0; k < q.rows(); ++k)
+      g.fragments.push_back({q.str(k, 0), q.dbl(k, 1), q.dbl(k, 2), q.dbl(k, 3), q.dbl(k, 4),
+                             q.dbl(k, 5), q.dbl(k, 6), int(q.i64(k, 7)), int(q.i64(k, 8)),
+                             int(q.i64(k, 9)), int(q.i64(k, 10)), q.dbl(k, 11)});
+    EXPECT_EQ(chain_content(g), chain_content(all.fillets[size_t(i)])) << "fillet " << g.uid;
+  }
+}
+
+class PlantDb : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    db = std::make_unique<PgConnection>(pg.conninfo());
+    plant_db_migrate(*db);
+  }
+  PgInstance pg;
+  std::unique_ptr<PgConnection> db;
+};
+
+}  // namespace
+
+TEST(PlantDbSchema, MigratesAnEmptyDatabaseAndThePreviousVersion) {
+  PgInstance pg;
+  PgConnection db(pg.conninfo());
+  EXPECT_EQ(plant_db_schema_version(db), 0);
+  // A running server never migrates: it names the command.
+  try {
+    require_plant_db_schema(db);
+    FAIL() << "an empty database was accepted";
+  } catch (const FailedPrecondition& e) {
+    EXPECT_NE(std::string(e.what()).find("rangexctl db migrate"), std::string::npos) << e.what();
+  }
+  // The previous version first, with a record in it; then the rest.
+  EXPECT_EQ(plant_db_migrate(db, 1), 1);
+  EXPECT_EQ(plant_db_schema_version(db), 1);
+  db.exec("INSERT INTO servers (server_id, host) VALUES ('old', 'h')");
+  std::vector<int> applied;
+  EXPECT_EQ(plant_db_migrate(db, 0, [&](const Migration& m) { applied.push_back(m.version); }),
+            plant_db_schema_version_needed() - 1);
+  EXPECT_EQ(applied.front(), 2);
+  EXPECT_EQ(plant_db_schema_version(db), plant_db_schema_version_needed());
+  EXPECT_NO_THROW(require_plant_db_schema(db));
+  EXPECT_EQ(db.exec("SELECT host FROM servers WHERE server_id = 'old'").str(0, 0), "h");
+  // Again: nothing to do.
+  EXPECT_EQ(plant_db_migrate(db), 0);
+  // A database newer than this build is refused, not rolled back.
+  db.exec("INSERT INTO rangex_schema VALUES (99, 'from the future', 0)");
+  EXPECT_THROW(plant_db_migrate(db), Error);
+  EXPECT_THROW(require_plant_db_schema(db), FailedPrecondition);
+}
+
+TEST_F(PlantDb, EverythingStoredIsForwardedExactlyOnce) {
+  TempDir dir;
+  Store s(dir.str());
+  fill(s, 120);
+  s.add_setting(SettingKind::kCalibration, {0, "cal-1", "xray: {}", now_ns(), false, "{}"});
+  s.set_active_setting(SettingKind::kCalibration, 0, "cal-1");
+  s.audit("test", "calibration.activate", "lane 0 id cal-1");
+  {
+    Forwarder f(s, options(pg, "srv-a"));
+    f.start();
+    ASSERT_TRUE(f.wait_caught_up(60)) << f.status().last_error;
+    EXPECT_EQ(f.status().lag_records, 0);
+  }
+  expect_all_forwarded(s, *db, "srv-a");
+  EXPECT_EQ(
+      db->exec("SELECT active FROM settings WHERE server_id = 'srv-a' AND id = 'cal-1'").str(0, 0),
+      "t");
+  // The database's cursor set back (a batch whose commit was never acknowledged): the
+  // records come again and change nothing.
+  db->exec("UPDATE servers SET forwarded_seq = 0, image_seq = 0 WHERE server_id = 'srv-a'");
+  fill(s, 10);
+  {
+    Forwarder f(s, options(pg, "srv-a"));
+    f.start();
+    ASSERT_TRUE(f.wait_caught_up(60)) << f.status().last_error;
+  }
+  expect_all_forwarded(s, *db, "srv-a");
+  // The local copy of the cursor is what retention keeps after.
+  EXPECT_EQ(s.forwarded().seq, s.forward_batch(ForwardCursor{}, 1, false).head_seq);
+}
+
+TEST_F(PlantDb, InspectionGoesOnWhileTheDatabaseIsDownAndNothingIsLostOrDoubled) {
+  TempDir dir;
+  Store s(dir.str());
+  Forwarder f(s, options(pg, "srv-b"));
+  f.start();
+  fill(s, 30);
+  ASSERT_TRUE(f.wait_caught_up(60)) << f.status().last_error;
+  pg.stop();
+  fill(s, 60);  // stored while PostgreSQL is down: the store does not wait
+  ASSERT_TRUE(wait_until(30, [&] { return !f.status().connected; }));
+  ASSERT_TRUE(wait_until(30, [&] { return f.status().lag_records >= 60; }))
+      << f.status().lag_records;
+  EXPECT_EQ(f.status().state, "unreachable");
+  EXPECT_NE(f.status().last_error.find("PostgreSQL"), std::string::npos) << f.status().last_error;
+  // Retention prunes nothing the database lacks, even with every record past its time.
+  const int64_t head = s.forward_batch(ForwardCursor{}, 1, false).head_seq;
+  const PruneReport p = s.prune(now_ns() + int64_t(86400e9), now_ns() + int64_t(86400e9));
+  EXPECT_LE(p.checkpoint_seq, s.forwarded().seq);
+  EXPECT_GT(head - p.checkpoint_seq, 60);
+  pg.start();
+  ASSERT_TRUE(f.wait_caught_up(60)) << f.status().last_error;
+  db = std::make_unique<PgConnection>(pg.conninfo());
+  // What was pruned locally had been forwarded before: PostgreSQL holds every link, the
+  // retention pass's own audit entries included, each once.
+  const int64_t now_head = s.forward_batch(ForwardCursor{}, 1, false).head_seq;
+  EXPECT_GT(now_head, head);
+  EXPECT_EQ(count(*db, "ledger", "srv-b"), now_head);
+  EXPECT_EQ(db->exec("SELECT count(DISTINCT seq) FROM ledger WHERE server_id = 'srv-b'").i64(0, 0),
+            now_head);
+}
+
+TEST_F(PlantDb, APostgresKilledMidTransactionLosesAndDoublesNothing) {
+  TempDir dir;
+  Store s(dir.str());
+  Forwarder f(s, options(pg, "srv-c"));
+  f.start();
+  std::atomic<bool> done{false};
+  std::thread writer([&] {
+    fill(s, 300);
+    done = true;
+  });
+  ASSERT_TRUE(wait_until(30, [&] { return f.status().links > 40; }));
+  pg.kill9();  // while batches are being written
+  ASSERT_TRUE(wait_until(30, [&] { return !f.status().connected; }));
+  pg.start();
+  writer.join();
+  ASSERT_TRUE(f.wait_caught_up(90)) << f.status().last_error;
+  db = std::make_unique<PgConnection>(pg.conninfo());
+  expect_all_forwarded(s, *db, "srv-c");
+  EXPECT_GE(f.status().failures, 1);
+}
+
+TEST_F(PlantDb, TwoServersWithOneIdAndANewStoreUnderAnOldIdAreRefused) {
+  TempDir d1, d2, d3;
+  Store s1(d1.str()), s2(d2.str());
+  fill(s1, 20);
+  fill(s2, 5);
+  Forwarder f1(s1, options(pg, "line-1"));
+  f1.start();
+  ASSERT_TRUE(f1.wait_caught_up(60)) << f1.status().last_error;
+  Forwarder f2(s2, options(pg, "line-1"));
+  f2.start();
+  ASSERT_TRUE(wait_until(30, [&] { return f2.status().state == "refused"; }));
+  EXPECT_NE(f2.status().last_error.find("already forwarding"), std::string::npos)
+      << f2.status().last_error;
+  f2.stop();
+  f1.stop();
+  // line-1's records are s1's: a store started afresh under that id is refused.
+  Store s3(d3.str());
+  fill(s3, 3);
+  Forwarder f3(s3, options(pg, "line-1"));
+  f3.start();
+  ASSERT_TRUE(wait_until(30, [&] { return f3.status().state == "refused"; }));
+  EXPECT_NE(f3.status().last_error.find("not this store's"), std::string::npos)
+      << f3.status().last_error;
+  f3.stop();
+  EXPECT_EQ(count(*db, "fillets", "line-1"), 20);
+}
