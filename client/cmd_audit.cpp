@@ -6,6 +6,9 @@
 #include "args.h"
 #include "commands.h"
 #include "core/error.h"
+#include "plantdb/chain_check.h"
+#include "plantdb/pg_connection.h"
+#include "plantdb/plant_db_schema.h"
 #include "service/store.h"
 
 namespace rangex::cli {
@@ -30,6 +33,27 @@ std::string json_string(const std::string& s) {
   return out + "\"";
 }
 
+// Every server's chain in the plant-wide database; the first broken link named per server.
+int verify_plant_db(const std::string& conninfo) {
+  PgConnection db(conninfo);
+  require_plant_db_schema(db);
+  const std::vector<ServerChainReport> rs = verify_plant_db_chains(db);
+  if (rs.empty()) std::printf("no server has forwarded records to %s yet\n", db.where().c_str());
+  bool ok = true;
+  for (const ServerChainReport& r : rs) {
+    if (r.ok) {
+      std::printf("server %s: chain verified: %lld links from link %lld, head %s\n",
+                  r.server_id.c_str(), (long long)r.links, (long long)r.first_seq, r.head.c_str());
+    } else {
+      ok = false;
+      std::printf("server %s: chain BROKEN at link %lld after %lld good links: %s\n",
+                  r.server_id.c_str(), (long long)r.first_broken_seq, (long long)r.links,
+                  r.problem.c_str());
+    }
+  }
+  return ok ? 0 : 1;
+}
+
 // --data, else the configuration's storage.
 std::string store_dir(const Args& a) {
   if (a.has("data")) return a.get("data", "");
@@ -40,8 +64,9 @@ std::string store_dir(const Args& a) {
 int cmd_audit(int argc, char** argv) {
   const std::string verb = argc > 2 ? argv[2] : "";
   if (verb == "verify") {
-    const Args a(argc, argv, 3, {}, {"data", "config"});
-    a.expect_positionals(0, "audit verify [--data DIR | --config PLANT.yaml]");
+    const Args a(argc, argv, 3, {}, {"data", "config", "db"});
+    a.expect_positionals(0, "audit verify [--data DIR | --config PLANT.yaml | --db CONNSTR]");
+    if (a.has("db")) return verify_plant_db(a.get("db", ""));
     const std::string dir = store_dir(a);
     const ChainReport r = Store::verify_chain(dir);
     if (!r.ok) {

@@ -229,6 +229,15 @@ int cmd_status(int argc, char** argv) {
             ? (", least spare " + std::to_string(int(p.least_spare_ms())) + " ms").c_str()
             : "");
   }
+  if (s.has_forwarding()) {
+    const pb::ForwardingStatus& f = s.forwarding();
+    std::printf(
+        "forwarding as %s to PostgreSQL (%s): %s, %lld records (%.0f s) behind, link %lld of "
+        "%lld%s%s\n",
+        f.server_id().c_str(), f.database().c_str(), f.state().c_str(), (long long)f.lag_records(),
+        f.lag_seconds(), (long long)f.forwarded_seq(), (long long)f.head_seq(),
+        f.error().empty() ? "" : ": ", f.error().c_str());
+  }
   std::printf(
       "lines: %llu received, %llu accepted, %llu processed, %.0f lines/s; queue %d of %d; %d "
       "ingest streams\n",

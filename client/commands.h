@@ -25,6 +25,7 @@ int cmd_calib_solve(int argc, char** argv);
 int cmd_lanes(int argc, char** argv);
 int cmd_learned(int argc, char** argv);
 int cmd_audit(int argc, char** argv);
+int cmd_db(int argc, char** argv);
 int cmd_token(int argc, char** argv);
 int cmd_plc_sim(int argc, char** argv);
 int cmd_record(int argc, char** argv);

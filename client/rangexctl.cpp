@@ -79,6 +79,9 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
                               verified with its head, or the first broken link and why
   audit export [--data DIR] [--from-ns T] [--to-ns T] --out FILE.jsonl
       the links of a time range with their contents and the chain's head (a chain proof)
+  audit verify --db CONNSTR   every server's chain in the plant-wide PostgreSQL
+  db migrate --db CONNSTR [--to N]   apply the plant-wide schema's migrations
+  db status --db CONNSTR      the schema's version and each server's forwarding
 
   token --name NAME --role viewer|operator|engineer|admin [--out FILE]
       a new bearer token, and the line (its SHA-256) that grants it in plant.yaml
@@ -150,6 +153,7 @@ int main(int argc, char** argv) {
         !std::strcmp(cmd, "bench-gige") || !std::strcmp(cmd, "soak"))
       return run_bench_binary(argv);
     if (!std::strcmp(cmd, "audit")) return cmd_audit(argc, argv);
+    if (!std::strcmp(cmd, "db")) return cmd_db(argc, argv);
     if (!std::strcmp(cmd, "token")) return cmd_token(argc, argv);
     if (!std::strcmp(cmd, "plc-sim")) return cmd_plc_sim(argc, argv);
     if (!std::strcmp(cmd, "record")) return cmd_record(argc, argv);

@@ -3,12 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <map>
 #include <thread>
 
 #include "core/error.h"
 #include "pg_instance.h"
+#include "plantdb/chain_check.h"
 #include "plantdb/forwarder.h"
 #include "plantdb/pg_connection.h"
+#include "plantdb/pg_records.h"
 #include "plantdb/plant_db_schema.h"
 #include "service/record_chain.h"
 #include "service/store.h"
@@ -83,29 +86,12 @@ void expect_all_forwarded(Store& s, PgConnection& db, const std::string& id) {
     EXPECT_EQ(links.i64(i, 0), all.links[size_t(i)].seq);
     EXPECT_EQ(links.str(i, 1), all.links[size_t(i)].hash);
   }
-  const PgRows f = db.exec(
-      "SELECT uid, lane, lane_fillet, first_encoder, rows, decision, reason, calibration_id, "
-      "beta0, beta1, beta2, resid_mean_dn, resid_std_dn, belt_y0_mm, decided_ns FROM fillets "
-      "WHERE server_id = $1 ORDER BY uid",
-      {id});
-  ASSERT_EQ(f.rows(), int(all.fillets.size()));
-  for (int i = 0; i < f.rows(); ++i) {
-    StoredFillet g;
-    g.uid = f.i64(i, 0), g.lane = int(f.i64(i, 1)), g.lane_fillet = f.i64(i, 2);
-    g.first_encoder = f.i64(i, 3), g.rows = int(f.i64(i, 4)), g.decision = f.str(i, 5);
-    g.reason = f.str(i, 6), g.calibration_id = f.str(i, 7), g.beta0 = f.dbl(i, 8);
-    g.beta1 = f.dbl(i, 9), g.beta2 = f.dbl(i, 10), g.resid_mean_dn = f.dbl(i, 11);
-    g.resid_std_dn = f.dbl(i, 12), g.belt_y0_mm = f.dbl(i, 13), g.decided_ns = f.i64(i, 14);
-    const PgRows q = db.exec(
-        "SELECT kind, x_mm, y_mm, area_mm2, peak_z, attenuation_mm2, meat_mm, row0, row1, col0, "
-        "col1, bone_mg FROM fragments WHERE server_id = $1 AND fillet_uid = $2 ORDER BY idx",
-        {id, std::to_string(g.uid)});
-    for (int k = 0; k < q.rows(); ++k)
-      g.fragments.push_back({q.str(k, 0), q.dbl(k, 1), q.dbl(k, 2), q.dbl(k, 3), q.dbl(k, 4),
-                             q.dbl(k, 5), q.dbl(k, 6), int(q.i64(k, 7)), int(q.i64(k, 8)),
-                             int(q.i64(k, 9)), int(q.i64(k, 10)), q.dbl(k, 11)});
-    EXPECT_EQ(chain_content(g), chain_content(all.fillets[size_t(i)])) << "fillet " << g.uid;
-  }
+  std::vector<int64_t> uids;
+  for (const StoredFillet& f : all.fillets) uids.push_back(f.uid);
+  const std::map<int64_t, StoredFillet> back = pg_fillets(db, id, uids);
+  ASSERT_EQ(back.size(), all.fillets.size());
+  for (const StoredFillet& f : all.fillets)
+    EXPECT_EQ(chain_content(back.at(f.uid)), chain_content(f)) << "fillet " << f.uid;
 }
 
 class PlantDb : public ::testing::Test {
@@ -258,4 +244,45 @@ TEST_F(PlantDb, TwoServersWithOneIdAndANewStoreUnderAnOldIdAreRefused) {
       << f3.status().last_error;
   f3.stop();
   EXPECT_EQ(count(*db, "fillets", "line-1"), 20);
+}
+
+TEST_F(PlantDb, EveryServersChainVerifiesAndAnUpdateBehindRangexsBackIsNamed) {
+  TempDir d1, d2;
+  Store s1(d1.str()), s2(d2.str());
+  fill(s1, 40);
+  fill(s2, 25, 1);
+  {
+    Forwarder f1(s1, options(pg, "srv-1")), f2(s2, options(pg, "srv-2"));
+    f1.start();
+    f2.start();
+    ASSERT_TRUE(f1.wait_caught_up(60)) << f1.status().last_error;
+    ASSERT_TRUE(f2.wait_caught_up(60)) << f2.status().last_error;
+  }
+  std::vector<ServerChainReport> r = verify_plant_db_chains(*db);
+  ASSERT_EQ(r.size(), 2u);
+  for (const ServerChainReport& c : r) EXPECT_TRUE(c.ok) << c.server_id << ": " << c.problem;
+  EXPECT_EQ(r[0].links, s1.forward_batch(ForwardCursor{}, 1, false).head_seq);
+  EXPECT_EQ(r[0].head, s1.chain_head());
+  // A reject turned into a pass in PostgreSQL: srv-1's chain breaks at that fillet's link,
+  // srv-2's still holds.
+  const PgRows victim = db->exec(
+      "SELECT l.seq, f.uid FROM fillets f JOIN ledger l ON l.server_id = f.server_id AND l.kind "
+      "= 'fillet' AND l.ref = f.uid WHERE f.server_id = 'srv-1' AND f.decision = 'reject' ORDER "
+      "BY f.uid LIMIT 1 OFFSET 3");
+  db->exec(
+      "UPDATE fillets SET decision = 'pass', reason = '' WHERE server_id = 'srv-1' AND uid "
+      "= $1",
+      {victim.str(0, 1)});
+  r = verify_plant_db_chains(*db);
+  EXPECT_FALSE(r[0].ok);
+  EXPECT_EQ(r[0].first_broken_seq, victim.i64(0, 0));
+  EXPECT_NE(r[0].problem.find("changed"), std::string::npos) << r[0].problem;
+  EXPECT_TRUE(r[1].ok);
+  // An audit entry removed from srv-2's: the link that named it is the first broken one.
+  db->exec(
+      "DELETE FROM audit WHERE server_id = 'srv-2' AND row_id = (SELECT min(row_id) FROM "
+      "audit WHERE server_id = 'srv-2')");
+  r = verify_plant_db_chains(*db);
+  EXPECT_FALSE(r[1].ok);
+  EXPECT_NE(r[1].problem.find("missing"), std::string::npos) << r[1].problem;
 }

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -689,7 +690,8 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
   PlantConfig p;
   if (top.has("plant")) {
     const Node n = top.at("plant");
-    n.only_keys({"name", "calibration_id", "backend", "device", "listen", "http", "storage"});
+    n.only_keys({"name", "calibration_id", "backend", "device", "listen", "http", "storage",
+                 "results_db", "server_id"});
     n.get("name", p.name);
     n.get("calibration_id", p.calibration_id);
     n.get("backend", p.backend);
@@ -701,6 +703,22 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
     if (p.http != "off" && p.http.rfind(':') == std::string::npos)
       n.at("http").bad("must be host:port or off (got '" + p.http + "')");
     n.get("storage", p.storage);
+    n.get("results_db", p.results_db);
+    // A password in plant.yaml is a password every reader of the file has: libpq's password
+    // file (PGPASSFILE, ~/.pgpass or passfile=) keeps it apart.
+    if (p.results_db.find("password") != std::string::npos ||
+        (p.results_db.find("://") != std::string::npos &&
+         p.results_db.find('@') != std::string::npos &&
+         p.results_db.substr(0, p.results_db.find('@')).find(':', p.results_db.find("://") + 3) !=
+             std::string::npos))
+      n.at("results_db")
+          .bad(
+              "holds a password: put it in a password file (PGPASSFILE, ~/.pgpass or "
+              "passfile=...)");
+    n.get("server_id", p.server_id);
+    for (char c : p.server_id)
+      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.'))
+        n.at("server_id").bad("'" + p.server_id + "': letters, digits, '-', '_' and '.' only");
   }
   if (top.has("server")) read_engine(top.at("server"), p.engine);
   if (top.has("security")) read_security(top.at("security"), p.security);

@@ -28,6 +28,11 @@ struct PlantConfig {
   std::string listen = "127.0.0.1:50051";
   std::string http = "127.0.0.1:8080";  // the dashboard and /metrics; "off": none
   std::string storage = "rangex-data";
+  // The plant-wide PostgreSQL every decision and record is forwarded to (a libpq connection
+  // string; "" : none, the server's own store only), and the id this server's records carry
+  // there ("" : the host name). docs/plant-wide.md.
+  std::string results_db;
+  std::string server_id;
   EngineSettings engine;    // the `server:` section
   SecurityConfig security;  // the `security:` section
   RetentionSettings retention;

@@ -1,5 +1,7 @@
 #include "plantdb/forwarder.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <ctime>
@@ -14,6 +16,12 @@
 
 namespace rangex {
 
+std::string host_name() {
+  char buf[256] = {};
+  if (gethostname(buf, sizeof buf - 1) != 0 || !buf[0]) return "rangexd";
+  return buf;
+}
+
 std::string utc_day(int64_t ns) {
   const std::time_t s = std::time_t(ns >= 0 ? ns / 1000000000 : (ns - 999999999) / 1000000000);
   std::tm tm{};
@@ -26,6 +34,8 @@ std::string utc_day(int64_t ns) {
 Forwarder::Forwarder(Store& store, ForwarderOptions opt) : store_(store), opt_(std::move(opt)) {
   if (opt_.server_id.empty()) fail("plant.server_id: empty (it names this server's records)");
   status_.state = "starting";
+  status_.server_id = opt_.server_id;
+  status_.database = pg_where(opt_.conninfo);  // refuses a string libpq cannot read
 }
 
 Forwarder::~Forwarder() {
@@ -323,7 +333,7 @@ void Forwarder::run() {
       }
       if (why != last_logged)
         log::error("forwarding_failed",
-                   "forwarding to PostgreSQL failed (retrying in {:.0f} s; "
+                   "forwarding to PostgreSQL failed (retrying in {:.1f} s; "
                    "records wait in the local store): {}",
                    backoff, why);
       last_logged = why;

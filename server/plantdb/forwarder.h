@@ -13,6 +13,7 @@
 #include <string>
 #include <thread>
 
+#include "plantdb/forward_status.h"
 #include "service/forward_batch.h"
 
 namespace rangex {
@@ -29,17 +30,6 @@ struct ForwarderOptions {
   double retry_max_s = 30;  // backoff after a failure: 1 s, doubling, up to this
   int connect_timeout_s = 5;
   double heartbeat_s = 5;  // how often a caught-up forwarder says it is alive
-};
-
-struct ForwarderStatus {
-  bool connected = false;
-  std::string state;       // forwarding | caught up | unreachable | refused
-  std::string last_error;  // the last failure ("" once forwarding again)
-  int64_t head_seq = 0, forwarded_seq = 0;
-  int64_t lag_records = 0;  // chain links stored here and not yet in the database
-  double lag_seconds = 0;   // age of the oldest of them
-  int64_t batches = 0, links = 0, images = 0, settings = 0;  // forwarded by this process
-  int64_t failures = 0;
 };
 
 class Forwarder {
@@ -74,6 +64,9 @@ class Forwarder {
   ForwarderStatus status_;
   std::thread thread_;
 };
+
+// This machine's host name (the default plant.server_id).
+std::string host_name();
 
 // The UTC day of a time (ns since the epoch), as PostgreSQL reads a date: "2026-11-27".
 std::string utc_day(int64_t ns);

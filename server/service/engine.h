@@ -40,6 +40,7 @@
 #include "core/plant_config.h"
 #include "pipeline/lane_processor.h"
 #include "pipeline/product_drift.h"
+#include "plantdb/forward_status.h"
 #include "plc/plc_state.h"
 #include "sensors/sensor_state.h"
 #include "service/decision_recorder.h"
@@ -86,12 +87,13 @@ struct EngineStats {
   LatencyStats::Summary store;            // storing a decision (its images included)
   std::vector<std::pair<std::string, LatencyStats::Summary>> inspection_stages;
   Health health;
-  std::vector<std::string> warnings;  // e.g. lanes that stopped being fed
-  BackendInfo backend;                // what runs the line stages now
-  std::string backend_note;           // why that one (a choice of auto, a fallback)
-  StageRunnerStats batches;           // batches, verified on the CPU, mismatches, failures
-  std::optional<PlcStatus> plc;       // with a PLC (plant.yaml plc)
-  RecordingStatus recording;          // the shift recording running or last ended
+  std::vector<std::string> warnings;          // e.g. lanes that stopped being fed
+  BackendInfo backend;                        // what runs the line stages now
+  std::string backend_note;                   // why that one (a choice of auto, a fallback)
+  StageRunnerStats batches;                   // batches, verified on the CPU, mismatches, failures
+  std::optional<PlcStatus> plc;               // with a PLC (plant.yaml plc)
+  std::optional<ForwarderStatus> forwarding;  // with a plant-wide database (plant.results_db)
+  RecordingStatus recording;                  // the shift recording running or last ended
 };
 
 // What a stop does with the fillets still coming in: the end of a recording closes them (one
@@ -208,6 +210,8 @@ class Engine {
   void set_sensor_states(std::function<std::vector<LaneSensors>()> states);
   // Where statistics, lane states and warnings read the PLC link's status from.
   void set_plc_status(std::function<PlcStatus()> status);
+  // Where statistics and warnings read the forwarding to the plant-wide database from.
+  void set_forward_status(std::function<ForwarderStatus()> status);
   // A shift recorded on the server (shift_recorder.h): the lanes' accepted lines written as
   // recordings in <data>/recordings/NAME. start refuses what would not fit the disk.
   RecordingStatus start_recording(const RecordingRequest& req, const std::string& who);
@@ -338,7 +342,8 @@ class Engine {
   std::condition_variable cv_;
   mutable std::mutex sensors_mu_;  // leaf: the provider below
   std::function<std::vector<LaneSensors>()> sensor_states_;
-  std::function<PlcStatus()> plc_status_;  // sensors_mu_
+  std::function<PlcStatus()> plc_status_;            // sensors_mu_
+  std::function<ForwarderStatus()> forward_status_;  // sensors_mu_
   std::unique_ptr<ShiftRecorder> shift_;
   std::unique_ptr<Verifications> verifications_;  // before the recorder calls into it
   LaneQueues queue_;

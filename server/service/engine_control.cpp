@@ -42,6 +42,11 @@ void Engine::set_plc_status(std::function<PlcStatus()> status) {
   plc_status_ = std::move(status);
 }
 
+void Engine::set_forward_status(std::function<ForwarderStatus()> status) {
+  std::lock_guard<std::mutex> lock(sensors_mu_);
+  forward_status_ = std::move(status);
+}
+
 LaneState Engine::lane_state(int id) {
   Lane& l = lane(id);
   LaneState s;

@@ -9,6 +9,9 @@
 
 namespace rangex {
 
+// Forwarding further behind than this is worth a look (a slow or overloaded database).
+constexpr double kForwardLagWarnS = 60;
+
 Health Engine::health() {
   Health h;
   const int64_t now = steady_ns(), stall = seconds_ns(opt_.stall_s);
@@ -87,6 +90,21 @@ EngineStats Engine::stats() {
                                   s.plc->unreleased, " clean fillets unreleased (diverted), ",
                                   s.plc->pending, " waiting"));
     }
+  }
+  {
+    std::lock_guard<std::mutex> lock(sensors_mu_);
+    if (forward_status_) s.forwarding = forward_status_();
+  }
+  if (s.forwarding) {
+    // Inspection goes on; the records wait in the local store, which retention keeps.
+    const ForwarderStatus& f = *s.forwarding;
+    if (!f.connected)
+      s.warnings.push_back(join("forwarding to PostgreSQL (", f.database, ") ", f.state, ": ",
+                                f.lag_records, " records (", int64_t(f.lag_seconds),
+                                " s) wait in the local store: ", f.last_error));
+    else if (f.lag_seconds > kForwardLagWarnS)
+      s.warnings.push_back(join("forwarding to PostgreSQL behind: ", f.lag_records, " records (",
+                                int64_t(f.lag_seconds), " s) wait in the local store"));
   }
   if (opt_.store_reserve_mb > 0) {
     std::error_code ec;

@@ -12,6 +12,18 @@ namespace rangex {
 
 using json = nlohmann::json;
 
+namespace {
+// One line for the dashboard's header: where the records go and how far behind.
+json forwarding_text(const std::optional<ForwarderStatus>& f) {
+  if (!f) return nullptr;
+  std::string t = "PostgreSQL " + f->state;
+  if (f->lag_records > 0)
+    t += ": " + std::to_string(f->lag_records) + " records (" +
+         std::to_string(int64_t(f->lag_seconds)) + " s) waiting";
+  return {{"text", t}, {"ok", f->connected}, {"error", f->last_error}};
+}
+}  // namespace
+
 void HttpServer::plant_routes(httplib::Server& s) {
   s.Get("/api/info", [this](const httplib::Request&, httplib::Response& res) {
     const BackendInfo b = engine_.backend();
@@ -21,6 +33,7 @@ void HttpServer::plant_routes(httplib::Server& s) {
                     {"backend", b.name},
                     {"device", b.device},
                     {"backend_note", engine_.backend_note()},
+                    {"forwarding", forwarding_text(engine_.stats().forwarding)},
                     {"now_ns", now_ns()}});
   });
   s.Get("/api/lanes", [this](const httplib::Request&, httplib::Response& res) {

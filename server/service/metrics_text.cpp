@@ -150,6 +150,26 @@ std::string prometheus_text(const MetricsInput& m) {
              p.least_spare_ms < 0 ? -1.0 : p.least_spare_ms / 1e3);
   }
 
+  // Forwarding to the plant-wide database.
+  if (s.forwarding) {
+    const ForwarderStatus& f = *s.forwarding;
+    const std::string at = "server_id=" + quoted(f.server_id);
+    w.family("rangex_forward_up", "gauge",
+             "1 while forwarding to the plant-wide PostgreSQL works.");
+    w.sample("rangex_forward_up", at, uint64_t(f.connected));
+    w.family("rangex_forward_lag_records", "gauge",
+             "Chain links stored here and not yet in the plant-wide database.");
+    w.sample("rangex_forward_lag_records", at, uint64_t(std::max<int64_t>(0, f.lag_records)));
+    w.family("rangex_forward_lag_seconds", "gauge", "The age of the oldest of them.");
+    w.sample("rangex_forward_lag_seconds", at, f.lag_seconds);
+    w.family("rangex_forward_links_total", "counter",
+             "Chain links (decisions and audit entries) forwarded since the server started.");
+    w.sample("rangex_forward_links_total", at, uint64_t(f.links));
+    w.family("rangex_forward_failures_total", "counter",
+             "Failed connections or batches (each retried; nothing is dropped).");
+    w.sample("rangex_forward_failures_total", at, uint64_t(f.failures));
+  }
+
   // Lanes fed by their own GigE Vision devices.
   auto device_label = [](int lane, const SensorState& d) {
     return lane_label(lane) + ",role=" + quoted(d.role) + ",device=" + quoted(d.device);

@@ -172,6 +172,22 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
     p->set_reconnects(s.plc->reconnects);
     p->set_least_spare_ms(s.plc->least_spare_ms);
   }
+  if (s.forwarding) {
+    const ForwarderStatus& f = *s.forwarding;
+    pb::ForwardingStatus* p = o->mutable_forwarding();
+    p->set_server_id(f.server_id);
+    p->set_database(f.database);
+    p->set_connected(f.connected);
+    p->set_state(f.state);
+    p->set_error(f.last_error);
+    p->set_lag_records(f.lag_records);
+    p->set_lag_seconds(f.lag_seconds);
+    p->set_forwarded_seq(f.forwarded_seq);
+    p->set_head_seq(f.head_seq);
+    p->set_links(uint64_t(f.links));
+    p->set_images(uint64_t(f.images));
+    p->set_failures(uint64_t(f.failures));
+  }
   o->set_lines_per_second(s.lines_per_second);
   o->set_lines_received(s.received);
   o->set_lines_accepted(s.accepted);

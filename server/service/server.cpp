@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "plantdb/forwarder.h"
 #include "rangex/v1/decision_names.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "service/access_control.h"
@@ -67,6 +68,18 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
     opt_.engine.on_decided = [this](const StoredFillet& s) { plc_->decided(release_of(s)); };
   }
   engine_ = std::make_unique<Engine>(plant_, *store_, *hub_, opt_.engine);
+  if (!plant_.results_db.empty()) {
+    // Everything stored goes on to the plant-wide database once it is durable here;
+    // inspection never waits for it (docs/plant-wide.md).
+    ForwarderOptions fo;
+    fo.conninfo = plant_.results_db;
+    fo.server_id = plant_.server_id.empty() ? host_name() : plant_.server_id;
+    fo.host = host_name();
+    fo.http = plant_.http;
+    forwarder_ = std::make_unique<Forwarder>(*store_, fo);
+    engine_->set_forward_status([this] { return forwarder_->status(); });
+    forwarder_->start();
+  }
   if (plc_) {
     engine_->set_plc_status([this] { return plc_->status(); });
     plc_->start();
@@ -250,6 +263,13 @@ bool RangexServer::shutdown(OpenFillets open) {
   hub_->close_all();  // subscribers get what is queued for them, then their streams end
   server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
   store_->audit("rangexd", "server.stop", drained ? "drained" : "drain timed out");
+  if (forwarder_) {
+    // The last records on their way if the database is there; else they wait in the store
+    // for the next start.
+    forwarder_->wait_caught_up(2);
+    engine_->set_forward_status(nullptr);
+    forwarder_->stop();
+  }
   return drained;
 }
 

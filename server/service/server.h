@@ -24,6 +24,8 @@ class Server;
 
 namespace rangex {
 
+class Forwarder;
+
 struct StreamCounters;
 class AccessControl;
 class RpcServices;
@@ -93,6 +95,7 @@ class RangexServer {
   std::unique_ptr<ResultsHub> hub_;
   std::unique_ptr<PlcRelease> plc_;  // outlives the engine, whose inspectors queue into it
   std::unique_ptr<Engine> engine_;
+  std::unique_ptr<Forwarder> forwarder_;  // with plant.results_db: the store to PostgreSQL
   std::unique_ptr<SensorIngest> sensors_;
   std::unique_ptr<StreamCounters> counters_;
   std::unique_ptr<AccessControl> access_;

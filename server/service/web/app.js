@@ -114,10 +114,21 @@ function lanesView() {
   every(5000, refreshCharts);
 }
 
+// Where the records go when there is a plant-wide database, and how far behind.
+function showForwarding(info) {
+  const el = document.getElementById("forwarding");
+  if (!el || !info) return;
+  const f = info.forwarding;
+  el.textContent = f ? f.text : "";
+  el.title = f && f.error ? f.error : "";
+  el.className = f && !f.ok ? "bad" : "";
+}
+
 async function refreshTiles() {
   const tiles = document.getElementById("tiles");
   if (!tiles) return;
   const lanes = await api("/api/lanes");
+  showForwarding(await api("/api/info"));
   tiles.innerHTML = lanes.map((l) =>
     `<div class="tile" data-lane="${l.lane}" data-light="${l.light}">
        <div class="top"><span class="light ${l.light}" title="${esc(l.light_reason)}"></span>lane ${l.lane}</div>
@@ -360,6 +371,7 @@ async function main() {
     state.info = await api("/api/info");
     document.getElementById("plant").textContent =
       `${state.info.plant} · ${state.info.lanes} lanes · ${state.info.backend}`;
+    showForwarding(state.info);
   } catch (e) {
     showError(e);
   }
