@@ -97,10 +97,11 @@ void print_fillet(const pb::FilletResult& f) {
 int cmd_feed(int argc, char** argv) {
   const Args a(argc, argv, 2, {"simulate"},
                remote({"recording", "lanes", "fillets", "seed", "rate", "window", "reconnect-for",
-                       "settle-for"}));
+                       "settle-for", "encoder-start"}));
   a.expect_positionals(
       0,
-      "feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S]) [--rate LINES/S]");
+      "feed (--recording DIR | --simulate [--lanes N] [--fillets M] [--seed S] [--encoder-start "
+      "E]) [--rate LINES/S]");
   const PlantConfig plant = load_config(a.get("config", ""));
   std::unique_ptr<LineSource> src;
   if (a.has("recording")) {
@@ -110,6 +111,10 @@ int cmd_feed(int argc, char** argv) {
     p.lanes = int(a.integer("lanes", long(plant.lanes.size())));
     p.scene.fillets = int(a.integer("fillets", 5));
     p.seed = uint64_t(a.integer("seed", 1));
+    // A later shift of the same lanes starts where the belt's count is now, not at 1000 again
+    // (the server would take its lines for resends).
+    p.encoder_start = a.integer("encoder-start", 1000);
+    if (p.encoder_start < 0) fail("--encoder-start must be >= 0");
     if (p.lanes < 1 || p.lanes > int(plant.lanes.size()))
       fail("--lanes must be 1..", plant.lanes.size(), " (got ", p.lanes, ")");
     src = std::make_unique<SimulatedSource>(plant, p);

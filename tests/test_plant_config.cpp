@@ -131,6 +131,25 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
       std::string::npos);
 }
 
+TEST(PlantConfig, ThePlantWideDatabaseTakesNoPasswordInTheFile) {
+  const PlantConfig ok = parse_plant_config(
+      "plant: {results_db: 'host=db.plant port=5432 dbname=rangex user=line1 sslmode=verify-full', "
+      "server_id: line-1.hall_2}\nlanes: [{id: 0}]\n",
+      "test");
+  EXPECT_EQ(ok.results_db, "host=db.plant port=5432 dbname=rangex user=line1 sslmode=verify-full");
+  EXPECT_EQ(ok.server_id, "line-1.hall_2");
+  EXPECT_TRUE(parse_plant_config("lanes: [{id: 0}]\n", "test").results_db.empty());
+  for (const char* bad : {"host=db password=secret", "postgresql://line1:secret@db/rangex"})
+    EXPECT_NE(error_of(std::string("plant: {results_db: '") + bad + "'}\nlanes: [{id: 0}]\n")
+                  .find("plant.results_db: holds a password"),
+              std::string::npos)
+        << bad;
+  EXPECT_NO_THROW(parse_plant_config(
+      "plant: {results_db: 'postgresql://line1@db/rangex'}\nlanes: [{id: 0}]\n", "test"));
+  EXPECT_NE(error_of("plant: {server_id: 'a b'}\nlanes: [{id: 0}]\n").find("plant.server_id"),
+            std::string::npos);
+}
+
 TEST(PlantConfig, RegistrationRoundTripsAndIsChecked) {
   LaneConfig lane = parse_plant_config("lanes: [{id: 0}]\n", "t").lane(0);
   lane.xray.delay_lines = 50;
