@@ -66,6 +66,10 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
       the latency from a fillet's last line to its decision (--rate: lines/s per lane;
       --seconds: a long run, resident memory by minute; --path: the server's stages)
 
+  bench-forward --db CONNSTR [--fillets 5000] [--lanes 8] [--rate 1250] [--seconds 30]
+      forwarding to the plant-wide PostgreSQL beside the store's own write rate: a backlog
+      drained, and the lag while the lanes decide fillets at their rate
+
   bench-gige [--fillets 3] [--period-us 2000]
       a lane over GigE Vision (fake devices in a process of their own, root for their
       loopback addresses) against the replay of the same recording: CPU time a line, lines/s,
@@ -150,7 +154,8 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "lanes")) return cmd_lanes(argc, argv);
     if (!std::strcmp(cmd, "learned")) return cmd_learned(argc, argv);
     if (!std::strcmp(cmd, "bench") || !std::strcmp(cmd, "bench-server") ||
-        !std::strcmp(cmd, "bench-gige") || !std::strcmp(cmd, "soak"))
+        !std::strcmp(cmd, "bench-gige") || !std::strcmp(cmd, "bench-forward") ||
+        !std::strcmp(cmd, "soak"))
       return run_bench_binary(argv);
     if (!std::strcmp(cmd, "audit")) return cmd_audit(argc, argv);
     if (!std::strcmp(cmd, "db")) return cmd_db(argc, argv);

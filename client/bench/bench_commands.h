@@ -8,5 +8,6 @@ int cmd_bench(int argc, char** argv);
 int cmd_bench_server(int argc, char** argv);
 int cmd_soak(int argc, char** argv);
 int cmd_bench_gige(int argc, char** argv);
+int cmd_bench_forward(int argc, char** argv);
 
 }  // namespace rangex::cli

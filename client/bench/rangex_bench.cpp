@@ -11,7 +11,8 @@
 int main(int argc, char** argv) {
   if (argc < 2) {
     std::fputs(
-        "usage: rangex-bench bench|bench-server|bench-gige|soak [options] (see rangexctl --help)\n",
+        "usage: rangex-bench bench|bench-server|bench-gige|bench-forward|soak [options] (see "
+        "rangexctl --help)\n",
         stderr);
     return 2;
   }
@@ -22,10 +23,12 @@ int main(int argc, char** argv) {
     if (!std::strcmp(cmd, "bench-server")) return cmd_bench_server(argc, argv);
     if (!std::strcmp(cmd, "soak")) return cmd_soak(argc, argv);
     if (!std::strcmp(cmd, "bench-gige")) return cmd_bench_gige(argc, argv);
+    if (!std::strcmp(cmd, "bench-forward")) return cmd_bench_forward(argc, argv);
     // bench-gige's fakes, in a process of their own (rangexctl fake-lane's command).
     if (!std::strcmp(cmd, "fake-lane")) return cmd_fake_lane(argc, argv);
     std::fprintf(stderr,
-                 "rangex-bench: unknown command '%s' (bench, bench-server, bench-gige, soak)\n",
+                 "rangex-bench: unknown command '%s' (bench, bench-server, bench-gige, "
+                 "bench-forward, soak)\n",
                  cmd);
     return 2;
   });
