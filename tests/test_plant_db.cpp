@@ -150,9 +150,22 @@ TEST_F(PlantDb, EverythingStoredIsForwardedExactlyOnce) {
     EXPECT_EQ(f.status().lag_records, 0);
   }
   expect_all_forwarded(s, *db, "srv-a");
-  EXPECT_EQ(
-      db->exec("SELECT active FROM settings WHERE server_id = 'srv-a' AND id = 'cal-1'").str(0, 0),
-      "t");
+  auto active = [&](const char* cal) {
+    return db->exec("SELECT active FROM settings WHERE server_id = 'srv-a' AND id = $1", {cal})
+        .str(0, 0);
+  };
+  EXPECT_EQ(active("cal-1"), "t");
+  {
+    // An activation while the line is idle reaches the database without waiting for the
+    // next decision.
+    Forwarder f(s, options(pg, "srv-a"));
+    f.start();
+    ASSERT_TRUE(f.wait_caught_up(60)) << f.status().last_error;
+    s.add_setting(SettingKind::kCalibration, {0, "cal-2", "xray: {}", now_ns(), false, "{}"});
+    s.set_active_setting(SettingKind::kCalibration, 0, "cal-2");
+    s.audit("test", "calibration.activate", "lane 0 id cal-2");
+    EXPECT_TRUE(wait_until(30, [&] { return active("cal-2") == "t" && active("cal-1") == "f"; }));
+  }
   // The database's cursor set back (a batch whose commit was never acknowledged): the
   // records come again and change nothing.
   db->exec("UPDATE servers SET forwarded_seq = 0, image_seq = 0 WHERE server_id = 'srv-a'");

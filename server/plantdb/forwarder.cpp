@@ -280,7 +280,9 @@ void Forwarder::run() {
     try {
       if (!db_ || !db_->ok()) connect();
       const ForwardBatch b = store_.forward_batch(cursor_, opt_.batch_links, need_active_);
-      if (!b.empty()) {
+      // A batch goes when it holds records, or when which settings are active may have
+      // changed (at connect, and after an activation's audit entry): that goes on its own.
+      if (!b.empty() || need_active_) {
         forward(b);
         cursor_ = b.next;
         need_active_ = false;
@@ -295,7 +297,8 @@ void Forwarder::run() {
         status_.settings += int64_t(b.settings.size());
       }
       const bool more = int(b.links.size()) == opt_.batch_links ||
-                        int(b.images.size()) == opt_.batch_links || b.settings.size() > 0;
+                        int(b.images.size()) == opt_.batch_links || b.settings.size() > 0 ||
+                        need_active_;
       const ForwardBatch after = more ? b : store_.forward_batch(cursor_, 1, false);
       note_lag(after);
       if (!more && std::chrono::steady_clock::now() - beat >

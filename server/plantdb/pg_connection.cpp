@@ -61,8 +61,14 @@ PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s)
   // A URI takes its timeout as a parameter; a key=value string as one more key. Later keys
   // win in key=value strings, so the user's own connect_timeout is kept by putting ours first.
   const bool uri = conninfo.rfind("postgres://", 0) == 0 || conninfo.rfind("postgresql://", 0) == 0;
+  // A cut network must not hold a statement forever: TCP keepalives and a user timeout
+  // (ignored on Unix sockets), unless the string sets its own.
   std::string full = conninfo;
-  if (!uri) full = "connect_timeout=" + std::to_string(connect_timeout_s) + " " + conninfo;
+  if (!uri)
+    full = "connect_timeout=" + std::to_string(connect_timeout_s) +
+           " keepalives=1 keepalives_idle=10 keepalives_interval=5 keepalives_count=3 "
+           "tcp_user_timeout=30000 " +
+           conninfo;
   c_ = PQconnectdb(full.c_str());
   if (!c_ || PQstatus(c_) != CONNECTION_OK) {
     std::string why = c_ ? PQerrorMessage(c_) : "out of memory";
@@ -74,6 +80,8 @@ PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s)
   // Notices (e.g. "relation already exists, skipping") are not errors; keep them off stderr.
   PQsetNoticeProcessor(
       c_, [](void*, const char*) {}, nullptr);
+  // No statement of rangex's takes a minute; one that does is waiting on something wrong.
+  exec("SET statement_timeout = '60s'");
 }
 
 PgConnection::~PgConnection() {

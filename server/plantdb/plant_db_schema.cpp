@@ -121,6 +121,8 @@ int plant_db_migrate(PgConnection& db, int target,
   if (want > plant_db_schema_version_needed())
     fail("db migrate: version ", want, " is unknown to this build (it knows up to ",
          plant_db_schema_version_needed(), ")");
+  // An index built over a year of records may take longer than a forwarder's statements.
+  db.exec("SET statement_timeout = 0");
   db.exec("SELECT pg_advisory_lock(" + std::to_string(kMigrationLock) + ")");
   int done = 0;
   try {
