@@ -177,7 +177,7 @@ TEST_F(PlantDb, EverythingStoredIsForwardedExactlyOnce) {
   }
   expect_all_forwarded(s, *db, "srv-a");
   // The local copy of the cursor is what retention keeps after.
-  EXPECT_EQ(s.forwarded().seq, s.forward_batch(ForwardCursor{}, 1, false).head_seq);
+  EXPECT_EQ(s.forwarded().seq, s.head_seq());
 }
 
 TEST_F(PlantDb, InspectionGoesOnWhileTheDatabaseIsDownAndNothingIsLostOrDoubled) {
@@ -195,7 +195,7 @@ TEST_F(PlantDb, InspectionGoesOnWhileTheDatabaseIsDownAndNothingIsLostOrDoubled)
   EXPECT_EQ(f.status().state, "unreachable");
   EXPECT_NE(f.status().last_error.find("PostgreSQL"), std::string::npos) << f.status().last_error;
   // Retention prunes nothing the database lacks, even with every record past its time.
-  const int64_t head = s.forward_batch(ForwardCursor{}, 1, false).head_seq;
+  const int64_t head = s.head_seq();
   const PruneReport p = s.prune(now_ns() + int64_t(86400e9), now_ns() + int64_t(86400e9));
   EXPECT_LE(p.checkpoint_seq, s.forwarded().seq);
   EXPECT_GT(head - p.checkpoint_seq, 60);
@@ -204,7 +204,7 @@ TEST_F(PlantDb, InspectionGoesOnWhileTheDatabaseIsDownAndNothingIsLostOrDoubled)
   db = std::make_unique<PgConnection>(pg.conninfo());
   // What was pruned locally had been forwarded before: PostgreSQL holds every link, the
   // retention pass's own audit entries included, each once.
-  const int64_t now_head = s.forward_batch(ForwardCursor{}, 1, false).head_seq;
+  const int64_t now_head = s.head_seq();
   EXPECT_GT(now_head, head);
   EXPECT_EQ(count(*db, "ledger", "srv-b"), now_head);
   EXPECT_EQ(db->exec("SELECT count(DISTINCT seq) FROM ledger WHERE server_id = 'srv-b'").i64(0, 0),
@@ -274,7 +274,7 @@ TEST_F(PlantDb, EveryServersChainVerifiesAndAnUpdateBehindRangexsBackIsNamed) {
   std::vector<ServerChainReport> r = verify_plant_db_chains(*db);
   ASSERT_EQ(r.size(), 2u);
   for (const ServerChainReport& c : r) EXPECT_TRUE(c.ok) << c.server_id << ": " << c.problem;
-  EXPECT_EQ(r[0].links, s1.forward_batch(ForwardCursor{}, 1, false).head_seq);
+  EXPECT_EQ(r[0].links, s1.head_seq());
   EXPECT_EQ(r[0].head, s1.chain_head());
   // A reject turned into a pass in PostgreSQL: srv-1's chain breaks at that fillet's link,
   // srv-2's still holds.

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -87,7 +88,7 @@ int cmd_bench_forward(int argc, char** argv) {
   auto t0 = std::chrono::steady_clock::now();
   for (int i = 0; i < fillets; ++i) store_one(backlog, i % lanes, i / lanes);
   const double store_s = seconds_since(t0);
-  const int64_t links = backlog.forward_batch(ForwardCursor{}, 1, false).head_seq;
+  const int64_t links = backlog.head_seq();
   std::printf("  store (baseline):   %d fillets, %lld chain links in %.2f s: %.0f fillets/s\n",
               fillets, (long long)links, store_s, fillets / store_s);
 
@@ -117,7 +118,7 @@ int cmd_bench_forward(int argc, char** argv) {
   const double per_s = lanes * rate / lines_per_fillet;
   std::vector<double> lag_s, lag_n;
   std::thread sampler;
-  bool done = false;
+  std::atomic<bool> done{false};
   sampler = std::thread([&] {
     while (!done) {
       // Measured here, from the store and the cursor the database acknowledged, not taken

@@ -12,9 +12,9 @@ struct ForwarderStatus {
   std::string state;       // forwarding | caught up | unreachable | refused
   std::string last_error;  // the last failure ("" once forwarding again)
   int64_t head_seq = 0, forwarded_seq = 0;
-  int64_t lag_records = 0;  // chain links stored here and not yet in the database
-  double lag_seconds = 0;   // age of the oldest of them
-  int64_t batches = 0, links = 0, images = 0, settings = 0;  // forwarded by this process
+  int64_t lag_records = 0;        // chain links stored here and not yet in the database
+  double lag_seconds = 0;         // age of the oldest of them
+  int64_t links = 0, images = 0;  // forwarded by this process
   int64_t failures = 0;
 };
 

@@ -63,7 +63,7 @@ ForwarderStatus Forwarder::status() const {
 }
 
 bool Forwarder::wait_caught_up(double timeout_s) {
-  const int64_t head = store_.forward_batch(ForwardCursor{}, 1, false).head_seq;
+  const int64_t head = store_.head_seq();
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   std::unique_lock<std::mutex> lock(mu_);
   return cv_.wait_until(lock, until, [&] {
@@ -103,7 +103,7 @@ void Forwarder::connect() {
     const PgRows h = db->exec("SELECT hash FROM ledger WHERE server_id = $1 AND seq = $2",
                               {id, std::to_string(held.seq)});
     const std::optional<std::string> mine = store_.link_hash(held.seq);
-    const int64_t head = store_.forward_batch(held, 1, false).head_seq;
+    const int64_t head = store_.head_seq();
     if (head < held.seq || (mine && h.rows() && *mine != h.str(0, 0)))
       throw FailedPrecondition(join("PostgreSQL holds ", held.seq, " links of server '", id,
                                     "' that are not this store's (this store has ", head,
@@ -291,15 +291,15 @@ void Forwarder::run() {
             need_active_ = true;
         store_.set_forwarded(cursor_);
         std::lock_guard<std::mutex> lock(mu_);
-        ++status_.batches;
         status_.links += int64_t(b.links.size());
         status_.images += int64_t(b.images.size());
-        status_.settings += int64_t(b.settings.size());
       }
       const bool more = int(b.links.size()) == opt_.batch_links ||
                         int(b.images.size()) == opt_.batch_links || b.settings.size() > 0 ||
                         need_active_;
-      const ForwardBatch after = more ? b : store_.forward_batch(cursor_, 1, false);
+      // Caught up, the batch's own snapshot says where the store stood; behind, the age of
+      // the oldest record still waiting needs a fresh look.
+      const ForwardBatch after = more ? store_.forward_batch(cursor_, 1, false) : b;
       note_lag(after);
       if (!more && std::chrono::steady_clock::now() - beat >
                        std::chrono::duration<double>(opt_.heartbeat_s)) {

@@ -212,6 +212,9 @@ class Engine {
   void set_plc_status(std::function<PlcStatus()> status);
   // Where statistics and warnings read the forwarding to the plant-wide database from.
   void set_forward_status(std::function<ForwarderStatus()> status);
+  // The forwarding's status alone (none without a plant-wide database), without the rest of
+  // the statistics.
+  std::optional<ForwarderStatus> forwarding();
   // A shift recorded on the server (shift_recorder.h): the lanes' accepted lines written as
   // recordings in <data>/recordings/NAME. start refuses what would not fit the disk.
   RecordingStatus start_recording(const RecordingRequest& req, const std::string& who);

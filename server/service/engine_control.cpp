@@ -47,6 +47,12 @@ void Engine::set_forward_status(std::function<ForwarderStatus()> status) {
   forward_status_ = std::move(status);
 }
 
+std::optional<ForwarderStatus> Engine::forwarding() {
+  std::lock_guard<std::mutex> lock(sensors_mu_);
+  if (!forward_status_) return std::nullopt;
+  return forward_status_();
+}
+
 LaneState Engine::lane_state(int id) {
   Lane& l = lane(id);
   LaneState s;

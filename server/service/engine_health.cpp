@@ -91,10 +91,7 @@ EngineStats Engine::stats() {
                                   s.plc->pending, " waiting"));
     }
   }
-  {
-    std::lock_guard<std::mutex> lock(sensors_mu_);
-    if (forward_status_) s.forwarding = forward_status_();
-  }
+  s.forwarding = forwarding();
   if (s.forwarding) {
     // Inspection goes on; the records wait in the local store, which retention keeps.
     const ForwarderStatus& f = *s.forwarding;

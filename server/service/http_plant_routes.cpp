@@ -33,7 +33,7 @@ void HttpServer::plant_routes(httplib::Server& s) {
                     {"backend", b.name},
                     {"device", b.device},
                     {"backend_note", engine_.backend_note()},
-                    {"forwarding", forwarding_text(engine_.stats().forwarding)},
+                    {"forwarding", forwarding_text(engine_.forwarding())},
                     {"now_ns", now_ns()}});
   });
   s.Get("/api/lanes", [this](const httplib::Request&, httplib::Response& res) {

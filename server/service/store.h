@@ -137,6 +137,8 @@ class Store {
   // at most `limit` links (images and settings as many), with every active setting when
   // `with_active`.
   ForwardBatch forward_batch(const ForwardCursor& after, int limit, bool with_active);
+  // The seq of the chain's last link (0: none).
+  int64_t head_seq();
   // The chain link's hash at `seq` (nullopt: not in the store, or pruned).
   std::optional<std::string> link_hash(int64_t seq);
   // What the plant-wide database holds, kept here too: while forwarding is on, retention
@@ -164,6 +166,8 @@ class Store {
   std::string append_link(const char* kind, int64_t ref, int64_t ts_ns, const std::string& content,
                           const std::string& prev);
   ForwardCursor forwarded_locked();       // mu_ held
+  int64_t head_seq_locked();              // the chain's last link's seq (0: none); mu_ held
+  AuditEntry read_audit(int64_t row);     // throws NotFound; mu_ held
   StoredFillet read_fillet(int64_t uid);  // with its fragments in stored order; mu_ held
   // An audit entry and its link, inside the caller's transaction (mu_ held); the new head.
   std::string append_audit(const AuditEntry& e, const std::string& prev);

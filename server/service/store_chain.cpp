@@ -36,13 +36,15 @@ std::unique_ptr<Store> Store::read_only(const std::string& dir) {
 
 std::string Store::row_content(const std::string& kind, int64_t ref) {
   if (kind == "fillet") return chain_content(read_fillet(ref));
-  if (kind == "audit") {
-    Stmt a(db_, "SELECT ts_ns, who, what, detail FROM audit WHERE rowid = ?");
-    a.bind(1, ref);
-    if (!a.step()) fail_not_found("audit entry ", ref, " is not in the store");
-    return chain_content(ref, {a.i64(0), a.str(1), a.str(2), a.str(3)});
-  }
+  if (kind == "audit") return chain_content(ref, read_audit(ref));
   fail("a link of unknown kind '", kind, "'");
+}
+
+AuditEntry Store::read_audit(int64_t row) {
+  Stmt a(db_, "SELECT ts_ns, who, what, detail FROM audit WHERE rowid = ?");
+  a.bind(1, row);
+  if (!a.step()) fail_not_found("audit entry ", row, " is not in the store");
+  return {a.i64(0), a.str(1), a.str(2), a.str(3)};
 }
 
 std::vector<ChainLink> Store::chain_links(const std::string& dir, int64_t from_ns, int64_t to_ns) {

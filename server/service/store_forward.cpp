@@ -28,10 +28,7 @@ ForwardBatch Store::forward_batch(const ForwardCursor& after, int limit, bool wi
       if (l.kind == "fillet") {
         b.fillets.push_back(read_fillet(l.ref));
       } else if (l.kind == "audit") {
-        Stmt a(db_, "SELECT ts_ns, who, what, detail FROM audit WHERE rowid = ?");
-        a.bind(1, l.ref);
-        if (!a.step()) fail("store: audit entry ", l.ref, " of link ", l.seq, " is missing");
-        b.audit.push_back({l.ref, {a.i64(0), a.str(1), a.str(2), a.str(3)}});
+        b.audit.push_back({l.ref, read_audit(l.ref)});
       } else {
         fail("store: link ", l.seq, " is of unknown kind '", l.kind, "'");
       }
@@ -78,11 +75,10 @@ ForwardBatch Store::forward_batch(const ForwardCursor& after, int limit, bool wi
         while (q.step()) b.active.push_back({learned, int(q.i64(0)), q.str(1)});
       }
     {
-      Stmt q(db_, "SELECT max(seq), count(*) FROM ledger WHERE seq > ?");
+      Stmt q(db_, "SELECT count(*) FROM ledger WHERE seq > ?");
       q.bind(1, after.seq);
-      if (q.step()) b.pending = q.i64(1);
-      Stmt h(db_, "SELECT coalesce(max(seq), 0) FROM ledger");
-      if (h.step()) b.head_seq = h.i64(0);
+      if (q.step()) b.pending = q.i64(0);
+      b.head_seq = head_seq_locked();
       Stmt o(db_, "SELECT ts_ns FROM ledger WHERE seq > ? ORDER BY seq LIMIT 1");
       o.bind(1, after.seq);
       if (o.step()) b.oldest_ns = o.i64(0);
@@ -93,6 +89,17 @@ ForwardBatch Store::forward_batch(const ForwardCursor& after, int limit, bool wi
     throw;
   }
   return b;
+}
+
+int64_t Store::head_seq() {
+  std::lock_guard<std::mutex> lock(mu_);
+  return head_seq_locked();
+}
+
+int64_t Store::head_seq_locked() {
+  Stmt h(db_, "SELECT coalesce(max(seq), 0) FROM ledger");
+  h.step();
+  return h.i64(0);
 }
 
 std::optional<std::string> Store::link_hash(int64_t seq) {
