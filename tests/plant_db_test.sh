@@ -3,7 +3,9 @@
 # simulated plant of 2 + 2 lanes: every record each server stores is in PostgreSQL exactly
 # once, through a database stopped for 30 s mid-run and a rangexd killed with SIGKILL
 # mid-forward; every server's chain verifies there, and an UPDATE behind rangex's back is
-# named. Usage: plant_db_test.sh RANGEXCTL RANGEXD
+# named. The fleet view (rangexd --fleet) answers what the two servers' own dashboards answer
+# together, fetches an image through the server that keeps it, and names that server when it
+# cannot be reached. Usage: plant_db_test.sh RANGEXCTL RANGEXD
 set -u
 ctl="$1" srv="$2"
 source "$(dirname "$0")/script_checks.sh"
@@ -43,7 +45,7 @@ for s in a b; do
 done
 start_server() {  # start_server a|b: starts it, sets addr_a / addr_b
   local s=$1
-  "$srv" --config "$work/$s.yaml" --listen 127.0.0.1:0 --http off >>"$work/rangexd-$s.log" 2>&1 &
+  "$srv" --config "$work/$s.yaml" --listen 127.0.0.1:0 --http 127.0.0.1:0 >>"$work/rangexd-$s.log" 2>&1 &
   pids+=($!)
   eval "pid_$s=$!"
   for _ in $(seq 200); do
@@ -51,6 +53,7 @@ start_server() {  # start_server a|b: starts it, sets addr_a / addr_b
     sleep 0.1
   done
   eval "addr_$s=$(grep "listening on" "$work/rangexd-$s.log" | tail -1 | sed -nE 's/.*listening on ([0-9.]+:[0-9]+).*/\1/p')"
+  eval "web_$s=$(grep "dashboard at" "$work/rangexd-$s.log" | tail -1 | sed -nE 's|.*dashboard at (http://[0-9.]+:[0-9]+)/.*|\1|p')"
 }
 start_server a 1
 start_server b 1
@@ -66,6 +69,10 @@ caught_up() {  # caught_up ADDR SECONDS
 }
 "$ctl" feed --server "$addr_a" --simulate --lanes 2 --fillets 2 --seed 3 >"$work/feed-a1.txt" || fails=$((fails + 1))
 check "server a caught up" caught_up "$addr_a" 60
+# A calibration version on server a's lane 1, activated: its history reaches the fleet view.
+printf 'laser_plane: {normal: [0, 1, 0], offset_mm: 0.02}\n' >"$work/cal.yaml"
+"$ctl" calib upload --server "$addr_a" --lane 1 --id cal-7 --file "$work/cal.yaml" >/dev/null || fails=$((fails + 1))
+"$ctl" calib activate --server "$addr_a" --lane 1 --id cal-7 --force >/dev/null || fails=$((fails + 1))
 
 # PostgreSQL stopped for 30 s mid-run: inspection goes on, the lag grows, then drains.
 pg_ctl -m fast -w stop >/dev/null
@@ -108,6 +115,90 @@ for s in a b; do
 done
 "$ctl" audit verify --db "$db" >"$work/verify.txt"
 check "audit verify --db: both chains verify" test "$(grep -c "chain verified" "$work/verify.txt")" -eq 2
+
+# The fleet view over the same database, from server a's plant file.
+"$srv" --fleet --config "$work/a.yaml" --http 127.0.0.1:0 >"$work/fleet.log" 2>&1 &
+pids+=($!)
+for _ in $(seq 100); do grep -q "fleet view of plant" "$work/fleet.log" && break; sleep 0.1; done
+fleet=$(sed -nE 's|.*, at (http://[0-9.]+:[0-9]+)/.*|\1|p' "$work/fleet.log")
+check "the fleet view serves" test -n "$fleet"
+# Both servers have written their rows since b restarted (its dashboard's new address).
+rows_current() { [ "$(q "SELECT count(*) FROM servers WHERE health <> '' AND http IN ('$web_a', '$web_b')")" = 2 ]; }
+for _ in $(seq 100); do rows_current && break; sleep 0.2; done
+check "both servers describe themselves in PostgreSQL" rows_current
+python3 - "$fleet" "srv-a=$web_a" "srv-b=$web_b" >"$work/fleet-compare.txt" 2>&1 <<'PY'
+# The fleet's answers against the union of the servers' own answers.
+import json, sys, urllib.request, urllib.error
+fleet, servers = sys.argv[1], dict(a.split("=", 1) for a in sys.argv[2:])
+def get(url):
+    with urllib.request.urlopen(url, timeout=30) as r:
+        return r.read()
+def js(url): return json.loads(get(url))
+def key(f): return (f["uid"], f["lane"], f["lane_fillet"], f["decision"], f["decided_ns"],
+                    len(f["fragments"]), tuple(sorted(f["images"])))
+fails = 0
+def check(name, ok):
+    global fails
+    print(("ok   " if ok else "FAIL ") + name)
+    fails += not ok
+mine = {(s, key(f)) for s, w in servers.items() for f in js(w + "/api/fillets?limit=10000")["fillets"]}
+theirs = {(f["server"], key(f)) for f in js(fleet + "/api/fillets?limit=10000")["fillets"]}
+check(f"fleet fillets = the union of the servers' ({len(theirs)} and {len(mine)})", mine == theirs and len(mine) > 0)
+# Paged in threes, in (decided_ns, server, uid) order, with the fleet's cursor.
+paged, after = [], "0"
+while True:
+    page = js(f"{fleet}/api/fillets?limit=3&after={after}")
+    paged += [(f["server"], f["uid"]) for f in page["fillets"]]
+    if len(page["fillets"]) < 3: break
+    after = page["next_after"]
+check(f"pages of 3 give every fillet once ({len(paged)})", sorted(paged) == sorted((s, k[0]) for s, k in mine) and len(set(paged)) == len(paged))
+rejects = {(f["server"], f["uid"]) for f in js(fleet + "/api/fillets?decision=reject&server=srv-b&limit=10000")["fillets"]}
+check("a search by server and decision", rejects == {(s, k[0]) for s, k in mine if s == "srv-b" and k[3] == "reject"})
+csv = get(fleet + "/api/fillets.csv").decode().splitlines()
+check(f"CSV export: a header and {len(mine)} rows with their server", len(csv) == len(mine) + 1 and csv[0].startswith("server,") and all(r.split(",")[0] in servers for r in csv[1:]))
+lanes_own = {(s, l["lane"]) for s, w in servers.items() for l in js(w + "/api/lanes")}
+lanes_fleet = {(l["server"], l["lane"]) for l in js(fleet + "/api/lanes")}
+check(f"fleet lanes = the servers' lanes ({sorted(lanes_fleet)})", lanes_own == lanes_fleet)
+up = {s["server"]: s["up"] for s in js(fleet + "/api/servers")}
+check(f"both servers up, with their lag ({up})", up == {"srv-a": True, "srv-b": True})
+audit_own = sum(len(js(w + "/api/audit?limit=100000")) for w in servers.values())
+check(f"fleet audit holds every server's entries ({audit_own})", len(js(fleet + "/api/audit?limit=100000")) == audit_own)
+cal_own = sorted((s, v["lane"], v["id"], v["active"]) for s, w in servers.items() for v in js(w + "/api/calibrations")["versions"])
+cal_fleet = sorted((v["server"], v["lane"], v["id"], v["active"]) for v in js(fleet + "/api/calibrations")["versions"] if v["kind"] == "calibration")
+check(f"calibration versions: the servers' ({cal_own})", cal_own == cal_fleet and len(cal_own) > 0)
+events = [e["what"] for e in js(fleet + "/api/calibrations")["events"] if e["server"] == "srv-a"]
+check(f"and who uploaded and activated them ({events})", "calibration.upload" in events and any(e.startswith("calibration.activate") for e in events))
+# An image through the server that keeps it: the same bytes.
+held = [(s, k[0]) for s, k in mine if "overlay" in k[6]]
+if held:
+    s, uid = sorted(held)[0]
+    own = get(f"{servers[s]}/api/fillets/{uid}/images/overlay")
+    via = get(f"{fleet}/api/fillets/{s}/{uid}/images/overlay")
+    check(f"{s}'s overlay of fillet {uid} through the fleet: the same {len(own)} bytes", own == via)
+    one = js(f"{fleet}/api/fillets/{s}/{uid}")
+    check("a fillet says which server keeps its images", one["kept_by"]["server"] == s)
+else:
+    check("a fillet with an image to fetch", False)
+metrics = get(fleet + "/metrics").decode()
+check("fleet /metrics: each server up", 'rangex_fleet_server_up{server="srv-a"} 1' in metrics and 'rangex_fleet_server_up{server="srv-b"} 1' in metrics)
+print(json.dumps(sorted(held)[:1]))
+sys.exit(1 if fails else 0)
+PY
+check "the fleet view answers as the servers do (fleet-compare below)" test $? -eq 0
+cat "$work/fleet-compare.txt"
+# Server b gone: its image is not, and the fleet names the server that cannot be reached.
+image_b=$(q "SELECT fillet_uid FROM images WHERE server_id = 'srv-b' AND kind = 'overlay' ORDER BY fillet_uid LIMIT 1")
+kill -9 "$pid_b"
+wait "$pid_b" 2>/dev/null
+code=$(python3 -c '
+import sys, urllib.request, urllib.error
+try:
+    urllib.request.urlopen(sys.argv[1], timeout=30); print(200)
+except urllib.error.HTTPError as e:
+    open(sys.argv[2], "wb").write(e.read()); print(e.code)' \
+  "$fleet/api/fillets/srv-b/$image_b/images/overlay" "$work/unreachable.json")
+check "an image of a server that is down: 502 ($code)" test "$code" = 502
+check "naming the server that keeps it" grep -q "server srv-b at http://.* is unreachable" "$work/unreachable.json"
 
 # A decision changed behind rangex's back is named, on its server only.
 q "UPDATE fillets SET decision = 'pass' WHERE server_id = 'srv-b' AND uid = (SELECT min(uid) FROM fillets WHERE server_id = 'srv-b' AND decision = 'reject')" >/dev/null

@@ -71,6 +71,12 @@ bool Forwarder::wait_caught_up(double timeout_s) {
   });
 }
 
+void Forwarder::describe(const std::string& http_url, std::function<std::string()> health) {
+  std::lock_guard<std::mutex> lock(mu_);
+  http_url_ = http_url;
+  health_ = std::move(health);
+}
+
 void Forwarder::connect() {
   db_.reset();
   auto db = std::make_unique<PgConnection>(opt_.conninfo, opt_.connect_timeout_s);
@@ -88,10 +94,10 @@ void Forwarder::connect() {
   }
   const std::string now = std::to_string(now_ns());
   db->exec(
-      "INSERT INTO servers (server_id, host, http, started_ns, seen_ns) VALUES ($1, $2, $3, $4, "
-      "$4) ON CONFLICT (server_id) DO UPDATE SET host = excluded.host, http = excluded.http, "
-      "started_ns = excluded.started_ns, seen_ns = excluded.seen_ns",
-      {id, opt_.host, opt_.http, now});
+      "INSERT INTO servers (server_id, host, started_ns, seen_ns) VALUES ($1, $2, $3, $3) ON "
+      "CONFLICT (server_id) DO UPDATE SET host = excluded.host, started_ns = "
+      "excluded.started_ns, seen_ns = excluded.seen_ns",
+      {id, opt_.host, now});
   const PgRows c = db->exec(
       "SELECT forwarded_seq, image_seq, calibration_row, learned_row FROM servers WHERE "
       "server_id = $1",
@@ -261,15 +267,26 @@ void Forwarder::note_lag(const ForwardBatch& b) {
 }
 
 void Forwarder::heartbeat(const ForwardBatch& b) {
+  std::string http, health;
+  std::function<std::string()> describe;
+  int64_t lag_records = 0;
+  double lag_seconds = 0;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    http = http_url_, describe = health_;
+    lag_records = status_.lag_records, lag_seconds = status_.lag_seconds;
+  }
+  if (describe) health = describe();  // outside the lock: it reads the engine
   db_->exec(
-      "UPDATE servers SET head_seq = $2, seen_ns = $3, lag_records = 0, lag_seconds = 0 "
-      "WHERE server_id = $1",
-      {opt_.server_id, std::to_string(b.head_seq), std::to_string(now_ns())});
+      "UPDATE servers SET head_seq = $2, seen_ns = $3, lag_records = $4, lag_seconds = $5, "
+      "http = $6, health = $7 WHERE server_id = $1",
+      {opt_.server_id, std::to_string(b.head_seq), std::to_string(now_ns()),
+       std::to_string(lag_records), pg_exact(lag_seconds), http, health});
 }
 
 void Forwarder::run() {
   double backoff = 1;
-  auto beat = std::chrono::steady_clock::now();
+  auto beat = std::chrono::steady_clock::now() - std::chrono::hours(1);  // one at once
   std::string last_logged;
   for (;;) {
     {
@@ -301,8 +318,9 @@ void Forwarder::run() {
       // the oldest record still waiting needs a fresh look.
       const ForwardBatch after = more ? store_.forward_batch(cursor_, 1, false) : b;
       note_lag(after);
-      if (!more && std::chrono::steady_clock::now() - beat >
-                       std::chrono::duration<double>(opt_.heartbeat_s)) {
+      // Behind or not: the fleet view reads the server's health and lag from its row.
+      if (std::chrono::steady_clock::now() - beat >
+          std::chrono::duration<double>(opt_.heartbeat_s)) {
         heartbeat(after);
         beat = std::chrono::steady_clock::now();
       }

@@ -7,6 +7,7 @@
 #pragma once
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -22,9 +23,9 @@ class PgConnection;
 class Store;
 
 struct ForwarderOptions {
-  std::string conninfo;    // plant.results_db
-  std::string server_id;   // plant.server_id
-  std::string host, http;  // where this server runs and serves its dashboard (for the fleet)
+  std::string conninfo;   // plant.results_db
+  std::string server_id;  // plant.server_id
+  std::string host;       // where this server runs
   int batch_links = 500;
   double idle_s = 0.25;     // how often a caught-up forwarder looks for new records
   double retry_max_s = 30;  // backoff after a failure: 1 s, doubling, up to this
@@ -44,12 +45,16 @@ class Forwarder {
   ForwarderStatus status() const;
   // Caught up with everything stored when it was called, within timeout_s (tests, a stop).
   bool wait_caught_up(double timeout_s);
+  // What the fleet view shows of this server, written to its `servers` row at every
+  // heartbeat: where its dashboard serves ("http://host:port": the fleet fetches images
+  // there) and its health as JSON text (lanes, warnings), read from `health` each time.
+  void describe(const std::string& http_url, std::function<std::string()> health);
 
  private:
   void run();
   void connect();                         // throws Error
   void forward(const ForwardBatch& b);    // one transaction; throws Error
-  void heartbeat(const ForwardBatch& b);  // the servers row's lag, while caught up
+  void heartbeat(const ForwardBatch& b);  // the servers row's lag and health
   void note_lag(const ForwardBatch& b);
 
   Store& store_;
@@ -62,6 +67,8 @@ class Forwarder {
   std::condition_variable cv_;
   bool stop_ = false;
   ForwarderStatus status_;
+  std::string http_url_;
+  std::function<std::string()> health_;
   std::thread thread_;
 };
 

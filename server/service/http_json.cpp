@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "pipeline/product_drift.h"
+#include "service/http_server.h"
 #include "service/image_view.h"
 
 namespace rangex {
@@ -157,6 +158,18 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
       {"sensors", sensors},
       {"plc", l.plc},
       {"verification", verification}};
+}
+
+std::string server_health_text(Engine& engine, PlantHistory& h, const std::string& version) {
+  const BackendInfo b = engine.backend();
+  json lanes = json::array();
+  for (const LaneState& l : engine.lanes()) lanes.push_back(lane_json(l, h, b.name));
+  return json{{"version", version},
+              {"backend", b.name},
+              {"device", b.device},
+              {"lanes", lanes},
+              {"warnings", engine.stats().warnings}}
+      .dump();
 }
 
 json image_kinds(Store& store, int64_t uid) {

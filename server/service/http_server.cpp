@@ -1,9 +1,7 @@
 #include "service/http_server.h"
 
 #include <httplib.h>
-#include <openssl/err.h>
-#include <openssl/ssl.h>
-#include <openssl/x509.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
@@ -12,93 +10,27 @@
 
 #include "core/error.h"
 #include "service/gated_http_server.h"
-#include "service/http_params.h"
-#include "web_assets.h"
+#include "service/http_front.h"
+#include "service/http_json.h"
 
 namespace rangex {
 
 using json = nlohmann::json;
 
-namespace {
-
-// The server's certificate and key; with a client CA, client certificates are asked for and
-// verified when presented (a browser without one logs in with a token instead).
-bool setup_tls(SSL_CTX& ctx, const SecurityConfig& s, std::string& why) {
-  auto failed = [&](const std::string& what) {
-    char buf[256] = "";
-    ERR_error_string_n(ERR_get_error(), buf, sizeof buf);
-    why = what + " (" + buf + ")";
-    return false;
-  };
-  SSL_CTX_set_min_proto_version(&ctx, TLS1_2_VERSION);
-  // A client may not make the server renegotiate (a handshake's cost, asked for again).
-  SSL_CTX_set_options(&ctx, SSL_OP_NO_COMPRESSION | SSL_OP_NO_RENEGOTIATION);
-  if (SSL_CTX_use_certificate_chain_file(&ctx, s.tls_cert.c_str()) != 1)
-    return failed("security.tls.cert: cannot load " + s.tls_cert);
-  if (SSL_CTX_use_PrivateKey_file(&ctx, s.tls_key.c_str(), SSL_FILETYPE_PEM) != 1)
-    return failed("security.tls.key: cannot load " + s.tls_key);
-  if (SSL_CTX_check_private_key(&ctx) != 1)
-    return failed("security.tls.key does not match security.tls.cert");
-  if (!s.client_ca.empty()) {
-    if (SSL_CTX_load_verify_locations(&ctx, s.client_ca.c_str(), nullptr) != 1)
-      return failed("security.tls.client_ca: cannot load " + s.client_ca);
-    SSL_CTX_set_client_CA_list(&ctx, SSL_load_client_CA_file(s.client_ca.c_str()));
-    SSL_CTX_set_verify(&ctx, SSL_VERIFY_PEER, nullptr);
-  }
-  return true;
-}
-
-// The common name of the client's verified certificate ("" without one).
-std::string peer_common_name(const httplib::Request& req) {
-  if (!req.ssl) return "";
-  X509* cert = SSL_get0_peer_certificate(req.ssl);
-  if (!cert || SSL_get_verify_result(req.ssl) != X509_V_OK) return "";
-  char cn[256] = "";
-  if (X509_NAME_get_text_by_NID(X509_get_subject_name(cert), NID_commonName, cn, sizeof cn) <= 0)
-    return "";
-  return cn;
-}
-
-}  // namespace
-
 HttpServer::HttpServer(Engine& engine, Store& store, ResultsHub& hub, HttpOptions opt)
     : engine_(engine), store_(store), hub_(hub), opt_(std::move(opt)), access_(opt_.security) {
   check_listen_security(opt_.listen, opt_.security, "the dashboard");
-  const size_t colon = opt_.listen.rfind(':');
-  if (colon == std::string::npos)
-    fail("plant.http '", opt_.listen, "' must be host:port (port 0: any free one)");
-  host_ = opt_.listen.substr(0, colon);
-  int want = 0;
-  try {
-    want = std::stoi(opt_.listen.substr(colon + 1));
-  } catch (const std::exception&) {
-    fail("plant.http '", opt_.listen, "': the port is not a number");
-  }
-  if (want < 0 || want > 65535) fail("plant.http '", opt_.listen, "': port out of range");
   // Event streams hold a worker each while open: the gate has room for all of them and for
   // the ordinary requests beside them.
-  GateOptions g;
-  g.workers = opt_.max_event_streams + 8;
-  SSL_CTX* tls = nullptr;
-  if (opt_.security.tls()) {
-    std::string why;
-    tls = SSL_CTX_new(TLS_server_method());
-    if (!tls || !setup_tls(*tls, opt_.security, why)) {
-      if (tls) SSL_CTX_free(tls);
-      fail("plant.http: TLS: ", why.empty() ? "cannot set up" : why);
-    }
-  }
-  auto gated = std::make_unique<GatedHttpServer>(g, tls);
-  gate_ = &gated->gate();
-  http_ = std::move(gated);
-  http_->set_read_timeout(10, 0);
-  http_->set_write_timeout(10, 0);
-  authorise(*http_);
-  routes();
-  port_ =
-      want == 0 ? http_->bind_to_any_port(host_) : (http_->bind_to_port(host_, want) ? want : -1);
-  if (port_ <= 0)
-    fail("plant.http: cannot listen on ", opt_.listen, " (in use, or no such address)");
+  HttpFront front =
+      make_http_front(opt_.listen, opt_.security, opt_.max_event_streams + 8, "plant.http");
+  gate_ = &front.server->gate();
+  host_ = front.host;
+  guard_http(*front.server, access_);
+  serve_dashboard_files(*front.server);
+  routes(*front.server);
+  port_ = bind_http_front(front, opt_.listen, "plant.http");
+  http_ = std::move(front.server);
   history_.add(PlantHistory::sample(engine_.stats(), engine_.lanes(), now_ns()));
   listener_ = std::thread([this] { http_->listen_after_bind(); });
   // Serving before the constructor returns: a stop() that came before the listener started
@@ -114,6 +46,19 @@ HttpServer::~HttpServer() {
 
 std::string HttpServer::address() const {
   return host_ + ":" + std::to_string(port_);
+}
+
+std::string HttpServer::health_text() {
+  return server_health_text(engine_, history_, opt_.version);
+}
+
+std::string HttpServer::url() const {
+  std::string host = host_;
+  if (host.empty() || host == "0.0.0.0" || host == "::" || host == "[::]") {
+    char buf[256] = {};
+    host = gethostname(buf, sizeof buf - 1) == 0 && buf[0] ? buf : "localhost";
+  }
+  return std::string(tls() ? "https" : "http") + "://" + host + ":" + std::to_string(port_);
 }
 
 void HttpServer::stop() {
@@ -135,92 +80,11 @@ void HttpServer::sampler() {
   }
 }
 
-bool HttpServer::refuse_hostile(const httplib::Request& req, httplib::Response& res) {
-  // cpp-httplib 0.11 bounds each header line (8 kB) but not their number, and serves every
-  // part of a multi-range request: 2,600 parts of "bytes=0-" turned a 7.9 kB image into a
-  // 248 MB response. No browser or dashboard asks for more than one range.
-  if (req.headers.size() > kMaxHeaders) {
-    res.status = 431;
-    res.set_content(
-        json{{"error", "more than " + std::to_string(kMaxHeaders) + " request headers (" +
-                           std::to_string(req.headers.size()) + ")"}}
-            .dump(),
-        "application/json");
-    return true;
-  }
-  if (req.ranges.size() > 1) {
-    const size_t parts = req.ranges.size();
-    // Cleared, or httplib would still cut the refusal into those parts.
-    const_cast<httplib::Request&>(req).ranges.clear();
-    res.status = 416;
-    res.set_content(json{{"error", "multi-range requests are not served (" + std::to_string(parts) +
-                                       " ranges); ask for one range"}}
-                        .dump(),
-                    "application/json");
-    return true;
-  }
-  return false;
-}
-
 Identity HttpServer::identify(const httplib::Request& req) const {
-  return access_.identify(peer_common_name(req), req.get_header_value("Authorization"),
-                          req.remote_addr);
+  return identify_request(access_, req);
 }
 
-void HttpServer::authorise(httplib::Server& s) {
-  // Every request, before routing: the dashboard's files too, so that a page never loads
-  // without its data.
-  s.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-    if (refuse_hostile(req, res)) return httplib::Server::HandlerResponse::Handled;
-    try {
-      AccessControl::require(identify(req), Role::viewer, "reading the dashboard");
-      return httplib::Server::HandlerResponse::Unhandled;
-    } catch (const Unauthenticated& e) {
-      res.status = 401;
-      res.set_header("WWW-Authenticate", "Basic realm=\"rangex\", charset=\"UTF-8\"");
-      res.set_content(json{{"error", e.what()}}.dump(), "application/json");
-    } catch (const PermissionDenied& e) {
-      res.status = 403;
-      res.set_content(json{{"error", e.what()}}.dump(), "application/json");
-    }
-    return httplib::Server::HandlerResponse::Handled;
-  });
-}
-
-void HttpServer::routes() {
-  httplib::Server& s = *http_;
-  s.set_exception_handler(
-      [](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
-        std::string msg = "internal error";
-        int status = 500;
-        try {
-          std::rethrow_exception(ep);
-        } catch (const BadRequest& e) {
-          msg = e.what(), status = 400;
-        } catch (const NotFound& e) {
-          msg = e.what(), status = 404;
-        } catch (const Unauthenticated& e) {
-          msg = e.what(), status = 401;
-          res.set_header("WWW-Authenticate", "Basic realm=\"rangex\", charset=\"UTF-8\"");
-        } catch (const PermissionDenied& e) {
-          msg = e.what(), status = 403;
-        } catch (const FailedPrecondition& e) {
-          msg = e.what(), status = 409;
-        } catch (const std::exception& e) {
-          msg = e.what();
-        }
-        res.status = status;
-        res.set_content(json{{"error", msg}}.dump(), "application/json");
-      });
-
-  for (const WebAsset& a : kWebAssets) {
-    const std::string path = std::string("/") + (std::string(a.path) == "index.html" ? "" : a.path);
-    s.Get(path, [a](const httplib::Request&, httplib::Response& res) {
-      res.set_content(a.body, a.size, a.type);
-      res.set_header("Cache-Control", "no-cache");
-    });
-  }
-
+void HttpServer::routes(httplib::Server& s) {
   plant_routes(s);
   fillet_routes(s);
   record_routes(s);

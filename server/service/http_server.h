@@ -57,6 +57,10 @@ struct HttpOptions {
   std::function<int()> ingest_streams;
 };
 
+// What the fleet view shows of a server (its `servers` row): version, backend, its lanes as
+// their dashboard tiles (rates from `h`) and its warnings, as JSON text.
+std::string server_health_text(Engine& engine, PlantHistory& h, const std::string& version);
+
 class HttpServer {
  public:
   // Binds (throws Error naming the address when it cannot) and serves on its own threads.
@@ -68,26 +72,27 @@ class HttpServer {
   // Ends every event stream and stops serving (before the engine's drain).
   void stop();
   int event_streams() const { return event_streams_; }
+  // This server's health for the fleet view (http_json.h: server_health_text), with the
+  // tiles' rates from this dashboard's history.
+  std::string health_text();
+  // Where a browser or the fleet view reaches this dashboard: "http://host:port" (https
+  // with TLS; the host name when it listens on every address).
+  std::string url() const;
   // Event streams closed because they fell behind while another client asked for one.
   uint64_t event_streams_dropped() const { return events_dropped_; }
 
  private:
-  void routes();
+  void routes(httplib::Server& s);
   // The routes by resource (http_*_routes.cpp, http_events.cpp).
   void plant_routes(httplib::Server& s);
   void fillet_routes(httplib::Server& s);
   void record_routes(httplib::Server& s);
   void event_routes(httplib::Server& s);
   void lane_action_routes(httplib::Server& s);
-  void authorise(httplib::Server& s);
   // Who sent the request: its verified client certificate, or its token.
   Identity identify(const httplib::Request& req) const;
   // Why a request that acts may not (another site's, or not JSON); "" when it may.
   std::string cross_site(const httplib::Request& req) const;
-  // Answers (and returns true for) a request too big to serve: too many headers, or more
-  // than one range.
-  static bool refuse_hostile(const httplib::Request& req, httplib::Response& res);
-  static constexpr size_t kMaxHeaders = 100;
   void sampler();
 
   Engine& engine_;

@@ -13,6 +13,8 @@
 #include <thread>
 
 #include "core/error.h"
+#include "fleet/fleet_server.h"
+#include "plantdb/pg_connection.h"
 #include "service/http_server.h"
 #include "service/server.h"
 
@@ -27,8 +29,12 @@ constexpr const char* kUsage =
     "               [--data DIR] [--threads N]\n"
     "               [--queue LINES] [--batch LINES] [--backend auto|cpu|opencl|vulkan]\n"
     "               [--device INDEX|NAME]\n"
+    "       rangexd --fleet [--config PLANT.yaml] [--http HOST:PORT] [--servers-ca FILE]\n"
     "  --backend and --device override plant.backend and plant.device; --threads is the\n"
-    "  CPU backend's stripe workers.\n";
+    "  CPU backend's stripe workers.\n"
+    "  --fleet serves the dashboard over plant.results_db for every server forwarding there\n"
+    "  (read-only; --http defaults to 127.0.0.1:8090); --servers-ca verifies the servers'\n"
+    "  https dashboards when images are fetched from them.\n";
 
 void print_stats(rangex::RangexServer& server) {
   const auto s = server.engine().stats();
@@ -36,10 +42,32 @@ void print_stats(rangex::RangexServer& server) {
                (unsigned long long)s.received, (unsigned long long)s.accepted,
                (unsigned long long)s.processed, s.queue_depth);
 }
+// The fleet view: every server's records from the plant-wide database, until SIGINT/SIGTERM.
+int run_fleet(const rangex::PlantConfig& plant, const std::string& http,
+              const std::string& servers_ca) {
+  rangex::FleetOptions fo;
+  fo.conninfo = plant.results_db;
+  if (!http.empty()) fo.listen = http;
+  fo.plant = plant.name;
+  fo.security = plant.security;
+  fo.servers_ca = servers_ca;
+  rangex::FleetServer fleet(fo);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  std::printf("rangexd: fleet view of plant '%s' over PostgreSQL at %s, at %s://%s/\n",
+              plant.name.c_str(), rangex::pg_where(plant.results_db).c_str(),
+              fleet.tls() ? "https" : "http", fleet.address().c_str());
+  std::fflush(stdout);
+  while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  fleet.stop();
+  std::printf("rangexd: fleet view stopped\n");
+  return 0;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string config, listen, http, data, backend, device;
+  std::string config, listen, http, data, backend, device, servers_ca;
+  bool fleet = false;
   int threads = int(std::max(1u, std::thread::hardware_concurrency()));
   long queue = 0, batch = 0;
   for (int i = 1; i < argc; ++i) {
@@ -79,6 +107,10 @@ int main(int argc, char** argv) {
       queue = number(value());
     else if (a == "--batch")
       batch = number(value());
+    else if (a == "--fleet")
+      fleet = true;
+    else if (a == "--servers-ca")
+      servers_ca = value();
     else if (a == "--help" || a == "-h") {
       std::fputs(kUsage, stdout);
       return 0;
@@ -102,6 +134,7 @@ int main(int argc, char** argv) {
   }
   try {
     const rangex::PlantConfig plant = rangex::load_plant_config(config);
+    if (fleet) return run_fleet(plant, http, servers_ca);
     rangex::ServerOptions opt;
     opt.listen = listen;
     opt.data_dir = data;
@@ -132,6 +165,20 @@ int main(int argc, char** argv) {
       ho.ingest_streams = [&server] { return server.ingest_streams(); };
       web = std::make_unique<rangex::HttpServer>(server.engine(), server.store(), server.hub(), ho);
     }
+    // The fleet view (a plant-wide database) reads where this dashboard serves and the
+    // server's health; nothing reads the dashboard after this scope.
+    rangex::PlantHistory no_history;
+    if (web)
+      server.describe_for_fleet(web->url(), [&web] { return web->health_text(); });
+    else
+      server.describe_for_fleet("", [&server, &no_history] {
+        return rangex::server_health_text(server.engine(), no_history,
+                                          rangex::HttpOptions{}.version);
+      });
+    struct Undescribe {
+      rangex::RangexServer& s;
+      ~Undescribe() { s.describe_for_fleet("", nullptr); }
+    } undescribe{server};
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     const rangex::BackendInfo b = server.engine().backend();

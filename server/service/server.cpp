@@ -75,7 +75,6 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
     fo.conninfo = plant_.results_db;
     fo.server_id = plant_.server_id.empty() ? host_name() : plant_.server_id;
     fo.host = host_name();
-    fo.http = plant_.http;
     forwarder_ = std::make_unique<Forwarder>(*store_, fo);
     engine_->set_forward_status([this] { return forwarder_->status(); });
     forwarder_->start();
@@ -307,6 +306,11 @@ std::vector<LaneSensors> RangexServer::sensors() const {
 
 void RangexServer::wait() {
   server_->Wait();
+}
+
+void RangexServer::describe_for_fleet(const std::string& http_url,
+                                      std::function<std::string()> health) {
+  if (forwarder_) forwarder_->describe(http_url, std::move(health));
 }
 
 }  // namespace rangex

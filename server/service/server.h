@@ -80,6 +80,9 @@ class RangexServer {
   Store& store() { return *store_; }
   ResultsHub& hub() { return *hub_; }
   int ingest_streams() const;
+  // With a plant-wide database: where this server's dashboard serves and its health (JSON
+  // text), for the fleet view (written to its `servers` row at each heartbeat).
+  void describe_for_fleet(const std::string& http_url, std::function<std::string()> health);
   // Resident bytes given back by the periodic heap trims since start.
   size_t heap_returned() const { return heap_returned_; }
 

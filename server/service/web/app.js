@@ -1,7 +1,9 @@
 // rangex's operator dashboard: plain JavaScript over rangexd's JSON API and its live event
 // stream (/api/events). Views: lanes (tiles, live reject feed, charts of the last hour), a
 // fillet (its four images side by side with fragments boxed), records (search, CSV export)
-// and calibrations (who uploaded and activated what, when).
+// and calibrations (who uploaded and activated what, when). Served by the fleet view
+// (rangexd --fleet, /api/info says "fleet"), the same views cover every server: fillets are
+// named SERVER/UID, tiles are grouped by server, and the feed is polled from PostgreSQL.
 "use strict";
 
 const view = document.getElementById("view");
@@ -14,6 +16,11 @@ function esc(s) {
 }
 function fmtTime(ns) {
   return new Date(Number(ns) / 1e6).toLocaleString();
+}
+const fleet = () => !!(state.info && state.info.fleet);
+// A fillet's name in the API's paths: its uid, or SERVER/UID in the fleet view.
+function filletKey(f) {
+  return fleet() ? `${encodeURIComponent(f.server)}/${f.uid}` : String(f.uid);
 }
 function pct(x) {
   return (100 * x).toFixed(1) + " %";
@@ -52,9 +59,10 @@ function connectEvents() {
 // Newest first, each fillet once (the stored rejects loaded at start and the live ones can
 // overlap).
 function addToFeed(fillets) {
-  const seen = new Set(state.feed.map((f) => f.uid));
-  const fresh = fillets.filter((f) => !seen.has(f.uid));
-  state.feed = fresh.concat(state.feed).sort((a, b) => b.uid - a.uid).slice(0, FEED_MAX);
+  const seen = new Set(state.feed.map(filletKey));
+  const fresh = fillets.filter((f) => !seen.has(filletKey(f)));
+  state.feed = fresh.concat(state.feed)
+    .sort((a, b) => fleet() ? b.decided_ns - a.decided_ns : b.uid - a.uid).slice(0, FEED_MAX);
   const list = document.getElementById("feed-list");
   if (!list) return;
   list.innerHTML = "";
@@ -71,45 +79,48 @@ async function loadRecentRejects() {
 function feedItem(f) {
   const li = document.createElement("li");
   li.dataset.uid = f.uid;
+  if (f.server) li.dataset.server = f.server;
   li.dataset.decidedNs = f.decided_ns;
   if (f.shown_ms) li.dataset.shownMs = f.shown_ms;  // live: when it arrived
   const bones = f.fragments.filter((g) => g.kind === "bone").length;
   const thumb = f.images.includes("overlay")
-    ? `<img alt="fillet ${f.uid}" src="/api/fillets/${f.uid}/images/overlay">`
+    ? `<img alt="fillet ${f.uid}" src="/api/fillets/${filletKey(f)}/images/overlay">`
     : `<div class="noimg muted">no image</div>`;
   li.innerHTML =
     thumb +
     `<div><span class="badge ${esc(f.decision)}">${esc(f.decision.replace("_", " "))}</span> ` +
-    `lane ${f.lane} · fillet ${f.lane_fillet}<br>` +
+    `${f.server ? esc(f.server) + " · " : ""}lane ${f.lane} · fillet ${f.lane_fillet}<br>` +
     `<span class="muted">${fmtTime(f.decided_ns)} · ${bones} fragment${bones === 1 ? "" : "s"}` +
     `${f.lagged ? " · " + f.lagged + " missed" : ""}</span></div>`;
-  li.addEventListener("click", () => { location.hash = "#/fillet/" + f.uid; });
+  li.addEventListener("click", () => { location.hash = "#/fillet/" + filletKey(f); });
   return li;
 }
 
 // ---- lanes: tiles, the reject feed, charts ------------------------------------------------
 function lanesView() {
-  view.innerHTML =
-    `<h2>Lanes</h2><div class="tiles" id="tiles"></div>
-     <form class="search panel verify" id="verify">
+  // The fleet view only reads: a verification run is started on the lane's own server.
+  const verify = fleet() ? "" :
+    `<form class="search panel verify" id="verify">
        <strong>Verification run</strong>
        <label>lane<input name="lane" type="number" min="0" value="0" required></label>
        <label>test piece<input name="piece" value="2 mm calcified sphere" required></label>
        <label>across the belt, mm<input name="x_mm" type="number" step="0.1" required></label>
        <label>within fillets<input name="fillets" type="number" min="1" placeholder="plant.yaml"></label>
        <button>Start</button><span id="verify-out" class="muted"></span>
-     </form>
+     </form>`;
+  view.innerHTML =
+    `<h2>Lanes</h2><div id="tiles"></div>${verify}
      <div class="row">
        <div class="panel feed"><h2>Rejects, live</h2><ul id="feed-list"></ul></div>
        <div class="panel charts"><h2>Last hour</h2>
-         <div class="muted">lines/s (all lanes)</div><canvas id="c-rate"></canvas>
-         <div class="muted">fillets/min: decided (black), rejected (red)</div><canvas id="c-fillets"></canvas>
-         <div class="muted">last line to decision, ms: p50 (black), p99 (red)</div><canvas id="c-lat"></canvas>
+         ${fleet() ? "" : `<div class="muted">lines/s (all lanes)</div><canvas id="c-rate"></canvas>`}
+         <div class="muted">fillets/min${fleet() ? " (every server)" : ""}: decided (black), rejected (red)</div><canvas id="c-fillets"></canvas>
+         ${fleet() ? "" : `<div class="muted">last line to decision, ms: p50 (black), p99 (red)</div><canvas id="c-lat"></canvas>`}
        </div>
      </div>`;
   const list = document.getElementById("feed-list");
   state.feed.forEach((f) => list.append(feedItem(f)));
-  document.getElementById("verify").addEventListener("submit", startVerification);
+  if (!fleet()) document.getElementById("verify").addEventListener("submit", startVerification);
   every(1000, refreshTiles);
   every(5000, refreshCharts);
 }
@@ -128,8 +139,25 @@ async function refreshTiles() {
   const tiles = document.getElementById("tiles");
   if (!tiles) return;
   const lanes = await api("/api/lanes");
-  showForwarding(await api("/api/info"));
-  tiles.innerHTML = lanes.map((l) =>
+  if (!fleet()) {
+    showForwarding(await api("/api/info"));
+    tiles.innerHTML = `<div class="tiles">${laneTiles(lanes)}</div>`;
+    return;
+  }
+  // The fleet: one group per server, headed by its state and forwarding lag.
+  const servers = await api("/api/servers");
+  tiles.innerHTML = servers.map((s) =>
+    `<section class="server" data-server="${esc(s.server)}">
+       <h3><span class="light ${s.up ? "green" : "red"}" title="${esc(s.state)}"></span>${esc(s.server)}
+         <span class="muted">${esc(s.host)} · ${esc(s.state)} · ${s.lag_records
+           ? `${s.lag_records} records (${s.lag_seconds.toFixed(0)} s) not yet forwarded` : "forwarding caught up"}
+           ${s.warnings.length ? " · " + esc(s.warnings.join("; ")) : ""}</span></h3>
+       <div class="tiles">${laneTiles(lanes.filter((l) => l.server === s.server))}</div>
+     </section>`).join("");
+}
+
+function laneTiles(lanes) {
+  return lanes.map((l) =>
     `<div class="tile" data-lane="${l.lane}" data-light="${l.light}">
        <div class="top"><span class="light ${l.light}" title="${esc(l.light_reason)}"></span>lane ${l.lane}</div>
        <dl>
@@ -237,15 +265,16 @@ function chart(id, samples, series) {
 
 async function refreshCharts() {
   const h = await api("/api/history?minutes=60");
+  if (fleet() && h.samples.length === 1) h.samples.unshift({ ...h.samples[0], t_ns: h.samples[0].t_ns - 6e10 });
   chart("c-rate", h.samples, [["lines_per_s", "#1d2330"]]);
   chart("c-fillets", h.samples, [["fillets_per_min", "#1d2330"], ["rejects_per_min", "#d63b3b"]]);
   chart("c-lat", h.samples, [["decision_p50_ms", "#1d2330"], ["decision_p99_ms", "#d63b3b"]]);
 }
 
 // ---- one fillet: four images side by side, fragments boxed -----------------------------------
-async function filletView(uid) {
-  view.innerHTML = `<h2>Fillet ${esc(uid)}</h2><div id="fillet">loading</div>`;
-  const f = await api("/api/fillets/" + encodeURIComponent(uid));
+async function filletView(server, uid) {
+  view.innerHTML = `<h2>Fillet ${server ? esc(server) + " / " : ""}${esc(uid)}</h2><div id="fillet">loading</div>`;
+  const f = await api("/api/fillets/" + (server ? encodeURIComponent(server) + "/" : "") + encodeURIComponent(uid));
   const kinds = ["xray", "thickness", "pseudo_xray", "residual", "bone", "fat_share"].filter((k) => f.images.includes(k));
   const names = { xray: "X-ray", thickness: "thickness", pseudo_xray: "pseudo-X-ray", residual: "residual", bone: "bone (dual energy)", fat_share: "fat share" };
   const boxes = (W, H) => f.fragments.map((g) => {
@@ -256,11 +285,12 @@ async function filletView(uid) {
   document.getElementById("fillet").innerHTML =
     `<p><span class="badge ${esc(f.decision)}">${esc(f.decision.replace("_", " "))}</span>
        lane ${f.lane} · fillet ${f.lane_fillet} · ${fmtTime(f.decided_ns)} · calibration ${esc(f.calibration)}
-       <br><span class="muted">${esc(f.reason)}</span></p>
+       <br><span class="muted">${esc(f.reason)}</span>
+       ${f.kept_by ? `<br><span class="muted">images kept by server ${esc(f.kept_by.server)} (${esc(f.kept_by.state)})</span>` : ""}</p>
      ${kinds.length ? "" : '<p class="muted">No images are kept for passed fillets.</p>'}
      <div class="images">${kinds.map((k) =>
        `<figure data-kind="${k}"><figcaption>${names[k]}</figcaption>
-          <div class="frame"><img alt="${names[k]}" src="/api/fillets/${f.uid}/images/${k}"></div></figure>`).join("")}
+          <div class="frame"><img alt="${names[k]}" src="/api/fillets/${filletKey(f)}/images/${k}"></div></figure>`).join("")}
      </div>
      <h2>Fragments</h2>
      <table><tr><th>kind</th><th>x mm</th><th>y mm</th><th>area mm²</th><th>peak z</th><th>mm of meat</th></tr>
@@ -268,6 +298,12 @@ async function filletView(uid) {
        <td>${g.area_mm2.toFixed(2)}</td><td>${g.peak_z.toFixed(1)}</td><td>${g.meat_mm.toFixed(2)}</td></tr>`).join("")}
      </table>`;
   // Boxes go on once each image's size (the fillet's pixels) is known.
+  // An image that does not come (its server unreachable, in the fleet view) says why.
+  document.querySelectorAll(".frame img").forEach((img) => img.addEventListener("error", async () => {
+    let why = "image not available";
+    try { why = (await (await fetch(img.src)).json()).error || why; } catch (e) { /* not JSON */ }
+    img.replaceWith(Object.assign(document.createElement("p"), { className: "error", textContent: why }));
+  }, { once: true }));
   document.querySelectorAll(".frame img").forEach((img) => {
     const place = () => img.insertAdjacentHTML("afterend", boxes(img.naturalWidth, img.naturalHeight));
     if (img.complete && img.naturalWidth) place(); else img.addEventListener("load", place, { once: true });
@@ -276,20 +312,21 @@ async function filletView(uid) {
 
 // ---- records: search by time, lane and decision; CSV export ----------------------------------
 function recordsView() {
-  const lanes = state.info ? Array.from({ length: state.info.lanes }, (_, i) => i) : [];
+  const lanes = state.info && !fleet() ? Array.from({ length: state.info.lanes }, (_, i) => i) : [];
   view.innerHTML =
     `<h2>Records</h2>
      <form class="search" id="search">
        <label>from<input type="datetime-local" name="from" step="1"></label>
        <label>to<input type="datetime-local" name="to" step="1"></label>
-       <label>lane<select name="lane"><option value="">all</option>
-         ${lanes.map((l) => `<option>${l}</option>`).join("")}</select></label>
+       ${fleet() ? `<label>server<input name="server" placeholder="all"></label>` : ""}
+       <label>lane${fleet() ? `<input name="lane" type="number" min="0" placeholder="all">` : `<select name="lane"><option value="">all</option>
+         ${lanes.map((l) => `<option>${l}</option>`).join("")}</select>`}</label>
        <label>decision<select name="decision"><option value="">any</option>
          <option>pass</option><option>reject</option><option value="not_inspected">not inspected</option></select></label>
        <button type="submit">Search</button>
        <a class="button" id="csv" href="/api/fillets.csv">Export CSV</a>
      </form>
-     <table id="records"><thead><tr><th>uid</th><th>decided</th><th>lane</th><th>fillet</th>
+     <table id="records"><thead><tr>${fleet() ? "<th>server</th>" : ""}<th>uid</th><th>decided</th><th>lane</th><th>fillet</th>
        <th>decision</th><th>fragments</th><th>reason</th></tr></thead><tbody></tbody></table>
      <p><button id="more" hidden>More</button> <span id="count" class="muted"></span></p>`;
   let after = 0, params = "", shown = 0;
@@ -300,14 +337,15 @@ function recordsView() {
     if (v("from")) q.set("from_ns", String(BigInt(new Date(v("from")).getTime()) * 1000000n));
     if (v("to")) q.set("to_ns", String(BigInt(new Date(v("to")).getTime()) * 1000000n));
     if (v("lane") !== "") q.set("lane", v("lane"));
+    if (fleet() && v("server")) q.set("server", v("server"));
     if (v("decision")) q.set("decision", v("decision"));
     return q.toString();
   };
   const load = async () => {
-    const page = await api(`/api/fillets?limit=200&after=${after}${params ? "&" + params : ""}`);
+    const page = await api(`/api/fillets?limit=200&after=${encodeURIComponent(after)}${params ? "&" + params : ""}`);
     const body = document.querySelector("#records tbody");
     body.insertAdjacentHTML("beforeend", page.fillets.map((f) =>
-      `<tr data-uid="${f.uid}"><td><a href="#/fillet/${f.uid}">${f.uid}</a></td><td>${fmtTime(f.decided_ns)}</td>
+      `<tr data-uid="${f.uid}">${fleet() ? `<td>${esc(f.server)}</td>` : ""}<td><a href="#/fillet/${filletKey(f)}">${f.uid}</a></td><td>${fmtTime(f.decided_ns)}</td>
          <td>${f.lane}</td><td>${f.lane_fillet}</td><td><span class="badge ${esc(f.decision)}">${esc(f.decision.replace("_", " "))}</span></td>
          <td>${f.fragments.filter((g) => g.kind === "bone").length}</td><td>${esc(f.reason)}</td></tr>`).join(""));
     shown += page.fillets.length;
@@ -333,13 +371,13 @@ async function calibrationsView() {
   view.innerHTML = `<h2>Calibrations</h2><div id="cal">loading</div>`;
   const c = await api("/api/calibrations");
   document.getElementById("cal").innerHTML =
-    `<table id="cal-versions"><tr><th>lane</th><th>id</th><th>uploaded</th><th>active</th><th>solver report</th></tr>
-     ${c.versions.map((v) => `<tr><td>${v.lane}</td><td>${esc(v.id)}</td><td>${fmtTime(v.uploaded_ns)}</td>
+    `<table id="cal-versions"><tr>${fleet() ? "<th>server</th><th>kind</th>" : ""}<th>lane</th><th>id</th><th>uploaded</th><th>active</th><th>solver report</th></tr>
+     ${c.versions.map((v) => `<tr>${fleet() ? `<td>${esc(v.server)}</td><td>${esc(v.kind)}</td>` : ""}<td>${v.lane}</td><td>${esc(v.id)}</td><td>${fmtTime(v.uploaded_ns)}</td>
        <td>${v.active ? "active" : ""}</td><td>${v.has_report ? "yes" : "none"}</td></tr>`).join("")}
      </table>
      <h2>History</h2>
-     <table id="cal-events"><tr><th>when</th><th>who</th><th>what</th><th>detail</th></tr>
-     ${c.events.slice().reverse().map((e) => `<tr><td>${fmtTime(e.ts_ns)}</td><td>${esc(e.who)}</td>
+     <table id="cal-events"><tr>${fleet() ? "<th>server</th>" : ""}<th>when</th><th>who</th><th>what</th><th>detail</th></tr>
+     ${c.events.slice().reverse().map((e) => `<tr>${fleet() ? `<td>${esc(e.server)}</td>` : ""}<td>${fmtTime(e.ts_ns)}</td><td>${esc(e.who)}</td>
        <td>${esc(e.what)}</td><td>${esc(e.detail)}</td></tr>`).join("")}
      </table>`;
 }
@@ -357,9 +395,9 @@ function route() {
   clearTimers();
   const h = location.hash || "#/";
   document.querySelectorAll("nav a").forEach((a) => a.classList.toggle("active", a.getAttribute("href") === h));
-  const m = h.match(/^#\/fillet\/(\d+)$/);
+  const m = h.match(/^#\/fillet\/(?:([A-Za-z0-9._-]+)\/)?(\d+)$/);
   let p;
-  if (m) p = filletView(m[1]);
+  if (m) p = filletView(m[1], m[2]);
   else if (h === "#/records") p = recordsView();
   else if (h === "#/calibrations") p = calibrationsView();
   else p = lanesView();
@@ -369,13 +407,23 @@ function route() {
 async function main() {
   try {
     state.info = await api("/api/info");
-    document.getElementById("plant").textContent =
-      `${state.info.plant} · ${state.info.lanes} lanes · ${state.info.backend}`;
+    document.getElementById("plant").textContent = fleet()
+      ? `${state.info.plant} · fleet of ${state.info.servers} servers · ${state.info.lanes} lanes`
+      : `${state.info.plant} · ${state.info.lanes} lanes · ${state.info.backend}`;
     showForwarding(state.info);
   } catch (e) {
     showError(e);
   }
-  connectEvents();
+  if (fleet()) {
+    // PostgreSQL has no event stream here: the feed is read again every 5 s.
+    const conn = document.getElementById("conn");
+    conn.textContent = "PostgreSQL";
+    conn.className = "conn live";
+    conn.title = state.info.database;
+    setInterval(() => loadRecentRejects().catch(showError), 5000);
+  } else {
+    connectEvents();
+  }
   loadRecentRejects().catch(showError);
   window.addEventListener("hashchange", route);
   route();

@@ -1,0 +1,113 @@
+// The fleet's fillets: a page across servers, every match as CSV, one fillet, and its images
+// fetched from the server that keeps them.
+#include <httplib.h>
+
+#include "core/error.h"
+#include "fleet/fleet_records.h"
+#include "fleet/fleet_server.h"
+#include "fleet/image_relay.h"
+#include "plantdb/pg_pool.h"
+#include "service/fillet_csv.h"
+#include "service/http_json.h"
+#include "service/http_params.h"
+
+namespace rangex {
+
+using json = nlohmann::json;
+
+namespace {
+FleetQuery fleet_query(const httplib::Request& req) {
+  // `after` is the fleet's own cursor (FleetCursor), not a uid: read apart.
+  QueryParams p = req.params;
+  p.erase("after");
+  FleetQuery fq;
+  fq.q = fillet_query(p);
+  fq.server = req.get_param_value("server");
+  fq.after = FleetCursor::parse(req.get_param_value("after"));
+  return fq;
+}
+
+json fleet_fillet_json(const FleetFillet& f) {
+  json j = fillet_json(f.f);
+  j["server"] = f.server;
+  j["images"] = f.images;
+  return j;
+}
+
+// Server ids are letters, digits, '-', '_' and '.' (plant.server_id).
+constexpr const char* kFillet = R"(/api/fillets/([A-Za-z0-9._-]+)/(\d+))";
+}  // namespace
+
+void FleetServer::fillet_routes(httplib::Server& s) {
+  s.Get("/api/fillets", [this](const httplib::Request& req, httplib::Response& res) {
+    const FleetQuery fq = fleet_query(req);
+    PgPool::Lease db = db_->take();
+    json list = json::array();
+    FleetCursor last = fq.after;
+    for (const FleetFillet& f : fleet_fillets(*db, fq)) {
+      list.push_back(fleet_fillet_json(f));
+      last = {f.f.decided_ns, f.server, f.f.uid};
+    }
+    // `next_after` continues the search where this page ended.
+    send_json(res, {{"fillets", list},
+                    {"next_after",
+                     fq.q.newest_first || last.decided_ns < 0 ? fq.after.text() : last.text()}});
+  });
+  s.Get("/api/fillets.csv", [this](const httplib::Request& req, httplib::Response& res) {
+    FleetQuery fq = fleet_query(req);
+    fq.q.limit = 5000;
+    fq.q.newest_first = false;
+    PgPool::Lease db = db_->take();
+    std::string csv = "server," + fillet_csv_header();
+    while (true) {
+      const std::vector<FleetFillet> page = fleet_fillets(*db, fq);
+      for (const FleetFillet& f : page) csv += f.server + "," + fillet_csv_row(f.f);
+      if (int(page.size()) < fq.q.limit) break;
+      fq.after = {page.back().f.decided_ns, page.back().server, page.back().f.uid};
+    }
+    res.set_header("Content-Disposition", "attachment; filename=\"rangex-fleet-fillets.csv\"");
+    res.set_content(csv, "text/csv");
+  });
+  s.Get(kFillet, [this](const httplib::Request& req, httplib::Response& res) {
+    const std::string server = req.matches[1];
+    const int64_t uid = parse_uid(req.matches[2]);
+    PgPool::Lease db = db_->take();
+    const std::optional<FleetFillet> f = fleet_fillet(*db, server, uid);
+    if (!f) throw NotFound("no fillet " + std::to_string(uid) + " of server " + server);
+    json j = fleet_fillet_json(*f);
+    const int64_t now = now_ns();
+    for (const FleetServerRow& r : fleet_servers(*db))
+      if (r.id == server)
+        j["kept_by"] = {{"server", r.id}, {"http", r.http}, {"state", server_state(r, now)}};
+    send_json(res, j);
+  });
+  s.Get(std::string(kFillet) + "/images/([a-z_]+)",
+        [this](const httplib::Request& req, httplib::Response& res) {
+          const std::string server = req.matches[1];
+          const int64_t uid = parse_uid(req.matches[2]);
+          const std::string kind = checked_image_kind(req.matches[3]);
+          ImageRelayRequest r;
+          {
+            PgPool::Lease db = db_->take();
+            const std::optional<FleetFillet> f = fleet_fillet(*db, server, uid);
+            if (!f) throw NotFound("no fillet " + std::to_string(uid) + " of server " + server);
+            if (std::find(f->images.begin(), f->images.end(), kind) == f->images.end())
+              throw NotFound("server " + server + " keeps no " + kind + " image of fillet " +
+                             std::to_string(uid));
+            for (const FleetServerRow& row : fleet_servers(*db))
+              if (row.id == server) r.url = row.http;
+          }
+          r.server = server;
+          r.path = "/api/fillets/" + std::to_string(uid) + "/images/" + kind +
+                   (req.get_param_value("raw") == "1" ? "?raw=1" : "");
+          r.authorization = req.get_header_value("Authorization");
+          r.timeout_s = opt_.image_timeout_s;
+          r.ca_file = opt_.servers_ca;
+          const RelayedImage got = relay_image(r);
+          res.status = got.status;
+          if (got.status == 200) res.set_header("Cache-Control", "max-age=3600");
+          res.set_content(got.body, got.type.empty() ? "application/octet-stream" : got.type);
+        });
+}
+
+}  // namespace rangex
