@@ -1,12 +1,16 @@
-// db migrate | db status: the plant-wide PostgreSQL's schema (applied here, never by a
-// running rangexd) and where each server's forwarding stands.
+// db migrate | db status | db prune: the plant-wide PostgreSQL's schema (applied here, never
+// by a running rangexd), where each server's forwarding stands, and retention by whole days.
 #include <cstdio>
+#include <cstdlib>
 
 #include "args.h"
 #include "commands.h"
 #include "core/error.h"
+#include "plantdb/forwarder.h"
 #include "plantdb/pg_connection.h"
+#include "plantdb/plant_db_prune.h"
 #include "plantdb/plant_db_schema.h"
+#include "service/store.h"
 
 namespace rangex::cli {
 
@@ -44,7 +48,40 @@ int cmd_db(int argc, char** argv) {
           double(s.i64(i, 5)) / 1e9);
     return have == need ? 0 : 1;
   }
-  fail("db needs a verb: migrate or status (got '", verb, "')");
+  if (verb == "prune") {
+    const Args a(argc, argv, 3, {"dry-run"}, {"db", "keep-days", "before"});
+    a.expect_positionals(0,
+                         "db prune --db CONNSTR --keep-days N | --before YYYY-MM-DD [--dry-run]");
+    if (!a.has("db")) fail("db prune needs --db CONNSTR (a libpq connection string)");
+    if (a.has("keep-days") == a.has("before"))
+      fail(
+          "db prune needs one of --keep-days N (whole UTC days kept before today) or --before "
+          "YYYY-MM-DD");
+    std::string before = a.get("before", "");
+    if (a.has("keep-days")) {
+      const int64_t keep = a.integer("keep-days", 0);
+      if (keep < 1) fail("db prune: --keep-days must be >= 1 (today is never dropped)");
+      before = utc_day(now_ns() - keep * 86'400'000'000'000);
+    } else if (before.size() != 10 || before[4] != '-' || before[7] != '-') {
+      fail("db prune: --before '", before, "' must be a day as YYYY-MM-DD");
+    }
+    PgConnection db(a.get("db", ""));
+    const char* user = std::getenv("USER");
+    const PlantDbPruneReport r = plant_db_prune(db, before, a.flag("dry-run"),
+                                                std::string("rangexctl:") + (user ? user : "?"));
+    if (r.before != r.asked_before)
+      std::printf(
+          "the chains keep %s onwards (asked: before %s): a kept link needs the days from it\n",
+          r.before.c_str(), r.asked_before.c_str());
+    std::printf("%s %zu partitions of days before %s: %lld fillets, %lld links\n",
+                r.dry_run ? "would drop" : "dropped", r.partitions.size(), r.before.c_str(),
+                (long long)r.fillets, (long long)r.links);
+    for (const PlantDbCheckpoint& c : r.checkpoints)
+      std::printf("  server %s: chain %s from link %lld (after %s)\n", c.server_id.c_str(),
+                  r.dry_run ? "would start" : "starts", (long long)(c.seq + 1), c.hash.c_str());
+    return 0;
+  }
+  fail("db needs a verb: migrate, status or prune (got '", verb, "')");
 }
 
 }  // namespace rangex::cli

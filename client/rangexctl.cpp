@@ -86,6 +86,8 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
   audit verify --db CONNSTR   every server's chain in the plant-wide PostgreSQL
   db migrate --db CONNSTR [--to N]   apply the plant-wide schema's migrations
   db status --db CONNSTR      the schema's version and each server's forwarding
+  db prune --db CONNSTR --keep-days N | --before DAY [--dry-run]
+                              drop whole UTC days, keeping each server's chain whole
 
   token --name NAME --role viewer|operator|engineer|admin [--out FILE]
       a new bearer token, and the line (its SHA-256) that grants it in plant.yaml

@@ -115,6 +115,11 @@ for s in a b; do
 done
 "$ctl" audit verify --db "$db" >"$work/verify.txt"
 check "audit verify --db: both chains verify" test "$(grep -c "chain verified" "$work/verify.txt")" -eq 2
+# Retention by whole days: today's records stay.
+"$ctl" db prune --db "$db" --keep-days 1 >"$work/prune.txt" || fails=$((fails + 1))
+check "db prune keeps today ($(head -1 "$work/prune.txt"))" grep -q "^dropped 0 partitions" "$work/prune.txt"
+"$ctl" db prune --db "$db" >/dev/null 2>"$work/prune-err.txt"
+check "db prune without a cutoff is refused by name" grep -q "needs one of --keep-days" "$work/prune-err.txt"
 
 # The fleet view over the same database, from server a's plant file.
 "$srv" --fleet --config "$work/a.yaml" --http 127.0.0.1:0 >"$work/fleet.log" 2>&1 &

@@ -12,6 +12,7 @@
 #include "plantdb/forwarder.h"
 #include "plantdb/pg_connection.h"
 #include "plantdb/pg_records.h"
+#include "plantdb/plant_db_prune.h"
 #include "plantdb/plant_db_schema.h"
 #include "service/record_chain.h"
 #include "service/store.h"
@@ -298,4 +299,81 @@ TEST_F(PlantDb, EveryServersChainVerifiesAndAnUpdateBehindRangexsBackIsNamed) {
   r = verify_plant_db_chains(*db);
   EXPECT_FALSE(r[1].ok);
   EXPECT_NE(r[1].problem.find("missing"), std::string::npos) << r[1].problem;
+}
+
+TEST_F(PlantDb, PruneDropsWholeDaysAndEachChainStartsAfterItsLastDroppedLink) {
+  TempDir d1, d2;
+  Store s1(d1.str()), s2(d2.str());
+  constexpr int64_t kDay = 86'400'000'000'000;
+  const int64_t now = now_ns();
+  // srv-1: a fillet 5, 4 and 3 days ago and one today; srv-2: one 4 days ago and one today.
+  auto add = [&](Store& s, int64_t decided_ns, bool reject) {
+    StoredFillet f = fillet(0, s.head_seq(), reject);
+    f.decided_ns = decided_ns;
+    const int64_t uid = s.add_fillet(f);
+    if (reject) s.add_image(uid, "xray", s.image_dir(uid) + "/xray.png");
+  };
+  for (int days : {5, 4, 3}) add(s1, now - days * kDay, days == 4);
+  add(s1, now, false);
+  add(s2, now - 4 * kDay, true);
+  add(s2, now, false);
+  auto forward = [&] {
+    Forwarder f1(s1, options(pg, "srv-1")), f2(s2, options(pg, "srv-2"));
+    f1.start();
+    f2.start();
+    ASSERT_TRUE(f1.wait_caught_up(60)) << f1.status().last_error;
+    ASSERT_TRUE(f2.wait_caught_up(60)) << f2.status().last_error;
+  };
+  forward();
+  const std::string yesterday = utc_day(now - kDay);
+  // A dry run drops nothing and says what it would.
+  PlantDbPruneReport dry = plant_db_prune(*db, yesterday, true, "test");
+  EXPECT_EQ(dry.partitions.size(), 15u);  // 3 days x 5 tables
+  EXPECT_EQ(count(*db, "fillets", "srv-1"), 4);
+  // A broken chain is evidence: nothing is dropped while a dropped link does not verify.
+  db->exec(
+      "UPDATE fillets SET decision = 'pass' WHERE server_id = 'srv-2' AND decision = 'reject'");
+  try {
+    plant_db_prune(*db, yesterday, false, "test");
+    FAIL() << "a broken chain was pruned";
+  } catch (const FailedPrecondition& e) {
+    EXPECT_NE(std::string(e.what()).find("srv-2's chain is broken at link 1"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(count(*db, "fillets", "srv-2"), 2);
+  db->exec("UPDATE fillets SET decision = 'reject' WHERE server_id = 'srv-2' AND uid = 1");
+  const PlantDbPruneReport r = plant_db_prune(*db, yesterday, false, "test");
+  EXPECT_EQ(r.before, yesterday);
+  EXPECT_EQ(r.partitions.size(), 15u);
+  EXPECT_EQ(r.fillets, 4);
+  ASSERT_EQ(r.checkpoints.size(), 2u);
+  EXPECT_EQ(r.checkpoints[0].server_id, "srv-1");
+  EXPECT_EQ(r.checkpoints[0].seq, 3);
+  EXPECT_EQ(r.checkpoints[0].hash, *s1.link_hash(3));
+  EXPECT_EQ(count(*db, "fillets", "srv-1"), 1);
+  EXPECT_EQ(count(*db, "images", "srv-1"), 0);
+  EXPECT_EQ(db->exec("SELECT count(*) FROM prunes").i64(0, 0), 1);
+  // Each chain verifies from its checkpoint to the store's head.
+  std::vector<ServerChainReport> v = verify_plant_db_chains(*db);
+  ASSERT_EQ(v.size(), 2u);
+  for (const ServerChainReport& c : v) EXPECT_TRUE(c.ok) << c.server_id << ": " << c.problem;
+  EXPECT_EQ(v[0].first_seq, 4);
+  EXPECT_EQ(v[0].head, s1.chain_head());
+  EXPECT_EQ(v[1].head, s2.chain_head());
+  // srv-1's clock stepped back 4 days: its next link is stamped on a day before the cutoff
+  // although links after the checkpoint are kept. Dropping it would cut the chain, so the
+  // cutoff moves back to that day and nothing of it goes.
+  add(s1, now - 4 * kDay, false);
+  add(s1, now, false);
+  forward();
+  const PlantDbPruneReport r2 = plant_db_prune(*db, yesterday, false, "test");
+  EXPECT_EQ(r2.asked_before, yesterday);
+  EXPECT_EQ(r2.before, utc_day(now - 4 * kDay));
+  EXPECT_TRUE(r2.partitions.empty());
+  EXPECT_EQ(count(*db, "fillets", "srv-1"), 3);
+  v = verify_plant_db_chains(*db);
+  for (const ServerChainReport& c : v) EXPECT_TRUE(c.ok) << c.server_id << ": " << c.problem;
+  EXPECT_EQ(v[0].links, 3);
+  // What is not a day is refused.
+  EXPECT_THROW(plant_db_prune(*db, "not-a-day", false, "test"), Error);
 }

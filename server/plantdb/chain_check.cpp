@@ -9,7 +9,7 @@ namespace rangex {
 namespace {
 constexpr int kPage = 5000;
 
-ServerChainReport verify_server(PgConnection& db, const std::string& id,
+ServerChainReport verify_server(PgConnection& db, const std::string& id, int64_t up_to_seq,
                                 const std::function<void(const std::string&, int64_t)>& progress) {
   ServerChainReport r;
   r.server_id = id;
@@ -25,10 +25,10 @@ ServerChainReport verify_server(PgConnection& db, const std::string& id,
   };
   for (;;) {
     const PgRows l = db.exec(
-        "SELECT seq, kind, ref, prev, hash FROM ledger WHERE server_id = $1 AND seq >= $2 ORDER "
-        "BY seq LIMIT " +
+        "SELECT seq, kind, ref, prev, hash FROM ledger WHERE server_id = $1 AND seq >= $2 AND "
+        "seq <= $3 ORDER BY seq LIMIT " +
             std::to_string(kPage),
-        {id, std::to_string(expect)});
+        {id, std::to_string(expect), std::to_string(up_to_seq)});
     if (l.rows() == 0) break;
     std::vector<int64_t> fillets, audit;
     for (int i = 0; i < l.rows(); ++i)
@@ -77,6 +77,7 @@ ServerChainReport verify_server(PgConnection& db, const std::string& id,
     if (progress) progress(id, r.links);
   }
   r.head = prev;
+  if (up_to_seq != INT64_MAX) return r;
   // Records no link names (inserted behind rangex's back) break the chain too.
   const PgRows extra = db.exec(
       "SELECT (SELECT count(*) FROM fillets WHERE server_id = $1) - (SELECT count(*) FROM ledger "
@@ -95,8 +96,14 @@ std::vector<ServerChainReport> verify_plant_db_chains(
   std::vector<ServerChainReport> out;
   const PgRows s = db.exec(
       "SELECT server_id FROM servers UNION SELECT DISTINCT server_id FROM ledger ORDER BY 1");
-  for (int i = 0; i < s.rows(); ++i) out.push_back(verify_server(db, s.str(i, 0), progress));
+  for (int i = 0; i < s.rows(); ++i)
+    out.push_back(verify_server(db, s.str(i, 0), INT64_MAX, progress));
   return out;
+}
+
+ServerChainReport verify_plant_db_chain(PgConnection& db, const std::string& server_id,
+                                        int64_t up_to_seq) {
+  return verify_server(db, server_id, up_to_seq, {});
 }
 
 }  // namespace rangex

@@ -25,4 +25,8 @@ struct ServerChainReport {
 std::vector<ServerChainReport> verify_plant_db_chains(
     PgConnection& db, const std::function<void(const std::string&, int64_t)>& progress = {});
 
+// One server's chain from its checkpoint up to link `up_to_seq` (before a prune drops it).
+ServerChainReport verify_plant_db_chain(PgConnection& db, const std::string& server_id,
+                                        int64_t up_to_seq);
+
 }  // namespace rangex

@@ -245,12 +245,7 @@ void Forwarder::forward(const ForwardBatch& b) {
       fail("the database's cursor of server '", id, "' moved behind this forwarder's back");
     db.exec("COMMIT");
   } catch (...) {
-    if (db.ok()) {
-      try {
-        db.exec("ROLLBACK");
-      } catch (const Error&) {
-      }
-    }
+    db.rollback_quietly();
     throw;
   }
   days_.insert(days.begin(), days.end());

@@ -127,4 +127,12 @@ std::string pg_exact(double v) {
   return buf;
 }
 
+void PgConnection::rollback_quietly() noexcept {
+  if (!ok()) return;
+  try {
+    exec("ROLLBACK");
+  } catch (...) {
+  }
+}
+
 }  // namespace rangex

@@ -46,6 +46,9 @@ class PgConnection {
   PgRows exec(const std::string& sql);
   PgRows exec(const std::string& sql, const std::vector<PgParam>& params);
   bool ok() const;  // the connection still stands (false after a cut or a server restart)
+  // After a failure inside a transaction: ROLLBACK if the connection stands. Its own failure
+  // is dropped: the first one is the one to report.
+  void rollback_quietly() noexcept;
   // The server's address as the user gave it, without any password (for messages).
   const std::string& where() const { return where_; }
 

@@ -95,6 +95,15 @@ CREATE INDEX fillets_decision_time ON fillets (decision, decided_ns);
 CREATE INDEX audit_time ON audit (ts_ns);
 )SQL";
 
+// Version 3: what retention dropped, when, and where each server's chain then started.
+constexpr const char* kPrunes = R"SQL(
+CREATE TABLE prunes (
+  pruned_ns bigint NOT NULL, who text NOT NULL, before_day date NOT NULL,
+  partitions integer NOT NULL, fillets bigint NOT NULL, links bigint NOT NULL,
+  detail text NOT NULL
+);
+)SQL";
+
 constexpr long long kMigrationLock = 0x72616e676578;  // "rangex"
 }  // namespace
 
@@ -102,6 +111,7 @@ const std::vector<Migration>& plant_db_migrations() {
   static const std::vector<Migration> m = {
       {1, "every server's records: ledger, fillets, fragments, images, audit by day", kRecords},
       {2, "lane settings' history; indexes for the dashboard's searches", kSettingsAndSearch},
+      {3, "the log of retention's partition drops (db prune)", kPrunes},
   };
   return m;
 }
@@ -144,7 +154,7 @@ int plant_db_migrate(PgConnection& db, int target,
             {std::to_string(m.version), std::string(m.description)});
         db.exec("COMMIT");
       } catch (...) {
-        if (db.ok()) db.exec("ROLLBACK");
+        db.rollback_quietly();
         throw;
       }
       ++done;
