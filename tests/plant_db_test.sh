@@ -5,7 +5,8 @@
 # mid-forward; every server's chain verifies there, and an UPDATE behind rangex's back is
 # named. The fleet view (rangexd --fleet) answers what the two servers' own dashboards answer
 # together, fetches an image through the server that keeps it, and names that server when it
-# cannot be reached. Usage: plant_db_test.sh RANGEXCTL RANGEXD
+# cannot be reached. Both servers read one plant file that assigns them their lanes; a lane
+# moved to the other server keeps one history. Usage: plant_db_test.sh RANGEXCTL RANGEXD
 set -u
 ctl="$1" srv="$2"
 source "$(dirname "$0")/script_checks.sh"
@@ -37,15 +38,22 @@ check "migrated from version 1" grep -q "applied migration 2" "$work/migrate.txt
 "$ctl" db status --db "$db" >/dev/null
 check "db status: the schema this build needs" test $? -eq 0
 
-# Two servers, two lanes each, one plant file each (the lanes' own section unchanged).
+# Two servers, two lanes each, from one plant file: lanes 0 and 1 are srv-a's, 2 and 3 srv-b's.
+# Each feeder's file holds its server's lanes only.
 base="${RANGEX_CONFIG:-$(dirname "$0")/../config/plant.yaml}"
-for s in a b; do
-  sed -e "s|^  storage: .*|  storage: $work/data-$s\n  results_db: \"$db\"\n  server_id: srv-$s|" \
-      -e '/^  - id: [23]$/d' "$base" >"$work/$s.yaml"
-done
-start_server() {  # start_server a|b: starts it, sets addr_a / addr_b
+plant_file() {  # plant_file OUT SERVER-OF-LANE-2
+  sed -e "s|^  storage: .*|  storage: $work/data\n  results_db: \"$db\"|" \
+      -e 's|^  - id: \([01]\)$|  - {id: \1, server: srv-a}|' \
+      -e "s|^  - id: 2$|  - {id: 2, server: $2}|" \
+      -e 's|^  - id: 3$|  - {id: 3, server: srv-b}|' "$base" >"$1"
+}
+plant_file "$work/plant.yaml" srv-b
+sed -e '/^  - id: [23]$/d' "$base" >"$work/feed-a.yaml"
+sed -e '/^  - id: [01]$/d' "$base" >"$work/feed-b.yaml"
+start_server() {  # start_server a|b N [PLANT]: starts it, sets addr_a / addr_b, web_a / web_b
   local s=$1
-  "$srv" --config "$work/$s.yaml" --listen 127.0.0.1:0 --http 127.0.0.1:0 >>"$work/rangexd-$s.log" 2>&1 &
+  "$srv" --config "${3:-$work/plant.yaml}" --server-id "srv-$s" --data "$work/data-$s" \
+    --listen 127.0.0.1:0 --http 127.0.0.1:0 >>"$work/rangexd-$s.log" 2>&1 &
   pids+=($!)
   eval "pid_$s=$!"
   for _ in $(seq 200); do
@@ -58,6 +66,9 @@ start_server() {  # start_server a|b: starts it, sets addr_a / addr_b
 start_server a 1
 start_server b 1
 check "both servers listen" test -n "$addr_a" -a -n "$addr_b"
+check "srv-b runs the lanes the plant file names for it" grep -q "server srv-b runs lanes 2, 3" "$work/rangexd-b.log"
+"$srv" --config "$work/plant.yaml" --server-id srv-z --listen 127.0.0.1:0 --http off >"$work/srv-z.log" 2>&1
+check "a server the plant file names no lane for is refused" grep -q "assigns no lane to server 'srv-z'" "$work/srv-z.log"
 
 # Lag drains: `status` says caught up with the whole chain.
 caught_up() {  # caught_up ADDR SECONDS
@@ -67,7 +78,7 @@ caught_up() {  # caught_up ADDR SECONDS
   done
   return 1
 }
-"$ctl" feed --server "$addr_a" --simulate --lanes 2 --fillets 2 --seed 3 >"$work/feed-a1.txt" || fails=$((fails + 1))
+"$ctl" feed --server "$addr_a" --config "$work/feed-a.yaml" --simulate --lanes 2 --fillets 2 --seed 3 >"$work/feed-a1.txt" || fails=$((fails + 1))
 check "server a caught up" caught_up "$addr_a" 60
 # A calibration version on server a's lane 1, activated: its history reaches the fleet view.
 printf 'laser_plane: {normal: [0, 1, 0], offset_mm: 0.02}\n' >"$work/cal.yaml"
@@ -76,7 +87,7 @@ printf 'laser_plane: {normal: [0, 1, 0], offset_mm: 0.02}\n' >"$work/cal.yaml"
 
 # PostgreSQL stopped for 30 s mid-run: inspection goes on, the lag grows, then drains.
 pg_ctl -m fast -w stop >/dev/null
-"$ctl" feed --server "$addr_a" --simulate --lanes 2 --fillets 2 --seed 4 --encoder-start 20000 >"$work/feed-a2.txt" || fails=$((fails + 1))
+"$ctl" feed --server "$addr_a" --config "$work/feed-a.yaml" --simulate --lanes 2 --fillets 2 --seed 4 --encoder-start 20000 >"$work/feed-a2.txt" || fails=$((fails + 1))
 check "inspection went on without the database" grep -q ", 0 refused" "$work/feed-a2.txt"
 "$ctl" status --server "$addr_a" >"$work/status-down.txt"
 check "status says the database is unreachable" grep -q "forwarding as srv-a .*unreachable" "$work/status-down.txt"
@@ -90,7 +101,7 @@ check "server a drained its lag" caught_up "$addr_a" 90
 psql "$db" -c "BEGIN; LOCK TABLE fillets IN ACCESS EXCLUSIVE MODE; SELECT pg_sleep(120); COMMIT;" \
   >/dev/null 2>&1 &
 locker=$!
-"$ctl" feed --server "$addr_b" --simulate --lanes 2 --fillets 3 --seed 5 >"$work/feed-b.txt" || fails=$((fails + 1))
+"$ctl" feed --server "$addr_b" --config "$work/feed-b.yaml" --simulate --lanes 2 --fillets 3 --seed 5 >"$work/feed-b.txt" || fails=$((fails + 1))
 waiting() { [ "$(q "SELECT count(*) FROM pg_stat_activity WHERE wait_event_type = 'Lock' AND query LIKE 'INSERT INTO fillets%'")" -ge 1 ]; }
 for _ in $(seq 100); do waiting && break; sleep 0.2; done
 check "server b's forwarder waits inside its transaction" waiting
@@ -122,7 +133,7 @@ check "db prune keeps today ($(head -1 "$work/prune.txt"))" grep -q "^dropped 0 
 check "db prune without a cutoff is refused by name" grep -q "needs one of --keep-days" "$work/prune-err.txt"
 
 # The fleet view over the same database, from server a's plant file.
-"$srv" --fleet --config "$work/a.yaml" --http 127.0.0.1:0 >"$work/fleet.log" 2>&1 &
+"$srv" --fleet --config "$work/plant.yaml" --http 127.0.0.1:0 >"$work/fleet.log" 2>&1 &
 pids+=($!)
 for _ in $(seq 100); do grep -q "fleet view of plant" "$work/fleet.log" && break; sleep 0.1; done
 fleet=$(sed -nE 's|.*, at (http://[0-9.]+:[0-9]+)/.*|\1|p' "$work/fleet.log")
@@ -131,7 +142,7 @@ check "the fleet view serves" test -n "$fleet"
 rows_current() { [ "$(q "SELECT count(*) FROM servers WHERE health <> '' AND http IN ('$web_a', '$web_b')")" = 2 ]; }
 for _ in $(seq 100); do rows_current && break; sleep 0.2; done
 check "both servers describe themselves in PostgreSQL" rows_current
-python3 - "$fleet" "srv-a=$web_a" "srv-b=$web_b" >"$work/fleet-compare.txt" 2>&1 <<'PY'
+/usr/bin/python3 - "$fleet" "srv-a=$web_a" "srv-b=$web_b" >"$work/fleet-compare.txt" 2>&1 <<'PY'
 # The fleet's answers against the union of the servers' own answers.
 import json, sys, urllib.request, urllib.error
 fleet, servers = sys.argv[1], dict(a.split("=", 1) for a in sys.argv[2:])
@@ -163,7 +174,7 @@ csv = get(fleet + "/api/fillets.csv").decode().splitlines()
 check(f"CSV export: a header and {len(mine)} rows with their server", len(csv) == len(mine) + 1 and csv[0].startswith("server,") and all(r.split(",")[0] in servers for r in csv[1:]))
 lanes_own = {(s, l["lane"]) for s, w in servers.items() for l in js(w + "/api/lanes")}
 lanes_fleet = {(l["server"], l["lane"]) for l in js(fleet + "/api/lanes")}
-check(f"fleet lanes = the servers' lanes ({sorted(lanes_fleet)})", lanes_own == lanes_fleet)
+check(f"fleet lanes = the servers' lanes ({sorted(lanes_fleet)})", lanes_own == lanes_fleet and len(lanes_own) == 4)
 up = {s["server"]: s["up"] for s in js(fleet + "/api/servers")}
 check(f"both servers up, with their lag ({up})", up == {"srv-a": True, "srv-b": True})
 audit_own = sum(len(js(w + "/api/audit?limit=100000")) for w in servers.values())
@@ -191,11 +202,16 @@ sys.exit(1 if fails else 0)
 PY
 check "the fleet view answers as the servers do (fleet-compare below)" test $? -eq 0
 cat "$work/fleet-compare.txt"
+# And in a browser, as QA will use it.
+/usr/bin/python3 "$(dirname "$0")/python/fleet_browser.py" "$fleet" "${RANGEX_SCREENSHOTS:-$work/shots}" \
+  >"$work/fleet-browser.txt" 2>&1
+check "the fleet's dashboard in a browser (fleet-browser below)" test $? -eq 0
+cat "$work/fleet-browser.txt"
 # Server b gone: its image is not, and the fleet names the server that cannot be reached.
 image_b=$(q "SELECT fillet_uid FROM images WHERE server_id = 'srv-b' AND kind = 'overlay' ORDER BY fillet_uid LIMIT 1")
 kill -9 "$pid_b"
 wait "$pid_b" 2>/dev/null
-code=$(python3 -c '
+code=$(/usr/bin/python3 -c '
 import sys, urllib.request, urllib.error
 try:
     urllib.request.urlopen(sys.argv[1], timeout=30); print(200)
@@ -204,6 +220,27 @@ except urllib.error.HTTPError as e:
   "$fleet/api/fillets/srv-b/$image_b/images/overlay" "$work/unreachable.json")
 check "an image of a server that is down: 502 ($code)" test "$code" = 502
 check "naming the server that keeps it" grep -q "server srv-b at http://.* is unreachable" "$work/unreachable.json"
+
+# srv-b's hardware failed: the plant file now gives lane 2 to srv-a, which restarts with it.
+# The lane keeps one history: its fillet numbers go on from srv-b's last, and srv-a's chain
+# names the link of srv-b's it continues from.
+plant_file "$work/plant-moved.yaml" srv-a
+kill -TERM "$pid_a"
+wait "$pid_a" 2>/dev/null
+start_server a 2 "$work/plant-moved.yaml"
+check "srv-a runs lane 2 now" grep -q "server srv-a runs lanes 0, 1, 2" "$work/rangexd-a.log"
+sed -e '/^  - id: [013]$/d' "$base" >"$work/feed-2.yaml"
+"$ctl" feed --server "$addr_a" --config "$work/feed-2.yaml" --simulate --lanes 1 --fillets 2 --seed 6 \
+  --encoder-start 200000 >"$work/feed-moved.txt" || fails=$((fails + 1))
+check "srv-a caught up with lane 2" caught_up "$addr_a" 60
+last_b=$(q "SELECT max(lane_fillet) FROM fillets WHERE server_id = 'srv-b' AND lane = 2")
+adopted=$(q "SELECT detail FROM audit WHERE server_id = 'srv-a' AND what = 'lane.adopted'")
+check "srv-a's chain: lane 2 adopted after srv-b's fillet $last_b ($adopted)" \
+  grep -qE "^lane 2 continues from server srv-b: its fillet $last_b \(uid [0-9]+, link [0-9]+ [0-9a-f]{64}\)" <<<"$adopted"
+history=$(q "SELECT string_agg(server_id || ':' || lane_fillet, ' ' ORDER BY decided_ns) FROM fillets WHERE lane = 2")
+first_a=$(q "SELECT min(lane_fillet) FROM fillets WHERE server_id = 'srv-a' AND lane = 2")
+check "lane 2's numbers go on across servers ($history)" test -n "$first_a" -a "$first_a" = "$((last_b + 1))"
+check "no lane 2 number twice" test "$(q "SELECT count(*) - count(DISTINCT lane_fillet) FROM fillets WHERE lane = 2")" = 0
 
 # A decision changed behind rangex's back is named, on its server only.
 q "UPDATE fillets SET decision = 'pass' WHERE server_id = 'srv-b' AND uid = (SELECT min(uid) FROM fillets WHERE server_id = 'srv-b' AND decision = 'reject')" >/dev/null

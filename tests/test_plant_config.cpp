@@ -150,6 +150,38 @@ TEST(PlantConfig, ThePlantWideDatabaseTakesNoPasswordInTheFile) {
             std::string::npos);
 }
 
+TEST(PlantConfig, OnePlantFileAssignsEachServerItsLanes) {
+  const PlantConfig p = parse_plant_config(
+      "lanes: [{id: 0, server: line-1}, {id: 1, server: line-1}, {id: 5, server: line-2.b}]\n",
+      "test");
+  ASSERT_EQ(p.lane_servers.size(), 3u);
+  const PlantConfig one = plant_for_server(p, "line-1");
+  ASSERT_EQ(one.lanes.size(), 2u);
+  EXPECT_EQ(one.lanes[1].id, 1);
+  const PlantConfig two = plant_for_server(p, "line-2.b");
+  ASSERT_EQ(two.lanes.size(), 1u);
+  EXPECT_EQ(two.lanes[0].id, 5);
+  try {
+    plant_for_server(p, "line-3");
+    FAIL() << "a server with no lane was given the plant";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("assigns no lane to server 'line-3' (its lanes name "
+                                         "line-1, line-2.b)"),
+              std::string::npos)
+        << e.what();
+  }
+  // Without lanes naming servers, every server runs every lane (one server, as before).
+  const PlantConfig all = parse_plant_config("lanes: [{id: 0}, {id: 1}]\n", "test");
+  EXPECT_EQ(plant_for_server(all, "anyone").lanes.size(), 2u);
+  // Every lane names its server or none does; a server's name is an id.
+  for (const char* bad :
+       {"lanes: [{id: 0, server: a}, {id: 1}]\n", "lanes: [{id: 0}, {id: 1, server: a}]\n"})
+    EXPECT_NE(error_of(bad).find("every lane names its server"), std::string::npos) << bad;
+  EXPECT_NE(error_of("lanes: [{id: 0, server: 'a b'}]\n").find("lanes[0].server"),
+            std::string::npos)
+      << error_of("lanes: [{id: 0, server: 'a b'}]\n");
+}
+
 TEST(PlantConfig, RegistrationRoundTripsAndIsChecked) {
   LaneConfig lane = parse_plant_config("lanes: [{id: 0}]\n", "t").lane(0);
   lane.xray.delay_lines = 50;

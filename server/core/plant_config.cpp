@@ -752,8 +752,8 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
   std::set<std::string> sensors;
   for (size_t i = 0; i < lanes.node.size(); ++i) {
     const Node ln = lanes.item(i);
-    ln.only_keys({"id", "frame", "encoder_step_mm", "cameras", "laser_plane", "xray", "stripe",
-                  "rectify", "fusion", "inspection", "sources"});
+    ln.only_keys({"id", "server", "frame", "encoder_step_mm", "cameras", "laser_plane", "xray",
+                  "stripe", "rectify", "fusion", "inspection", "sources"});
     if (!ln.has("id")) ln.bad("missing key 'id'");
     const int id = ln.at("id").integer();
     if (id < 0) ln.at("id").bad("must be >= 0");
@@ -768,7 +768,35 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
     if (p.plc.enabled() && l.id >= PlcConfig::kMaxLanes)
       ln.at("id").bad("lane ids go up to " + std::to_string(PlcConfig::kMaxLanes - 1) +
                       " with a PLC (its lane state registers)");
+    if (ln.has("server")) {
+      const std::string server = ln.at("server").str();
+      if (server.empty() || server.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQ"
+                                                     "RSTUVWXYZ0123456789-_.") != std::string::npos)
+        ln.at("server").bad("'" + server + "': a server id (letters, digits, '-', '_' and '.')");
+      p.lane_servers[l.id] = server;
+    }
+    if (!p.lane_servers.empty() && p.lane_servers.size() != i + 1)
+      ln.bad("every lane names its server (key 'server') or none does");
     p.lanes.push_back(std::move(l));
+  }
+  return p;
+}
+
+PlantConfig plant_for_server(const PlantConfig& plant, const std::string& server_id) {
+  if (plant.lane_servers.empty()) return plant;
+  PlantConfig p = plant;
+  p.lanes.clear();
+  std::set<std::string> named;
+  for (const LaneConfig& l : plant.lanes) {
+    const std::string& s = plant.lane_servers.at(l.id);
+    named.insert(s);
+    if (s == server_id) p.lanes.push_back(l);
+  }
+  if (p.lanes.empty()) {
+    std::string list;
+    for (const std::string& s : named) list += (list.empty() ? "" : ", ") + s;
+    fail("plant '", plant.name, "' assigns no lane to server '", server_id, "' (its lanes name ",
+         list, "): start rangexd with --server-id, or set plant.server_id");
   }
   return p;
 }

@@ -1,6 +1,7 @@
 // Plant configuration (config/plant.yaml): lanes, sensors, geometry, thresholds, backend,
 // storage and listen address. Loading validates every value and names the key at fault.
 #pragma once
+#include <map>
 #include <string>
 #include <vector>
 
@@ -39,9 +40,17 @@ struct PlantConfig {
   PlcConfig plc;                    // the `plc:` section (positive release to the line's PLC)
   VerificationConfig verification;  // the `verification:` section
   std::vector<LaneConfig> lanes;
+  // One plant file for several servers: each lane may name the server that runs it (a lane's
+  // `server:` key; every lane or none). Empty: every lane is this server's.
+  std::map<int, std::string> lane_servers;
 
   const LaneConfig& lane(int id) const;  // throws Error for an unknown lane
 };
+
+// The plant as server `server_id` runs it: the lanes the plant file assigns to it (all of
+// them when it assigns none). Throws Error when it assigns lanes to servers but none to this
+// one, naming the servers it does name.
+PlantConfig plant_for_server(const PlantConfig& plant, const std::string& server_id);
 
 PlantConfig load_plant_config(const std::string& path);
 PlantConfig parse_plant_config(const std::string& yaml_text, const std::string& origin);

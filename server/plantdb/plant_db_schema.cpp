@@ -95,13 +95,16 @@ CREATE INDEX fillets_decision_time ON fillets (decision, decided_ns);
 CREATE INDEX audit_time ON audit (ts_ns);
 )SQL";
 
-// Version 3: what retention dropped, when, and where each server's chain then started.
+// Version 3: what retention dropped, when, and where each server's chain then started; a
+// lane's history across servers.
 constexpr const char* kPrunes = R"SQL(
 CREATE TABLE prunes (
   pruned_ns bigint NOT NULL, who text NOT NULL, before_day date NOT NULL,
   partitions integer NOT NULL, fillets bigint NOT NULL, links bigint NOT NULL,
   detail text NOT NULL
 );
+-- A lane's latest record, whichever server ran it (a lane moved between servers).
+CREATE INDEX fillets_plant_lane_time ON fillets (lane, decided_ns);
 )SQL";
 
 constexpr long long kMigrationLock = 0x72616e676578;  // "rangex"
@@ -111,7 +114,7 @@ const std::vector<Migration>& plant_db_migrations() {
   static const std::vector<Migration> m = {
       {1, "every server's records: ledger, fillets, fragments, images, audit by day", kRecords},
       {2, "lane settings' history; indexes for the dashboard's searches", kSettingsAndSearch},
-      {3, "the log of retention's partition drops (db prune)", kPrunes},
+      {3, "the log of retention's partition drops (db prune); lanes across servers", kPrunes},
   };
   return m;
 }

@@ -64,6 +64,12 @@ struct EngineOptions : EngineSettings {
   // Each decision once committed, before it is published (the PLC's release); called on an
   // inspector under the decision recorder's lock: it must only queue.
   std::function<void(const StoredFillet&)> on_decided;
+  // Lanes that another server ran before this one (plantdb/lane_handover.h): by lane, the
+  // next fillet number and the encoder count up to which fillets were decided there.
+  struct LaneContinuation {
+    int64_t next_fillet = 0, decided_until = INT64_MIN;
+  };
+  std::map<int, LaneContinuation> continue_lanes;
 };
 
 struct Health {

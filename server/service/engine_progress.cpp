@@ -33,6 +33,14 @@ void Engine::resume_from_store() {
     log::info("lane_resumes", "lane {} resumes after count {} (durable before the stop)", id,
               durable);
   }
+  // A lane moved here from another server goes on from that server's record of it.
+  for (const auto& [id, c] : opt_.continue_lanes) {
+    const auto it = by_id_.find(id);
+    if (it == by_id_.end()) continue;
+    Lane& l = *it->second;
+    l.proc->set_next_fillet_id(std::max(l.proc->next_fillet_id(), c.next_fillet));
+    l.decided_until = std::max(l.decided_until, c.decided_until);
+  }
 }
 
 void Engine::note_assembly(Lane& l) {

@@ -14,6 +14,7 @@
 
 #include "core/error.h"
 #include "fleet/fleet_server.h"
+#include "plantdb/forwarder.h"
 #include "plantdb/pg_connection.h"
 #include "service/http_server.h"
 #include "service/server.h"
@@ -28,10 +29,11 @@ constexpr const char* kUsage =
     "usage: rangexd [--config PLANT.yaml] [--listen HOST:PORT] [--http HOST:PORT|off]\n"
     "               [--data DIR] [--threads N]\n"
     "               [--queue LINES] [--batch LINES] [--backend auto|cpu|opencl|vulkan]\n"
-    "               [--device INDEX|NAME]\n"
+    "               [--device INDEX|NAME] [--server-id ID]\n"
     "       rangexd --fleet [--config PLANT.yaml] [--http HOST:PORT] [--servers-ca FILE]\n"
     "  --backend and --device override plant.backend and plant.device; --threads is the\n"
-    "  CPU backend's stripe workers.\n"
+    "  CPU backend's stripe workers. --server-id overrides plant.server_id (default: the host\n"
+    "  name): where lanes name their server, this server runs the lanes named for it.\n"
     "  --fleet serves the dashboard over plant.results_db for every server forwarding there\n"
     "  (read-only; --http defaults to 127.0.0.1:8090); --servers-ca verifies the servers'\n"
     "  https dashboards when images are fetched from them.\n";
@@ -66,7 +68,7 @@ int run_fleet(const rangex::PlantConfig& plant, const std::string& http,
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string config, listen, http, data, backend, device, servers_ca;
+  std::string config, listen, http, data, backend, device, servers_ca, server_id;
   bool fleet = false;
   int threads = int(std::max(1u, std::thread::hardware_concurrency()));
   long queue = 0, batch = 0;
@@ -111,6 +113,8 @@ int main(int argc, char** argv) {
       fleet = true;
     else if (a == "--servers-ca")
       servers_ca = value();
+    else if (a == "--server-id")
+      server_id = value();
     else if (a == "--help" || a == "-h") {
       std::fputs(kUsage, stdout);
       return 0;
@@ -133,8 +137,13 @@ int main(int argc, char** argv) {
                                                             : RANGEX_DEFAULT_CONFIG;
   }
   try {
-    const rangex::PlantConfig plant = rangex::load_plant_config(config);
+    rangex::PlantConfig plant = rangex::load_plant_config(config);
     if (fleet) return run_fleet(plant, http, servers_ca);
+    // One plant file for several servers: this one runs the lanes it names for it.
+    if (!server_id.empty()) plant.server_id = server_id;
+    if (plant.server_id.empty() && !plant.lane_servers.empty())
+      plant.server_id = rangex::host_name();
+    plant = rangex::plant_for_server(plant, plant.server_id);
     rangex::ServerOptions opt;
     opt.listen = listen;
     opt.data_dir = data;
@@ -185,6 +194,13 @@ int main(int argc, char** argv) {
     std::printf("rangexd: plant '%s', %zu lanes, listening on %s, store %s\n", plant.name.c_str(),
                 plant.lanes.size(), server.address().c_str(),
                 (data.empty() ? plant.storage : data).c_str());
+    if (!plant.lane_servers.empty()) {
+      std::string ids;
+      for (const rangex::LaneConfig& l : plant.lanes)
+        ids += (ids.empty() ? "" : ", ") + std::to_string(l.id);
+      std::printf("rangexd: server %s runs lanes %s of the plant file\n", plant.server_id.c_str(),
+                  ids.c_str());
+    }
     const rangex::SecurityConfig& sec = plant.security;
     std::printf("rangexd: %s; %s%s; clients without credentials: %s\n",
                 sec.tls() ? "TLS" : "plaintext",

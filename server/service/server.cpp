@@ -11,6 +11,9 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "plantdb/forwarder.h"
+#include "plantdb/lane_handover.h"
+#include "plantdb/pg_connection.h"
+#include "plantdb/plant_db_schema.h"
 #include "rangex/v1/decision_names.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "service/access_control.h"
@@ -57,6 +60,7 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
   if (opt_.heap_trim_s > 0) keep_large_blocks_out_of_arenas();
   started_ns_ = now_ns();
   store_ = std::make_unique<Store>(opt_.data_dir);
+  if (!plant_.results_db.empty()) continue_moved_lanes();
   hub_ = std::make_unique<ResultsHub>();
   if (plant_.plc.enabled()) {
     PlcHooks hooks;
@@ -306,6 +310,32 @@ std::vector<LaneSensors> RangexServer::sensors() const {
 
 void RangexServer::wait() {
   server_->Wait();
+}
+
+void RangexServer::continue_moved_lanes() {
+  const std::string id = plant_.server_id.empty() ? host_name() : plant_.server_id;
+  std::vector<int> lanes;
+  for (const LaneConfig& l : plant_.lanes) lanes.push_back(l.id);
+  std::vector<LaneHandover> moved;
+  try {
+    PgConnection db(plant_.results_db);
+    require_plant_db_schema(db);
+    moved = lane_handovers(db, id, lanes);
+  } catch (const Error& e) {
+    // Inspection does not wait for the database: a lane moved here while it is down numbers
+    // its fillets from this store's records (its records still carry this server's id).
+    log::warn("lane_history_unknown",
+              "cannot read the lanes' history from PostgreSQL ({}); a lane moved here from "
+              "another server numbers its fillets from this store",
+              e.what());
+    return;
+  }
+  for (const LaneHandover& h : moved) {
+    opt_.engine.continue_lanes[h.lane] = {h.last_lane_fillet + 1, h.last_end};
+    // In this server's chain: which link of which server the lane's history goes on from.
+    store_->audit("rangexd", "lane.adopted", h.detail());
+    log::info("lane_adopted", "{}", h.detail());
+  }
 }
 
 void RangexServer::describe_for_fleet(const std::string& http_url,

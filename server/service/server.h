@@ -87,6 +87,8 @@ class RangexServer {
   size_t heap_returned() const { return heap_returned_; }
 
  private:
+  // With a plant-wide database: lanes another server ran last go on from its records.
+  void continue_moved_lanes();
   void watchdog();
   void retention();  // a pass at start, then every retention.every_h
   void set_health(const Health& h);

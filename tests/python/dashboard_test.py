@@ -25,25 +25,14 @@ import time
 import urllib.request
 
 from prometheus_client.parser import text_string_to_metric_families
-from selenium import webdriver
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 
+from browser import headless_chrome, wait_for
 from checks import check, fail
 
 rangexd, rangexctl, plant_yaml, out_dir = sys.argv[1:5]
 os.makedirs(out_dir, exist_ok=True)
 signal.alarm(600)  # the whole test, whatever hangs
-
-
-def wait_for(what, f, timeout):
-    end = time.time() + timeout
-    while time.time() < end:
-        v = f()
-        if v:
-            return v
-        time.sleep(0.1)
-    fail("timed out after %.0f s waiting for %s" % (timeout, what))
 
 
 tmp = tempfile.mkdtemp(prefix="rangex-dashboard-")
@@ -65,14 +54,7 @@ while grpc_addr is None or http_addr is None:
 base = "http://" + http_addr
 print("rangexd: gRPC", grpc_addr, "dashboard", base, flush=True)
 
-options = webdriver.ChromeOptions()
-options.binary_location = "/usr/bin/chromium"
-for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-          "--window-size=1500,1100"):
-    options.add_argument(a)
-options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
-driver.set_page_load_timeout(30)
+driver = headless_chrome()
 feeder = None
 try:
     driver.get(base + "/")
