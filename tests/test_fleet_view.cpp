@@ -193,6 +193,41 @@ TEST(FleetView, ImagesComeFromTheServerThatKeepsThemWithTheReadersCredentials) {
   EXPECT_NE(off->body.find("serves no dashboard"), std::string::npos) << off->body;
 }
 
+TEST(FleetView, AnHttpsDashboardIsVerifiedAgainstTheServersCa) {
+  Plant p;
+  httplib::SSLServer dashboard(pki()("server.crt").c_str(), pki()("server.key").c_str());
+  dashboard.Get(R"(/api/fillets/(\d+)/images/overlay)",
+                [](const httplib::Request&, httplib::Response& res) {
+                  res.set_content("tls bytes", "image/png");
+                });
+  const int port = dashboard.bind_to_any_port("127.0.0.1");
+  std::thread serving([&] { dashboard.listen_after_bind(); });
+  p.set_server("https://127.0.0.1:" + std::to_string(port), now_ns());
+  const std::string path = "/api/fillets/srv-a/" + std::to_string(p.reject_uid) + "/images/overlay";
+  httplib::Headers h{{"Authorization", std::string("Bearer ") + kViewerToken}};
+  {
+    FleetOptions o = secured(p);
+    o.servers_ca = pki()("ca.crt");
+    FleetServer fleet(o);
+    const auto got = client(fleet.port())->Get(path.c_str(), h);
+    ASSERT_TRUE(got);
+    EXPECT_EQ(got->status, 200) << got->body;
+    EXPECT_EQ(got->body, "tls bytes");
+  }
+  {
+    // A CA that did not sign the server's certificate: not fetched, and said so.
+    FleetOptions o = secured(p);
+    o.servers_ca = pki()("rogue-ca.crt");
+    FleetServer fleet(o);
+    const auto got = client(fleet.port())->Get(path.c_str(), h);
+    ASSERT_TRUE(got);
+    EXPECT_EQ(got->status, 502);
+    EXPECT_NE(got->body.find("srv-a at https://127.0.0.1"), std::string::npos) << got->body;
+  }
+  dashboard.stop();
+  serving.join();
+}
+
 TEST(FleetView, ASilentServerIsShownSilentAndItsTilesRed) {
   Plant p;
   p.set_server("", now_ns() - int64_t(60e9));
@@ -215,6 +250,15 @@ TEST(FleetView, ASilentServerIsShownSilentAndItsTilesRed) {
             std::string::npos);
   p.set_server("", now_ns());
   EXPECT_TRUE(json::parse(c.Get("/api/servers")->body)[0]["up"].get<bool>());
+  // Heard from, but it says it cannot inspect: its tiles are red with its reason.
+  PgConnection(p.pg.conninfo())
+      .exec(R"(UPDATE servers SET health = '{"serving": false, "not_serving_because": ["the store )"
+            R"(failed: disk full"], "lanes": [{"lane": 1, "light": "green"}]}')");
+  const json down = json::parse(c.Get("/api/servers")->body)[0];
+  EXPECT_FALSE(down["up"].get<bool>());
+  EXPECT_EQ(down["state"], "NOT SERVING: the store failed: disk full");
+  EXPECT_EQ(json::parse(c.Get("/api/lanes")->body)[0]["light_reason"],
+            "server srv-a NOT SERVING: the store failed: disk full");
 }
 
 TEST(FleetView, HostileQueriesAreRefusedByName) {

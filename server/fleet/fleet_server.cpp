@@ -61,19 +61,29 @@ void FleetServer::stop() {
   if (listener_.joinable()) listener_.join();
 }
 
-std::string FleetServer::server_state(const FleetServerRow& r, int64_t now) const {
-  if (r.seen_ns <= 0) return "never heard from";
-  const double silent = double(now - r.seen_ns) * 1e-9;
-  if (silent <= opt_.silent_after_s) return "up";
-  return "silent for " + std::to_string(int64_t(silent)) + " s";
-}
-
 namespace {
 json health_of(const FleetServerRow& r) {
   json h = json::parse(r.health.empty() ? "{}" : r.health, nullptr, false);
   return h.is_object() ? h : json::object();
 }
+}  // namespace
 
+std::string FleetServer::server_state(const FleetServerRow& r, int64_t now) const {
+  if (r.seen_ns <= 0) return "never heard from";
+  const double silent = double(now - r.seen_ns) * 1e-9;
+  if (silent > opt_.silent_after_s) return "silent for " + std::to_string(int64_t(silent)) + " s";
+  // Heard from, and says it cannot inspect (a stalled worker, a failed store).
+  const json h = health_of(r);
+  if (!h.value("serving", true)) {
+    std::string why;
+    for (const json& w : h.value("not_serving_because", json::array()))
+      if (w.is_string()) why += (why.empty() ? ": " : "; ") + w.get<std::string>();
+    return "NOT SERVING" + why;
+  }
+  return "up";
+}
+
+namespace {
 // A Prometheus sample line with the server's label (ids are letters, digits, '-_.').
 void metric(std::string& out, const char* name, const std::string& server, double v) {
   char buf[64];
@@ -131,7 +141,9 @@ void FleetServer::plant_routes(httplib::Server& s) {
         lane["server"] = r.id;
         lane["server_state"] = state;
         // The tile as its server last said; a server not heard from cannot vouch for it.
-        if (state != "up")
+        if (state.rfind("NOT SERVING", 0) == 0)
+          lane["light"] = "red", lane["light_reason"] = "server " + r.id + " " + state;
+        else if (state != "up")
           lane["light"] = "red", lane["light_reason"] = "server " + r.id + " " + state +
                                                         " (its tile is as it last reported)";
         out.push_back(std::move(lane));

@@ -164,7 +164,10 @@ std::string server_health_text(Engine& engine, PlantHistory& h, const std::strin
   const BackendInfo b = engine.backend();
   json lanes = json::array();
   for (const LaneState& l : engine.lanes()) lanes.push_back(lane_json(l, h, b.name));
+  const Health health = engine.health();
   return json{{"version", version},
+              {"serving", health.serving},
+              {"not_serving_because", health.reasons},
               {"backend", b.name},
               {"device", b.device},
               {"lanes", lanes},

@@ -57,8 +57,9 @@ struct HttpOptions {
   std::function<int()> ingest_streams;
 };
 
-// What the fleet view shows of a server (its `servers` row): version, backend, its lanes as
-// their dashboard tiles (rates from `h`) and its warnings, as JSON text.
+// What the fleet view shows of a server (its `servers` row): version, backend, whether it
+// can inspect (and why not), its lanes as their dashboard tiles (rates from `h`) and its
+// warnings, as JSON text.
 std::string server_health_text(Engine& engine, PlantHistory& h, const std::string& version);
 
 class HttpServer {
