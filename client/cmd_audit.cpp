@@ -66,7 +66,7 @@ int cmd_audit(int argc, char** argv) {
   if (verb == "verify") {
     const Args a(argc, argv, 3, {}, {"data", "config", "db"});
     a.expect_positionals(0, "audit verify [--data DIR | --config PLANT.yaml | --db CONNSTR]");
-    if (a.has("db")) return verify_plant_db(a.get("db", ""));
+    if (a.has("db")) return verify_plant_db(no_password(a.get("db", ""), "--db"));
     const std::string dir = store_dir(a);
     const ChainReport r = Store::verify_chain(dir);
     if (!r.ok) {

@@ -20,7 +20,7 @@ int cmd_db(int argc, char** argv) {
     const Args a(argc, argv, 3, {}, {"db", "to"});
     a.expect_positionals(0, "db migrate --db CONNSTR [--to VERSION]");
     if (!a.has("db")) fail("db migrate needs --db CONNSTR (a libpq connection string)");
-    PgConnection db(a.get("db", ""));
+    PgConnection db(no_password(a.get("db", ""), "--db"));
     const int before = plant_db_schema_version(db);
     const int n = plant_db_migrate(db, int(a.integer("to", 0)), [](const Migration& m) {
       std::printf("applied migration %d: %s\n", m.version, m.description);
@@ -33,7 +33,7 @@ int cmd_db(int argc, char** argv) {
     const Args a(argc, argv, 3, {}, {"db"});
     a.expect_positionals(0, "db status --db CONNSTR");
     if (!a.has("db")) fail("db status needs --db CONNSTR (a libpq connection string)");
-    PgConnection db(a.get("db", ""));
+    PgConnection db(no_password(a.get("db", ""), "--db"));
     const int have = plant_db_schema_version(db), need = plant_db_schema_version_needed();
     std::printf("%s: rangex schema version %d (this build needs %d)\n", db.where().c_str(), have,
                 need);
@@ -65,7 +65,7 @@ int cmd_db(int argc, char** argv) {
     } else if (before.size() != 10 || before[4] != '-' || before[7] != '-') {
       fail("db prune: --before '", before, "' must be a day as YYYY-MM-DD");
     }
-    PgConnection db(a.get("db", ""));
+    PgConnection db(no_password(a.get("db", ""), "--db"));
     const char* user = std::getenv("USER");
     const PlantDbPruneReport r = plant_db_prune(db, before, a.flag("dry-run"),
                                                 std::string("rangexctl:") + (user ? user : "?"));

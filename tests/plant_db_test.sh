@@ -37,6 +37,8 @@ check "db status says an empty database is not ready (exit 1)" test $? -eq 1
 check "migrated from version 1" grep -q "applied migration 2" "$work/migrate.txt"
 "$ctl" db status --db "$db" >/dev/null
 check "db status: the schema this build needs" test $? -eq 0
+"$ctl" db status --db "$db password=secret" >/dev/null 2>"$work/password.txt"
+check "a password on the command line is refused" grep -q "\-\-db holds a password" "$work/password.txt"
 
 # Two servers, two lanes each, from one plant file: lanes 0 and 1 are srv-a's, 2 and 3 srv-b's.
 # Each feeder's file holds its server's lanes only.

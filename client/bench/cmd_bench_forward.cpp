@@ -62,7 +62,7 @@ int cmd_bench_forward(int argc, char** argv) {
                        "bench-forward --db CONNSTR [--fillets 5000] [--lanes 8] [--rate 1250] "
                        "[--seconds 30] [--lines-per-fillet 550]");
   if (!a.has("db")) fail("bench-forward needs --db CONNSTR (a database it may write to)");
-  const std::string conninfo = a.get("db", "");
+  const std::string conninfo = no_password(a.get("db", ""), "--db");
   const int fillets = int(a.integer("fillets", 5000));
   const int lanes = int(a.integer("lanes", 8));
   const double rate = std::stod(a.get("rate", "1250"));

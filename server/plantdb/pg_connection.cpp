@@ -56,6 +56,20 @@ std::string pg_where(const std::string& conninfo) {
   return out.empty() ? "the default PostgreSQL server" : out;
 }
 
+std::string no_password(const std::string& conninfo, const std::string& what) {
+  PQconninfoOption* opts = PQconninfoParse(conninfo.c_str(), nullptr);
+  if (!opts) return conninfo;  // unreadable: the connection's own error says so
+  bool has = false;
+  for (PQconninfoOption* o = opts; o->keyword; ++o)
+    if (std::strcmp(o->keyword, "password") == 0 && o->val && *o->val) has = true;
+  PQconninfoFree(opts);
+  if (has)
+    fail(what,
+         " holds a password, which anyone on this machine can read from the process "
+         "list: put it in a password file (PGPASSFILE, ~/.pgpass or passfile=...)");
+  return conninfo;
+}
+
 PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s)
     : where_(pg_where(conninfo)) {
   // A URI takes its timeout as a parameter; a key=value string as one more key. Later keys

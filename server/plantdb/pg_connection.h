@@ -64,4 +64,8 @@ std::string pg_exact(double v);
 // and errors: never its password.
 std::string pg_where(const std::string& conninfo);
 
+// A connection string given on a command line (`what`: "--db"), returned as it is; refused
+// (Error) when it holds a password, which anyone on the machine reads in the process list.
+std::string no_password(const std::string& conninfo, const std::string& what);
+
 }  // namespace rangex
