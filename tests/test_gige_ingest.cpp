@@ -371,8 +371,14 @@ TEST(GigeIngest, LostPacketsBecomeMissingLinesCountedForTheDevice) {
   const LaneSensors s = server.sensors()[0];
   EXPECT_GT(s.incomplete, 0u);
   EXPECT_GT(s.devices[1].lacked, 0u);
-  // The others lose packets only where the machine is too busy to read them in time.
-  EXPECT_GT(s.devices[1].incomplete, 2 * std::max(s.devices[0].incomplete, s.devices[2].incomplete))
+  // The others lose packets only where the machine is too busy to read them in time, and so
+  // does cam1 besides its own losses: its share of incomplete frames is the larger one
+  // whatever the load (a count could be less: a busy machine loses whole frames too).
+  auto incomplete_share = [](const SensorState& d) {
+    return double(d.incomplete) / double(std::max<uint64_t>(1, d.frames + d.incomplete));
+  };
+  EXPECT_GT(incomplete_share(s.devices[1]),
+            std::max(incomplete_share(s.devices[0]), incomplete_share(s.devices[2])))
       << describe(server.sensors());
   // Every count was either a line or a line given up: none is counted twice or lost quietly.
   EXPECT_GE(s.devices[1].frames + s.devices[1].incomplete + s.devices[1].lost_frames,
