@@ -18,6 +18,7 @@
 #include "service/sha256_hex.h"
 #include "service/store.h"
 #include "temp_dir.h"
+#include "test_ca.h"
 
 using namespace rangex;
 using json = nlohmann::json;
@@ -25,21 +26,6 @@ using rangex::test::PgInstance;
 using rangex::test::TempDir;
 
 namespace {
-
-// The test CA, made once per process.
-struct Pki {
-  TempDir dir;
-  Pki() {
-    const std::string cmd =
-        std::string(RANGEX_SOURCE_DIR) + "/scripts/make-test-ca.sh '" + dir.str() + "' > /dev/null";
-    if (std::system(cmd.c_str()) != 0) ADD_FAILURE() << "make-test-ca.sh failed: " << cmd;
-  }
-  std::string operator()(const std::string& file) const { return dir.str(file); }
-};
-const Pki& pki() {
-  static Pki p;
-  return p;
-}
 
 const char* kViewerToken = "rgx_fleet-viewer-token";
 const char* kStaleToken = "rgx_not-a-listed-token";
@@ -86,19 +72,20 @@ FleetOptions secured(const Plant& p) {
   o.conninfo = p.pg.conninfo();
   o.listen = "127.0.0.1:0";
   SecurityConfig& s = o.security;
-  s.tls_cert = pki()("server.crt");
-  s.tls_key = pki()("server.key");
-  s.client_ca = pki()("ca.crt");
+  s.tls_cert = test::test_ca("server.crt");
+  s.tls_key = test::test_ca("server.key");
+  s.client_ca = test::test_ca("ca.crt");
   s.identities = {{"viewer-1", Role::viewer}, {"admin-1", Role::admin}};
   s.tokens = {{"qa-screen", Role::viewer, sha256_hex(kViewerToken)}};
   return o;
 }
 
 std::unique_ptr<httplib::SSLClient> client(int port, const std::string& cert = "") {
-  auto c = cert.empty() ? std::make_unique<httplib::SSLClient>("127.0.0.1", port)
-                        : std::make_unique<httplib::SSLClient>(
-                              "127.0.0.1", port, pki()(cert + ".crt"), pki()(cert + ".key"));
-  c->set_ca_cert_path(pki()("ca.crt").c_str());
+  auto c = cert.empty()
+               ? std::make_unique<httplib::SSLClient>("127.0.0.1", port)
+               : std::make_unique<httplib::SSLClient>(
+                     "127.0.0.1", port, test::test_ca(cert + ".crt"), test::test_ca(cert + ".key"));
+  c->set_ca_cert_path(test::test_ca("ca.crt").c_str());
   c->enable_server_certificate_verification(true);
   c->set_read_timeout(30, 0);
   return c;
@@ -195,7 +182,8 @@ TEST(FleetView, ImagesComeFromTheServerThatKeepsThemWithTheReadersCredentials) {
 
 TEST(FleetView, AnHttpsDashboardIsVerifiedAgainstTheServersCa) {
   Plant p;
-  httplib::SSLServer dashboard(pki()("server.crt").c_str(), pki()("server.key").c_str());
+  httplib::SSLServer dashboard(test::test_ca("server.crt").c_str(),
+                               test::test_ca("server.key").c_str());
   dashboard.Get(R"(/api/fillets/(\d+)/images/overlay)",
                 [](const httplib::Request&, httplib::Response& res) {
                   res.set_content("tls bytes", "image/png");
@@ -207,7 +195,7 @@ TEST(FleetView, AnHttpsDashboardIsVerifiedAgainstTheServersCa) {
   httplib::Headers h{{"Authorization", std::string("Bearer ") + kViewerToken}};
   {
     FleetOptions o = secured(p);
-    o.servers_ca = pki()("ca.crt");
+    o.servers_ca = test::test_ca("ca.crt");
     FleetServer fleet(o);
     const auto got = client(fleet.port())->Get(path.c_str(), h);
     ASSERT_TRUE(got);
@@ -217,7 +205,7 @@ TEST(FleetView, AnHttpsDashboardIsVerifiedAgainstTheServersCa) {
   {
     // A CA that did not sign the server's certificate: not fetched, and said so.
     FleetOptions o = secured(p);
-    o.servers_ca = pki()("rogue-ca.crt");
+    o.servers_ca = test::test_ca("rogue-ca.crt");
     FleetServer fleet(o);
     const auto got = client(fleet.port())->Get(path.c_str(), h);
     ASSERT_TRUE(got);

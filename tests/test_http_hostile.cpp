@@ -21,6 +21,7 @@
 #include "service/http_server.h"
 #include "service/server.h"
 #include "temp_dir.h"
+#include "test_ca.h"
 
 using namespace rangex;
 
@@ -34,24 +35,12 @@ ServerOptions options(const test::TempDir& t) {
   return o;
 }
 
-// A test CA, made once per process, for the TLS side.
-const test::TempDir& test_ca() {
-  static test::TempDir dir;
-  static const bool made = [] {
-    const std::string cmd =
-        std::string(RANGEX_SOURCE_DIR) + "/scripts/make-test-ca.sh '" + dir.str() + "' > /dev/null";
-    return std::system(cmd.c_str()) == 0;
-  }();
-  EXPECT_TRUE(made) << "scripts/make-test-ca.sh failed";
-  return dir;
-}
-
 HttpOptions http_options(bool tls = false) {
   HttpOptions ho;
   ho.listen = "127.0.0.1:0";
   if (tls) {
-    ho.security.tls_cert = test_ca().str("server.crt");
-    ho.security.tls_key = test_ca().str("server.key");
+    ho.security.tls_cert = test::test_ca("server.crt");
+    ho.security.tls_key = test::test_ca("server.key");
   }
   return ho;
 }

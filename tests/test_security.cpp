@@ -22,6 +22,7 @@
 #include "service/server.h"
 #include "service/sha256_hex.h"
 #include "temp_dir.h"
+#include "test_ca.h"
 
 namespace rangex {
 namespace {
@@ -30,19 +31,8 @@ namespace pb = rangex::v1;
 using test::TempDir;
 using Code = grpc::StatusCode;
 
-// The test CA, made once per process.
-struct Pki {
-  TempDir dir;
-  Pki() {
-    const std::string cmd =
-        std::string(RANGEX_SOURCE_DIR) + "/scripts/make-test-ca.sh '" + dir.str() + "' > /dev/null";
-    if (std::system(cmd.c_str()) != 0) ADD_FAILURE() << "make-test-ca.sh failed: " << cmd;
-  }
-  std::string operator()(const std::string& file) const { return dir.str(file); }
-};
-const Pki& pki() {
-  static Pki p;
-  return p;
+std::string pki(const std::string& file) {
+  return test::test_ca(file);
 }
 
 const char* kEngineerToken = "rgx_engineer-token-for-tests";
@@ -51,9 +41,9 @@ const char* kViewerToken = "rgx_viewer-token-for-tests";
 PlantConfig secured_plant() {
   PlantConfig p = default_plant_config(2);
   SecurityConfig& s = p.security;
-  s.tls_cert = pki()("server.crt");
-  s.tls_key = pki()("server.key");
-  s.client_ca = pki()("ca.crt");
+  s.tls_cert = pki("server.crt");
+  s.tls_key = pki("server.key");
+  s.client_ca = pki("ca.crt");
   s.identities = {{"viewer-1", Role::viewer},
                   {"operator-1", Role::operator_},
                   {"engineer-1", Role::engineer},
@@ -82,10 +72,10 @@ struct Caller {
 
 std::shared_ptr<grpc::Channel> channel_for(const RangexServer& s, const Caller& c) {
   ClientSecurity sec;
-  sec.ca = pki()("ca.crt");
+  sec.ca = pki("ca.crt");
   if (!c.cert.empty()) {
-    sec.cert = pki()(c.cert + ".crt");
-    sec.key = pki()(c.cert + ".key");
+    sec.cert = pki(c.cert + ".crt");
+    sec.key = pki(c.cert + ".key");
   }
   sec.token = c.token;
   return rangex_channel(s.address(), sec);
@@ -417,8 +407,8 @@ TEST(Access, BeyondLoopbackNeedsTlsAndAuthenticationUnlessInsecure) {
     EXPECT_NE(std::string(e.what()).find("security.insecure: true"), std::string::npos);
   }
   PlantConfig tls_only = plain;
-  tls_only.security.tls_cert = pki()("server.crt");
-  tls_only.security.tls_key = pki()("server.key");
+  tls_only.security.tls_cert = pki("server.crt");
+  tls_only.security.tls_key = pki("server.key");
   try {
     RangexServer s(tls_only, o);
     ADD_FAILURE() << "served on 0.0.0.0 with every client admin";
@@ -463,11 +453,10 @@ TEST(Access, TheDashboardOverTlsNeedsAViewer) {
   RangexServer& server = d.server;
   HttpServer& web = d.web;
   auto client = [&](const std::string& cert) {
-    auto c = cert.empty()
-                 ? std::make_unique<httplib::SSLClient>("127.0.0.1", web.port())
-                 : std::make_unique<httplib::SSLClient>("127.0.0.1", web.port(),
-                                                        pki()(cert + ".crt"), pki()(cert + ".key"));
-    c->set_ca_cert_path(pki()("ca.crt").c_str());
+    auto c = cert.empty() ? std::make_unique<httplib::SSLClient>("127.0.0.1", web.port())
+                          : std::make_unique<httplib::SSLClient>(
+                                "127.0.0.1", web.port(), pki(cert + ".crt"), pki(cert + ".key"));
+    c->set_ca_cert_path(pki("ca.crt").c_str());
     c->enable_server_certificate_verification(true);
     c->set_connection_timeout(5);
     c->set_read_timeout(5);
@@ -510,7 +499,7 @@ TEST(Access, TheDashboardOverTlsNeedsAViewer) {
   }
   // A client that does not trust the server's CA does not connect.
   httplib::SSLClient untrusting("127.0.0.1", web.port());
-  untrusting.set_ca_cert_path(pki()("rogue-ca.crt").c_str());
+  untrusting.set_ca_cert_path(pki("rogue-ca.crt").c_str());
   untrusting.enable_server_certificate_verification(true);
   untrusting.set_connection_timeout(5);
   EXPECT_FALSE(untrusting.Get("/api/info"));
@@ -526,8 +515,8 @@ TEST(Access, TheDashboardStartsAVerificationForAnOperatorOnly) {
   auto post = [&](const std::string& cert, const std::string& body,
                   const httplib::Headers& headers = {},
                   const std::string& type = "application/json", int lane = 1) {
-    httplib::SSLClient c("127.0.0.1", web.port(), pki()(cert + ".crt"), pki()(cert + ".key"));
-    c.set_ca_cert_path(pki()("ca.crt").c_str());
+    httplib::SSLClient c("127.0.0.1", web.port(), pki(cert + ".crt"), pki(cert + ".key"));
+    c.set_ca_cert_path(pki("ca.crt").c_str());
     c.enable_server_certificate_verification(true);
     c.set_connection_timeout(5);
     c.set_read_timeout(5);

@@ -75,10 +75,8 @@ void FleetServer::fillet_routes(httplib::Server& s) {
     const std::optional<FleetFillet> f = fleet_fillet(*db, server, uid);
     if (!f) throw NotFound("no fillet " + std::to_string(uid) + " of server " + server);
     json j = fleet_fillet_json(*f);
-    const int64_t now = now_ns();
-    for (const FleetServerRow& r : fleet_servers(*db))
-      if (r.id == server)
-        j["kept_by"] = {{"server", r.id}, {"http", r.http}, {"state", server_state(r, now)}};
+    if (const std::optional<FleetServerRow> r = fleet_server(*db, server))
+      j["kept_by"] = {{"server", r->id}, {"http", r->http}, {"state", server_state(*r, now_ns())}};
     send_json(res, j);
   });
   s.Get(std::string(kFillet) + "/images/([a-z_]+)",
@@ -94,8 +92,8 @@ void FleetServer::fillet_routes(httplib::Server& s) {
             if (std::find(f->images.begin(), f->images.end(), kind) == f->images.end())
               throw NotFound("server " + server + " keeps no " + kind + " image of fillet " +
                              std::to_string(uid));
-            for (const FleetServerRow& row : fleet_servers(*db))
-              if (row.id == server) r.url = row.http;
+            if (const std::optional<FleetServerRow> row = fleet_server(*db, server))
+              r.url = row->http;
           }
           r.server = server;
           r.path = "/api/fillets/" + std::to_string(uid) + "/images/" + kind +

@@ -13,12 +13,10 @@ namespace rangex {
 using json = nlohmann::json;
 
 namespace {
-json audit_json(const FleetAudit& a) {
-  return {{"server", a.server},
-          {"ts_ns", a.e.ts_ns},
-          {"who", a.e.who},
-          {"what", a.e.what},
-          {"detail", a.e.detail}};
+json fleet_audit_json(const FleetAudit& a) {
+  json j = audit_json(a.e);
+  j["server"] = a.server;
+  return j;
 }
 }  // namespace
 
@@ -37,14 +35,14 @@ void FleetServer::record_routes(httplib::Server& s) {
                           {"has_report", v.has_report}});
     json events = json::array();
     for (const FleetAudit& a : fleet_audit(*db, 100000, {"calibration.", "learned."}))
-      events.push_back(audit_json(a));
+      events.push_back(fleet_audit_json(a));
     send_json(res, {{"versions", versions}, {"events", events}});
   });
   s.Get("/api/audit", [this](const httplib::Request& req, httplib::Response& res) {
     const int limit = int(int_param(req.params, "limit", 200, 1, 100000));
     PgPool::Lease db = db_->take();
     json out = json::array();
-    for (const FleetAudit& a : fleet_audit(*db, limit)) out.push_back(audit_json(a));
+    for (const FleetAudit& a : fleet_audit(*db, limit)) out.push_back(fleet_audit_json(a));
     send_json(res, out);
   });
 }

@@ -26,15 +26,29 @@ FleetCursor FleetCursor::parse(const std::string& s) {
   return c;
 }
 
-std::vector<FleetServerRow> fleet_servers(PgConnection& db) {
-  const PgRows r = db.exec(
-      "SELECT server_id, host, http, health, started_ns, seen_ns, head_seq, forwarded_seq, "
-      "lag_records, lag_seconds FROM servers ORDER BY server_id");
+namespace {
+constexpr const char* kServerColumns =
+    "SELECT server_id, host, http, health, started_ns, seen_ns, head_seq, forwarded_seq, "
+    "lag_records, lag_seconds FROM servers";
+
+std::vector<FleetServerRow> server_rows(const PgRows& r) {
   std::vector<FleetServerRow> out;
   for (int i = 0; i < r.rows(); ++i)
     out.push_back({r.str(i, 0), r.str(i, 1), r.str(i, 2), r.str(i, 3), r.i64(i, 4), r.i64(i, 5),
                    r.i64(i, 6), r.i64(i, 7), r.i64(i, 8), r.dbl(i, 9)});
   return out;
+}
+}  // namespace
+
+std::vector<FleetServerRow> fleet_servers(PgConnection& db) {
+  return server_rows(db.exec(std::string(kServerColumns) + " ORDER BY server_id"));
+}
+
+std::optional<FleetServerRow> fleet_server(PgConnection& db, const std::string& id) {
+  std::vector<FleetServerRow> r =
+      server_rows(db.exec(std::string(kServerColumns) + " WHERE server_id = $1", {id}));
+  if (r.empty()) return std::nullopt;
+  return std::move(r.front());
 }
 
 namespace {

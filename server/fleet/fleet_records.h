@@ -61,6 +61,7 @@ struct FleetBucket {
 };
 
 std::vector<FleetServerRow> fleet_servers(PgConnection& db);
+std::optional<FleetServerRow> fleet_server(PgConnection& db, const std::string& id);
 std::vector<FleetFillet> fleet_fillets(PgConnection& db, const FleetQuery& fq);
 std::optional<FleetFillet> fleet_fillet(PgConnection& db, const std::string& server, int64_t uid);
 std::vector<FleetSetting> fleet_settings(PgConnection& db, int lane);

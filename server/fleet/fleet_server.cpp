@@ -2,7 +2,6 @@
 
 #include <httplib.h>
 
-#include <chrono>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
@@ -41,9 +40,7 @@ FleetServer::FleetServer(FleetOptions opt) : opt_(std::move(opt)), access_(opt_.
   });
   port_ = bind_http_front(front, opt_.listen, "the fleet view");
   http_ = std::move(front.server);
-  listener_ = std::thread([this] { http_->listen_after_bind(); });
-  for (int k = 0; k < 500 && !http_->is_running(); ++k)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  listener_ = listen_in_background(*http_);
 }
 
 FleetServer::~FleetServer() {
@@ -114,11 +111,12 @@ void FleetServer::plant_routes(httplib::Server& s) {
     json out = json::array();
     for (const FleetServerRow& r : fleet_servers(*db)) {
       const json h = health_of(r);
+      const std::string state = server_state(r, now);
       out.push_back({{"server", r.id},
                      {"host", r.host},
                      {"http", r.http},
-                     {"state", server_state(r, now)},
-                     {"up", server_state(r, now) == "up"},
+                     {"state", state},
+                     {"up", state == "up"},
                      {"started_ns", r.started_ns},
                      {"seen_ns", r.seen_ns},
                      {"head_seq", r.head_seq},

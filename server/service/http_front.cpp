@@ -5,6 +5,7 @@
 #include <openssl/ssl.h>
 #include <openssl/x509.h>
 
+#include <chrono>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
@@ -125,6 +126,13 @@ int bind_http_front(HttpFront& f, const std::string& listen, const std::string& 
                        : (f.server->bind_to_port(f.host, f.want_port) ? f.want_port : -1);
   if (port <= 0) fail(what, ": cannot listen on ", listen, " (in use, or no such address)");
   return port;
+}
+
+std::thread listen_in_background(httplib::Server& s) {
+  std::thread t([&s] { s.listen_after_bind(); });
+  for (int k = 0; k < 500 && !s.is_running(); ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  return t;
 }
 
 Identity identify_request(const AccessControl& access, const httplib::Request& req) {

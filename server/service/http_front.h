@@ -6,6 +6,7 @@
 #pragma once
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "core/security_config.h"
 #include "service/access_control.h"
@@ -32,6 +33,9 @@ HttpFront make_http_front(const std::string& listen, const SecurityConfig& secur
                           const std::string& what);
 // Binds (throws Error naming the address when it cannot) and returns the port.
 int bind_http_front(HttpFront& f, const std::string& listen, const std::string& what);
+// Serves the bound server on a thread of its own, returned once it serves: a stop() that came
+// before the listener started would find nothing to stop, and the listener would never return.
+std::thread listen_in_background(httplib::Server& s);
 // Every request needs the viewer role; hostile requests are refused; handlers' exceptions
 // are answered as {"error": ...} with their status (BadRequest 400, NotFound 404, ...).
 void guard_http(httplib::Server& s, const AccessControl& access);

@@ -47,6 +47,10 @@ json fillet_json(const StoredFillet& f) {
           {"fragments", frags}};
 }
 
+json audit_json(const AuditEntry& e) {
+  return {{"ts_ns", e.ts_ns}, {"who", e.who}, {"what", e.what}, {"detail", e.detail}};
+}
+
 json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) {
   double line_rate = 0, fillets_per_min = 0, reject_rate = 0, ni_rate = 0;
   HistorySample a, b;

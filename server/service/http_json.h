@@ -13,6 +13,8 @@
 namespace rangex {
 
 nlohmann::json fillet_json(const StoredFillet& f);
+// An audit entry: ts_ns, who, what, detail.
+nlohmann::json audit_json(const AuditEntry& e);
 // What an operator's tile shows of a lane, and its light: grey (never fed), red (stopped:
 // fed and silent for more than 5 s, or restarted in the last minute), amber (more than 2 %
 // of the last 5 minutes' fillets not inspected, or product drift), green.

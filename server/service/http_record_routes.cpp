@@ -23,16 +23,13 @@ void HttpServer::record_routes(httplib::Server& s) {
                           {"has_report", !c.report.empty()}});
     json events = json::array();
     for (const AuditEntry& e : store_.audit_entries(100000))
-      if (e.what.rfind("calibration.", 0) == 0)
-        events.push_back(
-            {{"ts_ns", e.ts_ns}, {"who", e.who}, {"what", e.what}, {"detail", e.detail}});
+      if (e.what.rfind("calibration.", 0) == 0) events.push_back(audit_json(e));
     send_json(res, {{"versions", versions}, {"events", events}});
   });
   s.Get("/api/audit", [this](const httplib::Request& req, httplib::Response& res) {
     const int limit = int(int_param(req.params, "limit", 200, 1, 100000));
     json out = json::array();
-    for (const AuditEntry& e : store_.audit_entries(limit))
-      out.push_back({{"ts_ns", e.ts_ns}, {"who", e.who}, {"what", e.what}, {"detail", e.detail}});
+    for (const AuditEntry& e : store_.audit_entries(limit)) out.push_back(audit_json(e));
     send_json(res, out);
   });
 }

@@ -32,11 +32,7 @@ HttpServer::HttpServer(Engine& engine, Store& store, ResultsHub& hub, HttpOption
   port_ = bind_http_front(front, opt_.listen, "plant.http");
   http_ = std::move(front.server);
   history_.add(PlantHistory::sample(engine_.stats(), engine_.lanes(), now_ns()));
-  listener_ = std::thread([this] { http_->listen_after_bind(); });
-  // Serving before the constructor returns: a stop() that came before the listener started
-  // would find nothing to stop, and the listener would then never return.
-  for (int k = 0; k < 500 && !http_->is_running(); ++k)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  listener_ = listen_in_background(*http_);
   sampler_ = std::thread([this] { sampler(); });
 }
 

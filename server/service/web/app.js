@@ -230,7 +230,7 @@ function sensorsRow(s) {
           <dt>lines missing</dt><dd>${pct(all ? s.incomplete_lines / all : 0)}</dd>`;
 }
 
-function chart(id, samples, series) {
+function chart(id, samples, series, period_s) {
   const c = document.getElementById(id);
   if (!c) return;
   const w = (c.width = c.clientWidth * devicePixelRatio);
@@ -240,7 +240,7 @@ function chart(id, samples, series) {
   if (samples.length < 2) {
     g.fillStyle = "#667085";
     g.font = `${12 * devicePixelRatio}px sans-serif`;
-    g.fillText("collecting (a sample every 2 s)", 8, h / 2);
+    g.fillText(`collecting (a sample every ${period_s} s)`, 8, h / 2);
     return;
   }
   const t0 = samples[0].t_ns, t1 = samples[samples.length - 1].t_ns;
@@ -265,10 +265,9 @@ function chart(id, samples, series) {
 
 async function refreshCharts() {
   const h = await api("/api/history?minutes=60");
-  if (fleet() && h.samples.length === 1) h.samples.unshift({ ...h.samples[0], t_ns: h.samples[0].t_ns - 6e10 });
-  chart("c-rate", h.samples, [["lines_per_s", "#1d2330"]]);
-  chart("c-fillets", h.samples, [["fillets_per_min", "#1d2330"], ["rejects_per_min", "#d63b3b"]]);
-  chart("c-lat", h.samples, [["decision_p50_ms", "#1d2330"], ["decision_p99_ms", "#d63b3b"]]);
+  chart("c-rate", h.samples, [["lines_per_s", "#1d2330"]], h.period_s);
+  chart("c-fillets", h.samples, [["fillets_per_min", "#1d2330"], ["rejects_per_min", "#d63b3b"]], h.period_s);
+  chart("c-lat", h.samples, [["decision_p50_ms", "#1d2330"], ["decision_p99_ms", "#d63b3b"]], h.period_s);
 }
 
 // ---- one fillet: four images side by side, fragments boxed -----------------------------------
