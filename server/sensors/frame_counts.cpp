@@ -22,4 +22,12 @@ uint64_t FrameIdGaps::next(uint64_t id, bool extended_ids) {
   return lost;
 }
 
+int64_t session_count_offset(bool streamed_before, std::optional<int64_t> newest_at_start,
+                             std::optional<int64_t> newest, int64_t first_count, int64_t window) {
+  if (!newest) return 0;
+  const bool joined_running = newest_at_start && *newest_at_start > window;
+  if (!streamed_before && !joined_running) return 0;
+  return *newest + 1 - first_count;
+}
+
 }  // namespace rangex

@@ -18,4 +18,17 @@ class FrameIdGaps {
   std::optional<uint64_t> last_;
 };
 
+// Where a device that counts its own frames (no encoder value in its frames) puts them on its
+// lane's counts: the offset added to its count, decided at the session's first frame.
+// - A device that started with its lane keeps its count, however late its first frame
+//   arrives: the lane's devices share the trigger, so its frame n is everyone's pulse n
+//   (under load one receive thread can fall far behind the others without missing a pulse).
+// - One that rejoins (an earlier session of it streamed) or that started when the lane's
+//   newest count was already beyond the joiner's window takes its first frame as the lane's
+//   next line: nothing better is known (docs/sensors.md).
+// newest_at_start: the lane's newest count when this session's acquisition had started;
+// newest: the lane's newest count at its first frame.
+int64_t session_count_offset(bool streamed_before, std::optional<int64_t> newest_at_start,
+                             std::optional<int64_t> newest, int64_t first_count, int64_t window);
+
 }  // namespace rangex

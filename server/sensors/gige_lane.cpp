@@ -5,6 +5,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "sensors/frame_counts.h"
 
 namespace rangex {
 
@@ -103,6 +104,9 @@ void GigeLane::run_device(int index) {
     auto started = Clock::now();
     try {
       GigeDevice dev(setup);
+      // Where the lane stood once this session's acquisition had started: a frame of ours
+      // cannot be in the joiner yet.
+      const std::optional<int64_t> newest_at_start = joiner_.newest();
       set(index, [&](SensorState& s) {
         s.state = "streaming";
         s.description = dev.description();
@@ -139,15 +143,10 @@ void GigeLane::run_device(int index) {
           }
         });
         if (got != GigeDevice::Got::kFrame) continue;
-        if (first_frame && !frame.from_encoder) {
-          // A device counting its own frames starts again at 1 each session. One that rejoins
-          // a running lane (or comes far behind it) takes its first frame as the lane's next
-          // line: free-running devices, and devices that count encoder pulses without sending
-          // the count, cannot say better (docs/sensors.md).
-          const std::optional<int64_t> newest = joiner_.newest();
-          if (newest && (streamed_before || frame.count + joiner_.window() < *newest))
-            offset = *newest + 1 - frame.count;
-        }
+        // A device counting its own frames starts again at 1 each session (frame_counts.h).
+        if (first_frame && !frame.from_encoder)
+          offset = session_count_offset(streamed_before, newest_at_start, joiner_.newest(),
+                                        frame.count, joiner_.window());
         first_frame = false;
         joiner_.add(index, frame.count + offset, std::move(frame.bytes));
       }
