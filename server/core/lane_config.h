@@ -68,6 +68,9 @@ struct InspectionParams {
   bool band_extremes = true;
   // The per-fillet false-reject budget product learning sets thresholds for.
   double false_reject_target = 0.003;
+  // Product learning whitens the round kernel by the product's own texture, one kernel per
+  // calcified sphere of these sizes (mm; empty: the round Gaussian of smooth_sigma_px stays).
+  std::vector<double> matched_kernels_mm;
   // Thresholds learned from the plant's own clean product (rangexctl learn); when active
   // they replace z_threshold and air_z_threshold.
   LearnedDetection learned;

@@ -26,6 +26,20 @@ struct LearnedStatistic {
   std::vector<double> band_thickness_mm;  // and median thickness there
 };
 
+// Round kernels whitened by the product's own texture (pipeline/matched_kernels.h): where
+// present, the round statistic is the most bone-like of their outputs instead of the
+// Gaussian's. Each kernel is C^-1 s over a (2 radius + 1)^2 window: s a calcified sphere's
+// profile of sizes_mm[k], C the covariance of the learning fillets' z.
+struct MatchedKernels {
+  int radius = 0;
+  std::vector<double> sizes_mm;
+  std::vector<std::vector<double>> taps;  // per size, row-major over the window
+  // z above its median by more than this many robust spreads is clipped before the kernels:
+  // a bright speck (fat, air) seen by a kernel's negative flank would look like bone.
+  double clip = 3;
+  bool empty() const { return taps.empty(); }
+};
+
 struct LearnedDetection {
   std::string version;        // e.g. "learn-20261125-1" (rangexctl learn names it)
   std::string learned_on;     // the learning run: recording or live lane
@@ -36,6 +50,7 @@ struct LearnedDetection {
   bool spread_by_thickness = false;
   std::vector<double> band_edges_mm;  // bands [e0, e1), [e1, e2), ...; the last open-ended
   std::array<LearnedStatistic, kStatistics> stats;
+  MatchedKernels matched;  // empty: the round statistic is the Gaussian's
   // What the thresholds buy, as the learning measured it ("2.0 mm calcified sphere at 95 %
   // up to 20 mm of meat"): shown beside the active version.
   std::vector<std::string> sensitivity;

@@ -220,11 +220,33 @@ bool read_spread(const Node& n) {
   return v == "thickness";
 }
 
+// inspection.learned.matched: the whitened round kernels, a full window each.
+void read_matched(const Node& n, MatchedKernels& k) {
+  n.only_keys({"radius", "clip", "sizes_mm", "taps"});
+  if (!n.has("radius") || !n.has("sizes_mm") || !n.has("taps"))
+    n.bad("expected radius, sizes_mm and taps");
+  n.get("radius", k.radius);
+  if (k.radius < 1 || k.radius > 8) n.at("radius").bad("must be within 1..8 pixels");
+  n.get("clip", k.clip);
+  if (!(k.clip > 0 && k.clip <= 100)) n.at("clip").bad("must be within (0, 100] spreads");
+  k.sizes_mm = number_list(n.at("sizes_mm"), 0);
+  const Node t = n.at("taps");
+  if (!t.node.IsSequence() || t.node.size() != k.sizes_mm.size() || k.sizes_mm.empty())
+    t.bad("expected one list of taps per size in sizes_mm");
+  const size_t w = size_t(2 * k.radius + 1);
+  for (size_t i = 0; i < t.node.size(); ++i) {
+    k.taps.push_back(number_list(t.item(i), w * w));
+    for (double h : k.taps.back())
+      if (!std::isfinite(h)) t.item(i).bad("taps must be finite");
+  }
+}
+
 // inspection.learned (rangexctl learn writes it): every list matches the bands, the
 // thresholds are finite and the model's scale is a scale.
 void read_learned(const Node& n, LearnedDetection& L) {
   n.only_keys({"version", "learned_on", "target_frr", "confidence", "fillets", "band_edges_mm",
-               "round", "needle", "air", "sensitivity", "spread"});
+               "round", "needle", "air", "sensitivity", "spread", "matched"});
+  if (n.has("matched")) read_matched(n.at("matched"), L.matched);
   if (n.has("spread")) L.spread_by_thickness = read_spread(n.at("spread"));
   if (n.has("sensitivity")) {
     const Node s = n.at("sensitivity");
@@ -508,6 +530,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
                   "attenuation_degree",
                   "min_fragment_meat_mm",
                   "false_reject_target",
+                  "matched_kernels_mm",
                   "learned",
                   "spread",
                   "dual_energy"});
@@ -535,6 +558,12 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->get("false_reject_target", q.false_reject_target);
     if (!(q.false_reject_target > 0 && q.false_reject_target < 0.5))
       n->at("false_reject_target").bad("must be in (0, 0.5), a fraction of fillets");
+    if (n->has("matched_kernels_mm")) {
+      q.matched_kernels_mm = number_list(n->at("matched_kernels_mm"), 0);
+      for (double d : q.matched_kernels_mm)
+        if (!(d >= 0.5 && d <= 6))
+          n->at("matched_kernels_mm").bad("sphere sizes must be within 0.5..6 mm");
+    }
     if (n->has("learned")) read_learned(n->at("learned"), q.learned);
     if (n->has("dual_energy")) {
       const std::string m = n->at("dual_energy").str();
@@ -866,6 +895,16 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
   for (size_t i = 0; i < L.sensitivity.size(); ++i)
     o << (i ? ", " : "") << yaml_string(L.sensitivity[i]);
   o << "]";
+  if (!L.matched.empty()) {
+    o << "\nmatched:\n  radius: " << L.matched.radius << "\n  clip: " << L.matched.clip
+      << "\n  sizes_mm: ";
+    list(L.matched.sizes_mm);
+    o << "\n  taps:";
+    for (const std::vector<double>& t : L.matched.taps) {
+      o << "\n    - ";
+      list(t);
+    }
+  }
   for (int s = 0; s < kStatistics; ++s) {
     const LearnedStatistic& ls = L.stats[size_t(s)];
     const GevModel& g = ls.model;

@@ -11,6 +11,7 @@
 #include "pipeline/detector_match.h"
 #include "pipeline/inspection_steps.h"
 #include "pipeline/masked_smooth.h"
+#include "pipeline/matched_kernels.h"
 #include "pipeline/thickness_spread.h"
 
 namespace rangex {
@@ -308,7 +309,23 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   std::vector<float> stat[kStatistics];
   stat[kStatRound].assign(n, kNaN);
   stat[kStatAir] = zs;
-  for (size_t i = 0; i < n; ++i) stat[kStatRound][i] = -zs[i];
+  const MatchedKernels& mk = p.learned.matched;
+  if (mk.empty()) {
+    for (size_t i = 0; i < n; ++i) stat[kStatRound][i] = -zs[i];
+  } else {
+    // Kernels whitened by the product's texture (matched_kernels.h), bright specks clipped
+    // first; each brought to unit spread like the Gaussian, a pixel as bone-like as its most
+    // bone-like kernel.
+    std::vector<float> zc, zk;
+    clip_bright(z.data(), use.data(), n, mk.clip, zc);
+    for (const std::vector<double>& taps : mk.taps) {
+      const double gain =
+          apply_kernel(zc.data(), use.data(), img.rows, img.cols, taps, mk.radius, zk);
+      unit_spread_by_thickness(zk, img.thickness.data(), use.data(), bins, gain);
+      for (size_t i = 0; i < n; ++i)
+        if (std::isfinite(zk[i]) && !(stat[kStatRound][i] >= -zk[i])) stat[kStatRound][i] = -zk[i];
+    }
+  }
   // Needles and slivers: a pixel or less wide, they fade under the round kernel; elongated
   // kernels along four directions, each brought to unit spread the same way, find them. A
   // pixel is as needle-like as its most needle-like direction.

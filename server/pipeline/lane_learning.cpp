@@ -2,6 +2,9 @@
 
 #include <ctime>
 
+#include "pipeline/inspection_steps.h"
+#include "pipeline/matched_kernels.h"
+
 namespace rangex {
 
 bool LearningSet::teaches(const FilletResult& r) {
@@ -25,12 +28,49 @@ std::vector<SensitivityFillet> LearningSet::sensitivity_fillets() const {
   return v;
 }
 
+namespace {
+// The lane's bank of whitened kernels learned from the learning fillets' z (one energy: a
+// dual-energy lane's bone image keeps the Gaussian); empty when the lane asks for none.
+MatchedKernels learn_kernels(const LearningSet& set, const InspectionParams& inspection) {
+  if (inspection.matched_kernels_mm.empty() || set.images.empty()) return {};
+  TextureCovariance cov(8);
+  for (const FilletImage& img : set.images) {
+    if (!img.xray_high.empty()) return {};
+    FilletResult r;
+    OneEnergyModel m;
+    InspectionParams plain = inspection;
+    plain.learned = {};
+    if (!start_inspection(img, plain, r) || !one_energy_model(img, plain, r, m)) continue;
+    const FilletImage& seen = m.image(img);
+    cov.add(m.z.data(), m.use.data(), seen.rows, seen.cols);
+  }
+  if (cov.fillets() == 0) return {};
+  const FilletImage& first = set.images.front();
+  return learn_matched_kernels(cov, inspection.matched_kernels_mm, first.pitch_mm, first.step_mm,
+                               first.detector_sigma_px);
+}
+}  // namespace
+
 LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspection,
                         const LearnOptions& lo, const SensitivityOptions& so,
                         const std::string& version, const std::string& learned_on,
                         const std::function<void(int, int)>& progress) {
   LaneLearning out;
-  out.learning = learn_product(set.fillets, lo);
+  // Round kernels whitened by this product's texture, when the lane asks for them: learned
+  // from the same fillets' z, which are then inspected again with them for the extremes the
+  // thresholds are fitted to.
+  const MatchedKernels kernels = learn_kernels(set, inspection);
+  std::vector<LearningFillet> fillets = set.fillets;
+  if (!kernels.empty()) {
+    InspectionParams with = inspection;
+    with.learned = {};
+    with.learned.matched = kernels;
+    with.band_extremes = true;
+    for (size_t i = 0; i < set.images.size(); ++i)
+      fillets[i].extremes = inspect_fillet(set.images[i], with, false).extremes;
+  }
+  out.learning = learn_product(fillets, lo);
+  out.learning.learned.matched = kernels;
   out.learning.learned.version = version;
   out.learning.learned.learned_on = learned_on;
   out.inspection = inspection;

@@ -1,0 +1,208 @@
+#include "pipeline/matched_kernels.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/error.h"
+#include "pipeline/robust_fit.h"
+
+namespace rangex {
+
+namespace {
+constexpr double kMadNormal = 0.6744897501960817;
+
+// Median and MAD / 0.6745 of z over the usable finite pixels; false when there are none.
+bool robust_centre(const float* z, const uint8_t* use, size_t n, double& med, double& sd) {
+  std::vector<double> v;
+  for (size_t i = 0; i < n; ++i)
+    if (use[i] && std::isfinite(z[i])) v.push_back(z[i]);
+  if (v.empty()) return false;
+  med = median_inplace(v.data(), v.size());
+  for (double& x : v) x = std::abs(x - med);
+  sd = median_inplace(v.data(), v.size()) / kMadNormal;
+  return sd > 0;
+}
+
+// In-place Cholesky of the m x m matrix a (lower triangle); false when not positive definite.
+bool cholesky(std::vector<double>& a, size_t m) {
+  for (size_t j = 0; j < m; ++j) {
+    double d = a[j * m + j];
+    for (size_t k = 0; k < j; ++k) d -= a[j * m + k] * a[j * m + k];
+    if (!(d > 0)) return false;
+    const double l = std::sqrt(d);
+    a[j * m + j] = l;
+    for (size_t i = j + 1; i < m; ++i) {
+      double s = a[i * m + j];
+      for (size_t k = 0; k < j; ++k) s -= a[i * m + k] * a[j * m + k];
+      a[i * m + j] = s / l;
+    }
+  }
+  return true;
+}
+}  // namespace
+
+void clip_bright(const float* z, const uint8_t* use, size_t n, double clip,
+                 std::vector<float>& out) {
+  out.assign(n, std::numeric_limits<float>::quiet_NaN());
+  double med = 0, sd = 0;
+  const bool ok = robust_centre(z, use, n, med, sd);
+  const float top = ok ? float(med + clip * sd) : std::numeric_limits<float>::infinity();
+  for (size_t i = 0; i < n; ++i)
+    if (use[i] && std::isfinite(z[i])) out[i] = std::min(z[i], top);
+}
+
+TextureCovariance::TextureCovariance(int max_lag, double clip)
+    : max_lag_(max_lag),
+      clip_(clip),
+      sum_(size_t(2 * max_lag + 1) * size_t(2 * max_lag + 1), 0.0),
+      pairs_(sum_.size(), 0.0) {
+  if (max_lag < 1 || max_lag > 16) fail("texture covariance: max_lag ", max_lag, " not in 1..16");
+}
+
+void TextureCovariance::add(const float* z, const uint8_t* use, int rows, int cols) {
+  const size_t n = size_t(rows) * size_t(cols);
+  double med = 0, sd = 0;
+  if (!robust_centre(z, use, n, med, sd)) return;
+  // Unit robust spread, bright side clipped, 0 (and not counted) off the usable pixels.
+  std::vector<double> v(n, 0.0), u(n, 0.0);
+  for (size_t i = 0; i < n; ++i)
+    if (use[i] && std::isfinite(z[i])) {
+      v[i] = std::min((z[i] - med) / sd, clip_);
+      u[i] = 1;
+    }
+  const int L = max_lag_, w = 2 * L + 1;
+  for (int dr = -L; dr <= L; ++dr)
+    for (int dc = -L; dc <= L; ++dc) {
+      double s = 0, p = 0;
+      for (int r = std::max(0, -dr); r < std::min(rows, rows - dr); ++r) {
+        const double* a = &v[size_t(r) * cols];
+        const double* ua = &u[size_t(r) * cols];
+        const double* b = &v[size_t(r + dr) * cols];
+        const double* ub = &u[size_t(r + dr) * cols];
+        for (int c = std::max(0, -dc); c < std::min(cols, cols - dc); ++c) {
+          s += a[c] * b[c + dc];
+          p += ua[c] * ub[c + dc];
+        }
+      }
+      sum_[size_t(dr + L) * w + size_t(dc + L)] += s;
+      pairs_[size_t(dr + L) * w + size_t(dc + L)] += p;
+    }
+  ++fillets_;
+}
+
+double TextureCovariance::at(int drow, int dcol) const {
+  if (std::abs(drow) > max_lag_ || std::abs(dcol) > max_lag_) return 0;
+  const size_t k = size_t(drow + max_lag_) * size_t(2 * max_lag_ + 1) + size_t(dcol + max_lag_);
+  return pairs_[k] > 0 ? sum_[k] / pairs_[k] : 0.0;
+}
+
+std::vector<double> sphere_profile(double d_mm, double pitch_mm, double step_mm, int radius,
+                                   double blur_px) {
+  const int w = 2 * radius + 1, ss = 8;
+  const double R2 = 0.25 * d_mm * d_mm;
+  std::vector<double> s(size_t(w) * w, 0.0);
+  for (int i = 0; i < w; ++i)
+    for (int j = 0; j < w; ++j) {
+      double acc = 0;
+      for (int a = 0; a < ss; ++a)
+        for (int b = 0; b < ss; ++b) {
+          const double y = (i - radius + (a + 0.5) / ss - 0.5) * step_mm;
+          const double x = (j - radius + (b + 0.5) / ss - 0.5) * pitch_mm;
+          acc += 2 * std::sqrt(std::max(0.0, R2 - x * x - y * y));
+        }
+      s[size_t(i) * w + j] = acc / (ss * ss);
+    }
+  if (blur_px > 0) {  // across the detector: along the rows of the window
+    std::vector<double> k(static_cast<size_t>(w), 0.0), out(s.size(), 0.0);
+    double ks = 0;
+    for (int d = -radius; d <= radius; ++d)
+      ks += k[size_t(d + radius)] = std::exp(-0.5 * d * d / (blur_px * blur_px));
+    for (int i = 0; i < w; ++i)
+      for (int j = 0; j < w; ++j)
+        for (int d = -radius; d <= radius; ++d)
+          if (j + d >= 0 && j + d < w)
+            out[size_t(i) * w + j] += k[size_t(d + radius)] / ks * s[size_t(i) * w + j + d];
+    s = std::move(out);
+  }
+  return s;
+}
+
+std::vector<double> whitened_kernel(const TextureCovariance& c, const std::vector<double>& s,
+                                    int radius) {
+  const int w = 2 * radius + 1;
+  const size_t m = size_t(w) * w;
+  if (s.size() != m) fail("whitened kernel: a profile of ", s.size(), " taps for radius ", radius);
+  if (2 * radius > c.max_lag())
+    fail("whitened kernel: radius ", radius, " needs lags to ", 2 * radius, ", measured to ",
+         c.max_lag());
+  const double var = c.at(0, 0);
+  if (!(var > 0)) fail("whitened kernel: no texture measured (no usable pixels)");
+  std::vector<double> a(m * m);
+  for (double ridge = 1e-3 * var;; ridge *= 10) {
+    for (size_t p = 0; p < m; ++p)
+      for (size_t q = 0; q < m; ++q) {
+        const int dr = int(p / w) - int(q / w), dc = int(p % w) - int(q % w);
+        a[p * m + q] = c.at(dr, dc) + (p == q ? ridge : 0.0);
+      }
+    if (cholesky(a, m)) break;
+    if (ridge > var) fail("whitened kernel: the measured covariance is not positive definite");
+  }
+  // L L^T h = s.
+  std::vector<double> h(s);
+  for (size_t i = 0; i < m; ++i) {
+    for (size_t k = 0; k < i; ++k) h[i] -= a[i * m + k] * h[k];
+    h[i] /= a[i * m + i];
+  }
+  for (size_t i = m; i-- > 0;) {
+    for (size_t k = i + 1; k < m; ++k) h[i] -= a[k * m + i] * h[k];
+    h[i] /= a[i * m + i];
+  }
+  double hs = 0;
+  for (size_t i = 0; i < m; ++i) hs += h[i] * s[i];
+  for (double& x : h) x /= hs;
+  return h;
+}
+
+MatchedKernels learn_matched_kernels(const TextureCovariance& c,
+                                     const std::vector<double>& sizes_mm, double pitch_mm,
+                                     double step_mm, double blur_px) {
+  MatchedKernels k;
+  k.radius = c.max_lag() / 2;
+  for (double d : sizes_mm) {
+    if (!(d > 0 && d <= 2 * k.radius * std::min(pitch_mm, step_mm)))
+      fail("matched kernels: a ", d, " mm sphere does not fit a window of radius ", k.radius,
+           " px");
+    k.sizes_mm.push_back(d);
+    k.taps.push_back(
+        whitened_kernel(c, sphere_profile(d, pitch_mm, step_mm, k.radius, blur_px), k.radius));
+  }
+  return k;
+}
+
+double apply_kernel(const float* z, const uint8_t* use, int rows, int cols,
+                    const std::vector<double>& taps, int radius, std::vector<float>& out) {
+  const int w = 2 * radius + 1;
+  const size_t n = size_t(rows) * size_t(cols);
+  std::vector<float> v(n, 0.f);
+  for (size_t i = 0; i < n; ++i)
+    if (use[i] && std::isfinite(z[i])) v[i] = z[i];
+  out.assign(n, std::numeric_limits<float>::quiet_NaN());
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      if (!use[size_t(r) * cols + c]) continue;
+      double s = 0;
+      for (int i = std::max(0, radius - r); i < std::min(w, rows - r + radius); ++i) {
+        const float* row = &v[size_t(r + i - radius) * cols];
+        const double* h = &taps[size_t(i) * w];
+        for (int j = std::max(0, radius - c); j < std::min(w, cols - c + radius); ++j)
+          s += h[j] * row[c + j - radius];
+      }
+      out[size_t(r) * cols + c] = float(s);
+    }
+  double g = 0;
+  for (double h : taps) g += h * h;
+  return std::sqrt(g);
+}
+
+}  // namespace rangex

@@ -1,0 +1,65 @@
+// Round kernels whitened by the product's own texture. A fragment's excess attenuation is a
+// known shape s (a calcified sphere's chord); what compensation leaves around it is not
+// white (meat texture and marbling correlated over millimetres, thickness error). In such
+// noise the linear detector with the best signal-to-noise ratio is the whitened matched
+// filter h = C^-1 s, C the noise's covariance over the kernel's window: it learns from the
+// plant's clean fillets which scales the texture fills and looks for bone where it does not.
+// One kernel is matched to one size and takes larger pieces for texture, so a bank of sizes
+// is learned and a pixel is as bone-like as its most bone-like kernel (as the needle
+// directions). The CPU reference over flat row-major buffers, like masked_smooth.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/learned_detection.h"
+
+namespace rangex {
+
+// z with its values above median + clip x spread (robust, over `use`) set to that bound, on
+// the usable pixels (NaN elsewhere): a bright speck cannot push a kernel's flank to bone.
+void clip_bright(const float* z, const uint8_t* use, size_t n, double clip,
+                 std::vector<float>& out);
+
+// The autocovariance of z across fillets, at lags up to max_lag pixels in rows and columns.
+// Each fillet's z is brought to unit robust spread and clipped as detection clips it; a lag
+// is averaged over the pixel pairs both usable.
+class TextureCovariance {
+ public:
+  explicit TextureCovariance(int max_lag, double clip = 3);
+  void add(const float* z, const uint8_t* use, int rows, int cols);
+  int max_lag() const { return max_lag_; }
+  int fillets() const { return fillets_; }
+  double at(int drow, int dcol) const;  // C(-d) = C(d); 0 beyond max_lag or unmeasured
+
+ private:
+  int max_lag_;
+  double clip_;
+  int fillets_ = 0;
+  std::vector<double> sum_, pairs_;  // (2 max_lag + 1)^2, row-major over (drow, dcol)
+};
+
+// A calcified sphere of diameter d_mm seen by pixels of pitch_mm (across, columns) and
+// step_mm (along, rows): its chord in mm averaged over each pixel (8 x 8 rays), blurred across
+// the detector by a Gaussian of blur_px (0: none), over a (2 radius + 1)^2 window.
+std::vector<double> sphere_profile(double d_mm, double pitch_mm, double step_mm, int radius,
+                                   double blur_px);
+
+// h = (C + ridge) ^-1 s over the window of s ((2 radius + 1)^2, radius <= C's max_lag / 2),
+// scaled so that h . s = 1. The ridge (1e-3 of the variance, raised until the system is
+// positive definite) keeps a covariance estimated from finitely many pixels invertible.
+std::vector<double> whitened_kernel(const TextureCovariance& c, const std::vector<double>& s,
+                                    int radius);
+
+// The bank for sizes_mm, learned from `c` (radius: c.max_lag() / 2).
+MatchedKernels learn_matched_kernels(const TextureCovariance& c,
+                                     const std::vector<double>& sizes_mm, double pitch_mm,
+                                     double step_mm, double blur_px);
+
+// out = sum over the window of h z, z taken as 0 off the usable pixels (where the window
+// leaves the fillet the kernel sees flat meat); NaN off them. Returns sqrt(sum h^2), the
+// kernel's gain on white noise of unit spread (the spread's floor, as for the Gaussian).
+double apply_kernel(const float* z, const uint8_t* use, int rows, int cols,
+                    const std::vector<double>& taps, int radius, std::vector<float>& out);
+
+}  // namespace rangex

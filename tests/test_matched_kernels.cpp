@@ -1,0 +1,202 @@
+// The whitened round kernels against their definition (pipeline/matched_kernels.h): learned
+// from noise of known covariance, a kernel reaches the matched filter's signal-to-noise ratio
+// sqrt(s' C^-1 s) computed from that covariance, and beats the Gaussian where the noise is
+// correlated; in white noise it is the profile itself.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "core/error.h"
+#include "core/plant_config.h"
+#include "pipeline/masked_smooth.h"
+#include "pipeline/matched_kernels.h"
+
+using namespace rangex;
+
+namespace {
+
+constexpr int kRows = 240, kCols = 240;
+
+// White noise of spread `white` plus a field of spread `field` correlated by a Gaussian of
+// `corr` px: its covariance at lag d is white^2 [d = 0] + field^2 exp(-|d|^2 / (4 corr^2)).
+std::vector<float> noise(std::mt19937_64& rng, double white, double field, double corr) {
+  std::normal_distribution<double> g;
+  const size_t n = size_t(kRows) * kCols;
+  std::vector<float> f(n), w(n);
+  for (auto& x : f) x = float(g(rng));
+  for (auto& x : w) x = float(g(rng));
+  std::vector<uint8_t> all(n, 1);
+  std::vector<float> s;
+  masked_gaussian(f.data(), all.data(), kRows, kCols, corr, s);
+  // A Gaussian of sigma shrinks unit white noise by 1 / (2 sqrt(pi) sigma).
+  const double unit = 2 * std::sqrt(M_PI) * corr;
+  std::vector<float> z(n);
+  for (size_t i = 0; i < n; ++i) z[i] = float(white * w[i] + field * unit * s[i]);
+  return z;
+}
+
+double true_cov(double white, double field, double corr, int dr, int dc) {
+  return (dr == 0 && dc == 0 ? white * white : 0.0) +
+         field * field * std::exp(-(dr * dr + dc * dc) / (4 * corr * corr));
+}
+
+// The spread of a kernel's output over the interior of independent noise images.
+double output_spread(const std::vector<double>& taps, int radius, std::mt19937_64& rng,
+                     double white, double field, double corr) {
+  double s2 = 0;
+  size_t k = 0;
+  std::vector<uint8_t> all(size_t(kRows) * kCols, 1);
+  std::vector<float> out;
+  for (int rep = 0; rep < 4; ++rep) {
+    const std::vector<float> z = noise(rng, white, field, corr);
+    apply_kernel(z.data(), all.data(), kRows, kCols, taps, radius, out);
+    for (int r = 20; r < kRows - 20; r += 3)
+      for (int c = 20; c < kCols - 20; c += 3) {
+        s2 += double(out[size_t(r) * kCols + c]) * out[size_t(r) * kCols + c];
+        ++k;
+      }
+  }
+  return std::sqrt(s2 / double(k));
+}
+
+double dot(const std::vector<double>& a, const std::vector<double>& b) {
+  double s = 0;
+  for (size_t i = 0; i < a.size(); ++i) s += a[i] * b[i];
+  return s;
+}
+
+}  // namespace
+
+TEST(MatchedKernels, InWhiteNoiseTheKernelIsTheProfile) {
+  std::mt19937_64 rng(1);
+  TextureCovariance c(8);
+  std::vector<uint8_t> all(size_t(kRows) * kCols, 1);
+  for (int f = 0; f < 4; ++f) {
+    const std::vector<float> z = noise(rng, 1.0, 0.0, 1.0);
+    c.add(z.data(), all.data(), kRows, kCols);
+  }
+  EXPECT_NEAR(c.at(0, 0), 1.0, 0.05);
+  EXPECT_NEAR(c.at(0, 1), 0.0, 0.02);
+  const std::vector<double> s = sphere_profile(2.0, 0.4, 0.4, 4, 0);
+  const std::vector<double> h = whitened_kernel(c, s, 4);
+  EXPECT_NEAR(dot(h, s), 1.0, 1e-9);  // scaled so
+  const double cosine = dot(h, s) / std::sqrt(dot(h, h) * dot(s, s));
+  EXPECT_GT(cosine, 0.99);
+}
+
+TEST(MatchedKernels, InCorrelatedNoiseTheKernelReachesTheMatchedFiltersSignalToNoise) {
+  std::mt19937_64 rng(2);
+  const double white = 0.6, field = 1.0, corr = 2.5;  // texture over ~2 mm at 0.4 mm pixels
+  TextureCovariance c(8);
+  std::vector<uint8_t> all(size_t(kRows) * kCols, 1);
+  for (int f = 0; f < 8; ++f) {
+    const std::vector<float> z = noise(rng, white, field, corr);
+    c.add(z.data(), all.data(), kRows, kCols);
+  }
+  // The measured covariance is the field's (robust spread units: z has unit spread).
+  const double v = true_cov(white, field, corr, 0, 0);
+  EXPECT_NEAR(c.at(0, 2) / c.at(0, 0), true_cov(white, field, corr, 0, 2) / v, 0.03);
+  EXPECT_NEAR(c.at(3, 3) / c.at(0, 0), true_cov(white, field, corr, 3, 3) / v, 0.03);
+
+  const int radius = 4, w = 2 * radius + 1;
+  const std::vector<double> s = sphere_profile(2.0, 0.4, 0.4, radius, 0);
+  const std::vector<double> h = whitened_kernel(c, s, radius);
+  // The optimum over the window from the true covariance: sqrt(s' C^-1 s) = s'h* / sqrt(h*'Ch*)
+  // with h* the kernel of the true covariance.
+  double quad = 0;
+  for (size_t p = 0; p < h.size(); ++p)
+    for (size_t q = 0; q < h.size(); ++q)
+      quad += h[p] * h[q] *
+              true_cov(white, field, corr, int(p / w) - int(q / w), int(p % w) - int(q % w));
+  const double snr_learned_true = dot(h, s) / std::sqrt(quad);
+  // And measured on noise it never saw.
+  const double snr_learned = dot(h, s) / output_spread(h, radius, rng, white, field, corr);
+  std::vector<double> g(h.size());
+  for (int i = 0; i < w; ++i)
+    for (int j = 0; j < w; ++j)
+      g[size_t(i) * w + j] =
+          std::exp(-0.5 * ((i - radius) * (i - radius) + (j - radius) * (j - radius)));
+  const double snr_gauss = dot(g, s) / output_spread(g, radius, rng, white, field, corr);
+  const double snr_profile = dot(s, s) / output_spread(s, radius, rng, white, field, corr);
+  EXPECT_NEAR(snr_learned, snr_learned_true, 0.05 * snr_learned_true);
+  EXPECT_GT(snr_learned, 1.3 * snr_gauss);
+  EXPECT_GT(snr_learned, 1.3 * snr_profile);
+}
+
+TEST(MatchedKernels, BrightSpecksAreClippedAndBoneLikeValuesKept) {
+  std::vector<float> z(1000);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> g;
+  for (auto& x : z) x = float(g(rng));
+  z[10] = 40, z[11] = -40;
+  std::vector<uint8_t> use(z.size(), 1);
+  use[12] = 0;
+  std::vector<float> out;
+  clip_bright(z.data(), use.data(), z.size(), 3, out);
+  EXPECT_LT(out[10], 3.5f);
+  EXPECT_GT(out[10], 2.5f);
+  EXPECT_EQ(out[11], -40.f);
+  EXPECT_TRUE(std::isnan(out[12]));
+  EXPECT_EQ(out[0], z[0]);
+}
+
+TEST(MatchedKernels, AKernelSeesFlatMeatOffTheFilletAndGivesNothingThere) {
+  const int rows = 7, cols = 9, radius = 1;
+  std::vector<float> z(size_t(rows) * cols);
+  for (size_t i = 0; i < z.size(); ++i) z[i] = float(i % 5) - 2;
+  std::vector<uint8_t> use(z.size(), 1);
+  use[size_t(3) * cols + 5] = 0;
+  z[size_t(3) * cols + 5] = 1000;  // off the fillet: not seen
+  const std::vector<double> taps = {1, 2, 3, 4, 5, 6, 7, 8, 9};
+  std::vector<float> out;
+  const double gain = apply_kernel(z.data(), use.data(), rows, cols, taps, radius, out);
+  EXPECT_NEAR(gain, std::sqrt(285.0), 1e-12);
+  EXPECT_TRUE(std::isnan(out[size_t(3) * cols + 5]));
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      if (!use[size_t(r) * cols + c]) continue;
+      double ref = 0;
+      for (int i = -1; i <= 1; ++i)
+        for (int j = -1; j <= 1; ++j) {
+          const int rr = r + i, cc = c + j;
+          if (rr < 0 || rr >= rows || cc < 0 || cc >= cols || !use[size_t(rr) * cols + cc])
+            continue;
+          ref += taps[size_t(i + 1) * 3 + size_t(j + 1)] * z[size_t(rr) * cols + cc];
+        }
+      EXPECT_NEAR(out[size_t(r) * cols + c], ref, 1e-4) << r << "," << c;
+    }
+}
+
+TEST(MatchedKernels, LearnedKernelsTravelWithTheLearnedSettingsAndBadOnesAreRefused) {
+  TextureCovariance c(6);
+  std::mt19937_64 rng(4);
+  std::vector<uint8_t> all(size_t(kRows) * kCols, 1);
+  const std::vector<float> z = noise(rng, 0.5, 1.0, 2.0);
+  c.add(z.data(), all.data(), kRows, kCols);
+  LearnedDetection L;
+  L.band_edges_mm = {0, 10};
+  for (auto& s : L.stats)
+    s.thresholds = {6}, s.band_fraction = {1}, s.band_pixels = {5000}, s.band_thickness_mm = {6};
+  L.matched = learn_matched_kernels(c, {1.5, 2.0}, 0.4, 0.4, 0.5);
+  ASSERT_EQ(L.matched.taps.size(), 2u);
+  ASSERT_EQ(L.matched.taps[0].size(), 49u);
+  const LearnedDetection back = parse_learned_detection(learned_detection_yaml(L), "test");
+  EXPECT_EQ(back.matched.radius, 3);
+  EXPECT_EQ(back.matched.sizes_mm, L.matched.sizes_mm);
+  for (size_t k = 0; k < 2; ++k)
+    for (size_t i = 0; i < 49; ++i)
+      EXPECT_NEAR(back.matched.taps[k][i], L.matched.taps[k][i],
+                  1e-9 * std::abs(L.matched.taps[k][i]));
+  std::string bad = learned_detection_yaml(L);
+  bad.replace(bad.find("radius: 3"), 9, "radius: 4");  // taps for 3
+  EXPECT_THROW(parse_learned_detection(bad, "test"), Error);
+  // A sphere too large for the window is refused, naming it.
+  try {
+    learn_matched_kernels(c, {4.0}, 0.4, 0.4, 0);
+    FAIL() << "a 4 mm sphere in a 7 x 7 window";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("4 mm sphere"), std::string::npos) << e.what();
+  }
+}
