@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # rangexctl learn through its command line: a lane learned from a recording of
 # clean product writes a plant configuration that process uses as is, with its report;
-# the same run learns the same thresholds again (fixed seeds); a learning run that holds
-# bone is refused and names the fillets; bad options name themselves.
+# the same run learns the same thresholds again (fixed seeds), with whitened kernels too; a
+# learning run that holds bone is refused and names the fillets; bad options name themselves.
 set -u
 ctl="$1"
 source "$(dirname "$0")/script_checks.sh"
@@ -29,6 +29,18 @@ learn --out again.yaml >/dev/null 2>&1
 check "learning is exact with fixed seeds" diff -q learned.yaml again.yaml
 "$ctl" process clean --config learned.yaml --out out --images none >process.txt 2>&1
 check "process uses the learned configuration as is" test $? -eq 0
+
+# Round kernels whitened by the product's own texture (inspection.matched_kernels_mm).
+sed 's/^lane_defaults:$/lane_defaults:\n  inspection: {matched_kernels_mm: [1.5, 2, 3]}/' \
+  "$(dirname "$0")/../config/plant.yaml" >mk_plant.yaml
+learn --config mk_plant.yaml --out mk.yaml >mk.txt 2>&1
+check "learning with whitened kernels succeeds" test $? -eq 0
+check "the kernels travel with the learned settings" \
+  grep -q "matched: {radius: 4, clip: 3, sizes_mm: \[1.5, 2, 3\], spreads: \[" mk.yaml
+learn --config mk_plant.yaml --out mk_again.yaml >/dev/null 2>&1
+check "they are learned exactly again with fixed seeds" diff -q mk.yaml mk_again.yaml
+"$ctl" process clean --config mk.yaml --out mk_out --images none >/dev/null 2>&1
+check "process uses them as they are" test $? -eq 0
 
 # Bone in the learning run: refused, naming the fillets.
 "$ctl" simulate --lanes 1 --fillets 14 --seed 32 --out boned >/dev/null 2>&1

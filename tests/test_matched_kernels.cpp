@@ -121,6 +121,11 @@ TEST(MatchedKernels, InCorrelatedNoiseTheKernelReachesTheMatchedFiltersSignalToN
   const double snr_gauss = dot(g, s) / output_spread(g, radius, rng, white, field, corr);
   const double snr_profile = dot(s, s) / output_spread(s, radius, rng, white, field, corr);
   EXPECT_NEAR(snr_learned, snr_learned_true, 0.05 * snr_learned_true);
+  // Its spread on the texture it was learned from, as the noise it never saw gives it (the
+  // covariance is in units of the noise's own spread).
+  EXPECT_NEAR(kernel_spread(c, h, radius) * std::sqrt(v),
+              output_spread(h, radius, rng, white, field, corr),
+              0.05 * output_spread(h, radius, rng, white, field, corr));
   EXPECT_GT(snr_learned, 1.3 * snr_gauss);
   EXPECT_GT(snr_learned, 1.3 * snr_profile);
 }
@@ -185,6 +190,8 @@ TEST(MatchedKernels, LearnedKernelsTravelWithTheLearnedSettingsAndBadOnesAreRefu
   const LearnedDetection back = parse_learned_detection(learned_detection_yaml(L), "test");
   EXPECT_EQ(back.matched.radius, 3);
   EXPECT_EQ(back.matched.sizes_mm, L.matched.sizes_mm);
+  ASSERT_EQ(back.matched.spreads.size(), 2u);
+  EXPECT_NEAR(back.matched.spreads[1], L.matched.spreads[1], 1e-9);
   for (size_t k = 0; k < 2; ++k)
     for (size_t i = 0; i < 49; ++i)
       EXPECT_NEAR(back.matched.taps[k][i], L.matched.taps[k][i],

@@ -34,6 +34,10 @@ struct MatchedKernels {
   int radius = 0;
   std::vector<double> sizes_mm;
   std::vector<std::vector<double>> taps;  // per size, row-major over the window
+  // Each kernel's output spread on the learned texture (z of unit robust spread): sqrt(h' C
+  // h). A fillet's spread is measured, never below half of it (as the Gaussian's never
+  // below its white-noise gain, which a whitened kernel's spread undercuts).
+  std::vector<double> spreads;
   // z above its median by more than this many robust spreads is clipped before the kernels:
   // a bright speck (fat, air) seen by a kernel's negative flank would look like bone.
   double clip = 3;

@@ -222,14 +222,17 @@ bool read_spread(const Node& n) {
 
 // inspection.learned.matched: the whitened round kernels, a full window each.
 void read_matched(const Node& n, MatchedKernels& k) {
-  n.only_keys({"radius", "clip", "sizes_mm", "taps"});
-  if (!n.has("radius") || !n.has("sizes_mm") || !n.has("taps"))
-    n.bad("expected radius, sizes_mm and taps");
+  n.only_keys({"radius", "clip", "sizes_mm", "spreads", "taps"});
+  if (!n.has("radius") || !n.has("sizes_mm") || !n.has("spreads") || !n.has("taps"))
+    n.bad("expected radius, sizes_mm, spreads and taps");
   n.get("radius", k.radius);
   if (k.radius < 1 || k.radius > 8) n.at("radius").bad("must be within 1..8 pixels");
   n.get("clip", k.clip);
   if (!(k.clip > 0 && k.clip <= 100)) n.at("clip").bad("must be within (0, 100] spreads");
   k.sizes_mm = number_list(n.at("sizes_mm"), 0);
+  k.spreads = number_list(n.at("spreads"), k.sizes_mm.size());
+  for (double v : k.spreads)
+    if (!(v > 0 && v < 1e6)) n.at("spreads").bad("must be positive");
   const Node t = n.at("taps");
   if (!t.node.IsSequence() || t.node.size() != k.sizes_mm.size() || k.sizes_mm.empty())
     t.bad("expected one list of taps per size in sizes_mm");
@@ -899,6 +902,8 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
     o << "\nmatched:\n  radius: " << L.matched.radius << "\n  clip: " << L.matched.clip
       << "\n  sizes_mm: ";
     list(L.matched.sizes_mm);
+    o << "\n  spreads: ";
+    list(L.matched.spreads);
     o << "\n  taps:";
     for (const std::vector<double>& t : L.matched.taps) {
       o << "\n    - ";

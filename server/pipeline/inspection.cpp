@@ -318,10 +318,9 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
     // bone-like kernel.
     std::vector<float> zc, zk;
     clip_bright(z.data(), use.data(), n, mk.clip, zc);
-    for (const std::vector<double>& taps : mk.taps) {
-      const double gain =
-          apply_kernel(zc.data(), use.data(), img.rows, img.cols, taps, mk.radius, zk);
-      unit_spread_by_thickness(zk, img.thickness.data(), use.data(), bins, gain);
+    for (size_t k = 0; k < mk.taps.size(); ++k) {
+      apply_kernel(zc.data(), use.data(), img.rows, img.cols, mk.taps[k], mk.radius, zk);
+      unit_spread_by_thickness(zk, img.thickness.data(), use.data(), bins, 0.5 * mk.spreads[k]);
       for (size_t i = 0; i < n; ++i)
         if (std::isfinite(zk[i]) && !(stat[kStatRound][i] >= -zk[i])) stat[kStatRound][i] = -zk[i];
     }
@@ -463,8 +462,12 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
   return res;
 }
 
-FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionParams& p,
+FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionParams& lane,
                                       bool keep) {
+  // Fixed thresholds and the round Gaussian: what a lane learns (its thresholds, its whitened
+  // kernels) is learned on the laser's z, not on this background's.
+  InspectionParams p = lane;
+  p.learned = {};
   FilletResult res;
   if (!start_inspection(img, p, res)) return res;
   const std::vector<uint8_t> use = usable(img);

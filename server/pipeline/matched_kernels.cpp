@@ -164,6 +164,15 @@ std::vector<double> whitened_kernel(const TextureCovariance& c, const std::vecto
   return h;
 }
 
+double kernel_spread(const TextureCovariance& c, const std::vector<double>& taps, int radius) {
+  const int w = 2 * radius + 1;
+  double q = 0;
+  for (size_t p = 0; p < taps.size(); ++p)
+    for (size_t k = 0; k < taps.size(); ++k)
+      q += taps[p] * taps[k] * c.at(int(p / w) - int(k / w), int(p % w) - int(k % w));
+  return std::sqrt(std::max(0.0, q));
+}
+
 MatchedKernels learn_matched_kernels(const TextureCovariance& c,
                                      const std::vector<double>& sizes_mm, double pitch_mm,
                                      double step_mm, double blur_px) {
@@ -176,6 +185,7 @@ MatchedKernels learn_matched_kernels(const TextureCovariance& c,
     k.sizes_mm.push_back(d);
     k.taps.push_back(
         whitened_kernel(c, sphere_profile(d, pitch_mm, step_mm, k.radius, blur_px), k.radius));
+    k.spreads.push_back(kernel_spread(c, k.taps.back(), k.radius));
   }
   return k;
 }

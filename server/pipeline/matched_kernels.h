@@ -51,14 +51,17 @@ std::vector<double> sphere_profile(double d_mm, double pitch_mm, double step_mm,
 std::vector<double> whitened_kernel(const TextureCovariance& c, const std::vector<double>& s,
                                     int radius);
 
-// The bank for sizes_mm, learned from `c` (radius: c.max_lag() / 2).
+// sqrt(h' C h): the kernel's output spread on the texture of `c`.
+double kernel_spread(const TextureCovariance& c, const std::vector<double>& taps, int radius);
+
+// The bank for sizes_mm, learned from `c` (radius: c.max_lag() / 2), with each kernel's spread.
 MatchedKernels learn_matched_kernels(const TextureCovariance& c,
                                      const std::vector<double>& sizes_mm, double pitch_mm,
                                      double step_mm, double blur_px);
 
 // out = sum over the window of h z, z taken as 0 off the usable pixels (where the window
 // leaves the fillet the kernel sees flat meat); NaN off them. Returns sqrt(sum h^2), the
-// kernel's gain on white noise of unit spread (the spread's floor, as for the Gaussian).
+// kernel's gain on white noise of unit spread.
 double apply_kernel(const float* z, const uint8_t* use, int rows, int cols,
                     const std::vector<double>& taps, int radius, std::vector<float>& out);
 
