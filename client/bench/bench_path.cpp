@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "pipeline/lane_learning.h"
 #include "pipeline/lane_processor.h"
 #include "pipeline/line_pipeline.h"
 #include "pipeline/product_learning.h"
@@ -251,24 +252,26 @@ void report(const char* title, const PathTimes& t, const Recorded& rec, int grid
 
 // Compensation and detection of the same fillets before product learning (one spread per fillet,
 // fixed thresholds, no band extremes) and after it (band extremes; fixed and learned
-// thresholds; one spread per fillet and spread by thickness), in alternating rounds;
-// medians of the rounds, as ratios to the first.
+// thresholds; one spread per fillet and spread by thickness; whitened kernels), in
+// alternating rounds; medians of the rounds, as ratios to the first.
 void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   std::vector<FilletImage> imgs;
   run_lanes(lc, rec, 0, 1, batch, [&](FilletImage&& im) { imgs.push_back(std::move(im)); });
   if (imgs.empty()) return;
-  constexpr int kVariants = 4;
+  constexpr int kVariants = 5;
   InspectionParams v[kVariants];
   const char* names[kVariants] = {"before learning (fixed, no extremes)", "fixed, band extremes",
-                                  "learned", "learned, spread by thickness"};
+                                  "learned, round Gaussian", "learned, spread by thickness",
+                                  "learned, whitened kernels"};
   for (int k = 0; k < kVariants; ++k) {
     v[k] = lc.inspection;
     v[k].learned = LearnedDetection{};
     v[k].band_extremes = k > 0;
     v[k].spread_by_thickness = k == 3;
   }
+  v[4].learned.matched = learn_lane_kernels(imgs, lc.inspection);
   // Thresholds learned on these few fillets: for the timing, not for a decision.
-  for (int k : {2, 3}) {
+  for (int k : {2, 3, 4}) {
     std::vector<LearningFillet> fs;
     for (const FilletImage& im : imgs)
       fs.push_back({0, im.id, 0, inspect_fillet(im, v[k], false).extremes});
@@ -277,7 +280,9 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
     lo.bootstrap = 20;
     lo.spread_by_thickness = v[k].spread_by_thickness;
     try {
+      const MatchedKernels kernels = v[k].learned.matched;
       v[k].learned = learn_product(fs, lo).learned;
+      v[k].learned.matched = kernels;
     } catch (const Error&) {
       // Too few band extremes: timed with fixed thresholds.
     }

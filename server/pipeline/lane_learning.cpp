@@ -28,13 +28,11 @@ std::vector<SensitivityFillet> LearningSet::sensitivity_fillets() const {
   return v;
 }
 
-namespace {
-// The lane's bank of whitened kernels learned from the learning fillets' z (one energy: a
-// dual-energy lane's bone image keeps the Gaussian); empty when the lane asks for none.
-MatchedKernels learn_kernels(const LearningSet& set, const InspectionParams& inspection) {
-  if (inspection.matched_kernels_mm.empty() || set.images.empty()) return {};
+MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
+                                  const InspectionParams& inspection) {
+  if (inspection.matched_kernels_mm.empty() || images.empty()) return {};
   TextureCovariance cov(8);
-  for (const FilletImage& img : set.images) {
+  for (const FilletImage& img : images) {
     if (!img.xray_high.empty()) return {};
     FilletResult r;
     OneEnergyModel m;
@@ -45,11 +43,10 @@ MatchedKernels learn_kernels(const LearningSet& set, const InspectionParams& ins
     cov.add(m.z.data(), m.use.data(), seen.rows, seen.cols);
   }
   if (cov.fillets() == 0) return {};
-  const FilletImage& first = set.images.front();
+  const FilletImage& first = images.front();
   return learn_matched_kernels(cov, inspection.matched_kernels_mm, first.pitch_mm, first.step_mm,
                                first.detector_sigma_px);
 }
-}  // namespace
 
 LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspection,
                         const LearnOptions& lo, const SensitivityOptions& so,
@@ -59,7 +56,7 @@ LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspecti
   // Round kernels whitened by this product's texture, when the lane asks for them: learned
   // from the same fillets' z, which are then inspected again with them for the extremes the
   // thresholds are fitted to.
-  const MatchedKernels kernels = learn_kernels(set, inspection);
+  const MatchedKernels kernels = learn_lane_kernels(set.images, inspection);
   std::vector<LearningFillet> fillets = set.fillets;
   if (!kernels.empty()) {
     InspectionParams with = inspection;

@@ -36,6 +36,12 @@ struct LaneLearning {
   SensitivityResult sensitivity;  // what they buy on the learning fillets
 };
 
+// The lane's bank of kernels whitened by its product's texture (matched_kernels.h), learned
+// from the clean fillets' z (one energy: a dual-energy lane's bone image keeps the
+// Gaussian); empty when inspection.matched_kernels_mm is.
+MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
+                                  const InspectionParams& inspection);
+
 // `inspection`: the lane's settings the fillets were inspected with.
 LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspection,
                         const LearnOptions& lo, const SensitivityOptions& so,
