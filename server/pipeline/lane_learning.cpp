@@ -32,12 +32,12 @@ MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
                                   const InspectionParams& inspection) {
   if (inspection.matched_kernels_mm.empty() || images.empty()) return {};
   TextureCovariance cov(8);
+  InspectionParams plain = inspection;
+  plain.learned = {};
   for (const FilletImage& img : images) {
     if (!img.xray_high.empty()) return {};
     FilletResult r;
     OneEnergyModel m;
-    InspectionParams plain = inspection;
-    plain.learned = {};
     if (!start_inspection(img, plain, r) || !one_energy_model(img, plain, r, m)) continue;
     const FilletImage& seen = m.image(img);
     cov.add(m.z.data(), m.use.data(), seen.rows, seen.cols);

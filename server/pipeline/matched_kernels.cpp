@@ -5,22 +5,22 @@
 #include <limits>
 
 #include "core/error.h"
-#include "pipeline/robust_fit.h"
+#include "pipeline/thickness_spread.h"
 
 namespace rangex {
 
 namespace {
-constexpr double kMadNormal = 0.6744897501960817;
-
-// Median and MAD / 0.6745 of z over the usable finite pixels; false when there are none.
+// Median and robust spread of z over the usable finite pixels (thickness_spread's, one bin);
+// false when there are none.
 bool robust_centre(const float* z, const uint8_t* use, size_t n, double& med, double& sd) {
-  std::vector<double> v;
+  ThicknessBins one;
+  one.members.emplace_back();
   for (size_t i = 0; i < n; ++i)
-    if (use[i] && std::isfinite(z[i])) v.push_back(z[i]);
-  if (v.empty()) return false;
-  med = median_inplace(v.data(), v.size());
-  for (double& x : v) x = std::abs(x - med);
-  sd = median_inplace(v.data(), v.size()) / kMadNormal;
+    if (use[i] && std::isfinite(z[i])) one.members[0].push_back(i);
+  if (one.members[0].empty()) return false;
+  one.centre_mm.push_back(0);
+  const SpreadProfile s = spread_profile(std::vector<float>(z, z + n), one, 0);
+  med = s.median[0], sd = s.scale[0];
   return sd > 0;
 }
 
@@ -178,6 +178,7 @@ MatchedKernels learn_matched_kernels(const TextureCovariance& c,
                                      double step_mm, double blur_px) {
   MatchedKernels k;
   k.radius = c.max_lag() / 2;
+  k.clip = c.clip();  // inspection clips as the texture was measured
   for (double d : sizes_mm) {
     if (!(d > 0 && d <= 2 * k.radius * std::min(pitch_mm, step_mm)))
       fail("matched kernels: a ", d, " mm sphere does not fit a window of radius ", k.radius,

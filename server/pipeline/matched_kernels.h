@@ -29,6 +29,7 @@ class TextureCovariance {
   explicit TextureCovariance(int max_lag, double clip = 3);
   void add(const float* z, const uint8_t* use, int rows, int cols);
   int max_lag() const { return max_lag_; }
+  double clip() const { return clip_; }
   int fillets() const { return fillets_; }
   double at(int drow, int dcol) const;  // C(-d) = C(d); 0 beyond max_lag or unmeasured
 
