@@ -56,6 +56,8 @@ struct Row {
   int learn_fillets = 0;
   bool learned_run = false, learn_ok = false;
   int learn_flagged = 0, claims = 0, claims_held = 0;
+  // The report's sentences checked on the check fillets, and their pieces pooled.
+  int stated = 0, stated_held = 0, stated_found = 0, stated_injected = 0;
   // A large run of clean product alone with the learned thresholds: the false-reject rate
   // with an interval narrow enough to mean something.
   int frr_fillets = 0, frr_rejected = 0, frr_not_inspected = 0;
@@ -160,9 +162,13 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
         r.frr_fragments = int(std::count_if(clean.fragments.begin(), clean.fragments.end(),
                                             [](const auto& f) { return f.kind == "bone"; }));
       }
-      if (l.contains("held_out_check"))
-        r.claims = l["held_out_check"]["claims"].get<int>(),
-        r.claims_held = l["held_out_check"]["held"].get<int>();
+      if (l.contains("held_out_check")) {
+        const nlohmann::json& h = l["held_out_check"];
+        r.claims = h["claims"].get<int>(), r.claims_held = h["held"].get<int>();
+        r.stated = h["stated"].get<int>(), r.stated_held = h["stated_held"].get<int>();
+        for (const auto& k : h["stated_checks"])
+          r.stated_found += k["found"].get<int>(), r.stated_injected += k["injected"].get<int>();
+      }
     }
   }
   // The scans are large (256 kB of camera frames per line); the results, the calibration
@@ -214,9 +220,10 @@ std::string indented(const std::string& text) {
 std::string learned_table(const std::vector<Row>& rows, bool held_out) {
   std::ostringstream os;
   char b[512];
-  std::snprintf(b, sizeof b, "%-19s %5s %4s | %13s %7s | %11s %9s %9s | %15s %8s | %6s %s\n",
+  std::snprintf(b, sizeof b, "%-19s %5s %4s | %13s %7s | %11s %9s %9s | %15s %8s | %6s %15s %s\n",
                 "variant", "learn", "flag", "recall [95%]", "needle", "f.rej", "[95%]", "f.frag/f",
-                "clean: f.rej", "[95%]", "claims", "sensitivity (learning fillets)");
+                "clean: f.rej", "[95%]", "bands", "stated (pieces)",
+                "sensitivity (learning fillets)");
   os << b;
   for (const Row& r : rows) {
     if (r.held_out != held_out || !r.learned_run) continue;
@@ -227,14 +234,17 @@ std::string learned_table(const std::vector<Row>& rows, bool held_out) {
                                                   std::to_string(r.frr_fillets) + " (" +
                                                   std::to_string(r.frr_fragments) + " bone)"
                                             : "-";
+    const std::string stated = std::to_string(r.stated_held) + "/" + std::to_string(r.stated) +
+                               " (" + std::to_string(r.stated_found) + "/" +
+                               std::to_string(r.stated_injected) + ")";
     std::snprintf(
         b, sizeof b,
-        "%-19s %5s %4d | %5.1f%% %6s %7s | %4d/%-4d %10s %9.3f | %15s %8s | %2d/%-3d %s\n",
+        "%-19s %5s %4d | %5.1f%% %6s %7s | %4d/%-4d %10s %9.3f | %15s %8s | %2d/%-3d %15s %s\n",
         r.name.c_str(), r.learn_ok ? "ok" : "FAIL", r.learn_flagged, n ? 100.0 * k / n : 0.0,
         interval(k, n).c_str(), shape_recall(e, "needle").c_str(), e.clean_rejected,
         e.clean_fillets, interval(e.clean_rejected, e.clean_fillets).c_str(),
         e.fillets ? double(e.false_fragments) / e.fillets : 0.0, clean.c_str(),
-        interval(r.frr_rejected, r.frr_fillets).c_str(), r.claims_held, r.claims,
+        interval(r.frr_rejected, r.frr_fillets).c_str(), r.claims_held, r.claims, stated.c_str(),
         r.sensitivity.empty() ? "-" : r.sensitivity.front().c_str());
     os << b;
   }
@@ -281,6 +291,8 @@ std::string json(const std::vector<Row>& rows) {
          << "], \"not_inspected\": " << l.not_inspected
          << ", \"false_fragments\": " << l.false_fragments << ", \"fillets\": " << l.fillets
          << ", \"claims\": " << r.claims << ", \"claims_held\": " << r.claims_held
+         << ", \"stated\": " << r.stated << ", \"stated_held\": " << r.stated_held
+         << ", \"stated_pieces\": [" << r.stated_found << ", " << r.stated_injected << "]"
          << ", \"clean_run\": {\"fillets\": " << r.frr_fillets
          << ", \"rejected\": " << r.frr_rejected << ", \"not_inspected\": " << r.frr_not_inspected
          << ", \"fragments\": " << r.frr_fragments << "}"
@@ -377,8 +389,9 @@ int cmd_eval_matrix(int argc, char** argv) {
       os << "\nwith thresholds learned from " << mo.learn_fillets
          << " clean fillets of each variant (another seed; claims checked on " << mo.check_fillets
          << " more): recall of calcified >= 2 mm with its 95 % interval; f.rej: clean fillets "
-            "rejected with the 95 % interval in %; claims: sensitivity claims held on the check "
-            "fillets\n\n"
+            "rejected with the 95 % interval in %; bands: sensitivity claims by thickness band "
+            "held on "
+            "the check fillets; stated: the report's sentences held there (their pieces found)\n\n"
          << learned_table(rows, false);
       if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
         os << "\nheld out (never tuned on):\n" << learned_table(rows, true);

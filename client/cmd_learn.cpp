@@ -216,10 +216,15 @@ int cmd_learn(int argc, char** argv) {
       ProgressBar cbar("sensitivity (check)");
       const HeldOutCheck hc =
           check_held_out(c.fillets, ll, so, [&](int d, int t) { cbar.update(d, t); });
-      lane_json["held_out_check"] =
-          nlohmann::json::parse(claim_checks_json(check_rec->dir(), hc.fillets, hc.checks));
-      std::printf("  held-out check on %d fillets of %s: %d of %zu claims held\n", hc.fillets,
-                  check_rec->dir().c_str(), hc.held(), hc.checks.size());
+      lane_json["held_out_check"] = nlohmann::json::parse(
+          claim_checks_json(check_rec->dir(), hc.fillets, hc.checks, hc.stated));
+      std::printf("  held-out check on %d fillets of %s: %d of %zu claims by band held\n",
+                  hc.fillets, check_rec->dir().c_str(), hc.held(), hc.checks.size());
+      for (const StatedCheck& k : hc.stated)
+        std::printf("    %.1f mm %s up to %.0f mm of meat: %d of %d found (%.1f %%): %s\n",
+                    k.claim.size_mm, piece_shape_name(k.claim.shape), k.claim.up_to_mm, k.found,
+                    k.injected, k.injected ? 100.0 * k.found / k.injected : 0.0,
+                    k.held ? "held" : "NOT held");
     }
     report["lanes"].push_back(lane_json);
     write_learn_plots(report_dir, r.lane, L, sens);

@@ -117,6 +117,40 @@ TEST(Sensitivity, FindsLargePiecesAndNotPiecesWithoutContrast) {
   for (const auto& c : none.cells) found += c.found;
   EXPECT_EQ(found, 0);
   EXPECT_TRUE(none.claims.empty());
+  // What the report states, checked on the same pieces, holds; on pieces that cannot be
+  // seen it fails with every piece counted.
+  ASSERT_FALSE(big.stated.empty());
+  for (const StatedCheck& k : check_stated_claims(big.stated, big, o.rate)) {
+    EXPECT_TRUE(k.held);
+    EXPECT_GT(k.injected, 0);
+  }
+  for (const StatedCheck& k : check_stated_claims(big.stated, none, o.rate)) {
+    EXPECT_FALSE(k.held);
+    EXPECT_EQ(k.found, 0);
+    EXPECT_GT(k.injected, 0);
+  }
+}
+
+TEST(Sensitivity, StatedClaimPoolsItsBandsAndSizeOnly) {
+  SensitivityResult m;
+  // sphere 2 mm: bands 0-2; sphere 3 mm and a needle of 2 mm beside them.
+  m.cells = {{0, 2.0, 0, 20, 20},
+             {0, 2.0, 1, 20, 18},
+             {0, 2.0, 2, 20, 0},
+             {0, 3.0, 1, 50, 0},
+             {1, 2.0, 1, 50, 0}};
+  const StatedClaim up_to_b1{0, 2.0, 0, 1, 10};
+  const StatedClaim up_to_b2{0, 2.0, 0, 2, 15};
+  const std::vector<StatedCheck> k = check_stated_claims({up_to_b1, up_to_b2}, m, 0.95);
+  ASSERT_EQ(k.size(), 2u);
+  EXPECT_EQ(k[0].injected, 40);
+  EXPECT_EQ(k[0].found, 38);  // 95 %: held
+  EXPECT_TRUE(k[0].held);
+  EXPECT_EQ(k[1].injected, 60);
+  EXPECT_EQ(k[1].found, 38);
+  EXPECT_FALSE(k[1].held);
+  // Nothing of its kind measured: not held (nothing shows it).
+  EXPECT_FALSE(check_stated_claims({{1, 5.0, 0, 3, 20}}, m, 0.95).at(0).held);
 }
 
 }  // namespace

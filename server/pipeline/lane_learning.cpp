@@ -83,6 +83,12 @@ int HeldOutCheck::held() const {
   return n;
 }
 
+int HeldOutCheck::stated_held() const {
+  int n = 0;
+  for (const StatedCheck& k : stated) n += k.held;
+  return n;
+}
+
 HeldOutCheck check_held_out(const std::vector<InspectedFillet>& fillets, const LaneLearning& l,
                             const SensitivityOptions& so,
                             const std::function<void(int, int)>& progress) {
@@ -94,6 +100,7 @@ HeldOutCheck check_held_out(const std::vector<InspectedFillet>& fillets, const L
   c.fillets = int(held.size());
   const SensitivityResult on_held = measure_sensitivity(held, l.inspection, so, progress);
   c.checks = check_claims(l.sensitivity.claims, on_held, so.rate);
+  c.stated = check_stated_claims(l.sensitivity.stated, on_held, so.rate);
   return c;
 }
 

@@ -63,16 +63,24 @@ std::string learned_report_json(int lane, const ProductLearning& L, const Sensit
                       {"band", c.band},
                       {"band_mm", {c.band_lo_mm, c.band_hi_mm}},
                       {"size_mm", c.size_mm}});
+  nlohmann::json stated = nlohmann::json::array();
+  for (const StatedClaim& c : s.stated)
+    stated.push_back({{"shape", piece_shape_name(c.shape)},
+                      {"size_mm", c.size_mm},
+                      {"bands", {c.first_band, c.last_band}},
+                      {"up_to_mm", c.up_to_mm}});
   j["sensitivity"] = {{"cells", cells},
                       {"claims_95", claims},
                       {"summary", s.summary},
+                      {"stated", stated},
                       {"inspections", s.inspections},
                       {"measured_on", "the learning fillets, with the learned thresholds"}};
   return j.dump();
 }
 
 std::string claim_checks_json(const std::string& recording, int fillets,
-                              const std::vector<ClaimCheck>& checks) {
+                              const std::vector<ClaimCheck>& checks,
+                              const std::vector<StatedCheck>& stated) {
   nlohmann::json list = nlohmann::json::array();
   int held = 0;
   for (const ClaimCheck& k : checks) {
@@ -84,11 +92,25 @@ std::string claim_checks_json(const std::string& recording, int fillets,
                     {"found", k.found},
                     {"held", k.held}});
   }
+  nlohmann::json sentences = nlohmann::json::array();
+  int stated_held = 0;
+  for (const StatedCheck& k : stated) {
+    stated_held += k.held;
+    sentences.push_back({{"shape", piece_shape_name(k.claim.shape)},
+                         {"size_mm", k.claim.size_mm},
+                         {"up_to_mm", k.claim.up_to_mm},
+                         {"injected", k.injected},
+                         {"found", k.found},
+                         {"held", k.held}});
+  }
   const nlohmann::json j = {{"recording", recording},
                             {"fillets", fillets},
                             {"claims", checks.size()},
                             {"held", held},
-                            {"checks", list}};
+                            {"checks", list},
+                            {"stated", stated.size()},
+                            {"stated_held", stated_held},
+                            {"stated_checks", sentences}};
   return j.dump();
 }
 

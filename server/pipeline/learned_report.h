@@ -14,9 +14,10 @@ namespace rangex {
 // sensitivity it buys.
 std::string learned_report_json(int lane, const ProductLearning& learning,
                                 const SensitivityResult& sensitivity);
-// The sensitivity claims checked on held-out fillets.
+// The sensitivity claims checked on held-out fillets: per band, and the report's sentences.
 std::string claim_checks_json(const std::string& recording, int fillets,
-                              const std::vector<ClaimCheck>& checks);
+                              const std::vector<ClaimCheck>& checks,
+                              const std::vector<StatedCheck>& stated);
 
 struct LearnedReportStatus {
   bool present = false, passed = false;

@@ -146,6 +146,7 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
   for (int shape = 0; shape < 2; ++shape)
     for (double size : opt.sizes_mm) {
       double up_to = -1;
+      int first = -1, last = -1;
       for (int band = 0; band < bands; ++band) {
         const auto it = std::find_if(res.claims.begin(), res.claims.end(), [&](const auto& c) {
           return c.shape == shape && c.band == band;
@@ -156,6 +157,8 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
         if (!seen) continue;  // no meat that thick among the fillets: no claim either way
         if (it == res.claims.end() || it->size_mm > size) break;
         up_to = res.band_edges_mm[size_t(band) + 1];
+        if (first < 0) first = band;
+        last = band;
       }
       if (up_to > 0) {
         char b[160];
@@ -164,6 +167,7 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
                       up_to > 100 ? "at any thickness seen, up to" : "up to",
                       up_to > 100 ? res.band_edges_mm[size_t(bands) - 1] + 5 : up_to);
         res.summary.push_back(b);
+        res.stated.push_back({shape, size, first, last, up_to});
         break;  // the smallest size that holds from the thinnest band up
       }
     }
@@ -178,17 +182,37 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
   return res;
 }
 
+namespace {
+
+// The pieces of one shape and size in bands first..last of `measured`, pooled; `held` when
+// at least `rate` of them were found.
+template <class Check>
+Check pooled(Check k, int shape, double size_mm, int first, int last,
+             const SensitivityResult& measured, double rate) {
+  for (const SensitivityCell& m : measured.cells)
+    if (m.shape == shape && std::abs(m.size_mm - size_mm) < 1e-9 && m.band >= first &&
+        m.band <= last)
+      k.injected += m.injected, k.found += m.found;
+  k.held = k.injected > 0 && double(k.found) >= rate * k.injected;
+  return k;
+}
+
+}  // namespace
+
 std::vector<ClaimCheck> check_claims(const std::vector<SensitivityClaim>& claims,
                                      const SensitivityResult& measured, double rate) {
   std::vector<ClaimCheck> out;
-  for (const SensitivityClaim& c : claims) {
-    ClaimCheck k{c, 0, 0, false};
-    for (const SensitivityCell& m : measured.cells)
-      if (m.shape == c.shape && m.band == c.band && std::abs(m.size_mm - c.size_mm) < 1e-9)
-        k.injected += m.injected, k.found += m.found;
-    k.held = k.injected > 0 && double(k.found) >= rate * k.injected;
-    out.push_back(k);
-  }
+  for (const SensitivityClaim& c : claims)
+    out.push_back(pooled(ClaimCheck{c}, c.shape, c.size_mm, c.band, c.band, measured, rate));
+  return out;
+}
+
+std::vector<StatedCheck> check_stated_claims(const std::vector<StatedClaim>& stated,
+                                             const SensitivityResult& measured, double rate) {
+  std::vector<StatedCheck> out;
+  for (const StatedClaim& c : stated)
+    out.push_back(
+        pooled(StatedCheck{c}, c.shape, c.size_mm, c.first_band, c.last_band, measured, rate));
   return out;
 }
 

@@ -42,11 +42,22 @@ struct SensitivityClaim {
   double size_mm = 0;
 };
 
+// What the report states, per shape (its summary sentence): `size_mm` found at >= rate in
+// every band from the thinnest seen (`first_band`) up to `last_band`, i.e. up to `up_to_mm`
+// of meat.
+struct StatedClaim {
+  int shape = 0;
+  double size_mm = 0;
+  int first_band = 0, last_band = 0;
+  double up_to_mm = 0;
+};
+
 struct SensitivityResult {
   std::vector<double> band_edges_mm;
   std::vector<SensitivityCell> cells;
   std::vector<SensitivityClaim> claims;
   std::vector<std::string> summary;  // "2.0 mm sphere at 95 % up to 20 mm of meat"
+  std::vector<StatedClaim> stated;   // what the summary says, one per sentence
   int inspections = 0;
 };
 
@@ -70,6 +81,16 @@ struct ClaimCheck {
 };
 std::vector<ClaimCheck> check_claims(const std::vector<SensitivityClaim>& claims,
                                      const SensitivityResult& measured, double rate);
+
+// Each stated claim checked on `measured`: the pieces of its shape and size in the bands it
+// covers, pooled (what a plant reading the sentence expects); held when found >= rate.
+struct StatedCheck {
+  StatedClaim claim;
+  int injected = 0, found = 0;
+  bool held = false;
+};
+std::vector<StatedCheck> check_stated_claims(const std::vector<StatedClaim>& stated,
+                                             const SensitivityResult& measured, double rate);
 
 const char* piece_shape_name(int shape);
 
