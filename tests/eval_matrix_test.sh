@@ -25,6 +25,7 @@ cat l/matrix.txt
 pl() { python3 -c "import json,sys; m=json.load(open('l/matrix.json')); v=m['variants'][0]; L=v['learned']; sys.exit(0 if ($1) else 1)"; }
 check "the learned run is reported" pl "L['learning_fillets'] == 12 and not L['ok']"
 check "its clean run counted" pl "L['clean_run']['fillets'] == 3"
+check "the report's sentences checked on the check fillets" pl "0 <= L['stated_held'] <= L['stated'] and 0 <= L['stated_pieces'][0] <= L['stated_pieces'][1] and (L['stated'] == 0) == (L['stated_pieces'][1] == 0)"
 check "recall and false rejects as counts" pl "len(L['recall_calcified_ge_2mm']) == 2 and len(L['false_rejects']) == 2"
 check "the learned configuration was written and used" grep -q "learned:" l/rough_meat/learned.yaml
 check "the learning's report beside it" test -s l/rough_meat/learned.report/learn.json
