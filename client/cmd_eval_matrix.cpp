@@ -73,7 +73,16 @@ struct MatrixOptions {
   int learn_fillets = 40;  // 0: no learning
   int check_fillets = 20;
   int frr_fillets = 0;  // clean fillets inspected with the learned thresholds (0: none)
+  int frr_part = 60;    // simulated, inspected and dropped this many at a time
 };
+
+// Scans are large (256 kB of camera frames a line, about 130 MB a fillet): each goes as soon
+// as nothing reads it any more; the results, the calibration and its reports stay.
+void drop_scans(const fs::path& dir, std::initializer_list<const char*> scans,
+                const MatrixOptions& mo) {
+  if (!mo.keep)
+    for (const char* d : scans) fs::remove_all(dir / d);
+}
 
 Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& plant,
                 const std::string& config, const MatrixOptions& mo) {
@@ -83,7 +92,7 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
   const VariantRun v(file, dir);
   r.name = v.name, r.held_out = v.held_out;
   const std::string &log = v.log, &V = v.physics, &cal = v.cal;
-  auto at = [&](const char* name) { return v.at(name); };
+  auto at = [&](const std::string& name) { return v.at(name); };
   // Every step reads the same plant configuration as this command.
   auto step = [&](std::vector<std::string> args) {
     if (!config.empty()) args.insert(args.end(), {"--config", config});
@@ -95,6 +104,7 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
   step({"calib", "simulate", "blocks", at("blocks"), "--physics", V});
   step({"calib", "xray", at("pins"), "--out", cal});
   step({"calib", "registration", at("blocks"), "--calibration", cal});
+  drop_scans(dir, {"pins", "blocks"}, mo);
   step({"simulate", "--out", at("rec"), "--lanes", "1", "--fillets", std::to_string(fillets),
         "--seed", std::to_string(seed), "--physics", V});
   step({"calib", "scatter", at("rec"), "--calibration", cal});
@@ -110,16 +120,21 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
           "--clean"});
     step({"learn", at("learn_rec"), "--out", at("learned.yaml"), "--calibration", cal, "--check",
           at("check_rec"), "--force", "--version", "matrix-" + r.name});
+    drop_scans(dir, {"learn_rec", "check_rec"}, mo);
     // The learned configuration in place of the plant's (run_step adds no --config here).
     run_step(log, {"process", at("rec"), "--out", at("out_learned"), "--images", "none",
                    "--calibration", cal, "--config", at("learned.yaml")});
     r.learned_run = true;
-    if (mo.frr_fillets > 0) {
-      step({"simulate", "--out", at("frr_rec"), "--lanes", "1", "--fillets",
-            std::to_string(mo.frr_fillets), "--seed", std::to_string(seed + 3000), "--physics", V,
-            "--clean"});
-      run_step(log, {"process", at("frr_rec"), "--out", at("out_frr"), "--images", "none",
-                     "--calibration", cal, "--config", at("learned.yaml")});
+    // The clean run in parts of at most frr_part fillets (seeds 3000, 3100, ... past the
+    // plant's), each part's scan dropped once inspected: a scan is about 130 MB a fillet.
+    for (int part = 0, done = 0; done < mo.frr_fillets; ++part) {
+      const int n = std::min(mo.frr_part, mo.frr_fillets - done);
+      step({"simulate", "--out", at("frr_rec"), "--lanes", "1", "--fillets", std::to_string(n),
+            "--seed", std::to_string(seed + 3000 + 100 * part), "--physics", V, "--clean"});
+      run_step(log, {"process", at("frr_rec"), "--out", at("out_frr" + std::to_string(part)),
+                     "--images", "none", "--calibration", cal, "--config", at("learned.yaml")});
+      drop_scans(dir, {"frr_rec"}, mo);
+      done += n;
     }
   }
   // Evaluation against the recording's truth.
@@ -151,16 +166,17 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
       r.learn_fillets = l.at("fillets").get<int>();
       if (l.contains("flagged_fillets")) r.learn_flagged = int(l.at("flagged_fillets").size());
       for (const auto& s : l.at("sensitivity").at("summary")) r.sensitivity.push_back(s);
-      if (mo.frr_fillets > 0) {
-        const RecordSet clean =
-            read_records((dir / "out_frr" / ("lane" + std::to_string(lane))).string(), "");
-        r.frr_fillets = int(clean.fillets.size());
+      for (int part = 0; fs::is_directory(dir / ("out_frr" + std::to_string(part))); ++part) {
+        const RecordSet clean = read_records(
+            (dir / ("out_frr" + std::to_string(part)) / ("lane" + std::to_string(lane))).string(),
+            "");
+        r.frr_fillets += int(clean.fillets.size());
         for (const auto& f : clean.fillets)
           r.frr_rejected += f.decision != "pass",
               r.frr_not_inspected += f.decision == "not_inspected";
         // Bone detections only: air pockets (marbling looks like them) do not reject.
-        r.frr_fragments = int(std::count_if(clean.fragments.begin(), clean.fragments.end(),
-                                            [](const auto& f) { return f.kind == "bone"; }));
+        r.frr_fragments += int(std::count_if(clean.fragments.begin(), clean.fragments.end(),
+                                             [](const auto& f) { return f.kind == "bone"; }));
       }
       if (l.contains("held_out_check")) {
         const nlohmann::json& h = l["held_out_check"];
@@ -171,11 +187,7 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
       }
     }
   }
-  // The scans are large (256 kB of camera frames per line); the results, the calibration
-  // and its reports stay.
-  if (!mo.keep)
-    for (const char* d : {"rec", "pins", "blocks", "learn_rec", "check_rec", "frr_rec"})
-      fs::remove_all(dir / d);
+  drop_scans(dir, {"rec"}, mo);
   return r;
 }
 
@@ -318,11 +330,13 @@ std::string json(const std::vector<Row>& rows) {
 
 int cmd_eval_matrix(int argc, char** argv) {
   const Args a(argc, argv, 2, {"keep-scans", "dual-energy"},
-               {"variants", "only", "fillets", "seed", "out", "config", "learn", "check", "frr"});
-  a.expect_positionals(0,
-                       "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] "
-                       "[--seed S] [--learn N (0: none)] [--check N] [--frr N] [--keep-scans] "
-                       "[--dual-energy]");
+               {"variants", "only", "fillets", "seed", "out", "config", "learn", "check", "frr",
+                "frr-part"});
+  a.expect_positionals(
+      0,
+      "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] "
+      "[--seed S] [--learn N (0: none)] [--check N] [--frr N] [--frr-part N] [--keep-scans] "
+      "[--dual-energy]");
   const PlantConfig plant = load_config(a.get("config", ""));
   const fs::path vdir = a.get(
       "variants", (fs::path(config_path(a.get("config", ""))).parent_path() / "variants").string());
@@ -351,6 +365,8 @@ int cmd_eval_matrix(int argc, char** argv) {
   mo.learn_fillets = int(a.integer("learn", 40));
   mo.check_fillets = int(a.integer("check", 20));
   mo.frr_fillets = int(a.integer("frr", 0));
+  mo.frr_part = int(a.integer("frr-part", 60));
+  if (mo.frr_fillets < 0 || mo.frr_part < 1) fail("--frr must be >= 0 and --frr-part >= 1");
   if (mo.learn_fillets < 0 || mo.check_fillets < 1) fail("--learn must be >= 0 and --check >= 1");
   const int fillets = mo.fillets;
   const long seed = mo.seed;

@@ -19,12 +19,13 @@ check "the scans are gone once evaluated" test ! -e m/strong_blur/rec
 # With learning: the variant's own clean fillets learned, its claims checked on
 # others, a clean run inspected with what was learned (too few fillets to pass the learning's
 # gate: the matrix forces it, and says so).
-"$ctl" eval-matrix --out l --only rough_meat --fillets 4 --seed 5 --learn 12 --check 3 --frr 3 \
+"$ctl" eval-matrix --out l --only rough_meat --fillets 4 --seed 5 --learn 12 --check 3 --frr 3 --frr-part 2 \
   >learn.txt 2>&1 || { echo "FAIL eval-matrix --learn"; cat learn.txt; exit 1; }
 cat l/matrix.txt
 pl() { python3 -c "import json,sys; m=json.load(open('l/matrix.json')); v=m['variants'][0]; L=v['learned']; sys.exit(0 if ($1) else 1)"; }
 check "the learned run is reported" pl "L['learning_fillets'] == 12 and not L['ok']"
-check "its clean run counted" pl "L['clean_run']['fillets'] == 3"
+check "its clean run counted over its two parts" pl "L['clean_run']['fillets'] == 3"
+check "each part inspected, its scan dropped" bash -c "test -d l/rough_meat/out_frr0 && test -d l/rough_meat/out_frr1 && test ! -e l/rough_meat/out_frr2 && test ! -e l/rough_meat/frr_rec && test ! -e l/rough_meat/learn_rec"
 check "the report's sentences checked on the check fillets" pl "0 <= L['stated_held'] <= L['stated'] and 0 <= L['stated_pieces'][0] <= L['stated_pieces'][1] and (L['stated'] == 0) == (L['stated_pieces'][1] == 0)"
 check "recall and false rejects as counts" pl "len(L['recall_calcified_ge_2mm']) == 2 and len(L['false_rejects']) == 2"
 check "the learned configuration was written and used" grep -q "learned:" l/rough_meat/learned.yaml
