@@ -64,6 +64,7 @@ struct Row {
   int frr_fragments = 0;  // bone detections in the clean run
   std::vector<std::string> sensitivity;
   double minutes = 0;
+  std::string failed;  // why the variant stopped (its log says more); empty when it ran
 };
 
 struct MatrixOptions {
@@ -199,7 +200,7 @@ std::string table(const std::vector<Row>& rows, bool held_out) {
                 "f.frag/f", "<1mm", "1-3mm", "xr:rec", "xr:frej");
   os << b;
   for (const Row& r : rows) {
-    if (r.held_out != held_out) continue;
+    if (r.held_out != held_out || !r.failed.empty()) continue;
     const DetectionEval& e = r.ours;
     std::snprintf(b, sizeof b,
                   "%-19s %7.3f %+7.3f | %7.1f%% %7s %7s %7.3f | %6.1f%% %6d %9.3f %6d %6d | "
@@ -269,6 +270,10 @@ std::string json(const std::vector<Row>& rows) {
   for (size_t i = 0; i < rows.size(); ++i) {
     const Row& r = rows[i];
     const DetectionEval& e = r.ours;
+    if (!r.failed.empty()) {
+      os << (i ? ",\n  " : "\n  ") << nlohmann::json{{"name", r.name}, {"failed", r.failed}}.dump();
+      continue;
+    }
     os << (i ? ",\n  " : "\n  ") << "{\"name\": \"" << r.name
        << "\", \"held_out\": " << (r.held_out ? "true" : "false")
        << ", \"thickness_mean_abs_mm\": " << r.thickness.mean_abs
@@ -385,8 +390,16 @@ int cmd_eval_matrix(int argc, char** argv) {
                 files.size(), files[k].stem().c_str(), fillets);
     std::fflush(stdout);
     const auto t0 = std::chrono::steady_clock::now();
-    rows.push_back(
-        run_variant(files[k], out / files[k].stem(), plant, config_path(a.get("config", "")), mo));
+    // A variant that fails is reported as failed and the others still run.
+    try {
+      rows.push_back(run_variant(files[k], out / files[k].stem(), plant,
+                                 config_path(a.get("config", "")), mo));
+    } catch (const std::exception& e) {
+      Row r;
+      r.name = files[k].stem().string(), r.failed = e.what();
+      rows.push_back(r);
+      std::fprintf(stderr, "%s failed: %s\n", r.name.c_str(), e.what());
+    }
     rows.back().minutes =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / 60;
     // Written after every variant, so that a long run's results are there as they come.
@@ -417,13 +430,16 @@ int cmd_eval_matrix(int argc, char** argv) {
           os << r.name << ": " << missed_summary(r.learned) << "\n"
              << indented(missed_lines(r.learned));
     }
+    for (const Row& r : rows)
+      if (!r.failed.empty()) os << "\nfailed: " << r.name << ": " << r.failed << "\n";
     text = os.str();
     std::ofstream(out / "matrix.txt") << text;
     std::ofstream(out / "matrix.json") << json(rows);
   }
   std::printf("\n%s", text.c_str());
   std::printf("written to %s/matrix.txt and matrix.json\n", out.c_str());
-  return 0;
+  return std::any_of(rows.begin(), rows.end(), [](const Row& r) { return !r.failed.empty(); }) ? 2
+                                                                                               : 0;
 }
 
 }  // namespace rangex::cli

@@ -5,14 +5,24 @@
 set -u
 ctl="$1"
 source "$(dirname "$0")/script_checks.sh"
-"$ctl" eval-matrix --out m --only strong_blur,steep_edges --fillets 8 --seed 3 --learn 0 >run.txt 2>&1 \
-  || { echo "FAIL eval-matrix"; cat run.txt; exit 1; }
+# Beside them a variant that cannot run: it is reported as failed, the others still run, and
+# the command says so by its exit status (2).
+mkdir -p vars
+cp "$(dirname "$RANGEX_CONFIG")"/variants/{strong_blur,steep_edges}.yaml vars/
+printf 'name: broken\nbones: {probability: 7}\n' >vars/broken.yaml
+"$ctl" eval-matrix --out m --variants vars --only broken,strong_blur,steep_edges --fillets 8 \
+  --seed 3 --learn 0 >run.txt 2>&1
+rc=$?
+[ -s m/matrix.json ] || { echo "FAIL eval-matrix (status $rc)"; cat run.txt; exit 1; }
 cat m/matrix.txt
 py() { python3 -c "import json,sys; m=json.load(open('m/matrix.json')); v={x['name']: x for x in m['variants']}; sys.exit(0 if ($1) else 1)"; }
-check "both variants evaluated" py "set(v) == {'strong_blur', 'steep_edges'}"
-check "every figure is a number" py "all(isinstance(x[k], (int, float)) for x in v.values() for k in ('thickness_mean_abs_mm', 'recall_calcified_ge_2mm', 'false_reject_rate', 'position_mean_mm', 'baseline_recall_calcified_ge_2mm'))"
+check "a variant that fails says so by the exit status" test "$rc" -eq 2
+check "it is reported failed, naming what is wrong" py "'probability' in v['broken']['failed']"
+check "the matrix text names it" grep -q "failed: broken" m/matrix.txt
+check "both variants evaluated" py "set(v) - {'broken'} == {'strong_blur', 'steep_edges'} and all('failed' not in v[k] for k in ('strong_blur', 'steep_edges'))"
+check "every figure is a number" py "all(isinstance(x[k], (int, float)) for x in v.values() if 'failed' not in x for k in ('thickness_mean_abs_mm', 'recall_calcified_ge_2mm', 'false_reject_rate', 'position_mean_mm', 'baseline_recall_calcified_ge_2mm'))"
 check "strong blur: thickness within 0.1 mm after its own calibration" py "v['strong_blur']['thickness_mean_abs_mm'] <= 0.1"
-check "rangex recalls at least what the X-ray alone does" py "all(x['recall_calcified_ge_2mm'] >= x['baseline_recall_calcified_ge_2mm'] for x in v.values())"
+check "rangex recalls at least what the X-ray alone does" py "all(x['recall_calcified_ge_2mm'] >= x['baseline_recall_calcified_ge_2mm'] for x in v.values() if 'failed' not in x)"
 check "the variant's own calibration says where K1/K2 come from" grep -q "fitted_on: \"calib scatter on" m/strong_blur/lane0.yaml
 check "the blur measured on the variant's pins" grep -q "detector_sigma_px: 0.9" m/strong_blur/lane0.yaml
 check "the scans are gone once evaluated" test ! -e m/strong_blur/rec

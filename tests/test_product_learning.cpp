@@ -253,6 +253,13 @@ TEST(LearnedDetection, RoundTripsThroughItsYamlAndRefusesBadValues) {
       EXPECT_NEAR(back.stats[s].thresholds[b], L.learned.stats[s].thresholds[b], 1e-9);
     EXPECT_NEAR(back.stats[s].model.xi, L.learned.stats[s].model.xi, 1e-9);
   }
+  // A statistic whose extremes reach thousands (air pockets at steep walls did) reads back
+  // as it was written.
+  LearnedDetection huge = L.learned;
+  for (double& t : huge.stats[kStatAir].thresholds) t = 1852.95;
+  EXPECT_NEAR(
+      parse_learned_detection(learned_detection_yaml(huge), "t").stats[kStatAir].thresholds.at(0),
+      1852.95, 1e-9);
   std::string bad = y;
   bad.replace(bad.find("thresholds: [") + 13, 0, "-1, ");
   try {
