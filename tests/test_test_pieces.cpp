@@ -131,6 +131,44 @@ TEST(Sensitivity, FindsLargePiecesAndNotPiecesWithoutContrast) {
   }
 }
 
+// Spheres seen in bands 0-4 (edges 0, 5, ... 25 mm); `claimed[b]`: the size claimed there
+// (0: none).
+SensitivityResult claimed_by_band(const std::vector<double>& claimed) {
+  SensitivityResult r;
+  r.band_edges_mm = {0, 5, 10, 15, 20, 1000};
+  for (int b = 0; b < int(claimed.size()); ++b) {
+    r.cells.push_back({0, 2.0, b, 20, 20});
+    if (claimed[size_t(b)] > 0)
+      r.claims.push_back(
+          {0, b, r.band_edges_mm[size_t(b)], r.band_edges_mm[size_t(b) + 1], claimed[size_t(b)]});
+  }
+  return r;
+}
+
+TEST(Sensitivity, TheReportStatesTheSmallestSizeFromTheThinnestBandOrFromWhereItBegins) {
+  SensitivityOptions o;
+  SensitivityResult r = claimed_by_band({1.5, 1.5, 2.0, 3.0, 0});
+  state_claims(r, o);
+  ASSERT_EQ(r.stated.size(), 1u);
+  EXPECT_EQ(r.stated[0].size_mm, 1.5);
+  EXPECT_EQ(r.stated[0].first_band, 0);
+  EXPECT_EQ(r.stated[0].last_band, 1);
+  EXPECT_EQ(r.summary.at(0), "1.5 mm calcified sphere at 95 % up to 10 mm of meat");
+  // The thinnest band claims nothing (a steep wall's rim): stated from where claims begin,
+  // not "no claim".
+  r = claimed_by_band({0, 2.0, 2.0, 2.5, 2.5});
+  state_claims(r, o);
+  ASSERT_EQ(r.stated.size(), 1u);
+  EXPECT_EQ(r.stated[0].size_mm, 2.0);
+  EXPECT_EQ(r.stated[0].first_band, 1);
+  EXPECT_EQ(r.stated[0].last_band, 2);
+  EXPECT_EQ(r.summary.at(0), "2.0 mm calcified sphere at 95 % from 5 mm of meat up to 15 mm");
+  r = claimed_by_band({0, 0, 0, 0, 0});
+  state_claims(r, o);
+  EXPECT_TRUE(r.stated.empty());
+  EXPECT_EQ(r.summary.at(0).rfind("no claim", 0), 0u);
+}
+
 TEST(Sensitivity, StatedClaimPoolsItsBandsAndSizeOnly) {
   SensitivityResult m;
   // sphere 2 mm: bands 0-2; sphere 3 mm and a needle of 2 mm beside them.

@@ -40,6 +40,68 @@ std::vector<size_t> inside_pixels(const FilletImage& img, int margin_r, int marg
 
 }  // namespace
 
+void state_claims(SensitivityResult& res, const SensitivityOptions& opt) {
+  const int bands = int(res.band_edges_mm.size()) - 1;
+  for (int shape = 0; shape < 2; ++shape) {
+    auto seen = [&](int band) {
+      return std::any_of(res.cells.begin(), res.cells.end(), [&](const auto& c) {
+        return c.shape == shape && c.band == band && c.injected >= opt.min_pieces;
+      });
+    };
+    auto claims = [&](int band, double size) {
+      return std::any_of(res.claims.begin(), res.claims.end(), [&](const auto& c) {
+        return c.shape == shape && c.band == band && c.size_mm <= size;
+      });
+    };
+    // The bands from `from` up (unseen ones skipped) in which `size` is claimed.
+    auto run = [&](int from, double size, int& last) {
+      int n = 0;
+      last = -1;
+      for (int band = from; band < bands; ++band) {
+        if (!seen(band)) continue;  // no meat that thick among the fillets: no claim either way
+        if (!claims(band, size)) break;
+        ++n, last = band;
+      }
+      return n;
+    };
+    int thinnest = 0;
+    while (thinnest < bands && !seen(thinnest)) ++thinnest;
+    int first = thinnest;
+    while (first < bands && !(seen(first) && claims(first, HUGE_VAL))) ++first;
+    StatedClaim best{shape, 0, first, -1, 0};
+    for (double size : opt.sizes_mm)
+      if (first < bands && run(first, size, best.last_band) > 0) {
+        best.size_mm = size;
+        break;  // the smallest size that holds from there up
+      }
+    if (best.last_band < 0) continue;
+    const double hi = res.band_edges_mm[size_t(best.last_band) + 1];
+    const bool open = best.last_band == bands - 1 && hi > 100;
+    best.up_to_mm = hi;
+    char b[200];
+    char upper[80];
+    std::snprintf(upper, sizeof upper, open ? "at any thickness seen, up to %.0f" : "up to %.0f",
+                  open ? res.band_edges_mm[size_t(bands) - 1] + 5 : hi);
+    if (best.first_band == thinnest)
+      std::snprintf(b, sizeof b, "%.1f mm calcified %s at %.0f %% %s mm of meat", best.size_mm,
+                    piece_shape_name(shape), 100 * opt.rate, upper);
+    else
+      std::snprintf(b, sizeof b, "%.1f mm calcified %s at %.0f %% from %.0f mm of meat %s mm",
+                    best.size_mm, piece_shape_name(shape), 100 * opt.rate,
+                    res.band_edges_mm[size_t(best.first_band)], upper);
+    res.summary.push_back(b);
+    res.stated.push_back(best);
+  }
+  if (res.summary.empty()) {
+    char b[160];
+    std::snprintf(b, sizeof b,
+                  "no claim: no size found at %.0f %% in any thickness band (at least %d test "
+                  "pieces a band; more fillets give more)",
+                  100 * opt.rate, opt.min_pieces);
+    res.summary.push_back(b);
+  }
+}
+
 SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fillets,
                                       const InspectionParams& p, const SensitivityOptions& opt,
                                       const std::function<void(int, int)>& progress) {
@@ -141,44 +203,7 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
         res.claims.push_back({shape, band, res.band_edges_mm[size_t(band)],
                               res.band_edges_mm[size_t(band) + 1], claim});
     }
-  // The summary a plant reads: per shape and size, the thickness up to which every band
-  // from the thinnest claims it.
-  for (int shape = 0; shape < 2; ++shape)
-    for (double size : opt.sizes_mm) {
-      double up_to = -1;
-      int first = -1, last = -1;
-      for (int band = 0; band < bands; ++band) {
-        const auto it = std::find_if(res.claims.begin(), res.claims.end(), [&](const auto& c) {
-          return c.shape == shape && c.band == band;
-        });
-        const bool seen = std::any_of(res.cells.begin(), res.cells.end(), [&](const auto& c) {
-          return c.shape == shape && c.band == band && c.injected >= opt.min_pieces;
-        });
-        if (!seen) continue;  // no meat that thick among the fillets: no claim either way
-        if (it == res.claims.end() || it->size_mm > size) break;
-        up_to = res.band_edges_mm[size_t(band) + 1];
-        if (first < 0) first = band;
-        last = band;
-      }
-      if (up_to > 0) {
-        char b[160];
-        std::snprintf(b, sizeof b, "%.1f mm calcified %s at %.0f %% %s %.0f mm of meat", size,
-                      piece_shape_name(shape), 100 * opt.rate,
-                      up_to > 100 ? "at any thickness seen, up to" : "up to",
-                      up_to > 100 ? res.band_edges_mm[size_t(bands) - 1] + 5 : up_to);
-        res.summary.push_back(b);
-        res.stated.push_back({shape, size, first, last, up_to});
-        break;  // the smallest size that holds from the thinnest band up
-      }
-    }
-  if (res.summary.empty()) {
-    char b[160];
-    std::snprintf(b, sizeof b,
-                  "no claim: no size found at %.0f %% from the thinnest band up (at least %d "
-                  "test pieces a band; more fillets give more)",
-                  100 * opt.rate, opt.min_pieces);
-    res.summary.push_back(b);
-  }
+  state_claims(res, opt);
   return res;
 }
 

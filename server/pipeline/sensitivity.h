@@ -68,6 +68,12 @@ struct SensitivityFillet {
   double meat_mu(double t) const;
 };
 
+// The report's sentences (`summary`, `stated`) from `cells` and `claims`, per shape: the
+// smallest size claimed in every band from the thinnest seen up to some thickness; where the
+// thinnest bands claim nothing (a steep wall's rim, say), the same from the first band that
+// claims a size ("2.0 mm calcified sphere at 95 % from 10 mm of meat up to 30 mm").
+void state_claims(SensitivityResult& res, const SensitivityOptions& opt);
+
 SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fillets,
                                       const InspectionParams& p, const SensitivityOptions& opt,
                                       const std::function<void(int, int)>& progress = {});
