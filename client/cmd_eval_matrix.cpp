@@ -397,6 +397,8 @@ int cmd_eval_matrix(int argc, char** argv) {
     } catch (const std::exception& e) {
       Row r;
       r.name = files[k].stem().string(), r.failed = e.what();
+      drop_scans(out / files[k].stem(),
+                 {"rec", "pins", "blocks", "learn_rec", "check_rec", "frr_rec"}, mo);
       rows.push_back(r);
       std::fprintf(stderr, "%s failed: %s\n", r.name.c_str(), e.what());
     }
@@ -419,8 +421,8 @@ int cmd_eval_matrix(int argc, char** argv) {
          << " clean fillets of each variant (another seed; claims checked on " << mo.check_fillets
          << " more): recall of calcified >= 2 mm with its 95 % interval; f.rej: clean fillets "
             "rejected with the 95 % interval in %; bands: sensitivity claims by thickness band "
-            "held on "
-            "the check fillets; stated: the report's sentences held there (their pieces found)\n\n"
+            "held on the check fillets; stated: the report's sentences held there (their pieces "
+            "found)\n\n"
          << learned_table(rows, false);
       if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
         os << "\nheld out (never tuned on):\n" << learned_table(rows, true);

@@ -221,8 +221,7 @@ int cmd_learn(int argc, char** argv) {
       std::printf("  held-out check on %d fillets of %s: %d of %zu claims by band held\n",
                   hc.fillets, check_rec->dir().c_str(), hc.held(), hc.checks.size());
       for (const StatedCheck& k : hc.stated)
-        std::printf("    %.1f mm %s up to %.0f mm of meat: %d of %d found (%.1f %%): %s\n",
-                    k.claim.size_mm, piece_shape_name(k.claim.shape), k.claim.up_to_mm, k.found,
+        std::printf("    \"%s\": %d of %d found (%.1f %%): %s\n", k.claim.text.c_str(), k.found,
                     k.injected, k.injected ? 100.0 * k.found / k.injected : 0.0,
                     k.held ? "held" : "NOT held");
     }

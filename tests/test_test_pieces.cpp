@@ -163,6 +163,7 @@ TEST(Sensitivity, TheReportStatesTheSmallestSizeFromTheThinnestBandOrFromWhereIt
   EXPECT_EQ(r.stated[0].first_band, 1);
   EXPECT_EQ(r.stated[0].last_band, 2);
   EXPECT_EQ(r.summary.at(0), "2.0 mm calcified sphere at 95 % from 5 mm of meat up to 15 mm");
+  EXPECT_EQ(r.stated[0].text, r.summary.at(0));
   r = claimed_by_band({0, 0, 0, 0, 0});
   state_claims(r, o);
   EXPECT_TRUE(r.stated.empty());

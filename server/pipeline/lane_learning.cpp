@@ -83,12 +83,6 @@ int HeldOutCheck::held() const {
   return n;
 }
 
-int HeldOutCheck::stated_held() const {
-  int n = 0;
-  for (const StatedCheck& k : stated) n += k.held;
-  return n;
-}
-
 HeldOutCheck check_held_out(const std::vector<InspectedFillet>& fillets, const LaneLearning& l,
                             const SensitivityOptions& so,
                             const std::function<void(int, int)>& progress) {

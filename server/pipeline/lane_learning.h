@@ -55,7 +55,6 @@ struct HeldOutCheck {
   std::vector<ClaimCheck> checks;   // per band
   std::vector<StatedCheck> stated;  // the report's sentences
   int held() const;
-  int stated_held() const;
 };
 HeldOutCheck check_held_out(const std::vector<InspectedFillet>& fillets, const LaneLearning& l,
                             const SensitivityOptions& so,

@@ -96,7 +96,8 @@ std::string claim_checks_json(const std::string& recording, int fillets,
   int stated_held = 0;
   for (const StatedCheck& k : stated) {
     stated_held += k.held;
-    sentences.push_back({{"shape", piece_shape_name(k.claim.shape)},
+    sentences.push_back({{"sentence", k.claim.text},
+                         {"shape", piece_shape_name(k.claim.shape)},
                          {"size_mm", k.claim.size_mm},
                          {"up_to_mm", k.claim.up_to_mm},
                          {"injected", k.injected},

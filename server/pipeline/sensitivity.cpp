@@ -89,6 +89,7 @@ void state_claims(SensitivityResult& res, const SensitivityOptions& opt) {
       std::snprintf(b, sizeof b, "%.1f mm calcified %s at %.0f %% from %.0f mm of meat %s mm",
                     best.size_mm, piece_shape_name(shape), 100 * opt.rate,
                     res.band_edges_mm[size_t(best.first_band)], upper);
+    best.text = b;
     res.summary.push_back(b);
     res.stated.push_back(best);
   }
@@ -211,9 +212,12 @@ namespace {
 
 // The pieces of one shape and size in bands first..last of `measured`, pooled; `held` when
 // at least `rate` of them were found.
-template <class Check>
-Check pooled(Check k, int shape, double size_mm, int first, int last,
-             const SensitivityResult& measured, double rate) {
+template <class Claim>
+Checked<Claim> pooled(const Claim& c, int first, int last, const SensitivityResult& measured,
+                      double rate) {
+  Checked<Claim> k{c};
+  const int shape = c.shape;
+  const double size_mm = c.size_mm;
   for (const SensitivityCell& m : measured.cells)
     if (m.shape == shape && std::abs(m.size_mm - size_mm) < 1e-9 && m.band >= first &&
         m.band <= last)
@@ -227,8 +231,7 @@ Check pooled(Check k, int shape, double size_mm, int first, int last,
 std::vector<ClaimCheck> check_claims(const std::vector<SensitivityClaim>& claims,
                                      const SensitivityResult& measured, double rate) {
   std::vector<ClaimCheck> out;
-  for (const SensitivityClaim& c : claims)
-    out.push_back(pooled(ClaimCheck{c}, c.shape, c.size_mm, c.band, c.band, measured, rate));
+  for (const SensitivityClaim& c : claims) out.push_back(pooled(c, c.band, c.band, measured, rate));
   return out;
 }
 
@@ -236,8 +239,7 @@ std::vector<StatedCheck> check_stated_claims(const std::vector<StatedClaim>& sta
                                              const SensitivityResult& measured, double rate) {
   std::vector<StatedCheck> out;
   for (const StatedClaim& c : stated)
-    out.push_back(
-        pooled(StatedCheck{c}, c.shape, c.size_mm, c.first_band, c.last_band, measured, rate));
+    out.push_back(pooled(c, c.first_band, c.last_band, measured, rate));
   return out;
 }
 

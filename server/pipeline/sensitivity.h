@@ -42,14 +42,15 @@ struct SensitivityClaim {
   double size_mm = 0;
 };
 
-// What the report states, per shape (its summary sentence): `size_mm` found at >= rate in
-// every band from the thinnest seen (`first_band`) up to `last_band`, i.e. up to `up_to_mm`
-// of meat.
+// What the report states, per shape (its summary sentence, `text`): `size_mm` found at
+// >= rate in every band from `first_band` (the thinnest seen, unless that claims nothing) to
+// `last_band`, i.e. up to `up_to_mm` of meat.
 struct StatedClaim {
   int shape = 0;
   double size_mm = 0;
   int first_band = 0, last_band = 0;
   double up_to_mm = 0;
+  std::string text;
 };
 
 struct SensitivityResult {
@@ -78,23 +79,23 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
                                       const InspectionParams& p, const SensitivityOptions& opt,
                                       const std::function<void(int, int)>& progress = {});
 
-// Each of `claims` checked on `measured` (e.g. fillets not used for learning): the found
-// rate at the claimed size and band; held when >= rate.
-struct ClaimCheck {
-  SensitivityClaim claim;
+// A claim checked on other fillets: the pieces of its shape and size found there; held when
+// at least the claimed rate of them were.
+template <class Claim>
+struct Checked {
+  Claim claim;
   int injected = 0, found = 0;
   bool held = false;
 };
+using ClaimCheck = Checked<SensitivityClaim>;
+using StatedCheck = Checked<StatedClaim>;
+
+// Each of `claims` checked on `measured` (e.g. fillets not used for learning), at its size
+// and band.
 std::vector<ClaimCheck> check_claims(const std::vector<SensitivityClaim>& claims,
                                      const SensitivityResult& measured, double rate);
-
 // Each stated claim checked on `measured`: the pieces of its shape and size in the bands it
-// covers, pooled (what a plant reading the sentence expects); held when found >= rate.
-struct StatedCheck {
-  StatedClaim claim;
-  int injected = 0, found = 0;
-  bool held = false;
-};
+// covers, pooled (what a plant reading the sentence expects).
 std::vector<StatedCheck> check_stated_claims(const std::vector<StatedClaim>& stated,
                                              const SensitivityResult& measured, double rate);
 
