@@ -113,3 +113,68 @@ TEST(SessionCountOffset, ADeviceThatJoinsARunningLaneOrRejoinsTakesTheNextLine) 
   // Nothing on the lane yet: nothing to align to.
   EXPECT_EQ(session_count_offset(true, std::nullopt, std::nullopt, 1, window), 0);
 }
+
+TEST(FrameIdDistance, IsTheNearerWayRoundTheRing) {
+  EXPECT_EQ(frame_id_distance(65401, 65495), 94);
+  EXPECT_EQ(frame_id_distance(65495, 65401), -94);
+  EXPECT_EQ(frame_id_distance(65534, 2), 3);  // 65535, 1, 2: 0 is never sent
+  EXPECT_EQ(frame_id_distance(2, 65534), -3);
+  EXPECT_EQ(frame_id_distance(7, 7), 0);
+  EXPECT_EQ(frame_id_distance(100000, 100004, true), 4);
+  EXPECT_EQ(frame_id_distance(100004, 100000, true), -4);
+}
+
+// A receiver can drop the first frames of a session (Aravis's packet socket did, on a loaded
+// machine: one device's first frame was id 65495 where the others' was 65401). Counted from
+// 1, that device was 94 lines behind its lane for good: every frame of it too old to join,
+// the lane blind. The devices share the trigger, so the ids say how many it lost.
+TEST(LaneStartIds, ADeviceWhoseFirstFramesWereLostCountsFromWhereItsIdsSay) {
+  Joined out;
+  LineJoiner j = joiner(out);
+  LaneStartIds ids;
+  // cam0 and the X-ray deliver from id 65401 (pulse 1); cam1 lost pulses 1-94.
+  EXPECT_FALSE(ids.first(0, 65401));
+  EXPECT_FALSE(ids.first(2, 65401));
+  EXPECT_FALSE(ids.first(1, 65495));
+  EXPECT_EQ(ids.shift(0), 0);
+  EXPECT_EQ(ids.shift(2), 0);
+  EXPECT_EQ(ids.shift(1), 94);
+  for (int64_t pulse = 1; pulse <= 400; ++pulse)
+    for (int d = 0; d < kLaneDevices; ++d) {
+      if (d == 1 && pulse <= 94) continue;              // never reached rangexd
+      const int64_t own = d == 1 ? pulse - 94 : pulse;  // what the device counted
+      j.add(d, own + ids.shift(d), frame(d, pulse));
+    }
+  EXPECT_EQ(out.mismatched, 0);
+  ASSERT_FALSE(out.counts.empty());
+  EXPECT_EQ(out.counts.front(), 95);
+  EXPECT_EQ(out.counts.back(), 400);
+  EXPECT_EQ(j.stats().stale[1], 0u);
+}
+
+TEST(LaneStartIds, TheEarliestIdIsTheLanesStartWhicheverDeviceDeliversFirst) {
+  LaneStartIds ids;
+  EXPECT_FALSE(ids.first(1, 65495));  // the one that lost frames delivers first
+  EXPECT_EQ(ids.shift(1), 0);
+  // The others' earlier ids move it on: the counts the lane holds of it are wrong now.
+  EXPECT_TRUE(ids.first(0, 65401));
+  EXPECT_EQ(ids.shift(1), 94);
+  EXPECT_EQ(ids.shift(0), 0);
+  EXPECT_FALSE(ids.first(2, 65402));  // lost one
+  EXPECT_EQ(ids.shift(2), 1);
+  EXPECT_EQ(ids.shift(1), 94);
+  // Across the ring's end.
+  LaneStartIds r;
+  r.first(0, 65530);
+  r.first(1, 3);
+  EXPECT_EQ(r.shift(1), 8);
+}
+
+TEST(LaneStartIds, IdsThatDidNotStartTogetherKeepTheirCounts) {
+  // Devices of other makers, whose ids began elsewhere: nothing says frames were lost.
+  LaneStartIds ids;
+  ids.first(0, 1);
+  ids.first(1, 30000);
+  ids.first(2, 1 + LaneStartIds::kMaxStartLoss + 1);
+  for (int d = 0; d < kLaneDevices; ++d) EXPECT_EQ(ids.shift(d), 0) << d;
+}

@@ -209,9 +209,11 @@ GigeDevice::Got GigeDevice::next(int timeout_ms, DeviceFrame& out, std::string& 
   ArvStream* stream = d.session->stream;
   ArvBuffer* b = arv_stream_timeout_pop_buffer(stream, guint64(timeout_ms) * 1000);
   if (!b) return Got::kNothing;
-  if (arv_buffer_get_status(b) != ARV_BUFFER_STATUS_SUCCESS) {
-    d.gaps.next(arv_buffer_get_frame_id(b));
-    ++d.frames;
+  const uint64_t id = arv_buffer_get_frame_id(b);
+  if (arv_buffer_get_status(b) != ARV_BUFFER_STATUS_SUCCESS || id == 0) {
+    // GVSP never sends id 0: such a buffer holds no frame of the device and takes no count
+    // (counted, it would move every later count one on and hide the id gaps after it).
+    if (id != 0) d.frames += 1 + d.gaps.next(id);
     arv_stream_push_buffer(stream, b);
     return Got::kIncomplete;
   }
@@ -223,7 +225,8 @@ GigeDevice::Got GigeDevice::next(int timeout_ms, DeviceFrame& out, std::string& 
     arv_stream_push_buffer(stream, b);
     return Got::kWrongFormat;
   }
-  out.lost_before = d.gaps.next(arv_buffer_get_frame_id(b));
+  out.id = id;
+  out.lost_before = d.gaps.next(id);
   d.frames += 1 + out.lost_before;
   out.count = int64_t(d.frames);
   out.from_encoder = false;

@@ -34,6 +34,7 @@ struct DeviceFrame {
   int64_t count = 0;
   bool from_encoder = false;
   uint64_t lost_before = 0;  // frames the device's ids say were lost just before this one
+  uint64_t id = 0;           // the GVSP frame (block) id
   LineBytes bytes;           // lent by the receive buffer
 };
 

@@ -118,7 +118,8 @@ void GigeLane::run_device(int index) {
       std::string why;
       DeviceFrame frame;
       bool first_frame = true;
-      int64_t offset = 0;  // the session's count to the lane's
+      int64_t offset = 0;      // the session's count to the lane's
+      bool own_count = false;  // started with the lane, counting its own frames
       while (!stop_) {
         const GigeDevice::Got got = dev.next(100, frame, why);
         const DeviceStreamCounts sc = dev.stream_counts();
@@ -143,12 +144,17 @@ void GigeLane::run_device(int index) {
           }
         });
         if (got != GigeDevice::Got::kFrame) continue;
+        std::lock_guard<std::mutex> lk(count_mu_);
         // A device counting its own frames starts again at 1 each session (frame_counts.h).
-        if (first_frame && !frame.from_encoder)
+        if (first_frame && !frame.from_encoder) {
           offset = session_count_offset(streamed_before, newest_at_start, joiner_.newest(),
                                         frame.count, joiner_.window());
+          own_count = keeps_own_count(streamed_before, newest_at_start, joiner_.window());
+          if (own_count) note_first_id(index, who, frame.id);
+        }
         first_frame = false;
-        joiner_.add(index, frame.count + offset, std::move(frame.bytes));
+        const int64_t shift = own_count ? start_ids_.shift(index) : 0;
+        joiner_.add(index, frame.count + offset + shift, std::move(frame.bytes));
       }
       set(index, [](SensorState& s) { s.state = "stopped"; });
       return;
@@ -173,6 +179,24 @@ void GigeLane::run_device(int index) {
     backoff = std::min(opt_.backoff_max_s, backoff * 2);
   }
   set(index, [](SensorState& s) { s.state = "stopped"; });
+}
+
+void GigeLane::note_first_id(int index, const std::string& who, uint64_t id) {
+  const bool moved = start_ids_.first(index, id);
+  if (moved) {
+    // The devices that delivered first had lost frames before theirs: the partial lines
+    // hold counts that are now wrong (none was emitted: the lane waits for every device).
+    joiner_.reset();
+  }
+  for (int d = 0; d < kLaneDevices; ++d) {
+    const int64_t k = start_ids_.shift(d);
+    if (k != 0 && (d == index || moved))
+      log::warn("sensor_start_frames_lost",
+                "lane {} {}: its first frame id is {} past the lane's first: that many frames "
+                "were lost before it reached rangexd, and its count starts that many on",
+                lane_, states_[size_t(d)].role, k);
+  }
+  log::info("sensor_first_frame", "{}: first frame id {}", who, id);
 }
 
 LaneSensors GigeLane::state() const {

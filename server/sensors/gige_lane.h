@@ -17,6 +17,7 @@
 
 #include "core/incoming_line.h"
 #include "core/lane_config.h"
+#include "sensors/frame_counts.h"
 #include "sensors/gige_device.h"
 #include "sensors/line_joiner.h"
 #include "sensors/sensor_state.h"
@@ -47,6 +48,8 @@ class GigeLane {
 
  private:
   void run_device(int index);
+  // A device that keeps its own count delivered its first frame (under count_mu_).
+  void note_first_id(int index, const std::string& who, uint64_t id);
   void set(int index, const std::function<void(SensorState&)>& change);
   bool sleep_for(double seconds);  // false when stopping
 
@@ -55,6 +58,8 @@ class GigeLane {
   LaneSink sink_;
   const SensorOptions opt_;
   LineJoiner joiner_;
+  std::mutex count_mu_;  // start_ids_, and a frame's count with its add to the joiner
+  LaneStartIds start_ids_;
   std::atomic<bool> stop_{false};
   std::atomic<uint64_t> refused_{0};
   mutable std::mutex mu_;  // states_
