@@ -15,6 +15,7 @@ struct State {
   bool active = false;
   double b0 = 0, b1 = 0, scale = 0, dev_prev = 0;
   double prev[3] = {0, 0, 0};                // the line before this iteration's
+  double before[3] = {0, 0, 0};              // and the one before that
   double t_lo = HUGE_VAL, t_hi = -HUGE_VAL;  // the used pixels' thickness range
   std::vector<double> w;                     // the weights of the last fit, per used pixel
 };
@@ -146,6 +147,7 @@ std::vector<BatchFit> fit_tukey_lines(Backend& backend, const FilletBatch& batch
         const double z = r_prev[i] / st[f].scale / o.c;
         st[f].w.push_back(std::abs(z) <= 1 ? (1 - z * z) * (1 - z * z) : 0.0);
       }
+      std::copy(st[f].prev, st[f].prev + 3, st[f].before);
       st[f].prev[0] = st[f].b0, st[f].prev[1] = st[f].b1;
       if (!line_from(&sums[size_t(f) * IRLS_SUMS], st[f].b0, st[f].b1)) {
         fail_fit(f,
@@ -166,11 +168,9 @@ std::vector<BatchFit> fit_tukey_lines(Backend& backend, const FilletBatch& batch
       s.scale = mad_scale(r.data(), b.use, from, to, tmp);
       const double dev = deviance(r.data(), b.use, from, to, &s.w, o.c);
       ++fit.iterations;
-      const double allowed = o.relative_tol ? o.tol * std::max(1.0, std::abs(dev)) : o.tol;
       const double cur[3] = {s.b0, s.b1, 0};
-      const bool settled = std::abs(dev - s.dev_prev) <= allowed ||
-                           (o.relative_tol && o.settled_move > 0 &&
-                            fit_move(s.prev, cur, s.t_lo, s.t_hi) <= o.settled_move * s.scale);
+      const bool settled = fit_settled(o, dev, s.dev_prev, s.before, s.prev, cur, s.t_lo, s.t_hi,
+                                       s.scale, fit.iterations);
       s.dev_prev = dev;
       if (settled) {
         fit.converged = true;

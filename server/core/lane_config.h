@@ -51,7 +51,9 @@ struct InspectionParams {
   // polychromatic beam whose hardening bends ln I in thick meat (fitted per fillet).
   int attenuation_degree = 2;
   double tukey_c = 5.0;
-  int max_iter = 50;
+  // statsmodels' 50 is too few: IRLS walks on for 100 and more on fatty, marbled fillets
+  // (docs/inspection.md), and a fit that did not settle is not inspected.
+  int max_iter = 150;
   double tol = 1e-8;
   double smooth_sigma_px = 1.0;
   // Elongated kernels for needles (0: off): along and across, pixels.

@@ -163,6 +163,17 @@ double fit_move(const double prev[3], const double cur[3], double lo, double hi)
   return most;
 }
 
+bool fit_settled(const RobustFitOptions& o, double dev, double dev_prev, const double before[3],
+                 const double prev[3], const double cur[3], double lo, double hi, double scale,
+                 int iterations) {
+  const double allowed = o.relative_tol ? o.tol * std::max(1.0, std::abs(dev)) : o.tol;
+  if (std::abs(dev - dev_prev) <= allowed) return true;
+  if (!o.relative_tol || !(o.settled_move > 0)) return false;
+  const double move = o.settled_move * scale;
+  return fit_move(prev, cur, lo, hi) <= move ||
+         (iterations > 2 && fit_move(before, cur, lo, hi) <= move);
+}
+
 RobustFit fit_tukey_line(const double* x, const double* y, size_t n, const RobustFitOptions& o) {
   return fit_tukey_poly(x, y, n, 1, o);
 }
@@ -227,6 +238,7 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
   f.n = n;
   f.scale = mad_scale();
   double dev_prev = deviance();
+  Poly prev = line, before_prev = line;  // the curves one and two iterations back
   f.iterations = 1;
   while (true) {
     if (f.scale == 0.0) {  // a perfect fit of more than half of the points
@@ -237,7 +249,8 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
       const double z = r[i] / f.scale / o.c;
       w[i] = std::abs(z) <= 1 ? (1 - z * z) * (1 - z * z) : 0.0;
     }
-    const Poly prev = line;
+    before_prev = prev;
+    prev = line;
     if (!weighted_poly(x, y, w.data(), n, ctr, line))
       fail("robust fit: every point but those at ",
            degree == 1 ? "one thickness" : "two thicknesses", " was rejected as an outlier (", n,
@@ -246,10 +259,8 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
     f.scale = mad_scale();
     const double dev = deviance();
     ++f.iterations;
-    const double allowed = o.relative_tol ? o.tol * std::max(1.0, std::abs(dev)) : o.tol;
-    const bool settled = std::abs(dev - dev_prev) <= allowed ||
-                         (o.relative_tol && o.settled_move > 0 &&
-                          fit_move(prev.b, line.b, *x_lo, *x_hi) <= o.settled_move * f.scale);
+    const bool settled = fit_settled(o, dev, dev_prev, before_prev.b, prev.b, line.b, *x_lo, *x_hi,
+                                     f.scale, f.iterations);
     dev_prev = dev;
     if (settled) {
       f.converged = true;
