@@ -19,6 +19,23 @@ using namespace rangex;
 namespace {
 const std::string kData = RANGEX_SOURCE_DIR "/tests/data/rlm/";
 
+// splitmix64: the same points on every platform.
+struct SplitMix {
+  uint64_t state;
+  explicit SplitMix(uint64_t seed) : state(seed) {}
+  double uniform() {
+    uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    return double(z >> 11) * 0x1.0p-53;
+  }
+  double normal() {  // Box-Muller
+    const double a = uniform(), b = uniform();
+    return std::sqrt(-2 * std::log(1 - a)) * std::cos(6.283185307179586 * b);
+  }
+};
+
 void near_rel(double got, double want, const std::string& what) {
   EXPECT_LE(std::abs(got - want), 1e-6 * std::abs(want)) << what << ": " << got << " vs " << want;
 }
@@ -122,18 +139,9 @@ TEST(RobustFit, ParabolaFollowsAHardenedBeamWhereTheLineCannot) {
 // not settle in 50 iterations (it does in 138); the default rule settles when the curve
 // moves by 1e-4 of the residuals' scale, on the same fit.
 TEST(RobustFit, ACreepingFitSettlesWhenItsCurveStopsMoving) {
-  uint64_t state = 300;  // splitmix64: the same points on every platform
-  auto uniform = [&] {
-    uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    z ^= z >> 31;
-    return double(z >> 11) * 0x1.0p-53;
-  };
-  auto normal = [&] {
-    const double a = uniform(), b = uniform();
-    return std::sqrt(-2 * std::log(1 - a)) * std::cos(6.283185307179586 * b);
-  };
+  SplitMix rng(300);
+  auto uniform = [&] { return rng.uniform(); };
+  auto normal = [&] { return rng.normal(); };
   const int n = 20000;
   std::vector<double> x(n), y(n);
   for (int i = 0; i < n; ++i) {
@@ -165,18 +173,9 @@ TEST(RobustFit, ACreepingFitSettlesWhenItsCurveStopsMoving) {
 // them). A fit that returns to within settled_move of where it was two iterations before
 // has settled. 101 points at 24 thicknesses, ln I quantised to 0.0108.
 TEST(RobustFit, ATwoCycleSettles) {
-  uint64_t state = 5883 * 7919ull;  // splitmix64: the same points on every platform
-  auto uniform = [&] {
-    uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    z ^= z >> 31;
-    return double(z >> 11) * 0x1.0p-53;
-  };
-  auto normal = [&] {
-    const double a = uniform(), b = uniform();
-    return std::sqrt(-2 * std::log(1 - a)) * std::cos(6.283185307179586 * b);
-  };
+  SplitMix rng(5883 * 7919ull);
+  auto uniform = [&] { return rng.uniform(); };
+  auto normal = [&] { return rng.normal(); };
   const int n = 30 + int(uniform() * 400);
   const double q = 0.002 + 0.02 * uniform();
   const double outliers = 0.5 * uniform();
