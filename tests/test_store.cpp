@@ -3,6 +3,8 @@
 #include <sqlite3.h>
 
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 
 #include "core/error.h"
 #include "service/store.h"
@@ -156,5 +158,40 @@ TEST(Store, AFullDiskIsNamedAsOneAndTheStoreWritesAgainOnceThereIsRoom) {
   const int64_t uid = s.add_fillet(big);
   EXPECT_EQ(s.fillet(uid)->reason.size(), size_t(64 << 10));
   EXPECT_EQ(s.list_fillets(0, 0, -1, 0, 10).size(), 2u);
+  EXPECT_TRUE(Store::verify_chain(t.str()).ok);
+}
+
+// A reject's decision and its images are stored together or not at all. Before, the
+// decision was committed first; a full disk then failed the images' registration, rangexd
+// stopped, and after the restart the fillet stood decided with one image of four (a
+// restarted rangexd does not decide a stored fillet again).
+TEST(Store, ADecisionAndItsImagesAreStoredTogetherOrNotAtAll) {
+  test::TempDir t;
+  Store s(t.str());
+  s.add_fillet(sample());
+  StoredFillet reject = sample();
+  reject.reason.assign(64 << 10, 'x');  // more than the pages the store has free below
+  const std::string staged = s.staging_dir(reject);
+  std::filesystem::create_directories(staged);
+  for (const char* kind : {"overlay", "xray", "thickness", "residual"})
+    std::ofstream(staged + "/" + kind + ".png") << kind;
+  s.cap_pages_for_tests(1);
+  EXPECT_THROW(s.add_fillet(reject, staged), Error);
+  // Nothing of it stored; its images wait where they were staged.
+  EXPECT_EQ(s.list_fillets(0, 0, -1, 0, 10).size(), 1u);
+  EXPECT_TRUE(std::filesystem::exists(staged + "/xray.png"));
+  s.cap_pages_for_tests(1 << 20);
+  const int64_t uid = s.add_fillet(reject, staged);
+  EXPECT_EQ(s.list_fillets(0, 0, -1, 0, 10).size(), 2u);
+  EXPECT_FALSE(std::filesystem::exists(staged));
+  for (const char* kind : {"overlay", "xray", "thickness", "residual"}) {
+    const auto path = s.image_path(uid, kind);
+    ASSERT_TRUE(path) << kind;
+    EXPECT_EQ(*path, s.image_dir(uid) + "/" + kind + ".png");
+    std::ifstream in(*path);
+    std::string body;
+    in >> body;
+    EXPECT_EQ(body, kind);
+  }
   EXPECT_TRUE(Store::verify_chain(t.str()).ok);
 }

@@ -8,7 +8,6 @@
 #include "core/log.h"
 #include "pipeline/fillet_images.h"
 #include "rangex/v1/decision_names.h"
-#include "service/image_view.h"
 #include "service/steady_ns.h"
 
 namespace fs = std::filesystem;
@@ -104,27 +103,25 @@ bool DecisionRecorder::save(Unsaved& u) {
   const int64_t t0 = steady_ns();
   StoredFillet& s = u.record;
   const FilletResult& r = u.fillet.result;
+  // The images are part of the decision: written whole (each renamed into place), then
+  // stored with it in one transaction, or retried with it. The decision is durable and
+  // published after them.
+  std::string staged;
+  if (images_ && r.decision != Decision::kPass && !u.fillet.image.mask.empty()) {
+    try {
+      staged = store_.staging_dir(s);
+      fs::remove_all(staged);
+      write_fillet_images(staged, u.fillet.image, r);
+    } catch (const std::exception& e) {
+      return failed("images of lane " + std::to_string(s.lane) + " fillet " +
+                    std::to_string(s.lane_fillet) + ": " + e.what());
+    }
+  }
   try {
-    if (s.uid == 0) s.uid = store_.add_fillet(s);
+    s.uid = store_.add_fillet(s, staged);
   } catch (const std::exception& e) {
     return failed(e.what());
   }
-  // The images are part of the decision: written whole (each renamed into place) and
-  // registered, or retried with it. The decision is durable and published after them.
-  if (images_ && !u.images_stored && r.decision != Decision::kPass &&
-      !u.fillet.image.mask.empty()) {
-    try {
-      const std::string dir = store_.image_dir(s.uid);
-      write_fillet_images(dir, u.fillet.image, r);
-      for (const char* kind : kImageKinds) {
-        const std::string path = (fs::path(dir) / (std::string(kind) + ".png")).string();
-        if (fs::exists(path)) store_.add_image(s.uid, kind, path);
-      }
-    } catch (const std::exception& e) {
-      return failed("images of fillet " + std::to_string(s.uid) + ": " + e.what());
-    }
-  }
-  u.images_stored = true;
   if (stored_) stored_(s);
   const int64_t t1 = steady_ns();
   store_time_.add((t1 - t0) / 1e6);

@@ -55,7 +55,6 @@ class DecisionRecorder {
     StoredFillet record;
     InspectedFillet fillet;
     int64_t last_arrival_ns = 0;
-    bool images_stored = false;  // written and registered (retried with the record)
   };
   bool save(Unsaved& u);  // mu_
   void retry_locked();    // mu_

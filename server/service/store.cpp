@@ -258,9 +258,10 @@ void Store::cap_pages_for_tests(int64_t pages) {
   exec("PRAGMA max_page_count = " + std::to_string(pages));
 }
 
-int64_t Store::add_fillet(const StoredFillet& f) {
+int64_t Store::add_fillet(const StoredFillet& f, const std::string& staged_images) {
   std::lock_guard<std::mutex> lock(mu_);
   exec("BEGIN");
+  std::string moved_to;  // image_dir(uid) once the staged images are there
   try {
     Stmt q(db_,
            "INSERT INTO fillets (lane, lane_fillet, first_encoder, rows, decision, reason, beta0, "
@@ -285,6 +286,23 @@ int64_t Store::add_fillet(const StoredFillet& f) {
       r.bind(12, int64_t(g.col1)).bind(13, g.bone_mg);
       r.step();
     }
+    if (!staged_images.empty()) {
+      // A folder left at this uid by a transaction that did not commit is not this fillet's.
+      const fs::path to = image_dir(uid);
+      fs::remove_all(to);
+      fs::rename(staged_images, to);
+      moved_to = to.string();
+      for (const auto& e : fs::directory_iterator(to)) {
+        if (e.path().extension() != ".png") continue;
+        const std::string kind = e.path().stem().string();
+        Stmt q(db_, "INSERT OR REPLACE INTO images VALUES (?,?,?)");
+        q.bind(1, uid).bind(2, kind).bind(3, e.path().string());
+        q.step();
+        Stmt l(db_, "INSERT INTO image_log (fillet_uid, kind) VALUES (?,?)");
+        l.bind(1, uid).bind(2, kind);
+        l.step();
+      }
+    }
     // The decision joins the chain in the same transaction: stored means chained.
     StoredFillet chained = f;
     chained.uid = uid;
@@ -295,8 +313,18 @@ int64_t Store::add_fillet(const StoredFillet& f) {
     return uid;
   } catch (...) {
     rollback();
+    if (!moved_to.empty()) {
+      std::error_code ec;  // the staged images stay for the retry
+      fs::rename(moved_to, staged_images, ec);
+    }
     throw;
   }
+}
+
+std::string Store::staging_dir(const StoredFillet& f) const {
+  return (fs::path(dir_) / "images" / "staged" /
+          (std::to_string(f.lane) + "-" + std::to_string(f.first_encoder)))
+      .string();
 }
 
 std::string Store::image_dir(int64_t uid) const {

@@ -78,7 +78,14 @@ class Store {
   Store(const Store&) = delete;
   Store& operator=(const Store&) = delete;
 
-  int64_t add_fillet(const StoredFillet& f);  // returns the uid
+  // Returns the uid. `staged_images`: a folder of the fillet's image files (<kind>.png),
+  // moved to image_dir(uid) and registered in the same transaction as the decision: a
+  // decision is never stored without its images (a restart in between left one so for
+  // good: a restarted rangexd does not decide a stored fillet again). The folder is moved
+  // back when the commit fails.
+  int64_t add_fillet(const StoredFillet& f, const std::string& staged_images = "");
+  // Where a fillet's images are written before add_fillet (emptied first).
+  std::string staging_dir(const StoredFillet& f) const;
   void add_image(int64_t uid, const std::string& kind, const std::string& path);
   std::string image_dir(int64_t uid) const;
   std::optional<std::string> image_path(int64_t uid, const std::string& kind);

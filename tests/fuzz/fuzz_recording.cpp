@@ -21,10 +21,17 @@ using namespace rangex;
 namespace fs = std::filesystem;
 
 namespace {
+// Removed when the fuzzer exits (a run of -runs=N ends with exit(): static destructors run).
+struct Scratch {
+  fs::path dir = fs::temp_directory_path() / ("rangex-fuzz-rec-" + std::to_string(getpid()));
+  ~Scratch() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+};
 const fs::path& scratch() {
-  static const fs::path dir =
-      fs::temp_directory_path() / ("rangex-fuzz-rec-" + std::to_string(getpid()));
-  return dir;
+  static const Scratch s;
+  return s.dir;
 }
 void write(const fs::path& p, const std::string& bytes) {
   std::ofstream(p, std::ios::binary | std::ios::trunc)
