@@ -36,9 +36,9 @@ double fit_move(const double prev[3], const double cur[3], double lo, double hi)
 // Whether IRLS has settled after `iterations` (2 after the first reweighted fit): the
 // deviance's rule, or (relative_tol) the curve `cur` within settled_move * scale of the one
 // before (`prev`), or of the one two before (`before`: a 2-cycle, in which the weights and
-// the MAD scale flip between two sets and IRLS between two curves for good, 2e-4 of the
-// scale apart on heldout_6's fillets; a creeping fit moves further in two iterations than
-// in one, so only a cycle meets this).
+// the MAD scale of quantised intensities flip between two sets and IRLS between two curves
+// for good, 2 % of the scale apart on tests/test_robust_fit.cpp's 101 points; a creeping
+// fit moves further in two iterations than in one, so only a cycle meets this).
 // Over T in [lo, hi].
 bool fit_settled(const RobustFitOptions& o, double dev, double dev_prev, const double before[3],
                  const double prev[3], const double cur[3], double lo, double hi, double scale,

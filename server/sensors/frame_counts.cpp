@@ -7,19 +7,11 @@ uint64_t FrameIdGaps::next(uint64_t id, bool extended_ids) {
     last_ = id;
     return 0;
   }
-  uint64_t lost = 0;
-  if (extended_ids) {
-    if (id <= *last_) return 0;  // late or repeated
-    lost = id - *last_ - 1;
-  } else {
-    // Ids 1..65535 on a ring of 65535 (0 is never sent): the forward distance; further than
-    // half the ring "ahead" is a late or repeated frame.
-    const uint64_t d = (id + 65535 - *last_) % 65535;
-    if (d == 0 || d >= 32768) return 0;
-    lost = d - 1;
-  }
+  // Not ahead (further than half the 16-bit ring "ahead" is behind): late or repeated.
+  const int64_t d = frame_id_distance(*last_, id, extended_ids);
+  if (d <= 0) return 0;
   last_ = id;
-  return lost;
+  return uint64_t(d - 1);
 }
 
 bool keeps_own_count(bool streamed_before, std::optional<int64_t> newest_at_start, int64_t window) {

@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <optional>
 
+#include "sensors/line_joiner.h"
+
 namespace rangex {
 
 class FrameIdGaps {
@@ -48,7 +50,6 @@ int64_t frame_id_distance(uint64_t from, uint64_t to, bool extended_ids = false)
 class LaneStartIds {
  public:
   static constexpr int64_t kMaxStartLoss = 256;
-  static constexpr int kDevices = 3;
 
   // Records device d's first frame id; true when the shift of a device that had already
   // delivered frames changed (the lane's partial lines hold counts that are now wrong).
@@ -57,8 +58,8 @@ class LaneStartIds {
   int64_t shift(int device) const { return shift_[size_t(device)]; }
 
  private:
-  std::array<std::optional<uint64_t>, kDevices> first_;
-  std::array<int64_t, kDevices> shift_{};
+  std::array<std::optional<uint64_t>, kLaneDevices> first_;
+  std::array<int64_t, kLaneDevices> shift_{};
 };
 
 }  // namespace rangex

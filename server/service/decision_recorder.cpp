@@ -110,8 +110,13 @@ bool DecisionRecorder::save(Unsaved& u) {
   if (images_ && r.decision != Decision::kPass && !u.fillet.image.mask.empty()) {
     try {
       staged = store_.staging_dir(s);
-      fs::remove_all(staged);
-      write_fillet_images(staged, u.fillet.image, r);
+      // Written whole by this server once, they wait there while the store fails.
+      if (!u.images_staged || !fs::exists(staged)) {
+        u.images_staged = false;
+        fs::remove_all(staged);
+        write_fillet_images(staged, u.fillet.image, r);
+        u.images_staged = true;
+      }
     } catch (const std::exception& e) {
       return failed("images of lane " + std::to_string(s.lane) + " fillet " +
                     std::to_string(s.lane_fillet) + ": " + e.what());

@@ -55,6 +55,7 @@ class DecisionRecorder {
     StoredFillet record;
     InspectedFillet fillet;
     int64_t last_arrival_ns = 0;
+    bool images_staged = false;  // written whole to the store's staging folder
   };
   bool save(Unsaved& u);  // mu_
   void retry_locked();    // mu_

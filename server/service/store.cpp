@@ -292,16 +292,9 @@ int64_t Store::add_fillet(const StoredFillet& f, const std::string& staged_image
       fs::remove_all(to);
       fs::rename(staged_images, to);
       moved_to = to.string();
-      for (const auto& e : fs::directory_iterator(to)) {
-        if (e.path().extension() != ".png") continue;
-        const std::string kind = e.path().stem().string();
-        Stmt q(db_, "INSERT OR REPLACE INTO images VALUES (?,?,?)");
-        q.bind(1, uid).bind(2, kind).bind(3, e.path().string());
-        q.step();
-        Stmt l(db_, "INSERT INTO image_log (fillet_uid, kind) VALUES (?,?)");
-        l.bind(1, uid).bind(2, kind);
-        l.step();
-      }
+      for (const auto& e : fs::directory_iterator(to))
+        if (e.path().extension() == ".png")
+          register_image(uid, e.path().stem().string(), e.path().string());
     }
     // The decision joins the chain in the same transaction: stored means chained.
     StoredFillet chained = f;
@@ -321,6 +314,15 @@ int64_t Store::add_fillet(const StoredFillet& f, const std::string& staged_image
   }
 }
 
+void Store::register_image(int64_t uid, const std::string& kind, const std::string& path) {
+  Stmt q(db_, "INSERT OR REPLACE INTO images VALUES (?,?,?)");
+  q.bind(1, uid).bind(2, kind).bind(3, path);
+  q.step();
+  Stmt l(db_, "INSERT INTO image_log (fillet_uid, kind) VALUES (?,?)");
+  l.bind(1, uid).bind(2, kind);
+  l.step();
+}
+
 std::string Store::staging_dir(const StoredFillet& f) const {
   return (fs::path(dir_) / "images" / "staged" /
           (std::to_string(f.lane) + "-" + std::to_string(f.first_encoder)))
@@ -335,12 +337,7 @@ void Store::add_image(int64_t uid, const std::string& kind, const std::string& p
   std::lock_guard<std::mutex> lock(mu_);
   exec("BEGIN");
   try {
-    Stmt q(db_, "INSERT OR REPLACE INTO images VALUES (?,?,?)");
-    q.bind(1, uid).bind(2, kind).bind(3, path);
-    q.step();
-    Stmt l(db_, "INSERT INTO image_log (fillet_uid, kind) VALUES (?,?)");
-    l.bind(1, uid).bind(2, kind);
-    l.step();
+    register_image(uid, kind, path);
     exec("COMMIT");
   } catch (...) {
     rollback();
