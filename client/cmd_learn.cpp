@@ -217,7 +217,7 @@ int cmd_learn(int argc, char** argv) {
       const HeldOutCheck hc =
           check_held_out(c.fillets, ll, so, [&](int d, int t) { cbar.update(d, t); });
       lane_json["held_out_check"] = nlohmann::json::parse(
-          claim_checks_json(check_rec->dir(), hc.fillets, hc.checks, hc.stated));
+          claim_checks_json(check_rec->dir(), hc.fillets, hc.checks, hc.stated, hc.cells));
       std::printf("  held-out check on %d fillets of %s: %d of %zu claims by band held\n",
                   hc.fillets, check_rec->dir().c_str(), hc.held(), hc.checks.size());
       for (const StatedCheck& k : hc.stated)

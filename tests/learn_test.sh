@@ -24,6 +24,7 @@ check "report ok with 14 fillets" py "j['ok'] and l['fillets'] == 14"
 check "round thresholds per band, all finite and positive" py "len(l['statistics']['round']['thresholds']) == len(l['band_edges_mm']) - 1 and all(0 < t < 100 for t in l['statistics']['round']['thresholds'])"
 check "the thresholds spend at most the budget" py "l['statistics']['round']['implied_frr'] + l['statistics']['needle']['implied_frr'] <= 0.003"
 check "test pieces were injected and some found" py "sum(c['injected'] for c in l['sensitivity']['cells']) > 100 and sum(c['found'] for c in l['sensitivity']['cells']) > 0"
+check "every claim stands on its detection curve's lower bound and on the rate found" py "all(c['pod_lower'] >= l['sensitivity']['rate'] and any(x['shape'] == c['shape'] and x['band'] == c['band'] and x['size_mm'] == c['size_mm'] and x['found'] >= 0.95 * x['injected'] for x in l['sensitivity']['cells']) for c in l['sensitivity']['claims_95'])"
 check "large spheres are found in every band they were put in" py "all(c['found'] >= 0.9 * c['injected'] for c in l['sensitivity']['cells'] if c['shape'] == 'sphere' and c['size_mm'] >= 4)"
 learn --out again.yaml >/dev/null 2>&1
 check "learning is exact with fixed seeds" diff -q learned.yaml again.yaml

@@ -95,6 +95,7 @@ HeldOutCheck check_held_out(const std::vector<InspectedFillet>& fillets, const L
   const SensitivityResult on_held = measure_sensitivity(held, l.inspection, so, progress);
   c.checks = check_claims(l.sensitivity.claims, on_held, so.rate);
   c.stated = check_stated_claims(l.sensitivity.stated, on_held, so.rate);
+  c.cells = on_held.cells;
   return c;
 }
 

@@ -51,9 +51,10 @@ LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspecti
 // The learning's sensitivity claims checked on fillets it did not learn from (another
 // recording of the same product): the pieces are injected into those that teach.
 struct HeldOutCheck {
-  int fillets = 0;                  // used for the check
-  std::vector<ClaimCheck> checks;   // per band
-  std::vector<StatedCheck> stated;  // the report's sentences
+  int fillets = 0;                     // used for the check
+  std::vector<ClaimCheck> checks;      // per band
+  std::vector<StatedCheck> stated;     // the report's sentences
+  std::vector<SensitivityCell> cells;  // what was found on the check fillets
   int held() const;
 };
 HeldOutCheck check_held_out(const std::vector<InspectedFillet>& fillets, const LaneLearning& l,

@@ -11,6 +11,17 @@ nlohmann::json model_json(const GevModel& g) {
           {"xi", g.xi}, {"log_n_ref", g.log_n_ref}, {"t_ref", g.t_ref}};
 }
 
+nlohmann::json cells_json(const std::vector<SensitivityCell>& cells) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const SensitivityCell& c : cells)
+    out.push_back({{"shape", piece_shape_name(c.shape)},
+                   {"size_mm", c.size_mm},
+                   {"band", c.band},
+                   {"injected", c.injected},
+                   {"found", c.found}});
+  return out;
+}
+
 }  // namespace
 
 std::string learned_report_json(int lane, const ProductLearning& L, const SensitivityResult& s) {
@@ -50,19 +61,14 @@ std::string learned_report_json(int lane, const ProductLearning& L, const Sensit
                                           {"ks_p", st.ks_p},
                                           {"qq_gumbel", qq}};
   }
-  nlohmann::json cells = nlohmann::json::array();
-  for (const SensitivityCell& c : s.cells)
-    cells.push_back({{"shape", piece_shape_name(c.shape)},
-                     {"size_mm", c.size_mm},
-                     {"band", c.band},
-                     {"injected", c.injected},
-                     {"found", c.found}});
+  const nlohmann::json cells = cells_json(s.cells);
   nlohmann::json claims = nlohmann::json::array();
   for (const SensitivityClaim& c : s.claims)
     claims.push_back({{"shape", piece_shape_name(c.shape)},
                       {"band", c.band},
                       {"band_mm", {c.band_lo_mm, c.band_hi_mm}},
-                      {"size_mm", c.size_mm}});
+                      {"size_mm", c.size_mm},
+                      {"pod_lower", c.pod_lower}});
   nlohmann::json stated = nlohmann::json::array();
   for (const StatedClaim& c : s.stated)
     stated.push_back({{"shape", piece_shape_name(c.shape)},
@@ -74,13 +80,21 @@ std::string learned_report_json(int lane, const ProductLearning& L, const Sensit
                       {"summary", s.summary},
                       {"stated", stated},
                       {"inspections", s.inspections},
-                      {"measured_on", "the learning fillets, with the learned thresholds"}};
+                      {"measured_on", "the learning fillets, with the learned thresholds"},
+                      {"rate", s.rate},
+                      {"claim_confidence", s.claim_confidence},
+                      {"claim_rule",
+                       "found at >= rate at the size and every larger one, and the band's "
+                       "hit/miss detection curve (logit POD linear in ln size, Firth's "
+                       "penalised likelihood) has its one-sided claim_confidence lower bound "
+                       ">= rate there"}};
   return j.dump();
 }
 
 std::string claim_checks_json(const std::string& recording, int fillets,
                               const std::vector<ClaimCheck>& checks,
-                              const std::vector<StatedCheck>& stated) {
+                              const std::vector<StatedCheck>& stated,
+                              const std::vector<SensitivityCell>& cells) {
   nlohmann::json list = nlohmann::json::array();
   int held = 0;
   for (const ClaimCheck& k : checks) {
@@ -111,7 +125,8 @@ std::string claim_checks_json(const std::string& recording, int fillets,
                             {"checks", list},
                             {"stated", stated.size()},
                             {"stated_held", stated_held},
-                            {"stated_checks", sentences}};
+                            {"stated_checks", sentences},
+                            {"cells", cells_json(cells)}};
   return j.dump();
 }
 

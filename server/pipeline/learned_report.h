@@ -17,7 +17,8 @@ std::string learned_report_json(int lane, const ProductLearning& learning,
 // The sensitivity claims checked on held-out fillets: per band, and the report's sentences.
 std::string claim_checks_json(const std::string& recording, int fillets,
                               const std::vector<ClaimCheck>& checks,
-                              const std::vector<StatedCheck>& stated);
+                              const std::vector<StatedCheck>& stated,
+                              const std::vector<SensitivityCell>& cells);
 
 struct LearnedReportStatus {
   bool present = false, passed = false;

@@ -5,6 +5,7 @@
 #include <map>
 #include <random>
 
+#include "pipeline/detection_curve.h"
 #include "pipeline/inspection.h"
 #include "pipeline/inspection_steps.h"
 
@@ -68,7 +69,7 @@ void state_claims(SensitivityResult& res, const SensitivityOptions& opt) {
     while (thinnest < bands && !seen(thinnest)) ++thinnest;
     int first = thinnest;
     while (first < bands && !(seen(first) && claims(first, HUGE_VAL))) ++first;
-    StatedClaim best{shape, 0, first, -1, 0};
+    StatedClaim best{shape, 0, first, -1, 0, {}};
     for (double size : opt.sizes_mm)
       if (first < bands && run(first, size, best.last_band) > 0) {
         best.size_mm = size;
@@ -188,24 +189,42 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
       }
   }
   for (auto& [k, c] : cells) res.cells.push_back(c);
-  // Claims: per shape and band, the smallest size found at >= rate at it and every larger size.
-  const int bands = int(res.band_edges_mm.size()) - 1;
-  for (int shape = 0; shape < 2; ++shape)
-    for (int band = 0; band < bands; ++band) {
-      double claim = NAN;
-      for (auto it = opt.sizes_mm.rbegin(); it != opt.sizes_mm.rend(); ++it) {
-        const auto c = cells.find({shape, *it, band});
-        if (c == cells.end() || c->second.injected < opt.min_pieces ||
-            double(c->second.found) < opt.rate * c->second.injected)
-          break;
-        claim = *it;
-      }
-      if (std::isfinite(claim))
-        res.claims.push_back({shape, band, res.band_edges_mm[size_t(band)],
-                              res.band_edges_mm[size_t(band) + 1], claim});
-    }
+  res.claims = claim_sizes(res.cells, res.band_edges_mm, opt);
+  res.rate = opt.rate, res.claim_confidence = opt.claim_confidence;
   state_claims(res, opt);
   return res;
+}
+
+std::vector<SensitivityClaim> claim_sizes(const std::vector<SensitivityCell>& cells,
+                                          const std::vector<double>& band_edges_mm,
+                                          const SensitivityOptions& opt) {
+  std::vector<SensitivityClaim> out;
+  const int bands = int(band_edges_mm.size()) - 1;
+  for (int shape = 0; shape < 2; ++shape)
+    for (int band = 0; band < bands; ++band) {
+      std::vector<HitMiss> data;
+      for (const SensitivityCell& c : cells)
+        if (c.shape == shape && c.band == band) data.push_back({c.size_mm, c.injected, c.found});
+      const DetectionCurve curve = fit_detection_curve(data);
+      auto cell = [&](double size) {
+        return std::find_if(data.begin(), data.end(),
+                            [&](const HitMiss& d) { return std::abs(d.size_mm - size) < 1e-9; });
+      };
+      double claim = NAN, lower = NAN;
+      for (auto it = opt.sizes_mm.rbegin(); it != opt.sizes_mm.rend(); ++it) {
+        const auto c = cell(*it);
+        if (c == data.end() || c->injected < opt.min_pieces ||
+            double(c->found) < opt.rate * c->injected)
+          break;
+        const double bound = detection_lower_bound(data, curve, *it, opt.claim_confidence);
+        if (!(bound >= opt.rate)) break;
+        claim = *it, lower = bound;
+      }
+      if (std::isfinite(claim))
+        out.push_back({shape, band, band_edges_mm[size_t(band)], band_edges_mm[size_t(band) + 1],
+                       claim, lower});
+    }
+  return out;
 }
 
 namespace {

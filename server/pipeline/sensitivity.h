@@ -1,8 +1,10 @@
 // The sensitivity that a lane's thresholds buy: test pieces (test_pieces.h) of several sizes,
 // both shapes, at several depths, injected into clean fillets, each fillet inspected with
 // the lane's inspection settings; per shape, size and thickness band, how many were found.
-// From it the claim a plant can check: per band the smallest size found at >= 95 %.
+// From it the claim a plant can check: per band the smallest size found at >= 95 % with
+// confidence (the detection curve's lower bound, detection_curve.h).
 #pragma once
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -25,6 +27,9 @@ struct SensitivityOptions {
   std::vector<double> band_edges_mm;  // empty: the learned bands, else the default ones
   double rate = 0.95;                 // the detection rate a claim stands for
   int min_pieces = 10;                // per cell, to claim anything
+  // A claim stands where the detection curve's lower bound at this one-sided confidence
+  // reaches `rate` (detection_curve.h), as well as the rate seen at that size.
+  double claim_confidence = 0.95;
 };
 
 struct SensitivityCell {
@@ -34,12 +39,13 @@ struct SensitivityCell {
   int injected = 0, found = 0;
 };
 
-// Per shape and band: the smallest size found at >= rate there and at every larger size
-// (NaN: none).
+// Per shape and band: the smallest size at which, and at every larger size, the pieces were
+// found at >= rate and the band's detection curve's lower bound is >= rate.
 struct SensitivityClaim {
   int shape = 0, band = 0;
   double band_lo_mm = 0, band_hi_mm = 0;
   double size_mm = 0;
+  double pod_lower = NAN;  // the curve's lower bound at size_mm
 };
 
 // What the report states, per shape (its summary sentence, `text`): `size_mm` found at
@@ -60,6 +66,7 @@ struct SensitivityResult {
   std::vector<std::string> summary;  // "2.0 mm sphere at 95 % up to 20 mm of meat"
   std::vector<StatedClaim> stated;   // what the summary says, one per sentence
   int inspections = 0;
+  double rate = 0, claim_confidence = 0;  // the options the claims were made with
 };
 
 struct SensitivityFillet {
@@ -74,6 +81,11 @@ struct SensitivityFillet {
 // thinnest bands claim nothing (a steep wall's rim, say), the same from the first band that
 // claims a size ("2.0 mm calcified sphere at 95 % from 10 mm of meat up to 30 mm").
 void state_claims(SensitivityResult& res, const SensitivityOptions& opt);
+
+// The claims that `cells` support, per shape and band (see SensitivityClaim).
+std::vector<SensitivityClaim> claim_sizes(const std::vector<SensitivityCell>& cells,
+                                          const std::vector<double>& band_edges_mm,
+                                          const SensitivityOptions& opt);
 
 SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fillets,
                                       const InspectionParams& p, const SensitivityOptions& opt,
