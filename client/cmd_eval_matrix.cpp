@@ -321,7 +321,8 @@ std::string json(const std::vector<Row>& rows) {
         const MissedFragment& m = l.missed[q];
         os << (q ? ", " : "") << "{\"fillet\": " << m.fillet << ", \"shape\": \"" << m.shape
            << "\", \"size_mm\": " << m.size_mm << ", \"calcification\": " << m.calcification
-           << ", \"meat_mm\": " << m.meat_mm << ", \"edge_mm\": " << m.edge_mm << "}";
+           << ", \"volume_mm3\": " << m.volume_mm3 << ", \"meat_mm\": " << m.meat_mm
+           << ", \"edge_mm\": " << m.edge_mm << "}";
       }
       os << "]}";
     }

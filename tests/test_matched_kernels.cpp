@@ -175,7 +175,14 @@ TEST(MatchedKernels, AKernelSeesFlatMeatOffTheFilletAndGivesNothingThere) {
 }
 
 TEST(MatchedKernels, LearnedKernelsTravelWithTheLearnedSettingsAndBadOnesAreRefused) {
-  TextureCovariance c(6);
+  // A 5 mm sphere on 0.4 mm pixels needs a window of radius 7 (6.25 px to its rim); the
+  // smaller ones keep the base window of radius 4, so the covariance is measured to lag 14.
+  EXPECT_EQ(kernel_radius(1.5, 0.4, 0.4), 4);
+  EXPECT_EQ(kernel_radius(3.0, 0.4, 0.4), 4);
+  EXPECT_EQ(kernel_radius(3.3, 0.4, 0.4), 5);
+  EXPECT_EQ(kernel_radius(5.0, 0.4, 0.4), 7);
+  EXPECT_EQ(kernel_radius(5.0, 0.4, 0.2), 13);  // the finer of the two pitches decides
+  TextureCovariance c(14);
   std::mt19937_64 rng(4);
   std::vector<uint8_t> all(size_t(kRows) * kCols, 1);
   const std::vector<float> z = noise(rng, 0.5, 1.0, 2.0);
@@ -184,26 +191,55 @@ TEST(MatchedKernels, LearnedKernelsTravelWithTheLearnedSettingsAndBadOnesAreRefu
   L.band_edges_mm = {0, 10};
   for (auto& s : L.stats)
     s.thresholds = {6}, s.band_fraction = {1}, s.band_pixels = {5000}, s.band_thickness_mm = {6};
-  L.matched = learn_matched_kernels(c, {1.5, 2.0}, 0.4, 0.4, 0.5);
-  ASSERT_EQ(L.matched.taps.size(), 2u);
-  ASSERT_EQ(L.matched.taps[0].size(), 49u);
+  L.matched = learn_matched_kernels(c, {1.5, 2.0, 5.0}, 0.4, 0.4, 0.5);
+  ASSERT_EQ(L.matched.taps.size(), 3u);
+  EXPECT_EQ(L.matched.radius, 7);
+  EXPECT_EQ(L.matched.radii, (std::vector<int>{4, 4, 7}));
+  ASSERT_EQ(L.matched.taps[0].size(), 81u);
+  ASSERT_EQ(L.matched.taps[2].size(), 225u);
   const LearnedDetection back = parse_learned_detection(learned_detection_yaml(L), "test");
-  EXPECT_EQ(back.matched.radius, 3);
+  EXPECT_EQ(back.matched.radius, 7);
+  EXPECT_EQ(back.matched.radii, L.matched.radii);
   EXPECT_EQ(back.matched.sizes_mm, L.matched.sizes_mm);
-  ASSERT_EQ(back.matched.spreads.size(), 2u);
-  EXPECT_NEAR(back.matched.spreads[1], L.matched.spreads[1], 1e-9);
-  for (size_t k = 0; k < 2; ++k)
-    for (size_t i = 0; i < 49; ++i)
+  ASSERT_EQ(back.matched.spreads.size(), 3u);
+  EXPECT_NEAR(back.matched.spreads[2], L.matched.spreads[2], 1e-9);
+  for (size_t k = 0; k < 3; ++k) {
+    ASSERT_EQ(back.matched.taps[k].size(), L.matched.taps[k].size());
+    for (size_t i = 0; i < L.matched.taps[k].size(); ++i)
       EXPECT_NEAR(back.matched.taps[k][i], L.matched.taps[k][i],
                   1e-9 * std::abs(L.matched.taps[k][i]));
-  std::string bad = learned_detection_yaml(L);
-  bad.replace(bad.find("radius: 3"), 9, "radius: 4");  // taps for 3
-  EXPECT_THROW(parse_learned_detection(bad, "test"), Error);
-  // A sphere too large for the window is refused, naming it.
+  }
+  const std::string yaml = learned_detection_yaml(L);
+  {
+    std::string bad = yaml;  // taps for radius 4 under a window of 5
+    bad.replace(bad.find("radii: [4, 4, 7]"), 16, "radii: [5, 4, 7]");
+    EXPECT_THROW(parse_learned_detection(bad, "test"), Error);
+  }
+  {
+    std::string bad = yaml;  // a window beyond the bank's radius
+    bad.replace(bad.find("radii: [4, 4, 7]"), 16, "radii: [4, 4, 8]");
+    EXPECT_THROW(parse_learned_detection(bad, "test"), Error);
+  }
+  {
+    // A file written before windows differed (no radii): one window, radius, for all.
+    LearnedDetection one = L;
+    one.matched = learn_matched_kernels(c, {1.5, 2.0}, 0.4, 0.4, 0.5);
+    std::string old = learned_detection_yaml(one);
+    old.erase(old.find("\n  radii: [4, 4]"), 16);
+    ASSERT_EQ(old.find("radii"), std::string::npos);
+    const LearnedDetection read = parse_learned_detection(old, "test");
+    EXPECT_EQ(read.matched.radii, (std::vector<int>{4, 4}));
+    std::string bad = old;  // taps for radius 4 under a window of 3
+    bad.replace(bad.find("radius: 4"), 9, "radius: 3");
+    EXPECT_THROW(parse_learned_detection(bad, "test"), Error);
+  }
+  // A sphere too large for the lags measured is refused, naming it.
+  TextureCovariance short_lags(8);
+  short_lags.add(z.data(), all.data(), kRows, kCols);
   try {
-    learn_matched_kernels(c, {4.0}, 0.4, 0.4, 0);
-    FAIL() << "a 4 mm sphere in a 7 x 7 window";
+    learn_matched_kernels(short_lags, {5.0}, 0.4, 0.4, 0);
+    FAIL() << "a 5 mm sphere with lags measured to 8 px";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("4 mm sphere"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("5 mm sphere"), std::string::npos) << e.what();
   }
 }

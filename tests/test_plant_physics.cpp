@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <sstream>
+#include <vector>
 
 #include "core/error.h"
 #include "core/lane_config.h"
@@ -100,8 +101,25 @@ TEST(PlantPhysics, EachEffectIsRendered) {
       lane, params("bones: {probability: 1, needle: 0.5, rib: 0.25, cluster: 0.25, "
                    "cartilage_probability: 1}"));
   const std::string csv = bones.fragments_csv();
-  EXPECT_NE(csv.find(",needle\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",needle,"), std::string::npos) << csv;
   EXPECT_NE(csv.find("cartilage,"), std::string::npos) << csv;
+  // Each bone's volume is positive and within the sphere of its size (its longest extent).
+  std::istringstream rows(csv);
+  std::string row;
+  std::getline(rows, row);
+  int bones_seen = 0;
+  while (std::getline(rows, row)) {
+    std::vector<std::string> c;
+    std::istringstream cells(row);
+    for (std::string cell; std::getline(cells, cell, ',');) c.push_back(cell);
+    ASSERT_EQ(c.size(), 10u) << row;
+    if (c[1] != "bone") continue;
+    ++bones_seen;
+    const double size = std::stod(c[6]), volume = std::stod(c[9]);
+    EXPECT_GT(volume, 0) << row;
+    EXPECT_LE(volume, M_PI / 6 * size * size * size) << row;
+  }
+  EXPECT_GT(bones_seen, 0);
   // Dropped lines arrive black, at about their rate.
   const sim::LaneSimulator drop(lane, params("belt: {dropped_line_rate: 0.05}"));
   int dropped = 0;

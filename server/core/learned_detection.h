@@ -31,9 +31,13 @@ struct LearnedStatistic {
 // Gaussian's. Each kernel is C^-1 s over a (2 radius + 1)^2 window: s a calcified sphere's
 // profile of sizes_mm[k], C the covariance of the learning fillets' z.
 struct MatchedKernels {
-  int radius = 0;
+  int radius = 0;  // the largest window's; the covariance was measured to twice it
   std::vector<double> sizes_mm;
-  std::vector<std::vector<double>> taps;  // per size, row-major over the window
+  // Per size: its window's radius (the smallest, at least the bank's base of 4 px, that holds
+  // the sphere: a large fragment seen through a small window shows only its rim) and its taps,
+  // row-major over (2 radius + 1)^2.
+  std::vector<int> radii;
+  std::vector<std::vector<double>> taps;
   // Each kernel's output spread on the learned texture (z of unit robust spread): sqrt(h' C
   // h). A fillet's spread is measured, never below half of it (as the Gaussian's never
   // below its white-noise gain, which a whitened kernel's spread undercuts).

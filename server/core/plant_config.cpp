@@ -222,7 +222,7 @@ bool read_spread(const Node& n) {
 
 // inspection.learned.matched: the whitened round kernels, a full window each.
 void read_matched(const Node& n, MatchedKernels& k) {
-  n.only_keys({"radius", "clip", "sizes_mm", "spreads", "taps"});
+  n.only_keys({"radius", "radii", "clip", "sizes_mm", "spreads", "taps"});
   if (!n.has("radius") || !n.has("sizes_mm") || !n.has("spreads") || !n.has("taps"))
     n.bad("expected radius, sizes_mm, spreads and taps");
   n.get("radius", k.radius);
@@ -236,8 +236,19 @@ void read_matched(const Node& n, MatchedKernels& k) {
   const Node t = n.at("taps");
   if (!t.node.IsSequence() || t.node.size() != k.sizes_mm.size() || k.sizes_mm.empty())
     t.bad("expected one list of taps per size in sizes_mm");
-  const size_t w = size_t(2 * k.radius + 1);
+  // Each kernel's window (radii; a file without them has one window, radius, for all).
+  if (n.has("radii")) {
+    for (double r : number_list(n.at("radii"), k.sizes_mm.size())) {
+      if (!(r >= 1 && r <= k.radius && r == std::floor(r)))
+        n.at("radii").bad("must be whole pixels within 1.." + std::to_string(k.radius) +
+                          " (radius)");
+      k.radii.push_back(int(r));
+    }
+  } else {
+    k.radii.assign(k.sizes_mm.size(), k.radius);
+  }
   for (size_t i = 0; i < t.node.size(); ++i) {
+    const size_t w = size_t(2 * k.radii[i] + 1);
     k.taps.push_back(number_list(t.item(i), w * w));
     for (double h : k.taps.back())
       if (!std::isfinite(h)) t.item(i).bad("taps must be finite");
@@ -905,6 +916,9 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
     o << "\nmatched:\n  radius: " << L.matched.radius << "\n  clip: " << L.matched.clip
       << "\n  sizes_mm: ";
     list(L.matched.sizes_mm);
+    o << "\n  radii: [";
+    for (size_t i = 0; i < L.matched.radii.size(); ++i) o << (i ? ", " : "") << L.matched.radii[i];
+    o << "]";
     o << "\n  spreads: ";
     list(L.matched.spreads);
     o << "\n  taps:";

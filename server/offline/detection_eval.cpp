@@ -12,7 +12,8 @@ namespace rangex {
 namespace {
 // Rows of `fields` cells (or `fields_alt`, an older layout).
 std::vector<std::vector<std::string>> csv_rows(const std::string& text, size_t fields,
-                                               const char* what, size_t fields_alt = 0) {
+                                               const char* what, size_t fields_alt = 0,
+                                               size_t fields_alt2 = 0) {
   std::vector<std::vector<std::string>> rows;
   std::stringstream in(text);
   std::string line;
@@ -23,7 +24,7 @@ std::vector<std::vector<std::string>> csv_rows(const std::string& text, size_t f
     std::stringstream ls(line);
     std::string cell;
     while (std::getline(ls, cell, ',')) c.push_back(cell);
-    if (c.size() != fields && c.size() != fields_alt)
+    if (c.size() != fields && c.size() != fields_alt && c.size() != fields_alt2)
       fail("truth ", what, ": expected ", fields, " fields in '", line, "'");
     rows.push_back(std::move(c));
   }
@@ -37,10 +38,11 @@ int size_bin(double s) {
 
 std::vector<TruthFragment> parse_truth_fragments(const std::string& text, int lane) {
   std::vector<TruthFragment> out;
-  // fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification[,shape]
-  for (const auto& c : csv_rows(text, 9, "fragments.csv", 8))
+  // fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification[,shape[,volume_mm3]]
+  for (const auto& c : csv_rows(text, 10, "fragments.csv", 8, 9))
     out.push_back({lane, std::stoi(c[0]), c[1], std::stod(c[2]), std::stod(c[3]), std::stod(c[6]),
-                   std::stod(c[7]), c.size() > 8 ? c[8] : "compact", std::stod(c[5])});
+                   std::stod(c[7]), c.size() > 8 ? c[8] : "compact", std::stod(c[5]),
+                   c.size() > 9 ? std::stod(c[9]) : -1.0});
   return out;
 }
 
@@ -144,6 +146,7 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
     }
     if (sb >= 1 && cb == 1 && best > tol) {
       MissedFragment m{t.lane, t.fillet, t.shape, t.size_mm, t.calcification};
+      m.volume_mm3 = t.volume_mm3;
       if (edges) {
         m.meat_mm = edges->thickness_mm(t.x_mm, t.xray_line);
         m.edge_mm = edges->distance_mm(t.x_mm, t.xray_line);
@@ -225,8 +228,12 @@ std::string missed_lines(const DetectionEval& e) {
   std::string out;
   char b[256];
   for (const MissedFragment& m : e.missed) {
-    int k = std::snprintf(b, sizeof b, "lane %d fillet %d: %.1f mm %s, calcification %.2f", m.lane,
-                          m.fillet, m.size_mm, m.shape.c_str(), m.calcification);
+    int k = std::snprintf(b, sizeof b, "lane %d fillet %d: %.1f mm %s", m.lane, m.fillet, m.size_mm,
+                          m.shape.c_str());
+    if (m.volume_mm3 > 0)  // the bone it holds, as the sphere of its volume
+      k += std::snprintf(b + k, sizeof b - size_t(k), " (the volume of a %.1f mm sphere)",
+                         std::cbrt(6 * m.volume_mm3 / M_PI));
+    k += std::snprintf(b + k, sizeof b - size_t(k), ", calcification %.2f", m.calcification);
     // The edge is looked for within 5 mm (EdgeMap::distance_mm).
     char edge[16] = ">= 5";
     if (m.edge_mm < 5) std::snprintf(edge, sizeof edge, "%.1f", m.edge_mm);

@@ -16,6 +16,9 @@ struct TruthFragment {
   double x_mm = 0, b_mm = 0, size_mm = 0, calcification = 0;
   std::string shape = "compact";  // compact | needle | chip | rib | cluster
   double xray_line = 0;
+  // Its parts' volume (-1: a truth written before it was): a fragment's size is its longest
+  // extent, and a flat one holds the bone of a much smaller sphere.
+  double volume_mm3 = -1;
 };
 
 // The lane's true X-ray path thickness (truth/thickness.f32) with the geometry to find a
@@ -39,6 +42,7 @@ struct MissedFragment {
   int lane = 0, fillet = 0;
   std::string shape;
   double size_mm = 0, calcification = 0, meat_mm = -1, edge_mm = -1;
+  double volume_mm3 = -1;
 };
 
 struct TruthFillet {

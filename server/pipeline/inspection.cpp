@@ -319,7 +319,7 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
     std::vector<float> zc, zk;
     clip_bright(z.data(), use.data(), n, mk.clip, zc);
     for (size_t k = 0; k < mk.taps.size(); ++k) {
-      apply_kernel(zc.data(), use.data(), img.rows, img.cols, mk.taps[k], mk.radius, zk);
+      apply_kernel(zc.data(), use.data(), img.rows, img.cols, mk.taps[k], mk.radii[k], zk);
       unit_spread_by_thickness(zk, img.thickness.data(), use.data(), bins, 0.5 * mk.spreads[k]);
       for (size_t i = 0; i < n; ++i)
         if (std::isfinite(zk[i]) && !(stat[kStatRound][i] >= -zk[i])) stat[kStatRound][i] = -zk[i];

@@ -1,7 +1,9 @@
 #include "pipeline/lane_learning.h"
 
+#include <algorithm>
 #include <ctime>
 
+#include "core/error.h"
 #include "pipeline/inspection_steps.h"
 #include "pipeline/matched_kernels.h"
 
@@ -31,7 +33,17 @@ std::vector<SensitivityFillet> LearningSet::sensitivity_fillets() const {
 MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
                                   const InspectionParams& inspection) {
   if (inspection.matched_kernels_mm.empty() || images.empty()) return {};
-  TextureCovariance cov(8);
+  // Lags to twice the largest window's radius: the covariance over that window.
+  const FilletImage& first = images.front();
+  int radius = 0;
+  for (double d : inspection.matched_kernels_mm) {
+    const int r = kernel_radius(d, first.pitch_mm, first.step_mm);
+    if (r > kMaxKernelRadius)
+      fail("inspection.matched_kernels_mm: a ", d, " mm sphere needs a window of radius ", r,
+           " px on ", first.pitch_mm, " mm pixels; at most ", kMaxKernelRadius);
+    radius = std::max(radius, r);
+  }
+  TextureCovariance cov(2 * radius);
   InspectionParams plain = inspection;
   plain.learned = {};
   for (const FilletImage& img : images) {
@@ -43,7 +55,6 @@ MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
     cov.add(m.z.data(), m.use.data(), seen.rows, seen.cols);
   }
   if (cov.fillets() == 0) return {};
-  const FilletImage& first = images.front();
   return learn_matched_kernels(cov, inspection.matched_kernels_mm, first.pitch_mm, first.step_mm,
                                first.detector_sigma_px);
 }

@@ -173,20 +173,27 @@ double kernel_spread(const TextureCovariance& c, const std::vector<double>& taps
   return std::sqrt(std::max(0.0, q));
 }
 
+int kernel_radius(double d_mm, double pitch_mm, double step_mm) {
+  const double px = std::min(pitch_mm, step_mm);
+  if (!(d_mm > 0 && px > 0)) fail("matched kernels: a ", d_mm, " mm sphere on ", px, " mm pixels");
+  return std::max(kBaseKernelRadius, int(std::ceil(0.5 * d_mm / px - 1e-9)));
+}
+
 MatchedKernels learn_matched_kernels(const TextureCovariance& c,
                                      const std::vector<double>& sizes_mm, double pitch_mm,
                                      double step_mm, double blur_px) {
   MatchedKernels k;
-  k.radius = c.max_lag() / 2;
   k.clip = c.clip();  // inspection clips as the texture was measured
   for (double d : sizes_mm) {
-    if (!(d > 0 && d <= 2 * k.radius * std::min(pitch_mm, step_mm)))
-      fail("matched kernels: a ", d, " mm sphere does not fit a window of radius ", k.radius,
-           " px");
+    const int r = kernel_radius(d, pitch_mm, step_mm);
+    if (2 * r > c.max_lag())
+      fail("matched kernels: a ", d, " mm sphere needs a window of radius ", r,
+           " px, the texture was measured to lags of ", c.max_lag(), " px");
+    k.radius = std::max(k.radius, r);
     k.sizes_mm.push_back(d);
-    k.taps.push_back(
-        whitened_kernel(c, sphere_profile(d, pitch_mm, step_mm, k.radius, blur_px), k.radius));
-    k.spreads.push_back(kernel_spread(c, k.taps.back(), k.radius));
+    k.radii.push_back(r);
+    k.taps.push_back(whitened_kernel(c, sphere_profile(d, pitch_mm, step_mm, r, blur_px), r));
+    k.spreads.push_back(kernel_spread(c, k.taps.back(), r));
   }
   return k;
 }

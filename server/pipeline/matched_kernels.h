@@ -55,7 +55,12 @@ std::vector<double> whitened_kernel(const TextureCovariance& c, const std::vecto
 // sqrt(h' C h): the kernel's output spread on the texture of `c`.
 double kernel_spread(const TextureCovariance& c, const std::vector<double>& taps, int radius);
 
-// The bank for sizes_mm, learned from `c` (radius: c.max_lag() / 2), with each kernel's spread.
+// The window's radius for a d_mm sphere: the smallest that holds it, at least kBaseRadius.
+constexpr int kBaseKernelRadius = 4, kMaxKernelRadius = 8;
+int kernel_radius(double d_mm, double pitch_mm, double step_mm);
+
+// The bank for sizes_mm, learned from `c` (each kernel's radius: kernel_radius, at most
+// c.max_lag() / 2), with each kernel's spread.
 MatchedKernels learn_matched_kernels(const TextureCovariance& c,
                                      const std::vector<double>& sizes_mm, double pitch_mm,
                                      double step_mm, double blur_px);
