@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -111,17 +112,37 @@ std::vector<LaneFillets> from_replay(const std::vector<LaneReplay>& lanes) {
   return out;
 }
 
+// --keep 0:25,1:3: fillets a failed learning named that an operator checked and found
+// clean (lane:fillet, as the learning names them).
+std::vector<std::pair<int, int64_t>> checked_clean_fillets(const std::string& v) {
+  std::vector<std::pair<int, int64_t>> out;
+  std::stringstream list(v);
+  std::string item;
+  while (std::getline(list, item, ',')) {
+    const size_t colon = item.find(':');
+    char* end = nullptr;
+    const long lane = colon == std::string::npos ? -1 : std::strtol(item.c_str(), &end, 10);
+    const bool lane_ok = colon != std::string::npos && end == item.c_str() + colon && lane >= 0;
+    const long long id = lane_ok ? std::strtoll(item.c_str() + colon + 1, &end, 10) : -1;
+    if (!lane_ok || item.size() == colon + 1 || *end != '\0' || id < 0 || lane > 1000)
+      fail("--keep: expected LANE:FILLET (e.g. 0:25), got '", item, "'");
+    out.push_back({int(lane), int64_t(id)});
+  }
+  if (out.empty()) fail("--keep: expected LANE:FILLET,... (e.g. 0:25)");
+  return out;
+}
+
 }  // namespace
 
 int cmd_learn(int argc, char** argv) {
   const Args a(argc, argv, 2, {"force", "simulate"},
                {"out", "config", "target-frr", "confidence", "lanes", "calibration", "report",
                 "version", "bootstrap", "excess-ratio", "excess-per-mm", "min-fillets", "backend",
-                "device", "check", "fillets", "seed", "physics"});
+                "device", "check", "fillets", "seed", "physics", "keep"});
   const char* usage =
       "learn RECORDING --out PLANT.yaml [--config plant.yaml] [--target-frr 0.003] "
       "[--confidence 0.9] [--lanes 0,1] [--calibration F] [--report DIR] [--version NAME] "
-      "[--excess-ratio 2] [--check RECORDING] [--force]\n"
+      "[--excess-ratio 2] [--check RECORDING] [--keep LANE:FILLET,...] [--force]\n"
       "   or: learn --simulate --out PLANT.yaml [--lanes N] [--fillets M] [--seed S] "
       "[--physics F] (a clean simulated plant, in memory)";
   const bool simulate = a.flag("simulate");
@@ -139,6 +160,7 @@ int cmd_learn(int argc, char** argv) {
   LearnOptions lo;
   lo.bootstrap = int(number(a, "bootstrap", 100, 20, 10000));
   lo.min_fillets = int(number(a, "min-fillets", 30, 10, 100000));
+  if (a.has("keep")) lo.checked_clean = checked_clean_fillets(a.get("keep", ""));
   SensitivityOptions so;
   so.material.excess_ratio = number(a, "excess-ratio", so.material.excess_ratio, 0.05, 100);
   so.material.excess_per_mm = number(a, "excess-per-mm", 0, 0, 10);

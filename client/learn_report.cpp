@@ -69,6 +69,13 @@ std::string learn_summary_text(int lane, const ProductLearning& L, const Sensiti
       100 * L.learned.confidence);
   o << b;
   for (const std::string& p : L.problems) o << "  problem: " << p << "\n";
+  for (const FlaggedFillet& f : L.kept) {
+    std::snprintf(b, sizeof b,
+                  "  kept, checked clean: lane %d fillet %lld (belt %.0f mm), %s extreme %.1f in "
+                  "band %d: the thresholds rise over it\n",
+                  f.lane, (long long)f.id, f.y0_mm, statistic_name(f.stat), f.x, f.band);
+    o << b;
+  }
   const auto& e = L.learned.band_edges_mm;
   o << "  thickness band (mm):";
   for (size_t k = 0; k + 1 < e.size(); ++k) {

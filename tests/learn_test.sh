@@ -37,7 +37,7 @@ sed 's/^lane_defaults:$/lane_defaults:\n  inspection: {matched_kernels_mm: [1.5,
 learn --config mk_plant.yaml --out mk.yaml >mk.txt 2>&1
 check "learning with whitened kernels succeeds" test $? -eq 0
 check "the kernels travel with the learned settings" \
-  grep -q "matched: {radius: 4, clip: 3, sizes_mm: \[1.5, 2, 3\], spreads: \[" mk.yaml
+  grep -q "matched: {radius: 4, clip: 3, sizes_mm: \[1.5, 2, 3\], radii: \[4, 4, 4\], spreads: \[" mk.yaml
 learn --config mk_plant.yaml --out mk_again.yaml >/dev/null 2>&1
 check "they are learned exactly again with fixed seeds" diff -q mk.yaml mk_again.yaml
 "$ctl" process clean --config mk.yaml --out mk_out --images none >/dev/null 2>&1
@@ -51,6 +51,17 @@ cat boned.txt
 check "a learning run with bone fails (exit 2)" test $rc -eq 2
 check "it names the fillets" grep -q "fillet [0-9]* (belt [0-9]* mm) holds something like bone" boned.txt
 check "and writes no configuration" test ! -e boned.yaml
+# The fillets it named, checked by an operator and kept in (--keep lane:fillet): the
+# learning holds them as product and says so.
+keep=$(grep -o "lane [0-9]* fillet [0-9]* (belt" boned.txt | awk '{printf "%s%s:%s", (NR > 1 ? "," : ""), $2, $4}')
+"$ctl" learn boned --min-fillets 10 --bootstrap 20 --out kept.yaml --keep "$keep" >kept.txt 2>&1
+rc=$?
+cat kept.txt
+check "with the named fillets kept ($keep) the learning holds (exit 0)" test $rc -eq 0
+check "and says which it kept" grep -q "kept, checked clean: lane 0 fillet" kept.txt
+check "the report lists them" python3 -c "import json,sys; l=json.load(open('kept.report/learn.json'))['lanes'][0]; sys.exit(0 if len(l['kept_checked_clean']) == len('$keep'.split(',')) and 'flagged_fillets' not in l else 1)"
+out=$("$ctl" learn boned --out x.yaml --keep 0-3 2>&1); rc=$?
+check "a fillet named badly is refused naming the option" bash -c "[ $rc -eq 1 ] && grep -q -- '--keep: expected LANE:FILLET' <<<'$out'"
 
 out=$("$ctl" learn clean --out x.yaml --target-frr 2 2>&1); rc=$?
 check "a budget beyond range is refused naming it" bash -c "[ $rc -eq 1 ] && grep -q -- '--target-frr must be' <<<'$out'"

@@ -197,6 +197,43 @@ TEST(ProductLearning, ALearningRunWithBoneFailsNamingTheFillets) {
   EXPECT_EQ(L.fillets, 38);
 }
 
+TEST(ProductLearning, AFilletCheckedCleanIsKeptAndTheThresholdsRiseOverIt) {
+  // The run above, with fillet 7 looked at by an operator and found clean (cartilage, say).
+  auto fs = clean_fillets(truth_model(), 40, 2);
+  fs[7].extremes[0].x = 30;
+  fs[23].extremes[4].x = 25;
+  LearnOptions o;
+  o.bootstrap = 20;
+  const ProductLearning without = learn_product(fs, o);
+  o.checked_clean = {{0, 7}};
+  const ProductLearning L = learn_product(fs, o);
+  EXPECT_FALSE(L.ok);  // fillet 23 still holds something like bone
+  ASSERT_EQ(L.flagged.size(), 1u);
+  EXPECT_EQ(L.flagged[0].id, 23);
+  ASSERT_EQ(L.kept.size(), 1u);
+  EXPECT_EQ(L.kept[0].id, 7);
+  EXPECT_DOUBLE_EQ(L.kept[0].x, 30);
+  EXPECT_EQ(L.fillets, 39);
+  // Its extreme is now the product's: the round thresholds rise over it.
+  EXPECT_GT(L.learned.stats[kStatRound].thresholds[0],
+            without.learned.stats[kStatRound].thresholds[0]);
+  o.checked_clean = {{0, 7}, {0, 23}};
+  const ProductLearning both = learn_product(fs, o);
+  EXPECT_TRUE(both.ok) << (both.problems.empty() ? "" : both.problems[0]);
+  EXPECT_TRUE(both.flagged.empty());
+  EXPECT_EQ(both.kept.size(), 2u);
+  EXPECT_EQ(both.fillets, 40);
+  // A fillet named that the run does not hold fails the learning, naming it.
+  o.checked_clean = {{0, 7}, {2, 7}};
+  const ProductLearning wrong = learn_product(fs, o);
+  EXPECT_FALSE(wrong.ok);
+  bool named = false;
+  for (const auto& p : wrong.problems)
+    named = named || p.find("lane 2 fillet 7, checked clean, is not in the learning run") !=
+                         std::string::npos;
+  EXPECT_TRUE(named);
+}
+
 TEST(ProductLearning, TooFewFilletsFails) {
   LearnOptions o;
   o.bootstrap = 20;

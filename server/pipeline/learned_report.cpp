@@ -33,15 +33,19 @@ std::string learned_report_json(int lane, const ProductLearning& L, const Sensit
                       {"target_frr", L.learned.target_frr},
                       {"confidence", L.learned.confidence},
                       {"band_edges_mm", L.learned.band_edges_mm}};
-  for (const FlaggedFillet& f : L.flagged)
-    j["flagged_fillets"].push_back({{"lane", f.lane},
-                                    {"fillet", f.id},
-                                    {"belt_mm", f.y0_mm},
-                                    {"statistic", statistic_name(f.stat)},
-                                    {"band", f.band},
-                                    {"extreme", f.x},
-                                    {"log10_probability", f.log10_survival},
-                                    {"robust_deviations", f.robust_z}});
+  auto fillet_json = [](const FlaggedFillet& f) {
+    return nlohmann::json{{"lane", f.lane},
+                          {"fillet", f.id},
+                          {"belt_mm", f.y0_mm},
+                          {"statistic", statistic_name(f.stat)},
+                          {"band", f.band},
+                          {"extreme", f.x},
+                          {"log10_probability", f.log10_survival},
+                          {"robust_deviations", f.robust_z}};
+  };
+  for (const FlaggedFillet& f : L.flagged) j["flagged_fillets"].push_back(fillet_json(f));
+  // Fillets that stood out as the flagged ones do, kept in because they were checked clean.
+  for (const FlaggedFillet& f : L.kept) j["kept_checked_clean"].push_back(fillet_json(f));
   for (int k = 0; k < kStatistics; ++k) {
     const StatisticLearning& st = L.stats[size_t(k)];
     const LearnedStatistic& ls = L.learned.stats[size_t(k)];

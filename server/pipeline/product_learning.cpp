@@ -126,6 +126,15 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
   std::vector<const LearningFillet*> use;
   for (const auto& f : all)
     if (!f.extremes.empty()) use.push_back(&f);
+  auto checked = [&](const LearningFillet& f) {
+    return std::find(opt.checked_clean.begin(), opt.checked_clean.end(),
+                     std::pair<int, int64_t>{f.lane, f.id}) != opt.checked_clean.end();
+  };
+  for (const auto& [lane, id] : opt.checked_clean)
+    if (std::none_of(all.begin(), all.end(),
+                     [&](const LearningFillet& f) { return f.lane == lane && f.id == id; }))
+      r.problems.push_back("lane " + std::to_string(lane) + " fillet " + std::to_string(id) +
+                           ", checked clean, is not in the learning run");
   auto fit_stat = [&](const std::vector<const LearningFillet*>& fs, int s) -> GevFit {
     const auto smp = samples_of(fs, s);
     if (smp.size() < 10) return {};
@@ -161,38 +170,45 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
         const double z = (e.x - it->second.first) / it->second.second;
         if (z > worst_z) worst_z = z, worst.stat = e.stat, worst.band = e.band, worst.x = e.x;
       }
-      if (worst_z > opt.gross_mads) {
+      const bool stands_out = worst_z > opt.gross_mads;
+      if (stands_out) {
         worst.robust_z = worst_z;
-        r.flagged.push_back(worst);
-      } else {
-        rest.push_back(f);
+        (checked(*f) ? r.kept : r.flagged).push_back(worst);
       }
+      if (!stands_out || checked(*f)) rest.push_back(f);
     }
     use = rest;
   }
+  // Bonferroni over every band extreme of the rejecting statistics that could have stood out.
+  auto outlier_limit = [&] {
+    size_t tested = 0;
+    for (const LearningFillet* f : use)
+      for (const BandExtreme& e : f->extremes) tested += rejecting(e.stat);
+    return std::log10(opt.outlier_alpha / double(std::max<size_t>(1, tested)));
+  };
+  // use[i] judged by the model fitted without it; `rest` gets the others.
+  auto judged_without = [&](size_t i, std::vector<const LearningFillet*>& rest) {
+    rest.clear();
+    for (size_t j = 0; j < use.size(); ++j)
+      if (j != i) rest.push_back(use[j]);
+    std::array<GevModel, kStatistics> without;
+    for (int s = 0; s < kStatistics; ++s)
+      if (rejecting(s)) without[size_t(s)] = fit_stat(rest, s).model;
+    return worst_of(*use[i], without);
+  };
   for (int round = 0; round < 8 && int(use.size()) >= 10; ++round) {
     std::array<GevModel, kStatistics> model;
     for (int s = 0; s < kStatistics; ++s)
       if (rejecting(s)) model[size_t(s)] = fit_stat(use, s).model;
     std::vector<std::pair<double, size_t>> order;
     for (size_t i = 0; i < use.size(); ++i)
-      order.push_back({worst_of(*use[i], model).log10_survival, i});
+      if (!checked(*use[i])) order.push_back({worst_of(*use[i], model).log10_survival, i});
     std::sort(order.begin(), order.end());
-    // Bonferroni over every band extreme of the rejecting statistics that could have stood out.
-    size_t tested = 0;
-    for (const LearningFillet* f : use)
-      for (const BandExtreme& e : f->extremes) tested += rejecting(e.stat);
-    const double limit = std::log10(opt.outlier_alpha / double(std::max<size_t>(1, tested)));
+    const double limit = outlier_limit();
     bool removed = false;
+    std::vector<const LearningFillet*> rest;
     for (size_t c = 0; c < std::min<size_t>(3, order.size()) && !removed; ++c) {
-      const size_t i = order[c].second;
-      std::vector<const LearningFillet*> rest;
-      for (size_t j = 0; j < use.size(); ++j)
-        if (j != i) rest.push_back(use[j]);
-      std::array<GevModel, kStatistics> without;
-      for (int s = 0; s < kStatistics; ++s)
-        if (rejecting(s)) without[size_t(s)] = fit_stat(rest, s).model;
-      const FlaggedFillet w = worst_of(*use[i], without);
+      const FlaggedFillet w = judged_without(order[c].second, rest);
       if (w.log10_survival < limit) {
         r.flagged.push_back(w);
         use = rest;
@@ -200,6 +216,19 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
       }
     }
     if (!removed) break;
+  }
+  // The checked fillets the model would have named: kept, and said so.
+  if (!opt.checked_clean.empty() && int(use.size()) >= 10) {
+    const double limit = outlier_limit();
+    std::vector<const LearningFillet*> rest;
+    for (size_t i = 0; i < use.size(); ++i) {
+      const bool said = std::any_of(r.kept.begin(), r.kept.end(), [&](const FlaggedFillet& k) {
+        return k.lane == use[i]->lane && k.id == use[i]->id;
+      });
+      if (!checked(*use[i]) || said) continue;
+      const FlaggedFillet w = judged_without(i, rest);
+      if (w.log10_survival < limit) r.kept.push_back(w);
+    }
   }
   r.fillets = int(use.size());
   if (r.fillets < opt.min_fillets)

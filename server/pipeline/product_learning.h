@@ -39,6 +39,10 @@ struct LearnOptions {
   // Before that, a gross-error screen: an extreme this many robust deviations above the
   // other fillets' in its band (bone stands 30-100 above clean meat's 3-10).
   double gross_mads = 20;
+  // Fillets (lane, id) that the learning named and an operator checked and found clean
+  // (cartilage, say, which one energy takes for bone): kept in, never flagged. Their product
+  // is the plant's, so the thresholds rise over them.
+  std::vector<std::pair<int, int64_t>> checked_clean;
 };
 
 struct FlaggedFillet {
@@ -71,6 +75,7 @@ struct ProductLearning {
   std::vector<std::string> problems;  // why it cannot be activated (empty when ok)
   int fillets = 0;                    // clean fillets used
   std::vector<FlaggedFillet> flagged;
+  std::vector<FlaggedFillet> kept;  // would have been flagged; checked clean (checked_clean)
   std::array<StatisticLearning, kStatistics> stats;
   LearnedDetection learned;  // version and learned_on are the caller's
 };
