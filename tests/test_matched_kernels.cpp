@@ -193,12 +193,12 @@ TEST(MatchedKernels, LearnedKernelsTravelWithTheLearnedSettingsAndBadOnesAreRefu
     s.thresholds = {6}, s.band_fraction = {1}, s.band_pixels = {5000}, s.band_thickness_mm = {6};
   L.matched = learn_matched_kernels(c, {1.5, 2.0, 5.0}, 0.4, 0.4, 0.5);
   ASSERT_EQ(L.matched.taps.size(), 3u);
-  EXPECT_EQ(L.matched.radius, 7);
+  EXPECT_EQ(L.matched.radius(), 7);
   EXPECT_EQ(L.matched.radii, (std::vector<int>{4, 4, 7}));
   ASSERT_EQ(L.matched.taps[0].size(), 81u);
   ASSERT_EQ(L.matched.taps[2].size(), 225u);
   const LearnedDetection back = parse_learned_detection(learned_detection_yaml(L), "test");
-  EXPECT_EQ(back.matched.radius, 7);
+  EXPECT_EQ(back.matched.radius(), 7);
   EXPECT_EQ(back.matched.radii, L.matched.radii);
   EXPECT_EQ(back.matched.sizes_mm, L.matched.sizes_mm);
   ASSERT_EQ(back.matched.spreads.size(), 3u);

@@ -4,6 +4,7 @@
 // per-fillet false-reject budget with a stated confidence. Empty (no bands): the fixed
 // z thresholds of InspectionParams apply.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <string>
 #include <vector>
@@ -31,7 +32,6 @@ struct LearnedStatistic {
 // Gaussian's. Each kernel is C^-1 s over a (2 radius + 1)^2 window: s a calcified sphere's
 // profile of sizes_mm[k], C the covariance of the learning fillets' z.
 struct MatchedKernels {
-  int radius = 0;  // the largest window's; the covariance was measured to twice it
   std::vector<double> sizes_mm;
   // Per size: its window's radius (the smallest, at least the bank's base of 4 px, that holds
   // the sphere: a large fragment seen through a small window shows only its rim) and its taps,
@@ -46,6 +46,8 @@ struct MatchedKernels {
   // a bright speck (fat, air) seen by a kernel's negative flank would look like bone.
   double clip = 3;
   bool empty() const { return taps.empty(); }
+  // The largest window's radius; the covariance was measured to twice it.
+  int radius() const { return radii.empty() ? 0 : *std::max_element(radii.begin(), radii.end()); }
 };
 
 struct LearnedDetection {

@@ -225,8 +225,9 @@ void read_matched(const Node& n, MatchedKernels& k) {
   n.only_keys({"radius", "radii", "clip", "sizes_mm", "spreads", "taps"});
   if (!n.has("radius") || !n.has("sizes_mm") || !n.has("spreads") || !n.has("taps"))
     n.bad("expected radius, sizes_mm, spreads and taps");
-  n.get("radius", k.radius);
-  if (k.radius < 1 || k.radius > 8) n.at("radius").bad("must be within 1..8 pixels");
+  int radius = 0;
+  n.get("radius", radius);
+  if (radius < 1 || radius > 8) n.at("radius").bad("must be within 1..8 pixels");
   n.get("clip", k.clip);
   if (!(k.clip > 0 && k.clip <= 100)) n.at("clip").bad("must be within (0, 100] spreads");
   k.sizes_mm = number_list(n.at("sizes_mm"), 0);
@@ -239,13 +240,12 @@ void read_matched(const Node& n, MatchedKernels& k) {
   // Each kernel's window (radii; a file without them has one window, radius, for all).
   if (n.has("radii")) {
     for (double r : number_list(n.at("radii"), k.sizes_mm.size())) {
-      if (!(r >= 1 && r <= k.radius && r == std::floor(r)))
-        n.at("radii").bad("must be whole pixels within 1.." + std::to_string(k.radius) +
-                          " (radius)");
+      if (!(r >= 1 && r <= radius && r == std::floor(r)))
+        n.at("radii").bad("must be whole pixels within 1.." + std::to_string(radius) + " (radius)");
       k.radii.push_back(int(r));
     }
   } else {
-    k.radii.assign(k.sizes_mm.size(), k.radius);
+    k.radii.assign(k.sizes_mm.size(), radius);
   }
   for (size_t i = 0; i < t.node.size(); ++i) {
     const size_t w = size_t(2 * k.radii[i] + 1);
@@ -913,7 +913,7 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
     o << (i ? ", " : "") << yaml_string(L.sensitivity[i]);
   o << "]";
   if (!L.matched.empty()) {
-    o << "\nmatched:\n  radius: " << L.matched.radius << "\n  clip: " << L.matched.clip
+    o << "\nmatched:\n  radius: " << L.matched.radius() << "\n  clip: " << L.matched.clip
       << "\n  sizes_mm: ";
     list(L.matched.sizes_mm);
     o << "\n  radii: [";

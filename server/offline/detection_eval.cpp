@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
 #include <sstream>
 
 #include "core/error.h"
@@ -10,10 +11,10 @@
 namespace rangex {
 
 namespace {
-// Rows of `fields` cells (or `fields_alt`, an older layout).
-std::vector<std::vector<std::string>> csv_rows(const std::string& text, size_t fields,
-                                               const char* what, size_t fields_alt = 0,
-                                               size_t fields_alt2 = 0) {
+// Rows of one of `fields` cells each (the current layout first, then older ones).
+std::vector<std::vector<std::string>> csv_rows(const std::string& text,
+                                               std::initializer_list<size_t> fields,
+                                               const char* what) {
   std::vector<std::vector<std::string>> rows;
   std::stringstream in(text);
   std::string line;
@@ -24,8 +25,8 @@ std::vector<std::vector<std::string>> csv_rows(const std::string& text, size_t f
     std::stringstream ls(line);
     std::string cell;
     while (std::getline(ls, cell, ',')) c.push_back(cell);
-    if (c.size() != fields && c.size() != fields_alt && c.size() != fields_alt2)
-      fail("truth ", what, ": expected ", fields, " fields in '", line, "'");
+    if (std::find(fields.begin(), fields.end(), c.size()) == fields.end())
+      fail("truth ", what, ": expected ", *fields.begin(), " fields in '", line, "'");
     rows.push_back(std::move(c));
   }
   return rows;
@@ -39,7 +40,7 @@ int size_bin(double s) {
 std::vector<TruthFragment> parse_truth_fragments(const std::string& text, int lane) {
   std::vector<TruthFragment> out;
   // fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification[,shape[,volume_mm3]]
-  for (const auto& c : csv_rows(text, 10, "fragments.csv", 8, 9))
+  for (const auto& c : csv_rows(text, {10, 8, 9}, "fragments.csv"))
     out.push_back({lane, std::stoi(c[0]), c[1], std::stod(c[2]), std::stod(c[3]), std::stod(c[6]),
                    std::stod(c[7]), c.size() > 8 ? c[8] : "compact", std::stod(c[5]),
                    c.size() > 9 ? std::stod(c[9]) : -1.0});
@@ -48,7 +49,7 @@ std::vector<TruthFragment> parse_truth_fragments(const std::string& text, int la
 
 std::vector<TruthFillet> parse_truth_fillets(const std::string& text, int lane) {
   std::vector<TruthFillet> out;
-  for (const auto& c : csv_rows(text, 6, "fillets.csv"))
+  for (const auto& c : csv_rows(text, {6}, "fillets.csv"))
     out.push_back({lane, std::stoi(c[0]), std::stod(c[2]), std::stod(c[3]), std::stoi(c[5])});
   return out;
 }

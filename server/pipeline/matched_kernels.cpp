@@ -189,7 +189,6 @@ MatchedKernels learn_matched_kernels(const TextureCovariance& c,
     if (2 * r > c.max_lag())
       fail("matched kernels: a ", d, " mm sphere needs a window of radius ", r,
            " px, the texture was measured to lags of ", c.max_lag(), " px");
-    k.radius = std::max(k.radius, r);
     k.sizes_mm.push_back(d);
     k.radii.push_back(r);
     k.taps.push_back(whitened_kernel(c, sphere_profile(d, pitch_mm, step_mm, r, blur_px), r));

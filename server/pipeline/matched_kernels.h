@@ -55,7 +55,7 @@ std::vector<double> whitened_kernel(const TextureCovariance& c, const std::vecto
 // sqrt(h' C h): the kernel's output spread on the texture of `c`.
 double kernel_spread(const TextureCovariance& c, const std::vector<double>& taps, int radius);
 
-// The window's radius for a d_mm sphere: the smallest that holds it, at least kBaseRadius.
+// The window's radius for a d_mm sphere: the smallest that holds it, at least kBaseKernelRadius.
 constexpr int kBaseKernelRadius = 4, kMaxKernelRadius = 8;
 int kernel_radius(double d_mm, double pitch_mm, double step_mm);
 
