@@ -23,12 +23,15 @@
 #include "calib/lane_calibration_file.h"
 #include "commands.h"
 #include "core/error.h"
+#include "core/learned_detection.h"
 #include "core/recording.h"
 #include "core/text_file.h"
 #include "eval_steps.h"
 #include "offline/detection_eval.h"
 #include "offline/evaluation.h"
 #include "offline/fillet_records.h"
+#include "offline/miss_margin.h"
+#include "offline/replay.h"
 
 namespace fs = std::filesystem;
 
@@ -160,6 +163,19 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
     const fs::path ll = dir / "out_learned" / ("lane" + std::to_string(lane));
     add_lane(r.learned, frags, truth, read_records(ll.string(), ""), &edges);
     finish(r.learned);
+    // What finding each miss would cost: its fillet inspected again with the learned
+    // thresholds scaled down (offline/miss_margin.h), on the plant's recording replayed as
+    // the learned run was.
+    if (!r.learned.missed.empty()) {
+      PlantConfig lp = load_plant_config(at("learned.yaml"));
+      apply_calibration_option(lp, cal);
+      ReplayOptions ro;
+      ro.keep_images = true, ro.baseline = false, ro.recalibrated = true;
+      ro.lanes = {lane};
+      const auto replayed = replay_recording(rec, lp, ro);
+      for (const LaneReplay& l : replayed)
+        measure_miss_margins(r.learned, l.lane, l.fillets, lp.lane(l.lane).inspection);
+    }
     const auto j =
         nlohmann::json::parse(read_text_file((dir / "learned.report" / "learn.json").string()));
     for (const auto& l : j.at("lanes")) {
@@ -322,7 +338,9 @@ std::string json(const std::vector<Row>& rows) {
         os << (q ? ", " : "") << "{\"fillet\": " << m.fillet << ", \"shape\": \"" << m.shape
            << "\", \"size_mm\": " << m.size_mm << ", \"calcification\": " << m.calcification
            << ", \"volume_mm3\": " << m.volume_mm3 << ", \"meat_mm\": " << m.meat_mm
-           << ", \"edge_mm\": " << m.edge_mm << "}";
+           << ", \"edge_mm\": " << m.edge_mm << ", \"found_at\": " << m.found_at
+           << ", \"frr_at\": " << m.frr_at << ", \"margin_statistic\": \""
+           << (m.margin_stat >= 0 ? statistic_name(m.margin_stat) : "every") << "\"}";
       }
       os << "]}";
     }

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/learned_detection.h"
 
 namespace rangex {
 
@@ -148,6 +149,7 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
     if (sb >= 1 && cb == 1 && best > tol) {
       MissedFragment m{t.lane, t.fillet, t.shape, t.size_mm, t.calcification};
       m.volume_mm3 = t.volume_mm3;
+      m.x_mm = t.x_mm, m.b_mm = t.b_mm, m.tol_mm = tol;
       if (edges) {
         m.meat_mm = edges->thickness_mm(t.x_mm, t.xray_line);
         m.edge_mm = edges->distance_mm(t.x_mm, t.xray_line);
@@ -225,6 +227,30 @@ MissPlace miss_place(const MissedFragment& m) {
 }
 }  // namespace
 
+namespace {
+// What finding it would cost, when it was measured.
+std::string margin_text(const MissedFragment& m) {
+  char b[200] = "", rate[80] = "";
+  const std::string which =
+      m.margin_stat >= 0 ? statistic_name(m.margin_stat) + std::string(" ") : "";
+  // The models' rate is a sum over bands and statistics: a bound that passes 1 where the
+  // thresholds sink into clean meat's extremes.
+  if (m.frr_at >= 0.5)
+    std::snprintf(rate, sizeof rate,
+                  ", where the learned models imply most clean fillets rejected");
+  else if (m.frr_at >= 0)
+    std::snprintf(rate, sizeof rate, ", where the learned models imply %.2f %% false rejects",
+                  100 * m.frr_at);
+  if (m.found_at > 0)
+    std::snprintf(b, sizeof b, "; found at %.2f of the %sthresholds%s", m.found_at, which.c_str(),
+                  rate);
+  else if (m.found_at == 0)
+    std::snprintf(b, sizeof b, "; not found at any fraction of the thresholds down to %.2f",
+                  m.margin_floor);
+  return b;
+}
+}  // namespace
+
 std::string missed_lines(const DetectionEval& e) {
   std::string out;
   char b[256];
@@ -239,9 +265,9 @@ std::string missed_lines(const DetectionEval& e) {
     char edge[16] = ">= 5";
     if (m.edge_mm < 5) std::snprintf(edge, sizeof edge, "%.1f", m.edge_mm);
     if (m.meat_mm >= 0)
-      std::snprintf(b + k, sizeof b - size_t(k), ", under %.1f mm of meat, %s mm from the edge",
-                    m.meat_mm, edge);
-    out += std::string(b) + "\n";
+      k += std::snprintf(b + k, sizeof b - size_t(k),
+                         ", under %.1f mm of meat, %s mm from the edge", m.meat_mm, edge);
+    out += std::string(b) + margin_text(m) + "\n";
   }
   return out;
 }

@@ -43,6 +43,13 @@ struct MissedFragment {
   std::string shape;
   double size_mm = 0, calcification = 0, meat_mm = -1, edge_mm = -1;
   double volume_mm3 = -1;
+  double x_mm = 0, b_mm = 0, tol_mm = 2;  // where it lies, and the matching's tolerance
+  // What finding it would cost (offline/miss_margin.h), when measured: the largest fraction
+  // of the rejecting thresholds at which inspection finds it (0: not down to the floor; -1:
+  // not measured) and the false-reject rate the learned models imply there (-1: unknown).
+  double found_at = -1, frr_at = -1;
+  int margin_stat = -1;     // the statistic whose thresholds were lowered (-1: every rejecting one)
+  double margin_floor = 0;  // the lowest fraction tried
 };
 
 struct TruthFillet {
@@ -90,8 +97,9 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
 void finish(DetectionEval& e);
 
 // The misses, one line each ("lane 2 fillet 25: 2.2 mm compact, calcification 0.90, under
-// 20.8 mm of meat, 5.0 mm from the edge"), and a summary by where they lie ("3 under 25 mm of
-// meat or more, 1 within 3 mm of the edge, 0 elsewhere").
+// 20.8 mm of meat, 5.0 mm from the edge", and where measured "; found at 0.76 of the
+// round thresholds, where the learned models imply 0.46 % false rejects"), and a summary by where
+// they lie ("3 under 25 mm of meat or more, 1 within 3 mm of the edge, 0 elsewhere").
 std::string missed_lines(const DetectionEval& e);
 std::string missed_summary(const DetectionEval& e);
 
