@@ -6,6 +6,7 @@
 // is measured with test pieces injected into the same fillets (pipeline/sensitivity.h).
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -132,17 +133,93 @@ std::vector<std::pair<int, int64_t>> checked_clean_fillets(const std::string& v)
   return out;
 }
 
+// --tradeoff 0.001,0.01: false-reject targets beside the lane's, each a fraction in (0, 0.5).
+std::vector<double> tradeoff_targets(const std::string& v) {
+  std::vector<double> out;
+  std::stringstream list(v);
+  std::string item;
+  while (std::getline(list, item, ',')) {
+    char* end = nullptr;
+    const double t = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !(t > 0 && t < 0.5))
+      fail(
+          "--tradeoff: expected false-reject targets in (0, 0.5) separated by commas (e.g. "
+          "0.001,0.01), got '",
+          item, "'");
+    out.push_back(t);
+  }
+  if (out.empty() || out.size() > 8) fail("--tradeoff: 1 to 8 targets (e.g. 0.001,0.01)");
+  return out;
+}
+
+// "round thresholds 6.1-12.0": a statistic's lowest and highest over the bands.
+std::string threshold_range(const LearnedDetection& L, int stat) {
+  const auto& t = L.stats[size_t(stat)].thresholds;
+  if (t.empty()) return "-";
+  char b[48];
+  std::snprintf(b, sizeof b, "%.1f-%.1f", *std::min_element(t.begin(), t.end()),
+                *std::max_element(t.begin(), t.end()));
+  return b;
+}
+
+// The sphere claimed at 95 % in each band ("1.5 1.5 2.0 2.5 3.0 - - -"; "-": none).
+std::string spheres_by_band(const SensitivityResult& s) {
+  const int bands = std::max(0, int(s.band_edges_mm.size()) - 1);
+  std::string out;
+  for (int b = 0; b < bands; ++b) {
+    char v[16] = "-";
+    for (const SensitivityClaim& c : s.claims)
+      if (c.shape == TestPiece::kSphere && c.band == b)
+        std::snprintf(v, sizeof v, "%.1f", c.size_mm);
+    out += (b ? " " : "") + std::string(v);
+  }
+  return out;
+}
+
+// The learned target and each other one, a line each: what it implies, its thresholds and
+// what they buy.
+std::string tradeoff_text(const LaneLearning& l, const std::vector<TradeoffPoint>& points) {
+  struct Row {
+    double target, implied;
+    const LearnedDetection* learned;
+    const SensitivityResult* sensitivity;
+  };
+  std::vector<Row> rows;
+  const LearnedDetection& L = l.learning.learned;
+  rows.push_back({L.target_frr, implied_false_reject_rate(L), &L, &l.sensitivity});
+  for (const TradeoffPoint& t : points)
+    rows.push_back({t.target_frr, t.implied_frr, &t.learned, &t.sensitivity});
+  std::sort(rows.begin(), rows.end(),
+            [](const Row& a, const Row& b) { return a.target < b.target; });
+  std::string out =
+      "  what each false-reject target buys (the same fillets and test pieces; the sphere "
+      "claimed at 95 % by band, mm):\n";
+  for (const Row& r : rows) {
+    char b[160];
+    std::snprintf(
+        b, sizeof b, "    %5.2f %% (implied %.3f %%; round %s, needle %s)%s: ", 100 * r.target,
+        100 * r.implied, threshold_range(*r.learned, kStatRound).c_str(),
+        threshold_range(*r.learned, kStatNeedle).c_str(), r.learned == &L ? ", learned" : "");
+    std::string line = b + spheres_by_band(*r.sensitivity);
+    for (const std::string& k : r.sensitivity->summary) line += "\n      " + k;
+    out += line + "\n";
+  }
+  return out;
+}
+
 }  // namespace
 
 int cmd_learn(int argc, char** argv) {
   const Args a(argc, argv, 2, {"force", "simulate"},
-               {"out", "config", "target-frr", "confidence", "lanes", "calibration", "report",
-                "version", "bootstrap", "excess-ratio", "excess-per-mm", "min-fillets", "backend",
-                "device", "check", "fillets", "seed", "physics", "keep"});
+               {"out",           "config",      "target-frr", "confidence", "lanes",
+                "calibration",   "report",      "version",    "bootstrap",  "excess-ratio",
+                "excess-per-mm", "min-fillets", "backend",    "device",     "check",
+                "fillets",       "seed",        "physics",    "keep",       "tradeoff"});
   const char* usage =
       "learn RECORDING --out PLANT.yaml [--config plant.yaml] [--target-frr 0.003] "
       "[--confidence 0.9] [--lanes 0,1] [--calibration F] [--report DIR] [--version NAME] "
-      "[--excess-ratio 2] [--check RECORDING] [--keep LANE:FILLET,...] [--force]\n"
+      "[--excess-ratio 2] [--check RECORDING] [--keep LANE:FILLET,...] [--tradeoff 0.001,0.01] "
+      "[--force]\n"
       "   or: learn --simulate --out PLANT.yaml [--lanes N] [--fillets M] [--seed S] "
       "[--physics F] (a clean simulated plant, in memory)";
   const bool simulate = a.flag("simulate");
@@ -161,6 +238,8 @@ int cmd_learn(int argc, char** argv) {
   lo.bootstrap = int(number(a, "bootstrap", 100, 20, 10000));
   lo.min_fillets = int(number(a, "min-fillets", 30, 10, 100000));
   if (a.has("keep")) lo.checked_clean = checked_clean_fillets(a.get("keep", ""));
+  const std::vector<double> tradeoff =
+      a.has("tradeoff") ? tradeoff_targets(a.get("tradeoff", "")) : std::vector<double>{};
   SensitivityOptions so;
   so.material.excess_ratio = number(a, "excess-ratio", so.material.excess_ratio, 0.05, 100);
   so.material.excess_per_mm = number(a, "excess-per-mm", 0, 0, 10);
@@ -247,9 +326,20 @@ int cmd_learn(int argc, char** argv) {
                     k.injected, k.injected ? 100.0 * k.found / k.injected : 0.0,
                     k.held ? "held" : "NOT held");
     }
+    // What other false-reject targets would buy on the same fillets and test pieces.
+    std::vector<TradeoffPoint> points;
+    for (double t : tradeoff) {
+      char what[64];
+      std::snprintf(what, sizeof what, "sensitivity at %.2f %%", 100 * t);
+      ProgressBar tbar(what);
+      points.push_back(
+          learn_tradeoff(r.set, ll, lo, so, t, [&](int d, int n) { tbar.update(d, n); }));
+    }
+    if (!points.empty()) lane_json["tradeoff"] = nlohmann::json::parse(tradeoff_json(points));
     report["lanes"].push_back(lane_json);
     write_learn_plots(report_dir, r.lane, L, sens);
     std::printf("%s", learn_summary_text(r.lane, L, sens).c_str());
+    if (!points.empty()) std::printf("%s", tradeoff_text(ll, points).c_str());
     all_ok = all_ok && L.ok;
     learned.push_back({r.lane, L.learned});
   }

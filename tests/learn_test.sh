@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # rangexctl learn through its command line: a lane learned from a recording of
 # clean product writes a plant configuration that process uses as is, with its report;
-# the same run learns the same thresholds again (fixed seeds), with whitened kernels too; a
+# the same run learns the same thresholds again (fixed seeds), with whitened kernels too; what
+# other false-reject targets would buy (thresholds, test pieces found) moves one way; a
 # learning run that holds bone is refused and names the fillets; bad options name themselves.
 set -u
 ctl="$1"
@@ -28,6 +29,28 @@ check "every claim stands on its detection curve's lower bound and on the rate f
 check "large spheres are found in every band they were put in" py "all(c['found'] >= 0.9 * c['injected'] for c in l['sensitivity']['cells'] if c['shape'] == 'sphere' and c['size_mm'] >= 4)"
 learn --out again.yaml >/dev/null 2>&1
 check "learning is exact with fixed seeds" diff -q learned.yaml again.yaml
+# What other false-reject targets buy, on the same fillets and test pieces.
+learn --out to.yaml --tradeoff 0.001,0.03 >to.txt 2>&1
+rc=$?
+sed -n '/what each false-reject target buys/,$p' to.txt
+check "learning with a trade-off succeeds" test $rc -eq 0
+check "it learns the lane's own target as before" diff -q learned.yaml to.yaml
+check "the output says what each target buys" grep -q "what each false-reject target buys" to.txt
+pt() { python3 -c "
+import json, sys
+l = json.load(open('to.report/learn.json'))['lanes'][0]
+p = {x['target_frr']: x for x in l['tradeoff']}
+p[0.003] = {'cells': l['sensitivity']['cells'], 'implied_frr': l['statistics']['round']['implied_frr'] + l['statistics']['needle']['implied_frr'],
+            'thresholds': {s: l['statistics'][s]['thresholds'] for s in ('round', 'needle')}}
+t = sorted(p)
+sys.exit(0 if ($1) else 1)"; }
+check "a point for each target asked and the lane's" pt "t == [0.001, 0.003, 0.03]"
+check "each target's thresholds imply no more than it" pt "all(p[x]['implied_frr'] <= x * (1 + 1e-9) for x in t)"
+check "a higher target lowers the thresholds" pt "all(all(u >= v for u, v in zip(p[a]['thresholds'][s], p[b]['thresholds'][s])) and p[a]['thresholds'][s] != p[b]['thresholds'][s] for a, b in zip(t, t[1:]) for s in ('round', 'needle'))"
+check "and finds every test piece the lower one found" pt "all(c['found'] >= {(d['shape'], d['size_mm'], d['band']): d['found'] for d in p[a]['cells']}[(c['shape'], c['size_mm'], c['band'])] for a, b in zip(t, t[1:]) for c in p[b]['cells'])"
+out=$("$ctl" learn clean --out bad.yaml --tradeoff 0.001,0.7 2>&1)
+rc=$?
+check "a trade-off target beyond range is refused naming it" bash -c "[ $rc -eq 1 ] && grep -q -- '--tradeoff: expected' <<<'$out'"
 "$ctl" process clean --config learned.yaml --out out --images none >process.txt 2>&1
 check "process uses the learned configuration as is" test $? -eq 0
 

@@ -77,6 +77,7 @@ LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspecti
     for (size_t i = 0; i < set.images.size(); ++i)
       fillets[i].extremes = inspect_fillet(set.images[i], with, false).extremes;
   }
+  out.fillets = fillets;
   out.learning = learn_product(fillets, lo);
   out.learning.learned.matched = kernels;
   out.learning.learned.version = version;
@@ -86,6 +87,26 @@ LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspecti
   out.sensitivity = measure_sensitivity(set.sensitivity_fillets(), out.inspection, so, progress);
   out.learning.learned.sensitivity = out.sensitivity.summary;
   return out;
+}
+
+TradeoffPoint learn_tradeoff(const LearningSet& set, const LaneLearning& l, LearnOptions lo,
+                             const SensitivityOptions& so, double target_frr,
+                             const std::function<void(int, int)>& progress) {
+  if (!(target_frr > 0 && target_frr < 0.5))
+    fail("a false-reject target must be in (0, 0.5) (got ", target_frr, ")");
+  TradeoffPoint t;
+  t.target_frr = target_frr;
+  lo.target_frr = target_frr;
+  t.learned = learn_product(l.fillets, lo).learned;
+  const LearnedDetection& was = l.learning.learned;
+  t.learned.matched = was.matched;
+  t.learned.version = was.version, t.learned.learned_on = was.learned_on;
+  t.implied_frr = implied_false_reject_rate(t.learned);
+  InspectionParams ip = l.inspection;
+  ip.learned = t.learned;
+  t.sensitivity = measure_sensitivity(set.sensitivity_fillets(), ip, so, progress);
+  t.learned.sensitivity = t.sensitivity.summary;
+  return t;
 }
 
 int HeldOutCheck::held() const {

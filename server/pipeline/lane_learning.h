@@ -34,6 +34,8 @@ struct LaneLearning {
   ProductLearning learning;       // its thresholds carry `version` and `learned_on`
   InspectionParams inspection;    // the lane's inspection with those thresholds
   SensitivityResult sensitivity;  // what they buy on the learning fillets
+  // The learning fillets' extremes the thresholds were fitted to (with the lane's kernels).
+  std::vector<LearningFillet> fillets;
 };
 
 // The lane's bank of kernels whitened by its product's texture (matched_kernels.h), learned
@@ -47,6 +49,20 @@ LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspecti
                         const LearnOptions& lo, const SensitivityOptions& so,
                         const std::string& version, const std::string& learned_on,
                         const std::function<void(int, int)>& progress = {});
+
+// What another false-reject target would buy on the same product: the thresholds the same
+// fillets' models give for `target_frr` (the same confidence, kernels and bands), and the
+// sensitivity measured with them on the same fillets and test pieces. A plant chooses its
+// `false_reject_target` from these: a lower rate costs sensitivity, a higher one buys it.
+struct TradeoffPoint {
+  double target_frr = 0;
+  double implied_frr = 0;  // at its thresholds, under the fitted models
+  LearnedDetection learned;
+  SensitivityResult sensitivity;
+};
+TradeoffPoint learn_tradeoff(const LearningSet& set, const LaneLearning& l, LearnOptions lo,
+                             const SensitivityOptions& so, double target_frr,
+                             const std::function<void(int, int)>& progress = {});
 
 // The learning's sensitivity claims checked on fillets it did not learn from (another
 // recording of the same product): the pieces are injected into those that teach.

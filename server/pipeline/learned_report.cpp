@@ -22,7 +22,32 @@ nlohmann::json cells_json(const std::vector<SensitivityCell>& cells) {
   return out;
 }
 
+nlohmann::json claims_json(const SensitivityResult& s) {
+  nlohmann::json claims = nlohmann::json::array();
+  for (const SensitivityClaim& c : s.claims)
+    claims.push_back({{"shape", piece_shape_name(c.shape)},
+                      {"band", c.band},
+                      {"band_mm", {c.band_lo_mm, c.band_hi_mm}},
+                      {"size_mm", c.size_mm},
+                      {"pod_lower", c.pod_lower}});
+  return claims;
+}
+
 }  // namespace
+
+std::string tradeoff_json(const std::vector<TradeoffPoint>& points) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const TradeoffPoint& t : points)
+    out.push_back({{"target_frr", t.target_frr},
+                   {"implied_frr", t.implied_frr},
+                   {"thresholds",
+                    {{"round", t.learned.stats[kStatRound].thresholds},
+                     {"needle", t.learned.stats[kStatNeedle].thresholds}}},
+                   {"summary", t.sensitivity.summary},
+                   {"claims_95", claims_json(t.sensitivity)},
+                   {"cells", cells_json(t.sensitivity.cells)}});
+  return out.dump();
+}
 
 std::string learned_report_json(int lane, const ProductLearning& L, const SensitivityResult& s) {
   nlohmann::json j = {{"lane", lane},
@@ -66,13 +91,7 @@ std::string learned_report_json(int lane, const ProductLearning& L, const Sensit
                                           {"qq_gumbel", qq}};
   }
   const nlohmann::json cells = cells_json(s.cells);
-  nlohmann::json claims = nlohmann::json::array();
-  for (const SensitivityClaim& c : s.claims)
-    claims.push_back({{"shape", piece_shape_name(c.shape)},
-                      {"band", c.band},
-                      {"band_mm", {c.band_lo_mm, c.band_hi_mm}},
-                      {"size_mm", c.size_mm},
-                      {"pod_lower", c.pod_lower}});
+  const nlohmann::json claims = claims_json(s);
   nlohmann::json stated = nlohmann::json::array();
   for (const StatedClaim& c : s.stated)
     stated.push_back({{"shape", piece_shape_name(c.shape)},

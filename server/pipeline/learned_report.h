@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/lane_learning.h"
 #include "pipeline/product_learning.h"
 #include "pipeline/sensitivity.h"
 
@@ -14,6 +15,9 @@ namespace rangex {
 // sensitivity it buys.
 std::string learned_report_json(int lane, const ProductLearning& learning,
                                 const SensitivityResult& sensitivity);
+// What other false-reject targets would buy (rangexctl learn --tradeoff): per target, the
+// rate its thresholds imply, the round and needle thresholds, and the sensitivity.
+std::string tradeoff_json(const std::vector<TradeoffPoint>& points);
 // The sensitivity claims checked on held-out fillets: per band, and the report's sentences.
 std::string claim_checks_json(const std::string& recording, int fillets,
                               const std::vector<ClaimCheck>& checks,
