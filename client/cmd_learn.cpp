@@ -133,80 +133,6 @@ std::vector<std::pair<int, int64_t>> checked_clean_fillets(const std::string& v)
   return out;
 }
 
-// --tradeoff 0.001,0.01: false-reject targets beside the lane's, each a fraction in (0, 0.5).
-std::vector<double> tradeoff_targets(const std::string& v) {
-  std::vector<double> out;
-  std::stringstream list(v);
-  std::string item;
-  while (std::getline(list, item, ',')) {
-    char* end = nullptr;
-    const double t = std::strtod(item.c_str(), &end);
-    if (item.empty() || *end != '\0' || !(t > 0 && t < 0.5))
-      fail(
-          "--tradeoff: expected false-reject targets in (0, 0.5) separated by commas (e.g. "
-          "0.001,0.01), got '",
-          item, "'");
-    out.push_back(t);
-  }
-  if (out.empty() || out.size() > 8) fail("--tradeoff: 1 to 8 targets (e.g. 0.001,0.01)");
-  return out;
-}
-
-// "round thresholds 6.1-12.0": a statistic's lowest and highest over the bands.
-std::string threshold_range(const LearnedDetection& L, int stat) {
-  const auto& t = L.stats[size_t(stat)].thresholds;
-  if (t.empty()) return "-";
-  char b[48];
-  std::snprintf(b, sizeof b, "%.1f-%.1f", *std::min_element(t.begin(), t.end()),
-                *std::max_element(t.begin(), t.end()));
-  return b;
-}
-
-// The sphere claimed at 95 % in each band ("1.5 1.5 2.0 2.5 3.0 - - -"; "-": none).
-std::string spheres_by_band(const SensitivityResult& s) {
-  const int bands = std::max(0, int(s.band_edges_mm.size()) - 1);
-  std::string out;
-  for (int b = 0; b < bands; ++b) {
-    char v[16] = "-";
-    for (const SensitivityClaim& c : s.claims)
-      if (c.shape == TestPiece::kSphere && c.band == b)
-        std::snprintf(v, sizeof v, "%.1f", c.size_mm);
-    out += (b ? " " : "") + std::string(v);
-  }
-  return out;
-}
-
-// The learned target and each other one, a line each: what it implies, its thresholds and
-// what they buy.
-std::string tradeoff_text(const LaneLearning& l, const std::vector<TradeoffPoint>& points) {
-  struct Row {
-    double target, implied;
-    const LearnedDetection* learned;
-    const SensitivityResult* sensitivity;
-  };
-  std::vector<Row> rows;
-  const LearnedDetection& L = l.learning.learned;
-  rows.push_back({L.target_frr, implied_false_reject_rate(L), &L, &l.sensitivity});
-  for (const TradeoffPoint& t : points)
-    rows.push_back({t.target_frr, t.implied_frr, &t.learned, &t.sensitivity});
-  std::sort(rows.begin(), rows.end(),
-            [](const Row& a, const Row& b) { return a.target < b.target; });
-  std::string out =
-      "  what each false-reject target buys (the same fillets and test pieces; the sphere "
-      "claimed at 95 % by band, mm):\n";
-  for (const Row& r : rows) {
-    char b[160];
-    std::snprintf(
-        b, sizeof b, "    %5.2f %% (implied %.3f %%; round %s, needle %s)%s: ", 100 * r.target,
-        100 * r.implied, threshold_range(*r.learned, kStatRound).c_str(),
-        threshold_range(*r.learned, kStatNeedle).c_str(), r.learned == &L ? ", learned" : "");
-    std::string line = b + spheres_by_band(*r.sensitivity);
-    for (const std::string& k : r.sensitivity->summary) line += "\n      " + k;
-    out += line + "\n";
-  }
-  return out;
-}
-
 }  // namespace
 
 int cmd_learn(int argc, char** argv) {
@@ -311,7 +237,16 @@ int cmd_learn(int argc, char** argv) {
                                        [&](int d, int t) { sbar.update(d, t); });
     const ProductLearning& L = ll.learning;
     const SensitivityResult& sens = ll.sensitivity;
-    nlohmann::json lane_json = nlohmann::json::parse(learned_report_json(r.lane, L, sens));
+    // What other false-reject targets would buy on the same fillets and test pieces.
+    std::vector<TradeoffPoint> points;
+    for (double t : tradeoff) {
+      char what[64];
+      std::snprintf(what, sizeof what, "sensitivity at %.2f %%", 100 * t);
+      ProgressBar tbar(what);
+      points.push_back(
+          learn_tradeoff(r.set, ll, lo, so, t, [&](int d, int n) { tbar.update(d, n); }));
+    }
+    nlohmann::json lane_json = nlohmann::json::parse(learned_report_json(r.lane, L, sens, points));
     for (const LaneReplay& c : check) {
       if (c.lane != r.lane) continue;
       ProgressBar cbar("sensitivity (check)");
@@ -326,16 +261,6 @@ int cmd_learn(int argc, char** argv) {
                     k.injected, k.injected ? 100.0 * k.found / k.injected : 0.0,
                     k.held ? "held" : "NOT held");
     }
-    // What other false-reject targets would buy on the same fillets and test pieces.
-    std::vector<TradeoffPoint> points;
-    for (double t : tradeoff) {
-      char what[64];
-      std::snprintf(what, sizeof what, "sensitivity at %.2f %%", 100 * t);
-      ProgressBar tbar(what);
-      points.push_back(
-          learn_tradeoff(r.set, ll, lo, so, t, [&](int d, int n) { tbar.update(d, n); }));
-    }
-    if (!points.empty()) lane_json["tradeoff"] = nlohmann::json::parse(tradeoff_json(points));
     report["lanes"].push_back(lane_json);
     write_learn_plots(report_dir, r.lane, L, sens);
     std::printf("%s", learn_summary_text(r.lane, L, sens).c_str());

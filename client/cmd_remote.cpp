@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
 
@@ -18,6 +19,7 @@
 #include "commands.h"
 #include "core/error.h"
 #include "feeder.h"
+#include "learn_report.h"
 #include "line_source.h"
 #include "rangex/v1/decision_names.h"
 #include "rangex/v1/message_json.h"
@@ -387,9 +389,9 @@ int cmd_calib_remote(int argc, char** argv) {
 int cmd_learned(int argc, char** argv) {
   if (argc < 3) fail("usage: learned upload|list|activate|learn ...");
   const std::string verb = argv[2];
-  const Args a(
-      argc, argv, 3, {"force", "full"},
-      remote({"lane", "id", "file", "report", "fillets", "target-frr", "min-fillets", "timeout"}));
+  const Args a(argc, argv, 3, {"force", "full"},
+               remote({"lane", "id", "file", "report", "fillets", "target-frr", "min-fillets",
+                       "timeout", "tradeoff"}));
   auto stub = pb::ControlService::NewStub(channel(a));
   Call ctx;
   auto show = [](const pb::LearnedSettingsInfo& s) {
@@ -468,6 +470,8 @@ int cmd_learned(int argc, char** argv) {
     req.set_min_fillets(int(a.integer("min-fillets", 0)));
     req.set_id(a.get("id", ""));
     if (a.has("target-frr")) req.set_target_frr(std::stod(a.get("target-frr", "0")));
+    if (a.has("tradeoff"))
+      for (double t : tradeoff_targets(a.get("tradeoff", ""))) req.add_tradeoff_targets(t);
     const long timeout = a.integer("timeout", 3600);
     if (timeout < 1 || timeout > 86400) fail("--timeout must be within 1..86400 s");
     req.set_timeout_s(double(timeout));
@@ -478,6 +482,27 @@ int cmd_learned(int argc, char** argv) {
     pb::LearnProductResponse resp;
     check(stub->LearnProduct(&long_ctx, req, &resp), "learn");
     show(resp.settings());
+    if (req.tradeoff_targets_size() > 0) {
+      // What the other targets would buy, from the stored report.
+      Call lctx;
+      pb::ListLearnedSettingsRequest lreq;
+      lreq.set_lane(resp.settings().lane());
+      lreq.set_full(true);
+      pb::ListLearnedSettingsResponse lresp;
+      check(stub->ListLearnedSettings(&lctx, lreq, &lresp), "list");
+      for (const auto& s : lresp.settings()) {
+        if (s.id() != resp.settings().id()) continue;
+        const auto report = nlohmann::json::parse(s.report_json(), nullptr, false);
+        if (report.is_discarded() || !report.contains("tradeoff")) continue;
+        std::printf("  what other false-reject targets would buy (the same fillets and pieces):\n");
+        for (const auto& t : report["tradeoff"]) {
+          std::printf("    %5.2f %% (implied %.3f %%):", 100 * t.value("target_frr", 0.0),
+                      100 * t.value("implied_frr", 0.0));
+          for (const auto& line : t["summary"]) std::printf(" %s", line.get<std::string>().c_str());
+          std::printf("\n");
+        }
+      }
+    }
     std::printf(
         "stored as a new version, not active: rangexctl learned activate --lane %d --id %s\n",
         resp.settings().lane(), resp.settings().id().c_str());

@@ -29,9 +29,11 @@ commands:
       inspected and evaluated beside the X-ray-only baseline (a benchmark: minutes each)
   learn RECORDING --out PLANT.yaml [--target-frr 0.003] [--confidence 0.9] [--lanes L,..]
         [--calibration F] [--report DIR] [--version NAME] [--excess-ratio 2] [--check REC] [--force]
+        [--keep LANE:FILLET,...] [--tradeoff 0.001,0.01]
       learn each lane's detection thresholds from a recording of clean product: an
       extreme-value model per thickness band, the sensitivity it buys (test pieces), a
-      report (JSON, PNG); writes a copy of the plant configuration that uses them
+      report (JSON, PNG); writes a copy of the plant configuration that uses them;
+      --tradeoff: what other false-reject targets would buy on the same fillets
   fit FILE.csv [--c C] [--degree 1|2] [--json]
       robust fit ln I = b0 + b1 T (Tukey biweight) of a two-column CSV with a header
       (--degree 2: + b2 T^2, the parabola of a hardened beam)
@@ -125,6 +127,7 @@ server commands (--server HOST:PORT, default: plant.yaml's listen address; over 
   learned upload --lane L --id ID --file PLANT.yaml [--report R.json]  (learn's output)
   learned list [--lane L] [--full]  |  learned activate --lane L --id ID [--force]
   learned learn --lane L [--fillets 40] [--id ID] [--target-frr F] [--timeout S]
+                [--tradeoff 0.001,0.01]
       learned thresholds as versions: learn from the lane's next fillets live, upload what
       rangexctl learn wrote; activation refuses a failed report unless --force (admin role)
 

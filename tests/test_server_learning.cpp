@@ -1,5 +1,6 @@
 // Learned settings on rangexd: LearnProduct on a live lane fed clean product
-// stores a version with its report and sensitivity; activation shows on the lane; a version
+// stores a version with its report and sensitivity (and what another false-reject target
+// would buy, when asked); activation shows on the lane; a version
 // whose report failed is refused unless forced (audited); a restart keeps the active one.
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
@@ -69,6 +70,17 @@ TEST(ServerLearning, LearnsALiveLaneAndGatesActivationByItsReport) {
       pb::LearnProductResponse r;
       EXPECT_EQ(control->LearnProduct(&c, q, &r).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
     }
+    {
+      grpc::ClientContext c;
+      pb::LearnProductRequest q;
+      q.set_lane(0);
+      q.add_tradeoff_targets(0.7);
+      pb::LearnProductResponse r;
+      const grpc::Status st = control->LearnProduct(&c, q, &r);
+      EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+      EXPECT_NE(st.error_message().find("tradeoff_targets"), std::string::npos)
+          << st.error_message();
+    }
     // LearnProduct waits for the lane's next 12 inspected fillets.
     pb::LearnProductResponse learned;
     grpc::Status status;
@@ -80,6 +92,7 @@ TEST(ServerLearning, LearnsALiveLaneAndGatesActivationByItsReport) {
       q.set_fillets(12);
       q.set_min_fillets(10);
       q.set_id("live-1");
+      q.add_tradeoff_targets(0.03);  // what a budget ten times larger would buy
       status = control->LearnProduct(&c, q, &learned);
     });
     std::this_thread::sleep_for(std::chrono::seconds(1));  // the run is registered first
@@ -112,6 +125,9 @@ TEST(ServerLearning, LearnsALiveLaneAndGatesActivationByItsReport) {
       ASSERT_EQ(r.settings_size(), 1);
       learned_yaml = r.settings(0).yaml();
       EXPECT_NE(r.settings(0).report_json().find("\"sensitivity\""), std::string::npos);
+      // The other target's thresholds and sensitivity beside the learned one's.
+      EXPECT_NE(r.settings(0).report_json().find("\"tradeoff\":[{"), std::string::npos);
+      EXPECT_NE(r.settings(0).report_json().find("\"target_frr\":0.03"), std::string::npos);
     }
     ASSERT_TRUE(activate(*control, "live-1", false).ok());
     const pb::LaneInfo l = lane0(*control);

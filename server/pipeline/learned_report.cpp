@@ -33,9 +33,9 @@ nlohmann::json claims_json(const SensitivityResult& s) {
   return claims;
 }
 
-}  // namespace
-
-std::string tradeoff_json(const std::vector<TradeoffPoint>& points) {
+// What other false-reject targets would buy: per target, the rate its thresholds imply,
+// the round and needle thresholds, and the sensitivity.
+nlohmann::json tradeoff_json(const std::vector<TradeoffPoint>& points) {
   nlohmann::json out = nlohmann::json::array();
   for (const TradeoffPoint& t : points)
     out.push_back({{"target_frr", t.target_frr},
@@ -46,10 +46,13 @@ std::string tradeoff_json(const std::vector<TradeoffPoint>& points) {
                    {"summary", t.sensitivity.summary},
                    {"claims_95", claims_json(t.sensitivity)},
                    {"cells", cells_json(t.sensitivity.cells)}});
-  return out.dump();
+  return out;
 }
 
-std::string learned_report_json(int lane, const ProductLearning& L, const SensitivityResult& s) {
+}  // namespace
+
+std::string learned_report_json(int lane, const ProductLearning& L, const SensitivityResult& s,
+                                const std::vector<TradeoffPoint>& tradeoff) {
   nlohmann::json j = {{"lane", lane},
                       {"ok", L.ok},
                       {"problems", L.problems},
@@ -111,6 +114,7 @@ std::string learned_report_json(int lane, const ProductLearning& L, const Sensit
                        "hit/miss detection curve (logit POD linear in ln size, Firth's "
                        "penalised likelihood) has its one-sided claim_confidence lower bound "
                        ">= rate there"}};
+  if (!tradeoff.empty()) j["tradeoff"] = tradeoff_json(tradeoff);
   return j.dump();
 }
 

@@ -11,13 +11,11 @@
 
 namespace rangex {
 
-// One lane's report: the learning (thresholds, models, flagged fillets, QQ) and the
-// sensitivity it buys.
+// One lane's report: the learning (thresholds, models, flagged fillets, QQ), the
+// sensitivity it buys and, when asked, what other false-reject targets would buy.
 std::string learned_report_json(int lane, const ProductLearning& learning,
-                                const SensitivityResult& sensitivity);
-// What other false-reject targets would buy (rangexctl learn --tradeoff): per target, the
-// rate its thresholds imply, the round and needle thresholds, and the sensitivity.
-std::string tradeoff_json(const std::vector<TradeoffPoint>& points);
+                                const SensitivityResult& sensitivity,
+                                const std::vector<TradeoffPoint>& tradeoff = {});
 // The sensitivity claims checked on held-out fillets: per band, and the report's sentences.
 std::string claim_checks_json(const std::string& recording, int fillets,
                               const std::vector<ClaimCheck>& checks,

@@ -199,6 +199,9 @@ class Engine {
     int min_fillets = 30;     // fewer clean fillets fail the learning
     std::string id;           // the version's name ("" : learn-<time>)
     double timeout_s = 3600;  // give up when the fillets have not come by then
+    // Other false-reject targets whose thresholds and sensitivity the report gives beside
+    // the learned one's (learn_tradeoff), each in (0, 0.5), at most 8.
+    std::vector<double> tradeoff;
   };
   // Learns the lane's product from its next fillets as they are inspected (the lane keeps
   // running on its active settings), measures the sensitivity with test pieces, and stores

@@ -115,6 +115,9 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
     fail("target_frr must be in (0, 0.5) (0: the lane's false_reject_target)");
   if (!(req.confidence >= 0.5 && req.confidence < 1)) fail("confidence must be in [0.5, 1)");
   if (!(req.timeout_s > 0 && req.timeout_s <= 86400)) fail("timeout_s must be within (0, 86400]");
+  if (req.tradeoff.size() > 8) fail("tradeoff_targets: at most 8 (got ", req.tradeoff.size(), ")");
+  for (double t : req.tradeoff)
+    if (!(t > 0 && t < 0.5)) fail("tradeoff_targets must be in (0, 0.5) (got ", t, ")");
   const std::string vid = req.id.empty() ? learning_version_name() : req.id;
   if (store_.setting(SettingKind::kLearned, id, vid))
     fail_exists("lane ", id, " already has learned settings '", vid, "' (versions are immutable)");
@@ -171,7 +174,11 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
       "lane " + std::to_string(id) + " live, " + std::to_string(c->set.size()) + " fillets (" +
           std::to_string(c->set.not_inspected) + " not inspected left out)");
   const ProductLearning& L = learned.learning;
-  const std::string report = learned_report_json(id, L, learned.sensitivity);
+  // What other false-reject targets would buy, on the same fillets and test pieces.
+  std::vector<TradeoffPoint> tradeoff;
+  for (double t : req.tradeoff)
+    tradeoff.push_back(learn_tradeoff(c->set, learned, lo, SensitivityOptions{}, t));
+  const std::string report = learned_report_json(id, L, learned.sensitivity, tradeoff);
   StoredSetting s{id, vid, learned_detection_yaml(L.learned), now_ns(), false, report};
   store_.add_setting(SettingKind::kLearned, s);
   store_.audit(who, "learned.learn",

@@ -300,6 +300,7 @@ class ControlImpl final : public pb::ControlService::Service {
       r.id = req->id();
       if (req->min_fillets() != 0) r.min_fillets = req->min_fillets();
       if (req->timeout_s() != 0) r.timeout_s = req->timeout_s();
+      r.tradeoff.assign(req->tradeoff_targets().begin(), req->tradeoff_targets().end());
       // The caller's deadline bounds the wait too.
       const auto left =
           std::chrono::duration<double>(ctx->deadline() - std::chrono::system_clock::now());
