@@ -476,7 +476,10 @@ int cmd_learned(int argc, char** argv) {
     if (timeout < 1 || timeout > 86400) fail("--timeout must be within 1..86400 s");
     req.set_timeout_s(double(timeout));
     grpc::ClientContext long_ctx;  // the fillets take as long as the line takes
-    long_ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(timeout + 120));
+    // Then the learning, and each other target's sensitivity (about 20 s for 40 fillets).
+    const long learning_s = 120 + 60 * long(req.tradeoff_targets_size());
+    long_ctx.set_deadline(std::chrono::system_clock::now() +
+                          std::chrono::seconds(timeout + learning_s));
     std::printf("lane %d: learning from its next %d fillets ...\n", req.lane(), req.fillets());
     std::fflush(stdout);
     pb::LearnProductResponse resp;
