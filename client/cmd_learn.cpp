@@ -113,26 +113,6 @@ std::vector<LaneFillets> from_replay(const std::vector<LaneReplay>& lanes) {
   return out;
 }
 
-// --keep 0:25,1:3: fillets a failed learning named that an operator checked and found
-// clean (lane:fillet, as the learning names them).
-std::vector<std::pair<int, int64_t>> checked_clean_fillets(const std::string& v) {
-  std::vector<std::pair<int, int64_t>> out;
-  std::stringstream list(v);
-  std::string item;
-  while (std::getline(list, item, ',')) {
-    const size_t colon = item.find(':');
-    char* end = nullptr;
-    const long lane = colon == std::string::npos ? -1 : std::strtol(item.c_str(), &end, 10);
-    const bool lane_ok = colon != std::string::npos && end == item.c_str() + colon && lane >= 0;
-    const long long id = lane_ok ? std::strtoll(item.c_str() + colon + 1, &end, 10) : -1;
-    if (!lane_ok || item.size() == colon + 1 || *end != '\0' || id < 0 || lane > 1000)
-      fail("--keep: expected LANE:FILLET (e.g. 0:25), got '", item, "'");
-    out.push_back({int(lane), int64_t(id)});
-  }
-  if (out.empty()) fail("--keep: expected LANE:FILLET,... (e.g. 0:25)");
-  return out;
-}
-
 }  // namespace
 
 int cmd_learn(int argc, char** argv) {

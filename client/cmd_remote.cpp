@@ -391,7 +391,7 @@ int cmd_learned(int argc, char** argv) {
   const std::string verb = argv[2];
   const Args a(argc, argv, 3, {"force", "full"},
                remote({"lane", "id", "file", "report", "fillets", "target-frr", "min-fillets",
-                       "timeout", "tradeoff"}));
+                       "timeout", "tradeoff", "relearn-from", "keep"}));
   auto stub = pb::ControlService::NewStub(channel(a));
   Call ctx;
   auto show = [](const pb::LearnedSettingsInfo& s) {
@@ -399,6 +399,16 @@ int cmd_learned(int argc, char** argv) {
                 s.id().c_str(), s.active() ? "active" : "", s.fillets(),
                 100 * s.false_reject_target(), s.report_status().c_str());
     for (const auto& line : s.sensitivity()) std::printf("    %s\n", line.c_str());
+    auto ids = [](const auto& list) {
+      std::string out;
+      for (int64_t f : list) out += (out.empty() ? "" : ", ") + std::to_string(f);
+      return out;
+    };
+    if (s.kept_fillets_size() > 0)
+      std::printf("    kept in, checked clean: fillets %s\n", ids(s.kept_fillets()).c_str());
+    if (s.flagged_fillets_size() > 0)
+      std::printf("    named as holding something like bone: fillets %s\n",
+                  ids(s.flagged_fillets()).c_str());
   };
   if (verb == "upload") {
     // The lane's inspection.learned section of a plant configuration rangexctl learn wrote,
@@ -475,12 +485,30 @@ int cmd_learned(int argc, char** argv) {
     const long timeout = a.integer("timeout", 3600);
     if (timeout < 1 || timeout > 86400) fail("--timeout must be within 1..86400 s");
     req.set_timeout_s(double(timeout));
+    // Again from the fillets of the lane's last live run, keeping the fillets it named that
+    // an operator checked and found clean (--keep 0:7,0:12, as it names them).
+    req.set_relearn_from(a.get("relearn-from", ""));
+    if (a.has("keep")) {
+      if (req.relearn_from().empty())
+        fail(
+            "--keep names fillets of an earlier learning run: give --relearn-from ID, the "
+            "version that run stored");
+      for (const auto& [lane, id] : checked_clean_fillets(a.get("keep", ""))) {
+        if (lane != req.lane())
+          fail("--keep: fillet ", lane, ":", id, " is not of lane ", req.lane());
+        req.add_keep_fillets(id);
+      }
+    }
     grpc::ClientContext long_ctx;  // the fillets take as long as the line takes
     // Then the learning, and each other target's sensitivity (about 20 s for 40 fillets).
     const long learning_s = 120 + 60 * long(req.tradeoff_targets_size());
     long_ctx.set_deadline(std::chrono::system_clock::now() +
                           std::chrono::seconds(timeout + learning_s));
-    std::printf("lane %d: learning from its next %d fillets ...\n", req.lane(), req.fillets());
+    if (req.relearn_from().empty())
+      std::printf("lane %d: learning from its next %d fillets ...\n", req.lane(), req.fillets());
+    else
+      std::printf("lane %d: learning again from the fillets of '%s' ...\n", req.lane(),
+                  req.relearn_from().c_str());
     std::fflush(stdout);
     pb::LearnProductResponse resp;
     check(stub->LearnProduct(&long_ctx, req, &resp), "learn");
@@ -506,9 +534,24 @@ int cmd_learned(int argc, char** argv) {
         }
       }
     }
-    std::printf(
-        "stored as a new version, not active: rangexctl learned activate --lane %d --id %s\n",
-        resp.settings().lane(), resp.settings().id().c_str());
+    if (resp.settings().report_status() == "passed")
+      std::printf(
+          "stored as a new version, not active: rangexctl learned activate --lane %d --id %s\n",
+          resp.settings().lane(), resp.settings().id().c_str());
+    else
+      std::printf(
+          "stored as a new version; its learning failed, so its activation is refused "
+          "unless forced (admin)\n");
+    if (resp.settings().flagged_fillets_size() > 0) {
+      std::string keep;
+      for (int64_t f : resp.settings().flagged_fillets())
+        keep += (keep.empty() ? "" : ",") + std::to_string(resp.settings().lane()) + ":" +
+                std::to_string(f);
+      std::printf(
+          "if those fillets were checked and found clean, learn again from the same fillets "
+          "keeping them:\n  rangexctl learned learn --lane %d --relearn-from %s --keep %s\n",
+          resp.settings().lane(), resp.settings().id().c_str(), keep.c_str());
+    }
   } else {
     fail("learned: unknown verb '", verb, "' (upload, list, activate, learn)");
   }

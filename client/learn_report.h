@@ -3,8 +3,10 @@
 // QQ plot of the learning fillets' extremes against the fitted model) and a few lines for
 // people, and what other false-reject targets would buy (--tradeoff).
 #pragma once
+#include <cstdint>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "pipeline/lane_learning.h"
@@ -18,6 +20,9 @@ void write_learn_plots(const std::filesystem::path& dir, int lane, const Product
 std::string learn_summary_text(int lane, const ProductLearning& learning,
                                const SensitivityResult& sensitivity);
 
+// --keep 0:25,1:3: fillets a failed learning named that an operator checked and found
+// clean (lane:fillet, as the learning names them).
+std::vector<std::pair<int, int64_t>> checked_clean_fillets(const std::string& list);
 // --tradeoff 0.001,0.01: false-reject targets beside the lane's, each a fraction in (0, 0.5).
 std::vector<double> tradeoff_targets(const std::string& list);
 // The learned target and each other one, a line each: the rate it implies, its thresholds'

@@ -178,3 +178,113 @@ TEST(ServerLearning, LearnsALiveLaneAndGatesActivationByItsReport) {
   auto control = pb::ControlService::NewStub(connect(again));
   EXPECT_EQ(lane0(*control).learned_version(), "too-few");
 }
+
+namespace {
+
+grpc::Status learn(pb::ControlService::Stub& control, const pb::LearnProductRequest& q,
+                   pb::LearnProductResponse* r) {
+  grpc::ClientContext c;
+  c.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(600));
+  return control.LearnProduct(&c, q, r);
+}
+
+}  // namespace
+
+// A live run with bone fails naming the fillets; an operator who checked them and found them
+// clean learns again from the same fillets, kept in, without waiting for new product.
+TEST(ServerLearning, LearnsAgainFromTheSameFilletsKeepingThoseCheckedClean) {
+  test::TempDir t;
+  const PlantConfig p = load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml");
+  RangexServer server(p, options(t));
+  auto ch = connect(server);
+  auto control = pb::ControlService::NewStub(ch);
+  {
+    // Nothing learned live yet: nothing to learn again from, and keep needs a run.
+    pb::LearnProductRequest q;
+    q.set_lane(0);
+    q.set_relearn_from("live-bony");
+    pb::LearnProductResponse r;
+    const grpc::Status st = learn(*control, q, &r);
+    EXPECT_EQ(st.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << st.error_message();
+    EXPECT_NE(st.error_message().find("keeps no live learning run"), std::string::npos)
+        << st.error_message();
+    q.clear_relearn_from();
+    q.add_keep_fillets(3);
+    const grpc::Status keep = learn(*control, q, &r);
+    EXPECT_EQ(keep.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_NE(keep.error_message().find("relearn_from"), std::string::npos) << keep.error_message();
+  }
+  pb::LearnProductResponse bony;
+  grpc::Status status;
+  std::thread learner([&] {
+    pb::LearnProductRequest q;
+    q.set_lane(0);
+    q.set_fillets(12);
+    q.set_min_fillets(10);
+    q.set_id("live-bony");
+    status = learn(*control, q, &bony);
+  });
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  sim::SimulationParams sp;
+  sp.lanes = 1;
+  sp.scene.fillets = 14;
+  sp.seed = 32;  // about half the fillets hold bone
+  SimulatedSource source(p, sp);
+  const FeedReport fed = Feeder(ch, FeedOptions{}).run(source);
+  EXPECT_TRUE(fed.status.ok()) << fed.status.error_message();
+  learner.join();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  const pb::LearnedSettingsInfo& failed = bony.settings();
+  EXPECT_NE(failed.report_status().find("holds something like bone"), std::string::npos)
+      << failed.report_status();
+  ASSERT_GT(failed.flagged_fillets_size(), 0);
+  EXPECT_EQ(activate(*control, "live-bony", false).error_code(),
+            grpc::StatusCode::FAILED_PRECONDITION);
+
+  // A fillet the run does not hold, or another run's id: refused, naming what is wrong.
+  {
+    pb::LearnProductRequest q;
+    q.set_lane(0);
+    q.set_relearn_from("live-bony");
+    q.add_keep_fillets(999999);
+    pb::LearnProductResponse r;
+    const grpc::Status st = learn(*control, q, &r);
+    EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_NE(st.error_message().find("holds no fillet 999999"), std::string::npos)
+        << st.error_message();
+    q.set_relearn_from("live-other");
+    q.clear_keep_fillets();
+    const grpc::Status other = learn(*control, q, &r);
+    EXPECT_EQ(other.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+    EXPECT_NE(other.error_message().find("those of 'live-bony'"), std::string::npos)
+        << other.error_message();
+  }
+  // Again from the same fillets, the named ones kept: it holds, and says which it kept.
+  pb::LearnProductRequest q;
+  q.set_lane(0);
+  q.set_min_fillets(10);
+  q.set_id("live-kept");
+  q.set_relearn_from("live-bony");
+  for (int64_t f : failed.flagged_fillets()) q.add_keep_fillets(f);
+  pb::LearnProductResponse kept;
+  const grpc::Status st = learn(*control, q, &kept);
+  ASSERT_TRUE(st.ok()) << st.error_message();
+  EXPECT_EQ(kept.settings().id(), "live-kept");
+  EXPECT_EQ(kept.settings().report_status(), "passed");
+  EXPECT_EQ(kept.settings().flagged_fillets_size(), 0);
+  EXPECT_EQ(kept.settings().kept_fillets_size(), failed.flagged_fillets_size());
+  EXPECT_EQ(kept.settings().fillets(), 12);  // the run's fillets, the kept ones among them
+  EXPECT_TRUE(activate(*control, "live-kept", false).ok());
+  EXPECT_EQ(lane0(*control).learned_version(), "live-kept");
+  // A version learned again from the run names it too, and the run's minimum holds.
+  q.set_id("live-kept-2");
+  q.set_relearn_from("live-kept");
+  q.clear_min_fillets();
+  ASSERT_TRUE(learn(*control, q, &kept).ok());
+  EXPECT_EQ(kept.settings().report_status(), "passed");
+  bool audited = false;
+  for (const std::string& e : server.store().audit_log(100))
+    audited = audited || (e.find("learned.learn lane 0 id live-kept from 12 fillets of "
+                                 "live-bony, kept") != std::string::npos);
+  EXPECT_TRUE(audited);
+}

@@ -187,6 +187,15 @@ LearnedReportStatus check_learned_report(const std::string& report, int lane) {
     return s;
   }
   s.passed = (*entry)["ok"].get<bool>();
+  auto ids = [&](const char* key, std::vector<int64_t>& out) {
+    if (!entry->contains(key) || !(*entry)[key].is_array()) return;
+    for (const auto& f : (*entry)[key])
+      if (f.is_object() && f.value("lane", lane) == lane && f.contains("fillet") &&
+          f["fillet"].is_number_integer())
+        out.push_back(f["fillet"].get<int64_t>());
+  };
+  ids("flagged_fillets", s.flagged);
+  ids("kept_checked_clean", s.kept);
   if (!s.passed) {
     s.why = "the learning failed";
     if (entry->contains("problems") && (*entry)["problems"].is_array())

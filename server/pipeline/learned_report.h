@@ -25,6 +25,9 @@ std::string claim_checks_json(const std::string& recording, int fillets,
 struct LearnedReportStatus {
   bool present = false, passed = false;
   std::string why;  // what is missing or failed; empty when passed
+  // The lane's fillets the learning named as holding something like bone, and those kept in
+  // because they were checked clean.
+  std::vector<int64_t> flagged, kept;
 };
 // `report`: a lane's report, or rangexctl learn's {"lanes": [...]} (the lane's entry).
 LearnedReportStatus check_learned_report(const std::string& report, int lane);

@@ -55,6 +55,9 @@
 
 namespace rangex {
 
+struct LearningSet;   // pipeline/lane_learning.h
+struct KeptLearning;  // service/engine_learning.cpp
+
 struct EngineOptions : EngineSettings {
   BackendRequest backend;  // where the line stages run (plant.backend, --backend)
   bool images = true;      // store images of rejected / not inspected fillets
@@ -196,12 +199,18 @@ class Engine {
     int fillets = 40;       // the lane's next inspected fillets
     double target_frr = 0;  // 0: the lane's false_reject_target
     double confidence = 0.9;
-    int min_fillets = 30;     // fewer clean fillets fail the learning
+    int min_fillets = 0;      // fewer clean fillets fail the learning (0: 30, or the run's)
     std::string id;           // the version's name ("" : learn-<time>)
     double timeout_s = 3600;  // give up when the fillets have not come by then
     // Other false-reject targets whose thresholds and sensitivity the report gives beside
     // the learned one's (learn_tradeoff), each in (0, 0.5), at most 8.
     std::vector<double> tradeoff;
+    // Learn again from the fillets of the lane's last live learning, stored as this version,
+    // with the settings that run had (no waiting; `fillets` and `timeout_s` do not apply).
+    std::string relearn_from;
+    // Fillets of that run (the lane's fillet ids) an operator checked clean: kept in, never
+    // flagged. Needs relearn_from.
+    std::vector<int64_t> keep;
   };
   // Learns the lane's product from its next fillets as they are inspected (the lane keeps
   // running on its active settings), measures the sensitivity with test pieces, and stores
@@ -283,6 +292,9 @@ class Engine {
     // A live learning run collecting the lane's next fillets (learn_mu): their images when
     // cut, their extremes when decided.
     std::shared_ptr<struct ProductCollector> collector;
+    // The last live learning run's fillets and settings (learn_mu), for a re-learning that
+    // keeps fillets an operator checked clean: the last run only, in memory only.
+    std::shared_ptr<KeptLearning> last_learning;
     std::atomic<double> implied_frr{-1};
     std::atomic<int> drift_fillets{0};
     std::atomic<bool> product_drift{false};
@@ -340,6 +352,9 @@ class Engine {
   std::shared_ptr<ProductCollector> collector_of(Lane& l);
   void collect_image(Lane& l, const FilletImage& img);
   void collect_result(Lane& l, const FilletResult& r);
+  // Waits for the lane's next req.fillets inspected fillets (a live learning run).
+  LearningSet collect_fillets(Lane& l, int id, const std::string& vid, const LearnRequest& req,
+                              const std::string& who);
   std::mutex learn_mu_;
 
   PlantConfig plant_;

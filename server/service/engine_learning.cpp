@@ -2,6 +2,7 @@
 // activated like calibrations, and live learning from a lane's next fillets
 // (ControlService.LearnProduct). The learning itself is pipeline/lane_learning.h; its
 // report and gate are pipeline/learned_report.h.
+#include <algorithm>
 #include <chrono>
 #include <map>
 
@@ -107,9 +108,41 @@ std::vector<StoredSetting> Engine::learned_settings(int id) {
   return store_.settings(SettingKind::kLearned, id);
 }
 
+// A lane's last live learning run: its fillets and the settings they were learned with, for
+// a re-learning that keeps fillets an operator checked clean. The set is immutable; the
+// versions learned from it grow, and the set is dropped when too large to keep, under
+// learn_mu_ (before it is published).
+struct KeptLearning {
+  LearningSet set;
+  InspectionParams inspection;
+  LearnOptions lo;
+  std::string why_not_kept;           // the images were too large to keep: set is empty
+  std::vector<std::string> versions;  // stored from these fillets, first the run's own
+};
+
+namespace {
+
+size_t image_bytes(const LearningSet& set) {
+  size_t n = 0;
+  for (const FilletImage& f : set.images)
+    n += f.xray.size() * 2 + f.xray_high.size() * 2 + f.thickness.size() * 4 + f.mask.size();
+  return n;
+}
+
+std::string id_list(const std::vector<int64_t>& ids) {
+  std::string s;
+  for (int64_t v : ids) s += (s.empty() ? "" : ", ") + std::to_string(v);
+  return s;
+}
+
+}  // namespace
+
 StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::string& who) {
   Lane& l = lane(id);
-  if (req.fillets < 1 || req.fillets > 10000)
+  const bool relearn = !req.relearn_from.empty();
+  if (req.min_fillets < 0 || req.min_fillets > 10000)
+    fail("min_fillets must be within 0..10000 (0: 30, or the run's; got ", req.min_fillets, ")");
+  if (!relearn && (req.fillets < 1 || req.fillets > 10000))
     fail("fillets must be within 1..10000 (got ", req.fillets, ")");
   if (!(req.target_frr >= 0 && req.target_frr < 0.5))
     fail("target_frr must be in (0, 0.5) (0: the lane's false_reject_target)");
@@ -118,9 +151,114 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
   if (req.tradeoff.size() > 8) fail("tradeoff_targets: at most 8 (got ", req.tradeoff.size(), ")");
   for (double t : req.tradeoff)
     if (!(t > 0 && t < 0.5)) fail("tradeoff_targets must be in (0, 0.5) (got ", t, ")");
+  // The next fillets' ids are not known yet: an operator can only have checked fillets a
+  // run has named.
+  if (!req.keep.empty() && !relearn)
+    fail(
+        "keep_fillets names fillets of an earlier learning run: give relearn_from, the id of "
+        "the version that run stored");
+  if (req.keep.size() > 1000) fail("keep_fillets: at most 1000 (got ", req.keep.size(), ")");
   const std::string vid = req.id.empty() ? learning_version_name() : req.id;
   if (store_.setting(SettingKind::kLearned, id, vid))
     fail_exists("lane ", id, " already has learned settings '", vid, "' (versions are immutable)");
+
+  std::shared_ptr<KeptLearning> run;
+  if (relearn) {
+    std::string refused;
+    {
+      std::lock_guard<std::mutex> lock(learn_mu_);
+      run = l.last_learning;
+      if (!run)
+        refused = "it keeps no live learning run's fillets (none since the server started)";
+      else if (std::find(run->versions.begin(), run->versions.end(), req.relearn_from) ==
+               run->versions.end())
+        refused = "the fillets it keeps are those of '" + run->versions.front() +
+                  "'; a lane keeps its last live learning run's fillets only";
+      else
+        refused = run->why_not_kept;
+    }
+    if (!refused.empty())
+      throw FailedPrecondition(
+          join("lane ", id, " cannot learn again from '", req.relearn_from, "': ", refused));
+    std::vector<int64_t> absent;
+    for (int64_t k : req.keep)
+      if (std::none_of(run->set.fillets.begin(), run->set.fillets.end(),
+                       [&](const LearningFillet& f) { return f.id == k; }))
+        absent.push_back(k);
+    if (!absent.empty()) {
+      std::vector<int64_t> held;
+      for (const LearningFillet& f : run->set.fillets) held.push_back(f.id);
+      fail("keep_fillets: lane ", id, "'s learning run '", req.relearn_from, "' holds no fillet ",
+           id_list(absent), " (it holds fillets ", id_list(held), ")");
+    }
+  } else {
+    run = std::make_shared<KeptLearning>();
+    LearningSet set = collect_fillets(l, id, vid, req, who);
+    LaneConfig lc;
+    {
+      std::lock_guard<std::mutex> lock(ctl_mu_);
+      lc = l.config;
+    }
+    run->inspection = lc.inspection;
+    run->lo.target_frr = lc.inspection.false_reject_target;
+    run->lo.min_fillets = req.min_fillets > 0 ? req.min_fillets : 30;
+    // The lane ran with its own settings; extremes come in its bands.
+    if (lc.inspection.learned.active()) {
+      run->lo.band_edges_mm = lc.inspection.learned.band_edges_mm;
+      run->lo.spread_by_thickness = lc.inspection.learned.spread_by_thickness;
+    } else {
+      run->lo.spread_by_thickness = lc.inspection.spread_by_thickness;
+    }
+    run->set = std::move(set);
+  }
+
+  LearnOptions lo = run->lo;
+  if (req.target_frr > 0) lo.target_frr = req.target_frr;
+  lo.confidence = req.confidence;
+  if (req.min_fillets > 0) lo.min_fillets = req.min_fillets;
+  for (int64_t k : req.keep) lo.checked_clean.push_back({id, k});
+  std::string on = "lane " + std::to_string(id) + " live, " + std::to_string(run->set.size()) +
+                   " fillets (" + std::to_string(run->set.not_inspected) +
+                   " not inspected left out)";
+  if (relearn) on += ", learned again from '" + req.relearn_from + "'";
+  if (!req.keep.empty()) on += ", fillets " + id_list(req.keep) + " checked clean";
+  const LaneLearning learned =
+      learn_lane(run->set, run->inspection, lo, SensitivityOptions{}, vid, on);
+  const ProductLearning& L = learned.learning;
+  // What other false-reject targets would buy, on the same fillets and test pieces.
+  std::vector<TradeoffPoint> tradeoff;
+  for (double t : req.tradeoff)
+    tradeoff.push_back(learn_tradeoff(run->set, learned, lo, SensitivityOptions{}, t));
+  const std::string report = learned_report_json(id, L, learned.sensitivity, tradeoff);
+  StoredSetting s{id, vid, learned_detection_yaml(L.learned), now_ns(), false, report};
+  store_.add_setting(SettingKind::kLearned, s);
+  store_.audit(
+      who, "learned.learn",
+      "lane " + std::to_string(id) + " id " + vid + " from " + std::to_string(L.fillets) +
+          " fillets" + (relearn ? " of " + req.relearn_from : std::string()) +
+          (req.keep.empty() ? std::string() : ", kept " + id_list(req.keep) + " checked clean") +
+          ", report " + (L.ok ? "passed" : "failed"));
+  {
+    std::lock_guard<std::mutex> lock(learn_mu_);
+    if (relearn) {
+      run->versions.push_back(vid);
+    } else {
+      run->versions.push_back(vid);
+      const size_t bytes = image_bytes(run->set);
+      if (bytes > kMaxKeptLearningBytes) {
+        run->why_not_kept =
+            join("its ", run->set.size(), " fillets' images (", bytes >> 20,
+                 " MiB) were more than the ", kMaxKeptLearningBytes >> 20, " MiB a lane keeps");
+        run->set = {};
+      }
+      l.last_learning = run;
+    }
+  }
+  return s;
+}
+
+LearningSet Engine::collect_fillets(Lane& l, int id, const std::string& vid,
+                                    const LearnRequest& req, const std::string& who) {
   auto c = std::make_shared<ProductCollector>();
   c->want = req.fillets;
   {
@@ -153,38 +291,7 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
     fail("lane ", id, ": only ", c->set.size(), " of ", req.fillets,
          " fillets were inspected within ", req.timeout_s, " s",
          stop ? " (the server is stopping)" : "", "; nothing was learned");
-  LaneConfig lc;
-  {
-    std::lock_guard<std::mutex> lock(ctl_mu_);
-    lc = l.config;
-  }
-  LearnOptions lo;
-  lo.target_frr = req.target_frr > 0 ? req.target_frr : lc.inspection.false_reject_target;
-  lo.confidence = req.confidence;
-  lo.min_fillets = req.min_fillets;
-  // The lane ran with its own settings; extremes come in its bands.
-  if (lc.inspection.learned.active()) {
-    lo.band_edges_mm = lc.inspection.learned.band_edges_mm;
-    lo.spread_by_thickness = lc.inspection.learned.spread_by_thickness;
-  } else {
-    lo.spread_by_thickness = lc.inspection.spread_by_thickness;
-  }
-  const LaneLearning learned = learn_lane(
-      c->set, lc.inspection, lo, SensitivityOptions{}, vid,
-      "lane " + std::to_string(id) + " live, " + std::to_string(c->set.size()) + " fillets (" +
-          std::to_string(c->set.not_inspected) + " not inspected left out)");
-  const ProductLearning& L = learned.learning;
-  // What other false-reject targets would buy, on the same fillets and test pieces.
-  std::vector<TradeoffPoint> tradeoff;
-  for (double t : req.tradeoff)
-    tradeoff.push_back(learn_tradeoff(c->set, learned, lo, SensitivityOptions{}, t));
-  const std::string report = learned_report_json(id, L, learned.sensitivity, tradeoff);
-  StoredSetting s{id, vid, learned_detection_yaml(L.learned), now_ns(), false, report};
-  store_.add_setting(SettingKind::kLearned, s);
-  store_.audit(who, "learned.learn",
-               "lane " + std::to_string(id) + " id " + vid + " from " + std::to_string(L.fillets) +
-                   " fillets, report " + (L.ok ? "passed" : "failed"));
-  return s;
+  return std::move(c->set);
 }
 
 }  // namespace rangex

@@ -61,6 +61,8 @@ void fill(pb::LearnedSettingsInfo* o, const StoredSetting& c, bool full) {
   if (full) o->set_yaml(c.yaml), o->set_report_json(c.report);
   const LearnedReportStatus rs = check_learned_report(c.report, c.lane);
   o->set_report_status(rs.passed ? "passed" : rs.why);
+  for (int64_t f : rs.flagged) o->add_flagged_fillets(f);
+  for (int64_t f : rs.kept) o->add_kept_fillets(f);
   try {
     const LearnedDetection L = parse_learned_detection(c.yaml, "learned settings " + c.id);
     o->set_fillets(L.fillets);

@@ -298,9 +298,11 @@ class ControlImpl final : public pb::ControlService::Service {
       if (req->fillets() != 0) r.fillets = req->fillets();
       r.target_frr = req->target_frr();
       r.id = req->id();
-      if (req->min_fillets() != 0) r.min_fillets = req->min_fillets();
+      r.min_fillets = req->min_fillets();
       if (req->timeout_s() != 0) r.timeout_s = req->timeout_s();
       r.tradeoff.assign(req->tradeoff_targets().begin(), req->tradeoff_targets().end());
+      r.relearn_from = req->relearn_from();
+      r.keep.assign(req->keep_fillets().begin(), req->keep_fillets().end());
       // The caller's deadline bounds the wait too.
       const auto left =
           std::chrono::duration<double>(ctx->deadline() - std::chrono::system_clock::now());
