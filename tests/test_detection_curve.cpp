@@ -149,3 +149,45 @@ TEST(DetectionCurve, ASizeFoundNearlyAlwaysIsClaimed) {
   }
   EXPECT_GT(claimed, runs * 3 / 4);
 }
+
+// POD does not fall with size: where the larger pieces were found less often than the
+// smaller ones the slope stays 0, one rate for all. With the two-parameter penalty that is
+// the pooled pieces with one added to the found and one to the missed, (k + 1) / (n + 2).
+TEST(DetectionCurve, ASlopeThatWouldFallStaysFlat) {
+  const std::vector<HitMiss> d = {{1, 20, 20}, {5, 20, 15}};
+  const DetectionCurve c = fit_detection_curve(d);
+  ASSERT_TRUE(c.fitted);
+  EXPECT_EQ(c.b, 0);
+  EXPECT_NEAR(c.pod(1), c.pod(5), 1e-12);
+  EXPECT_NEAR(c.pod(2), 36.0 / 42, 1e-6);
+  const double lower = detection_lower_bound(d, c, 2, 0.95);
+  EXPECT_LT(lower, c.pod(2));
+  EXPECT_GT(lower, 0.7);
+}
+
+// Every piece of every size found. Each curve the data allow rises with size, so the bound
+// cannot fall with it: with the slope free to fall it did (98 pieces all found: 0.964 at
+// 2.5 mm, 0.946 at 4 mm, and a band where nothing was missed could not claim its larger
+// sizes). More pieces, a higher bound.
+TEST(DetectionCurve, PiecesFoundAtEverySizeBoundEachSizeNoLowerThanASmallerOne) {
+  double last_at_4 = 0;
+  for (int n : {4, 8, 14}) {
+    std::vector<HitMiss> d;
+    for (double s : kSizes) d.push_back({s, n, n});
+    const DetectionCurve c = fit_detection_curve(d);
+    ASSERT_TRUE(c.fitted);
+    EXPECT_GE(c.b, 0);
+    double last = 0;
+    for (double s : kSizes) {
+      const double lower = detection_lower_bound(d, c, s, 0.95);
+      EXPECT_GE(lower, last - 1e-6) << n << " pieces a size, " << s << " mm";
+      EXPECT_LT(lower, 1);
+      last = lower;
+    }
+    const double at_4 = detection_lower_bound(d, c, 4, 0.95);
+    EXPECT_GT(at_4, last_at_4);
+    last_at_4 = at_4;
+    // 7 x 14 = 98 pieces all found: 2.5 mm and up are claimed at 95 %.
+    if (n == 14) EXPECT_GE(at_4, 0.95);
+  }
+}

@@ -62,11 +62,12 @@ Evaluation evaluate(const Centred& c, double a, double b) {
   return e;
 }
 
-// The maximum over b with a fixed (the profile), from `b`; returns the value.
+// The maximum over b >= 0 with a fixed (the profile), from `b`; returns the value.
 double profile(const Centred& c, double a, double& b) {
   Evaluation e = evaluate(c, a, b);
   for (int it = 0; it < 200 && c.slope && std::isfinite(e.value); ++it) {
     double step = e.ibb > 0 ? e.gb / e.ibb : 0;
+    if (b + step < 0) step = -b;  // onto the bound: a flat curve
     Evaluation next;
     for (int half = 0; half < 40; ++half, step *= 0.5) {
       next = evaluate(c, a, b + step);
@@ -100,17 +101,18 @@ double DetectionCurve::pod(double size_mm) const {
   return logistic(a + b * std::log(size_mm));
 }
 
-DetectionCurve fit_detection_curve(const std::vector<HitMiss>& data) {
+namespace {
+
+// Firth's estimate by Newton steps on the modified score with the Fisher information, each
+// halved until the penalised likelihood does not fall; with `flat`, b stays 0.
+DetectionCurve fit(const Centred& c, bool flat) {
   DetectionCurve out;
-  const Centred c = centre(data, 0);
   double a = 0, b = 0;
   Evaluation e = evaluate(c, a, b);
   if (!std::isfinite(e.value)) return out;  // no pieces
   for (int it = 0; it < 500; ++it) {
-    // A Newton step on the modified score with the Fisher information, halved until the
-    // penalised likelihood does not fall.
     double da = e.ga / e.iaa, db = 0;
-    if (c.slope) {
+    if (c.slope && !flat) {
       const double det = e.iaa * e.ibb - e.iab * e.iab;
       da = (e.ibb * e.ga - e.iab * e.gb) / det, db = (e.iaa * e.gb - e.iab * e.ga) / det;
     }
@@ -128,6 +130,19 @@ DetectionCurve fit_detection_curve(const std::vector<HitMiss>& data) {
   }
   out.a = a, out.b = b, out.penalised_loglik = e.value;
   return out;
+}
+
+}  // namespace
+
+DetectionCurve fit_detection_curve(const std::vector<HitMiss>& data) {
+  const Centred c = centre(data, 0);
+  // POD does not fall with size (a larger piece of the same shape and bone attenuates
+  // more): b >= 0. Where the penalised likelihood peaks at b < 0, its maximum over b >= 0
+  // lies on the bound, a flat curve. Without the bound, pieces found at every size leave
+  // the slope free to fall, and the bound at a size then stays under 95 % however many
+  // were found.
+  const DetectionCurve free = fit(c, false);
+  return free.fitted && free.b < 0 ? fit(c, true) : free;
 }
 
 double detection_lower_bound(const std::vector<HitMiss>& data, const DetectionCurve& curve,

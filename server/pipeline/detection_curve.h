@@ -6,7 +6,8 @@
 //
 // Fitted with Firth's penalised likelihood, which stays finite when every piece above some
 // size was found and every one below missed (the usual case, where the plain maximum
-// likelihood slope is infinite). The bound is the penalised profile likelihood's.
+// likelihood slope is infinite). The bound is the penalised profile likelihood's. The slope
+// is held at b >= 0 in both: a larger piece is not harder to find.
 #pragma once
 #include <vector>
 
@@ -18,7 +19,9 @@ struct HitMiss {
 };
 
 struct DetectionCurve {
-  double a = 0, b = 0;  // logit POD = a + b ln(size_mm); b = 0 where the pieces had one size
+  // logit POD = a + b ln(size_mm); b >= 0 (POD does not fall with size), and 0 where the
+  // pieces had one size.
+  double a = 0, b = 0;
   double penalised_loglik = 0;
   bool fitted = false;  // false: no pieces, or the fit did not settle
   double pod(double size_mm) const;
