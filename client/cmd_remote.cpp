@@ -3,6 +3,7 @@
 #include <grpcpp/grpcpp.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <chrono>
@@ -385,30 +386,102 @@ int cmd_calib_remote(int argc, char** argv) {
   return 0;
 }
 
+namespace {
+
+template <class... T>
+void appendf(std::string& out, const char* fmt, T... v) {
+  char b[1024];
+  std::snprintf(b, sizeof b, fmt, v...);
+  out += b;
+}
+
+std::string id_list(const google::protobuf::RepeatedField<int64_t>& list, const char* sep,
+                    const std::string& prefix = "") {
+  std::string out;
+  for (int64_t f : list) out += (out.empty() ? "" : sep) + prefix + std::to_string(f);
+  return out;
+}
+
+// A learned version as `learned list` shows it.
+std::string learned_info_text(const pb::LearnedSettingsInfo& s) {
+  std::string out;
+  appendf(out, "lane %d  %-26s %-7s %4d fillets, target %.2f %%; report: %s\n", s.lane(),
+          s.id().c_str(), s.active() ? "active" : "", s.fillets(), 100 * s.false_reject_target(),
+          s.report_status().c_str());
+  for (const auto& line : s.sensitivity()) appendf(out, "    %s\n", line.c_str());
+  if (s.kept_fillets_size() > 0)
+    appendf(out, "    kept in, checked clean: fillets %s\n",
+            id_list(s.kept_fillets(), ", ").c_str());
+  if (s.flagged_fillets_size() > 0)
+    appendf(out, "    named as holding something like bone: fillets %s\n",
+            id_list(s.flagged_fillets(), ", ").c_str());
+  return out;
+}
+
+// One lane's live learning, start to end: what it stored and what to do next.
+std::string learn_live(pb::ControlService::Stub& stub, const pb::LearnProductRequest& req,
+                       long timeout_s, bool& passed) {
+  grpc::ClientContext long_ctx;  // the fillets take as long as the line takes
+  // Then the learning, and each other target's sensitivity (about 20 s for 40 fillets).
+  const long learning_s = 120 + 60 * long(req.tradeoff_targets_size());
+  long_ctx.set_deadline(std::chrono::system_clock::now() +
+                        std::chrono::seconds(timeout_s + learning_s));
+  pb::LearnProductResponse resp;
+  check(stub.LearnProduct(&long_ctx, req, &resp), "learn");
+  const pb::LearnedSettingsInfo& s = resp.settings();
+  passed = s.report_status() == "passed";
+  std::string out = learned_info_text(s);
+  if (req.tradeoff_targets_size() > 0) {
+    // What the other targets would buy, from the stored report.
+    Call lctx;
+    pb::ListLearnedSettingsRequest lreq;
+    lreq.set_lane(s.lane());
+    lreq.set_full(true);
+    pb::ListLearnedSettingsResponse lresp;
+    check(stub.ListLearnedSettings(&lctx, lreq, &lresp), "list");
+    for (const auto& v : lresp.settings()) {
+      if (v.id() != s.id()) continue;
+      const auto report = nlohmann::json::parse(v.report_json(), nullptr, false);
+      if (report.is_discarded() || !report.contains("tradeoff")) continue;
+      out += "  what other false-reject targets would buy (the same fillets and pieces):\n";
+      for (const auto& t : report["tradeoff"]) {
+        appendf(out, "    %5.2f %% (implied %.3f %%):", 100 * t.value("target_frr", 0.0),
+                100 * t.value("implied_frr", 0.0));
+        for (const auto& line : t["summary"]) out += " " + line.get<std::string>();
+        out += "\n";
+      }
+    }
+  }
+  if (s.report_status() == "passed")
+    appendf(out,
+            "stored as a new version, not active: rangexctl learned activate --lane %d --id %s\n",
+            s.lane(), s.id().c_str());
+  else
+    out +=
+        "stored as a new version; its learning failed, so its activation is refused unless "
+        "forced (admin)\n";
+  if (s.flagged_fillets_size() > 0)
+    appendf(out,
+            "if those fillets were checked and found clean, learn again from the same fillets "
+            "keeping them:\n  rangexctl learned learn --lane %d --relearn-from %s --keep %s\n",
+            s.lane(), s.id().c_str(),
+            id_list(s.flagged_fillets(), ",", std::to_string(s.lane()) + ":").c_str());
+  return out;
+}
+
+}  // namespace
+
 // `rangexctl learned upload|list|activate|learn`: learned inspection settings on rangexd.
 int cmd_learned(int argc, char** argv) {
   if (argc < 3) fail("usage: learned upload|list|activate|learn ...");
   const std::string verb = argv[2];
   const Args a(argc, argv, 3, {"force", "full"},
-               remote({"lane", "id", "file", "report", "fillets", "target-frr", "min-fillets",
-                       "timeout", "tradeoff", "relearn-from", "keep"}));
+               remote({"lane", "lanes", "id", "file", "report", "fillets", "target-frr",
+                       "min-fillets", "timeout", "tradeoff", "relearn-from", "keep"}));
   auto stub = pb::ControlService::NewStub(channel(a));
   Call ctx;
   auto show = [](const pb::LearnedSettingsInfo& s) {
-    std::printf("lane %d  %-26s %-7s %4d fillets, target %.2f %%; report: %s\n", s.lane(),
-                s.id().c_str(), s.active() ? "active" : "", s.fillets(),
-                100 * s.false_reject_target(), s.report_status().c_str());
-    for (const auto& line : s.sensitivity()) std::printf("    %s\n", line.c_str());
-    auto ids = [](const auto& list) {
-      std::string out;
-      for (int64_t f : list) out += (out.empty() ? "" : ", ") + std::to_string(f);
-      return out;
-    };
-    if (s.kept_fillets_size() > 0)
-      std::printf("    kept in, checked clean: fillets %s\n", ids(s.kept_fillets()).c_str());
-    if (s.flagged_fillets_size() > 0)
-      std::printf("    named as holding something like bone: fillets %s\n",
-                  ids(s.flagged_fillets()).c_str());
+    std::fputs(learned_info_text(s).c_str(), stdout);
   };
   if (verb == "upload") {
     // The lane's inspection.learned section of a plant configuration rangexctl learn wrote,
@@ -474,8 +547,27 @@ int cmd_learned(int argc, char** argv) {
         "a fillet in progress\n",
         req.id().c_str(), req.lane());
   } else if (verb == "learn") {
+    // --lanes 0,1,2: every lane listed learns its own product at once, from its own next
+    // fillets (one call each).
+    std::vector<int> lanes;
+    if (a.has("lanes")) {
+      if (a.has("lane")) fail("give --lane L or --lanes L,L,..., not both");
+      std::stringstream list(a.get("lanes", ""));
+      std::string item;
+      while (std::getline(list, item, ',')) {
+        char* end = nullptr;
+        const long l = std::strtol(item.c_str(), &end, 10);
+        if (item.empty() || *end != '\0' || l < 0 || l > 1000)
+          fail("--lanes: expected lane numbers, e.g. 0,1,2 (got '", item, "')");
+        if (std::find(lanes.begin(), lanes.end(), int(l)) != lanes.end())
+          fail("--lanes: lane ", l, " is listed twice");
+        lanes.push_back(int(l));
+      }
+      if (lanes.empty()) fail("--lanes: expected lane numbers, e.g. 0,1,2");
+    } else {
+      lanes.push_back(int(a.integer("lane", 0)));
+    }
     pb::LearnProductRequest req;
-    req.set_lane(int(a.integer("lane", 0)));
     req.set_fillets(int(a.integer("fillets", 40)));
     req.set_min_fillets(int(a.integer("min-fillets", 0)));
     req.set_id(a.get("id", ""));
@@ -493,64 +585,48 @@ int cmd_learned(int argc, char** argv) {
         fail(
             "--keep names fillets of an earlier learning run: give --relearn-from ID, the "
             "version that run stored");
+      if (lanes.size() > 1) fail("--keep names one lane's fillets: give --lane L");
       for (const auto& [lane, id] : checked_clean_fillets(a.get("keep", ""))) {
-        if (lane != req.lane())
-          fail("--keep: fillet ", lane, ":", id, " is not of lane ", req.lane());
+        if (lane != lanes[0]) fail("--keep: fillet ", lane, ":", id, " is not of lane ", lanes[0]);
         req.add_keep_fillets(id);
       }
     }
-    grpc::ClientContext long_ctx;  // the fillets take as long as the line takes
-    // Then the learning, and each other target's sensitivity (about 20 s for 40 fillets).
-    const long learning_s = 120 + 60 * long(req.tradeoff_targets_size());
-    long_ctx.set_deadline(std::chrono::system_clock::now() +
-                          std::chrono::seconds(timeout + learning_s));
-    if (req.relearn_from().empty())
-      std::printf("lane %d: learning from its next %d fillets ...\n", req.lane(), req.fillets());
-    else
-      std::printf("lane %d: learning again from the fillets of '%s' ...\n", req.lane(),
-                  req.relearn_from().c_str());
+    for (int l : lanes)
+      if (req.relearn_from().empty())
+        std::printf("lane %d: learning from its next %d fillets ...\n", l, req.fillets());
+      else
+        std::printf("lane %d: learning again from the fillets of '%s' ...\n", l,
+                    req.relearn_from().c_str());
     std::fflush(stdout);
-    pb::LearnProductResponse resp;
-    check(stub->LearnProduct(&long_ctx, req, &resp), "learn");
-    show(resp.settings());
-    if (req.tradeoff_targets_size() > 0) {
-      // What the other targets would buy, from the stored report.
-      Call lctx;
-      pb::ListLearnedSettingsRequest lreq;
-      lreq.set_lane(resp.settings().lane());
-      lreq.set_full(true);
-      pb::ListLearnedSettingsResponse lresp;
-      check(stub->ListLearnedSettings(&lctx, lreq, &lresp), "list");
-      for (const auto& s : lresp.settings()) {
-        if (s.id() != resp.settings().id()) continue;
-        const auto report = nlohmann::json::parse(s.report_json(), nullptr, false);
-        if (report.is_discarded() || !report.contains("tradeoff")) continue;
-        std::printf("  what other false-reject targets would buy (the same fillets and pieces):\n");
-        for (const auto& t : report["tradeoff"]) {
-          std::printf("    %5.2f %% (implied %.3f %%):", 100 * t.value("target_frr", 0.0),
-                      100 * t.value("implied_frr", 0.0));
-          for (const auto& line : t["summary"]) std::printf(" %s", line.get<std::string>().c_str());
-          std::printf("\n");
+    // Each lane's outcome as it ends; a lane that fails does not stop the others.
+    std::mutex out_mu;
+    int failed = 0, failed_learning = 0;
+    std::vector<std::thread> runs;
+    for (int l : lanes)
+      runs.emplace_back([&, l] {
+        pb::LearnProductRequest mine = req;
+        mine.set_lane(l);
+        std::string text;
+        bool ok = true;
+        try {
+          bool passed = false;
+          text = learn_live(*stub, mine, timeout, passed);
+          failed_learning += !passed;
+        } catch (const std::exception& e) {
+          text = "lane " + std::to_string(l) + ": " + e.what() + "\n";
+          ok = false;
         }
-      }
-    }
-    if (resp.settings().report_status() == "passed")
-      std::printf(
-          "stored as a new version, not active: rangexctl learned activate --lane %d --id %s\n",
-          resp.settings().lane(), resp.settings().id().c_str());
-    else
-      std::printf(
-          "stored as a new version; its learning failed, so its activation is refused "
-          "unless forced (admin)\n");
-    if (resp.settings().flagged_fillets_size() > 0) {
-      std::string keep;
-      for (int64_t f : resp.settings().flagged_fillets())
-        keep += (keep.empty() ? "" : ",") + std::to_string(resp.settings().lane()) + ":" +
-                std::to_string(f);
-      std::printf(
-          "if those fillets were checked and found clean, learn again from the same fillets "
-          "keeping them:\n  rangexctl learned learn --lane %d --relearn-from %s --keep %s\n",
-          resp.settings().lane(), resp.settings().id().c_str(), keep.c_str());
+        std::lock_guard<std::mutex> lock(out_mu);
+        std::fputs(text.c_str(), ok ? stdout : stderr);
+        std::fflush(ok ? stdout : stderr);
+        failed += !ok;
+      });
+    for (std::thread& t : runs) t.join();
+    if (failed > 0) fail(failed, " of ", lanes.size(), " lanes learned nothing");
+    // As `rangexctl learn`: a learning that failed (stored, but not to be activated) is 2.
+    if (failed_learning > 0) {
+      std::fprintf(stderr, "%d of %zu lanes' learning failed\n", failed_learning, lanes.size());
+      return 2;
     }
   } else {
     fail("learned: unknown verb '", verb, "' (upload, list, activate, learn)");

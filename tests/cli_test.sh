@@ -83,6 +83,25 @@ check "calibration listed active" grep -q "cal-7 *active" <<<"$("$ctl" calib lis
 printf 'xray: {pitch_mm: -1}\n' >"$work/badcal.yaml"
 expect_error "malformed calibration" "xray.pitch_mm: must be > 0" \
   "$ctl" calib upload --server "$addr" --lane 1 --id bad --file "$work/badcal.yaml"
+# Live product learning on two lanes at once, from their next fillets: too few to learn
+# from, so each stores a failed version and the command exits 2; then lane 0 learns again
+# from the same fillets without waiting.
+"$ctl" learned learn --server "$addr" --lanes 0,1 --fillets 3 --id cli-learn \
+  --timeout 300 >"$work/learn.txt" 2>&1 &
+learner=$!
+sleep 1
+"$ctl" feed --server "$addr" --simulate --lanes 2 --fillets 5 --seed 5 --encoder-start 50000000 \
+  >/dev/null || fails=$((fails + 1))
+wait $learner
+rc=$?
+check "a live learning that failed exits 2" test $rc -eq 2
+check "both lanes stored a version" test "$(grep -c "cli-learn .*report: the learning failed" "$work/learn.txt")" -eq 2
+check "and say so" grep -q "2 of 2 lanes' learning failed" "$work/learn.txt"
+"$ctl" learned learn --server "$addr" --lane 0 --relearn-from cli-learn --id cli-again \
+  >"$work/again.txt" 2>&1
+check "lane 0 learns again from the same fillets" grep -q "^lane 0  cli-again" "$work/again.txt"
+expect_error "a run the lane does not keep is refused" "the fillets it keeps are those of 'cli-learn'" \
+  "$ctl" learned learn --server "$addr" --lane 0 --relearn-from nothing-like-it
 kill -TERM $pid
 wait $pid
 check "graceful stop" grep -q "rangexd: stopped after" "$work/rangexd.log"

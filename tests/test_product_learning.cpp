@@ -243,6 +243,30 @@ TEST(ProductLearning, TooFewFilletsFails) {
   EXPECT_NE(L.problems[0].find("too few clean fillets: 20 of the 30"), std::string::npos);
 }
 
+// A handful of fillets whose extremes have a tail as heavy as the fit allows: its quantile
+// for the budget lies beyond any statistic (a live lane learned 1e15 from 3 fillets, and
+// stored settings that did not read back). The learning fails saying so, and what it writes
+// still reads back.
+TEST(ProductLearning, ATailTooHeavyForAThresholdFailsAndStillReadsBack) {
+  GevModel g = truth_model();
+  g.s0 = std::log(5000.0), g.xi = 0.6;
+  LearnOptions o;
+  o.bootstrap = 20;
+  o.min_fillets = 5;
+  const ProductLearning L = learn_product(clean_fillets(g, 6, 12), o);
+  EXPECT_FALSE(L.ok);
+  bool said = false;
+  for (const std::string& p : L.problems)
+    said = said || p.find("sets no usable threshold") != std::string::npos;
+  EXPECT_TRUE(said) << (L.problems.empty() ? "" : L.problems[0]);
+  for (const LearnedStatistic& st : L.learned.stats)
+    for (double t : st.thresholds) EXPECT_LT(t, kMaxLearnedThreshold);
+  LearnedDetection copy = L.learned;
+  copy.version = "heavy";
+  const LearnedDetection back = parse_learned_detection(learned_detection_yaml(copy), "test");
+  EXPECT_EQ(back.stats[kStatRound].thresholds.size(), copy.stats[kStatRound].thresholds.size());
+}
+
 TEST(ProductLearning, DriftOfARougherProductIsSeenAndTheSameProductIsNot) {
   const GevModel g = truth_model();
   LearnOptions o;

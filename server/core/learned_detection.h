@@ -50,6 +50,11 @@ struct MatchedKernels {
   int radius() const { return radii.empty() ? 0 : *std::max_element(radii.begin(), radii.end()); }
 };
 
+// Learned thresholds lie within (0, kMaxLearnedThreshold) (plant.yaml refuses others). A
+// model whose tail is too heavy for its extremes (a handful of fillets) would set thresholds
+// beyond any statistic; learning holds them at the limit and fails.
+constexpr double kMaxLearnedThreshold = 1e6;
+
 struct LearnedDetection {
   std::string version;        // e.g. "learn-20261125-1" (rangexctl learn names it)
   std::string learned_on;     // the learning run: recording or live lane

@@ -293,7 +293,7 @@ void read_learned(const Node& n, LearnedDetection& L) {
     // are (the air statistic at steep walls reached thousands), and must read back what it
     // wrote.
     for (double t : ls.thresholds)
-      if (!(t > 0 && t < 1e6)) st.at("thresholds").bad("must be within (0, 1e6)");
+      if (!(t > 0 && t < kMaxLearnedThreshold)) st.at("thresholds").bad("must be within (0, 1e6)");
     if (st.has("band_fraction")) ls.band_fraction = number_list(st.at("band_fraction"), bands);
     if (st.has("band_pixels")) ls.band_pixels = number_list(st.at("band_pixels"), bands);
     if (st.has("band_thickness_mm"))

@@ -305,6 +305,24 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
       const double q = v[std::min(v.size() - 1, size_t(opt.confidence * double(v.size())))];
       st.thresholds[size_t(b)] = std::max(st.point_thresholds[size_t(b)], q);
     }
+    // A tail too heavy for the extremes it was fitted to (a handful of fillets, xi at its
+    // bound) puts thresholds beyond any statistic, and beyond what plant.yaml reads back.
+    std::string beyond;
+    for (int b = 0; b < bands; ++b) {
+      double& t = st.thresholds[size_t(b)];
+      if (std::isfinite(t) && t < kMaxLearnedThreshold * 0.999) continue;
+      beyond += (beyond.empty() ? "" : ", ") + std::to_string(b);
+      t = kMaxLearnedThreshold * 0.999;
+    }
+    if (!beyond.empty() && rejecting(s)) {
+      char m[256];
+      std::snprintf(m, sizeof m,
+                    "%s: the fitted tail (xi %.2f, from %d extremes) sets no usable threshold in "
+                    "band%s %s: learn from more fillets",
+                    statistic_name(s), st.fit.model.xi, st.samples,
+                    beyond.find(',') == std::string::npos ? "" : "s", beyond.c_str());
+      r.problems.push_back(m);
+    }
     ls.thresholds = st.thresholds;
     st.implied_frr = implied(st.fit.model, u, st.thresholds);
     qq_and_ks(st.fit.model, smp, st);

@@ -231,6 +231,9 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
     tradeoff.push_back(learn_tradeoff(run->set, learned, lo, SensitivityOptions{}, t));
   const std::string report = learned_report_json(id, L, learned.sensitivity, tradeoff);
   StoredSetting s{id, vid, learned_detection_yaml(L.learned), now_ns(), false, report};
+  // What is stored must read back, as an upload must: a version that does not would only
+  // fail at its activation.
+  parse_learned_detection(s.yaml, "learned settings '" + vid + "' of lane " + std::to_string(id));
   store_.add_setting(SettingKind::kLearned, s);
   store_.audit(
       who, "learned.learn",
