@@ -13,7 +13,7 @@ constexpr size_t kMaxCalibrationBytes = size_t(1) << 20;  // one lane's calibrat
 constexpr size_t kMaxLearnedBytes = size_t(1) << 20;      // one lane's learned settings YAML
 constexpr size_t kMaxReportBytes = size_t(4) << 20;       // a calibration's or learning's report
 // A lane's last live learning run's fillet images, kept in memory for a re-learning.
-constexpr size_t kMaxKeptLearningBytes = size_t(256) << 20;
+constexpr size_t kMaxKeptLearningBytes = size_t(64) << 20;
 constexpr size_t kMaxYamlBytes = kMaxPlantConfigBytes;  // any YAML document at all
 
 // Throws an Error naming `what`, its size and the bound when bytes > limit.

@@ -7,6 +7,7 @@
 #include <map>
 
 #include "core/error.h"
+#include "core/log.h"
 #include "core/plant_config.h"
 #include "core/size_limits.h"
 #include "pipeline/lane_learning.h"
@@ -253,6 +254,12 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
             join("its ", run->set.size(), " fillets' images (", bytes >> 20,
                  " MiB) were more than the ", kMaxKeptLearningBytes >> 20, " MiB a lane keeps");
         run->set = {};
+        log::info("learning_not_kept", "lane {}: '{}' not kept for a re-learning: {}", id, vid,
+                  run->why_not_kept);
+      } else {
+        log::info("learning_kept",
+                  "lane {} keeps the {} fillets of '{}' ({:.1f} MiB) for a re-learning", id,
+                  run->set.size(), vid, double(bytes) / (1 << 20));
       }
       l.last_learning = run;
     }
