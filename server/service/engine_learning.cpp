@@ -130,9 +130,12 @@ size_t image_bytes(const LearningSet& set) {
   return n;
 }
 
+// The first 20, and how many in all: an error names what is wrong without growing with it.
 std::string id_list(const std::vector<int64_t>& ids) {
   std::string s;
-  for (int64_t v : ids) s += (s.empty() ? "" : ", ") + std::to_string(v);
+  for (size_t i = 0; i < ids.size() && i < 20; ++i)
+    s += (s.empty() ? "" : ", ") + std::to_string(ids[i]);
+  if (ids.size() > 20) s += ", ... (" + std::to_string(ids.size()) + " in all)";
   return s;
 }
 
