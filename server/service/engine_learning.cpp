@@ -130,12 +130,13 @@ size_t image_bytes(const LearningSet& set) {
   return n;
 }
 
-// The first 20, and how many in all: an error names what is wrong without growing with it.
-std::string id_list(const std::vector<int64_t>& ids) {
+// In an error the first 20 and how many in all (it names what is wrong without growing with
+// it); in the audit every one (at most 1000).
+std::string id_list(const std::vector<int64_t>& ids, size_t most = 20) {
   std::string s;
-  for (size_t i = 0; i < ids.size() && i < 20; ++i)
+  for (size_t i = 0; i < ids.size() && i < most; ++i)
     s += (s.empty() ? "" : ", ") + std::to_string(ids[i]);
-  if (ids.size() > 20) s += ", ... (" + std::to_string(ids.size()) + " in all)";
+  if (ids.size() > most) s += ", ... (" + std::to_string(ids.size()) + " in all)";
   return s;
 }
 
@@ -243,7 +244,8 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
       who, "learned.learn",
       "lane " + std::to_string(id) + " id " + vid + " from " + std::to_string(L.fillets) +
           " fillets" + (relearn ? " of " + req.relearn_from : std::string()) +
-          (req.keep.empty() ? std::string() : ", kept " + id_list(req.keep) + " checked clean") +
+          (req.keep.empty() ? std::string()
+                            : ", kept " + id_list(req.keep, req.keep.size()) + " checked clean") +
           ", report " + (L.ok ? "passed" : "failed"));
   {
     std::lock_guard<std::mutex> lock(learn_mu_);
