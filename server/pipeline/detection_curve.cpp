@@ -138,9 +138,10 @@ DetectionCurve fit_detection_curve(const std::vector<HitMiss>& data) {
   const Centred c = centre(data, 0);
   // POD does not fall with size (a larger piece of the same shape and bone attenuates
   // more): b >= 0. Where the penalised likelihood peaks at b < 0, its maximum over b >= 0
-  // lies on the bound, a flat curve. Without the bound, pieces found at every size leave
-  // the slope free to fall, and the bound at a size then stays under 95 % however many
-  // were found.
+  // lies on the bound, a flat curve. The bound matters most in the profile behind the
+  // lower bound: with every piece found, a falling slope fitted nearly as well, and the
+  // lower bound at the larger sizes fell below the smaller ones' (98 pieces all found:
+  // 0.946 at 4 mm against 0.964 at 2.5 mm).
   const DetectionCurve free = fit(c, false);
   return free.fitted && free.b < 0 ? fit(c, true) : free;
 }
