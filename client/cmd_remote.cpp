@@ -607,11 +607,9 @@ int cmd_learned(int argc, char** argv) {
         pb::LearnProductRequest mine = req;
         mine.set_lane(l);
         std::string text;
-        bool ok = true;
+        bool ok = true, passed = false;
         try {
-          bool passed = false;
           text = learn_live(*stub, mine, timeout, passed);
-          failed_learning += !passed;
         } catch (const std::exception& e) {
           text = "lane " + std::to_string(l) + ": " + e.what() + "\n";
           ok = false;
@@ -620,6 +618,7 @@ int cmd_learned(int argc, char** argv) {
         std::fputs(text.c_str(), ok ? stdout : stderr);
         std::fflush(ok ? stdout : stderr);
         failed += !ok;
+        failed_learning += ok && !passed;
       });
     for (std::thread& t : runs) t.join();
     if (failed > 0) fail(failed, " of ", lanes.size(), " lanes learned nothing");
