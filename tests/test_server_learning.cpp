@@ -222,6 +222,7 @@ TEST(ServerLearning, LearnsAgainFromTheSameFilletsKeepingThoseCheckedClean) {
     q.set_fillets(12);
     q.set_min_fillets(10);
     q.set_id("live-bony");
+    q.set_target_frr(0.01);  // learning again keeps it
     status = learn(*control, q, &bony);
   });
   std::this_thread::sleep_for(std::chrono::seconds(1));
@@ -274,6 +275,7 @@ TEST(ServerLearning, LearnsAgainFromTheSameFilletsKeepingThoseCheckedClean) {
   EXPECT_EQ(kept.settings().flagged_fillets_size(), 0);
   EXPECT_EQ(kept.settings().kept_fillets_size(), failed.flagged_fillets_size());
   EXPECT_EQ(kept.settings().fillets(), 12);  // the run's fillets, the kept ones among them
+  EXPECT_DOUBLE_EQ(kept.settings().false_reject_target(), 0.01);  // and the run's target
   EXPECT_TRUE(activate(*control, "live-kept", false).ok());
   EXPECT_EQ(lane0(*control).learned_version(), "live-kept");
   // A version learned again from the run names it too, and the run's minimum holds.

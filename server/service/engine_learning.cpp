@@ -205,7 +205,9 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
       lc = l.config;
     }
     run->inspection = lc.inspection;
-    run->lo.target_frr = lc.inspection.false_reject_target;
+    // The run's own target and confidence: a re-learning keeps them unless it asks for others.
+    run->lo.target_frr = req.target_frr > 0 ? req.target_frr : lc.inspection.false_reject_target;
+    run->lo.confidence = req.confidence;
     run->lo.min_fillets = req.min_fillets > 0 ? req.min_fillets : 30;
     // The lane ran with its own settings; extremes come in its bands.
     if (lc.inspection.learned.active()) {
@@ -219,7 +221,6 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
 
   LearnOptions lo = run->lo;
   if (req.target_frr > 0) lo.target_frr = req.target_frr;
-  lo.confidence = req.confidence;
   if (req.min_fillets > 0) lo.min_fillets = req.min_fillets;
   for (int64_t k : req.keep) lo.checked_clean.push_back({id, k});
   std::string on = "lane " + std::to_string(id) + " live, " + std::to_string(run->set.size()) +
