@@ -53,19 +53,6 @@ double number(const Args& a, const char* name, double def, double lo, double hi)
   return x;
 }
 
-std::vector<int> lane_list(const std::string& v) {
-  std::vector<int> out;
-  std::stringstream ss(v);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (item.empty() || item.find_first_not_of("0123456789") != std::string::npos ||
-        item.size() > 6)
-      fail("--lanes must be lane ids separated by commas (got '", v, "')");
-    out.push_back(std::stoi(item));
-  }
-  return out;
-}
-
 // The plant configuration at `config` with each learned lane's inspection section replaced.
 std::string learned_plant_yaml(const std::string& config,
                                const std::vector<std::pair<int, LearnedDetection>>& learned) {

@@ -552,18 +552,12 @@ int cmd_learned(int argc, char** argv) {
     std::vector<int> lanes;
     if (a.has("lanes")) {
       if (a.has("lane")) fail("give --lane L or --lanes L,L,..., not both");
-      std::stringstream list(a.get("lanes", ""));
-      std::string item;
-      while (std::getline(list, item, ',')) {
-        char* end = nullptr;
-        const long l = std::strtol(item.c_str(), &end, 10);
-        if (item.empty() || *end != '\0' || l < 0 || l > 1000)
-          fail("--lanes: expected lane numbers, e.g. 0,1,2 (got '", item, "')");
-        if (std::find(lanes.begin(), lanes.end(), int(l)) != lanes.end())
+      for (int l : lane_list(a.get("lanes", ""))) {
+        if (std::find(lanes.begin(), lanes.end(), l) != lanes.end())
           fail("--lanes: lane ", l, " is listed twice");
-        lanes.push_back(int(l));
+        lanes.push_back(l);
       }
-      if (lanes.empty()) fail("--lanes: expected lane numbers, e.g. 0,1,2");
+      if (lanes.empty()) fail("--lanes must be lane ids separated by commas");
     } else {
       lanes.push_back(int(a.integer("lane", 0)));
     }

@@ -208,7 +208,7 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
     // The run's own target and confidence: a re-learning keeps them unless it asks for others.
     run->lo.target_frr = req.target_frr > 0 ? req.target_frr : lc.inspection.false_reject_target;
     run->lo.confidence = req.confidence;
-    run->lo.min_fillets = req.min_fillets > 0 ? req.min_fillets : 30;
+    if (req.min_fillets > 0) run->lo.min_fillets = req.min_fillets;  // else LearnOptions' 30
     // The lane ran with its own settings; extremes come in its bands.
     if (lc.inspection.learned.active()) {
       run->lo.band_edges_mm = lc.inspection.learned.band_edges_mm;
@@ -250,10 +250,8 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
           ", report " + (L.ok ? "passed" : "failed"));
   {
     std::lock_guard<std::mutex> lock(learn_mu_);
-    if (relearn) {
-      run->versions.push_back(vid);
-    } else {
-      run->versions.push_back(vid);
+    run->versions.push_back(vid);
+    if (!relearn) {
       const size_t bytes = image_bytes(run->set);
       if (bytes > kMaxKeptLearningBytes) {
         run->why_not_kept =
