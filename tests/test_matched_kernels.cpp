@@ -4,6 +4,7 @@
 // correlated; in white noise it is the profile itself.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -145,6 +146,82 @@ TEST(MatchedKernels, BrightSpecksAreClippedAndBoneLikeValuesKept) {
   EXPECT_EQ(out[11], -40.f);
   EXPECT_TRUE(std::isnan(out[12]));
   EXPECT_EQ(out[0], z[0]);
+}
+
+// Marbled meat: streaks of fat, brighter than lean (they attenuate less), over correlated
+// texture. A whitened kernel's negative flank reads lean meat beside a streak as bone;
+// clipping z at 1.5 robust spreads before the kernels (inspection.matched_clip), in learning
+// and inspection alike, keeps that out, and bone, on the other side, keeps its signal. The
+// weakest quarter of 2 mm bones against clean meat's typical bone-like extreme, clipped at
+// 3 and at 1.5: where the streaks stand out (6 spreads, 7 % of the meat) 1.5 separates them
+// 1.25x better; where they barely do (1.5 spreads, a fifth of the meat) it costs 5 %.
+TEST(MatchedKernels, ClippingAtOneAndAHalfSpreadsSeparatesBoneFromMarbledMeat) {
+  const size_t n = size_t(kRows) * kCols;
+  std::vector<uint8_t> all(n, 1);
+  double level = 0, bright = 0;  // the streaks: where a correlated field exceeds level
+  auto marbled = [&](std::mt19937_64& rng) {
+    std::vector<float> z = noise(rng, 0.6, 1.0, 2.5);
+    const std::vector<float> streaks = noise(rng, 0.0, 1.0, 3.0);
+    for (size_t i = 0; i < n; ++i)
+      if (streaks[i] > level) z[i] += float(bright);  // a fifth of the meat is fat
+    return z;
+  };
+  const int radius = 4, w = 2 * radius + 1;
+  const std::vector<double> s = sphere_profile(2.0, 0.4, 0.4, radius, 0);
+  auto margin = [&](double clip) {
+    std::mt19937_64 rng(11);
+    TextureCovariance c(8, clip);
+    for (int f = 0; f < 8; ++f) {
+      const std::vector<float> z = marbled(rng);
+      c.add(z.data(), all.data(), kRows, kCols);
+    }
+    const std::vector<double> h = whitened_kernel(c, s, radius);
+    std::vector<double> extremes, bones;
+    std::uniform_int_distribution<int> at(30, kRows - 30);
+    for (int f = 0; f < 8; ++f) {
+      std::vector<float> z = marbled(rng), zc, out;
+      // Bone darkens z: a 2 mm sphere's profile, 6 robust spreads deep at its centre.
+      std::vector<std::pair<int, int>> where;
+      for (int b = 0; b < 4; ++b) {
+        const int r0 = at(rng), c0 = at(rng);
+        where.push_back({r0, c0});
+        for (int i = 0; i < w; ++i)
+          for (int j = 0; j < w; ++j)
+            z[size_t(r0 + i - radius) * kCols + size_t(c0 + j - radius)] -=
+                float(6.0 * s[size_t(i) * w + j] / s[size_t(radius) * w + radius]);
+      }
+      clip_bright(z.data(), all.data(), n, clip, zc);
+      apply_kernel(zc.data(), all.data(), kRows, kCols, h, radius, out);
+      // The bone-like statistic at unit robust spread; its extreme away from the bones.
+      std::vector<float> v;
+      for (int r = 20; r < kRows - 20; ++r)
+        for (int cc = 20; cc < kCols - 20; ++cc) v.push_back(-out[size_t(r) * kCols + cc]);
+      std::vector<float> sorted = v;
+      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+      const double med = sorted[sorted.size() / 2];
+      for (auto& x : sorted) x = std::abs(x - float(med));
+      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+      const double sd = sorted[sorted.size() / 2] / 0.6745;
+      double top = 0;
+      for (int r = 20; r < kRows - 20; ++r)
+        for (int cc = 20; cc < kCols - 20; ++cc) {
+          bool near = false;
+          for (auto [r0, c0] : where)
+            near = near || (std::abs(r - r0) <= w && std::abs(cc - c0) <= w);
+          if (!near) top = std::max(top, (-out[size_t(r) * kCols + cc] - med) / sd);
+        }
+      extremes.push_back(top);
+      for (auto [r0, c0] : where) bones.push_back((-out[size_t(r0) * kCols + c0] - med) / sd);
+    }
+    std::sort(extremes.begin(), extremes.end());
+    std::sort(bones.begin(), bones.end());
+    // The weakest quarter of the bones against the clean meat's typical extreme.
+    return bones[bones.size() / 4] / extremes[extremes.size() / 2];
+  };
+  level = 1.5, bright = 6;
+  EXPECT_GT(margin(1.5), 1.15 * margin(3));
+  level = 0.85, bright = 1.5;
+  EXPECT_GT(margin(1.5), 0.9 * margin(3));
 }
 
 TEST(MatchedKernels, AKernelSeesFlatMeatOffTheFilletAndGivesNothingThere) {

@@ -129,6 +129,9 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
   EXPECT_NE(
       error_of("lanes:\n  - id: 0\n    frame: {width: 640, height: 3}\n").find("out of range"),
       std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, inspection: {matched_clip: 0.2}}]\n")
+                .find("inspection.matched_clip: must be within 0.5..100 robust spreads"),
+            std::string::npos);
 }
 
 TEST(PlantConfig, ThePlantWideDatabaseTakesNoPasswordInTheFile) {

@@ -548,6 +548,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
                   "min_fragment_meat_mm",
                   "false_reject_target",
                   "matched_kernels_mm",
+                  "matched_clip",
                   "learned",
                   "spread",
                   "dual_energy"});
@@ -581,6 +582,9 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
         if (!(d >= 0.5 && d <= 6))
           n->at("matched_kernels_mm").bad("sphere sizes must be within 0.5..6 mm");
     }
+    n->get("matched_clip", q.matched_clip);
+    if (!(q.matched_clip >= 0.5 && q.matched_clip <= 100))
+      n->at("matched_clip").bad("must be within 0.5..100 robust spreads");
     if (n->has("learned")) read_learned(n->at("learned"), q.learned);
     if (n->has("dual_energy")) {
       const std::string m = n->at("dual_energy").str();

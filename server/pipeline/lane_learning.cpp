@@ -43,7 +43,7 @@ MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
            " px on ", first.pitch_mm, " mm pixels; at most ", kMaxKernelRadius);
     radius = std::max(radius, r);
   }
-  TextureCovariance cov(2 * radius);
+  TextureCovariance cov(2 * radius, inspection.matched_clip);
   InspectionParams plain = inspection;
   plain.learned = {};
   for (const FilletImage& img : images) {
