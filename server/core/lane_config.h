@@ -79,7 +79,7 @@ struct InspectionParams {
   // in learning and inspection alike: a kernel's negative flank reads a bright speck (fat,
   // marbling) beside lean meat as bone. Bone lies on the other side and keeps its signal. At
   // 1.5 instead of 3, rough_meat and marbled_fat found 25 of 28 fragments >= 2 mm where 3
-  // found 22 (docs/inspection.md).
+  // found 22, each rejecting 0 of 338 clean fillets (docs/inspection.md).
   double matched_clip = 1.5;
   // Thresholds learned from the plant's own clean product (rangexctl learn); when active
   // they replace z_threshold and air_z_threshold.
