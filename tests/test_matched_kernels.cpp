@@ -163,7 +163,7 @@ TEST(MatchedKernels, ClippingAtOneAndAHalfSpreadsSeparatesBoneFromMarbledMeat) {
     std::vector<float> z = noise(rng, 0.6, 1.0, 2.5);
     const std::vector<float> streaks = noise(rng, 0.0, 1.0, 3.0);
     for (size_t i = 0; i < n; ++i)
-      if (streaks[i] > level) z[i] += float(bright);  // a fifth of the meat is fat
+      if (streaks[i] > level) z[i] += float(bright);
     return z;
   };
   const int radius = 4, w = 2 * radius + 1;
@@ -193,10 +193,9 @@ TEST(MatchedKernels, ClippingAtOneAndAHalfSpreadsSeparatesBoneFromMarbledMeat) {
       clip_bright(z.data(), all.data(), n, clip, zc);
       apply_kernel(zc.data(), all.data(), kRows, kCols, h, radius, out);
       // The bone-like statistic at unit robust spread; its extreme away from the bones.
-      std::vector<float> v;
+      std::vector<float> sorted;
       for (int r = 20; r < kRows - 20; ++r)
-        for (int cc = 20; cc < kCols - 20; ++cc) v.push_back(-out[size_t(r) * kCols + cc]);
-      std::vector<float> sorted = v;
+        for (int cc = 20; cc < kCols - 20; ++cc) sorted.push_back(-out[size_t(r) * kCols + cc]);
       std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
       const double med = sorted[sorted.size() / 2];
       for (auto& x : sorted) x = std::abs(x - float(med));
