@@ -252,26 +252,32 @@ void report(const char* title, const PathTimes& t, const Recorded& rec, int grid
 
 // Compensation and detection of the same fillets before product learning (one spread per fillet,
 // fixed thresholds, no band extremes) and after it (band extremes; fixed and learned
-// thresholds; one spread per fillet and spread by thickness; whitened kernels), in
-// alternating rounds; medians of the rounds, as ratios to the first.
+// thresholds; one spread per fillet and spread by thickness; whitened round kernels, and
+// whitened needle kernels beside them), in alternating rounds; medians of the rounds, as
+// ratios to the first.
 void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   std::vector<FilletImage> imgs;
   run_lanes(lc, rec, 0, 1, batch, [&](FilletImage&& im) { imgs.push_back(std::move(im)); });
   if (imgs.empty()) return;
-  constexpr int kVariants = 5;
+  constexpr int kVariants = 6;
   InspectionParams v[kVariants];
-  const char* names[kVariants] = {"before learning (fixed, no extremes)", "fixed, band extremes",
-                                  "learned, round Gaussian", "learned, spread by thickness",
-                                  "learned, whitened kernels"};
+  const char* names[kVariants] = {"before learning (fixed, no extremes)",
+                                  "fixed, band extremes",
+                                  "learned, round Gaussian",
+                                  "learned, spread by thickness",
+                                  "learned, whitened round kernels",
+                                  "learned, whitened round and needle kernels"};
   for (int k = 0; k < kVariants; ++k) {
     v[k] = lc.inspection;
     v[k].learned = LearnedDetection{};
     v[k].band_extremes = k > 0;
     v[k].spread_by_thickness = k == 3;
   }
-  v[4].learned.matched = learn_lane_kernels(imgs, lc.inspection);
+  v[5].learned.matched = learn_lane_kernels(imgs, lc.inspection);
+  v[4].learned.matched = v[5].learned.matched;
+  v[4].learned.matched.drop_needles();
   // Thresholds learned on these few fillets: for the timing, not for a decision.
-  for (int k : {2, 3, 4}) {
+  for (int k : {2, 3, 4, 5}) {
     std::vector<LearningFillet> fs;
     for (const FilletImage& im : imgs)
       fs.push_back({0, im.id, 0, inspect_fillet(im, v[k], false).extremes});

@@ -81,6 +81,12 @@ struct InspectionParams {
   // 1.5 instead of 3, rough_meat and marbled_fat found 25 of 28 fragments >= 2 mm where 3
   // found 22, each rejecting 0 of 338 clean fillets (docs/inspection.md).
   double matched_clip = 1.5;
+  // And the needle statistic: kernels whitened by the same texture, matched to a needle of
+  // this diameter and each of these lengths (mm) along 8 directions (`[]`: the elongated
+  // Gaussians of line_sigma_*_px stay). On rough meat a whitened 2 mm needle kernel has about
+  // 4x the signal-to-noise of the elongated Gaussian on a needle along it (docs/inspection.md).
+  std::vector<double> matched_needles_mm = {2.0};
+  double matched_needle_diameter_mm = 0.6;
   // Thresholds learned from the plant's own clean product (rangexctl learn); when active
   // they replace z_threshold and air_z_threshold.
   LearnedDetection learned;

@@ -45,9 +45,29 @@ struct MatchedKernels {
   // z above its median by more than this many robust spreads is clipped before the kernels:
   // a bright speck (fat, air) seen by a kernel's negative flank would look like bone.
   double clip = 3;
+  // Needle kernels, whitened by the same texture: a needle (a cylinder of needle_diameter_mm)
+  // of each length along each direction (angle from across the belt toward along it), one
+  // kernel each; the needle statistic takes the most bone-like. None: the elongated Gaussians.
+  double needle_diameter_mm = 0;
+  std::vector<double> needle_lengths_mm, needle_angles_deg;  // per kernel
+  std::vector<int> needle_radii;
+  std::vector<std::vector<double>> needle_taps;
+  std::vector<double> needle_spreads;
   bool empty() const { return taps.empty(); }
+  bool has_needles() const { return !needle_taps.empty(); }
+  // The round kernels alone: the needle statistic back to the elongated Gaussians.
+  void drop_needles() {
+    needle_diameter_mm = 0;
+    needle_lengths_mm.clear(), needle_angles_deg.clear(), needle_radii.clear();
+    needle_taps.clear(), needle_spreads.clear();
+  }
   // The largest window's radius; the covariance was measured to twice it.
-  int radius() const { return radii.empty() ? 0 : *std::max_element(radii.begin(), radii.end()); }
+  int radius() const {
+    int r = 0;
+    for (int x : radii) r = std::max(r, x);
+    for (int x : needle_radii) r = std::max(r, x);
+    return r;
+  }
 };
 
 // Learned thresholds lie within (0, kMaxLearnedThreshold) (plant.yaml refuses others). A

@@ -220,9 +220,42 @@ bool read_spread(const Node& n) {
   return v == "thickness";
 }
 
+// inspection.learned.matched.needles: the whitened needle kernels, one per length and
+// direction, within the bank's radius.
+void read_needles(const Node& n, int radius, MatchedKernels& k) {
+  n.only_keys({"diameter_mm", "lengths_mm", "angles_deg", "radii", "spreads", "taps"});
+  for (const char* key : {"diameter_mm", "lengths_mm", "angles_deg", "radii", "spreads", "taps"})
+    if (!n.has(key)) n.bad("expected diameter_mm, lengths_mm, angles_deg, radii, spreads and taps");
+  n.get("diameter_mm", k.needle_diameter_mm);
+  if (!(k.needle_diameter_mm >= 0.2 && k.needle_diameter_mm <= 2))
+    n.at("diameter_mm").bad("must be within 0.2..2 mm");
+  k.needle_lengths_mm = number_list(n.at("lengths_mm"), 0);
+  const size_t m = k.needle_lengths_mm.size();
+  if (m == 0) n.at("lengths_mm").bad("expected one length per kernel");
+  k.needle_angles_deg = number_list(n.at("angles_deg"), m);
+  for (double a : k.needle_angles_deg)
+    if (!(a >= 0 && a < 180)) n.at("angles_deg").bad("must be within [0, 180) degrees");
+  k.needle_spreads = number_list(n.at("spreads"), m);
+  for (double v : k.needle_spreads)
+    if (!(v > 0 && v < 1e6)) n.at("spreads").bad("must be positive");
+  for (double r : number_list(n.at("radii"), m)) {
+    if (!(r >= 1 && r <= radius && r == std::floor(r)))
+      n.at("radii").bad("must be whole pixels within 1.." + std::to_string(radius) + " (radius)");
+    k.needle_radii.push_back(int(r));
+  }
+  const Node t = n.at("taps");
+  if (!t.node.IsSequence() || t.node.size() != m) t.bad("expected one list of taps per kernel");
+  for (size_t i = 0; i < m; ++i) {
+    const size_t w = size_t(2 * k.needle_radii[i] + 1);
+    k.needle_taps.push_back(number_list(t.item(i), w * w));
+    for (double h : k.needle_taps.back())
+      if (!std::isfinite(h)) t.item(i).bad("taps must be finite");
+  }
+}
+
 // inspection.learned.matched: the whitened round kernels, a full window each.
 void read_matched(const Node& n, MatchedKernels& k) {
-  n.only_keys({"radius", "radii", "clip", "sizes_mm", "spreads", "taps"});
+  n.only_keys({"radius", "radii", "clip", "sizes_mm", "spreads", "taps", "needles"});
   if (!n.has("radius") || !n.has("sizes_mm") || !n.has("spreads") || !n.has("taps"))
     n.bad("expected radius, sizes_mm, spreads and taps");
   int radius = 0;
@@ -253,6 +286,7 @@ void read_matched(const Node& n, MatchedKernels& k) {
     for (double h : k.taps.back())
       if (!std::isfinite(h)) t.item(i).bad("taps must be finite");
   }
+  if (n.has("needles")) read_needles(n.at("needles"), radius, k);
 }
 
 // inspection.learned (rangexctl learn writes it): every list matches the bands, the
@@ -549,6 +583,8 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
                   "false_reject_target",
                   "matched_kernels_mm",
                   "matched_clip",
+                  "matched_needles_mm",
+                  "matched_needle_diameter_mm",
                   "learned",
                   "spread",
                   "dual_energy"});
@@ -585,6 +621,15 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->get("matched_clip", q.matched_clip);
     if (!(q.matched_clip >= 0.5 && q.matched_clip <= 100))
       n->at("matched_clip").bad("must be within 0.5..100 robust spreads");
+    if (n->has("matched_needles_mm")) {
+      q.matched_needles_mm = number_list(n->at("matched_needles_mm"), 0);
+      for (double d : q.matched_needles_mm)
+        if (!(d >= 1 && d <= 6))
+          n->at("matched_needles_mm").bad("needle lengths must be within 1..6 mm");
+    }
+    n->get("matched_needle_diameter_mm", q.matched_needle_diameter_mm);
+    if (!(q.matched_needle_diameter_mm >= 0.2 && q.matched_needle_diameter_mm <= 2))
+      n->at("matched_needle_diameter_mm").bad("must be within 0.2..2 mm");
     if (n->has("learned")) read_learned(n->at("learned"), q.learned);
     if (n->has("dual_energy")) {
       const std::string m = n->at("dual_energy").str();
@@ -929,6 +974,22 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
     for (const std::vector<double>& t : L.matched.taps) {
       o << "\n    - ";
       list(t);
+    }
+    const MatchedKernels& k = L.matched;
+    if (k.has_needles()) {
+      o << "\n  needles:\n    diameter_mm: " << k.needle_diameter_mm << "\n    lengths_mm: ";
+      list(k.needle_lengths_mm);
+      o << "\n    angles_deg: ";
+      list(k.needle_angles_deg);
+      o << "\n    radii: [";
+      for (size_t i = 0; i < k.needle_radii.size(); ++i) o << (i ? ", " : "") << k.needle_radii[i];
+      o << "]\n    spreads: ";
+      list(k.needle_spreads);
+      o << "\n    taps:";
+      for (const std::vector<double>& t : k.needle_taps) {
+        o << "\n      - ";
+        list(t);
+      }
     }
   }
   for (int s = 0; s < kStatistics; ++s) {

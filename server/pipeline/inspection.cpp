@@ -308,28 +308,36 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   // The statistics, oriented so that larger is more bone-like (round, needle) or air-like.
   std::vector<float> stat[kStatistics];
   stat[kStatRound].assign(n, kNaN);
+  stat[kStatNeedle].assign(n, kNaN);
   stat[kStatAir] = zs;
   const MatchedKernels& mk = p.learned.matched;
+  // Kernels whitened by the product's texture (matched_kernels.h), bright specks clipped
+  // first; each brought to unit spread like the Gaussian, a pixel as bone-like as its most
+  // bone-like kernel.
+  std::vector<float> zc, zk;
+  if (!mk.empty()) clip_bright(z.data(), use.data(), n, mk.clip, zc);
+  auto most_bone_like = [&](const std::vector<double>& taps, int radius, double spread,
+                            std::vector<float>& into) {
+    apply_kernel(zc.data(), use.data(), img.rows, img.cols, taps, radius, zk);
+    unit_spread_by_thickness(zk, img.thickness.data(), use.data(), bins, 0.5 * spread);
+    for (size_t i = 0; i < n; ++i)
+      if (std::isfinite(zk[i]) && !(into[i] >= -zk[i])) into[i] = -zk[i];
+  };
   if (mk.empty()) {
     for (size_t i = 0; i < n; ++i) stat[kStatRound][i] = -zs[i];
   } else {
-    // Kernels whitened by the product's texture (matched_kernels.h), bright specks clipped
-    // first; each brought to unit spread like the Gaussian, a pixel as bone-like as its most
-    // bone-like kernel.
-    std::vector<float> zc, zk;
-    clip_bright(z.data(), use.data(), n, mk.clip, zc);
-    for (size_t k = 0; k < mk.taps.size(); ++k) {
-      apply_kernel(zc.data(), use.data(), img.rows, img.cols, mk.taps[k], mk.radii[k], zk);
-      unit_spread_by_thickness(zk, img.thickness.data(), use.data(), bins, 0.5 * mk.spreads[k]);
-      for (size_t i = 0; i < n; ++i)
-        if (std::isfinite(zk[i]) && !(stat[kStatRound][i] >= -zk[i])) stat[kStatRound][i] = -zk[i];
-    }
+    for (size_t k = 0; k < mk.taps.size(); ++k)
+      most_bone_like(mk.taps[k], mk.radii[k], mk.spreads[k], stat[kStatRound]);
   }
-  // Needles and slivers: a pixel or less wide, they fade under the round kernel; elongated
-  // kernels along four directions, each brought to unit spread the same way, find them. A
-  // pixel is as needle-like as its most needle-like direction.
-  stat[kStatNeedle].assign(n, kNaN);
-  if (p.line_sigma_along_px > 0) {
+  // Needles and slivers: a pixel or less wide, they fade under the round kernel. Learned
+  // needle kernels (one per length and direction) where the product taught them, else
+  // elongated kernels along four directions, each brought to unit spread the same way. A
+  // pixel is as needle-like as its most needle-like kernel.
+  if (mk.has_needles()) {
+    for (size_t k = 0; k < mk.needle_taps.size(); ++k)
+      most_bone_like(mk.needle_taps[k], mk.needle_radii[k], mk.needle_spreads[k],
+                     stat[kStatNeedle]);
+  } else if (p.line_sigma_along_px > 0) {
     std::vector<float> zl;
     for (int dir = 0; dir < 4; ++dir) {
       const double gain =

@@ -36,13 +36,17 @@ MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
   // Lags to twice the largest window's radius: the covariance over that window.
   const FilletImage& first = images.front();
   int radius = 0;
-  for (double d : inspection.matched_kernels_mm) {
-    const int r = kernel_radius(d, first.pitch_mm, first.step_mm);
-    if (r > kMaxKernelRadius)
-      fail("inspection.matched_kernels_mm: a ", d, " mm sphere needs a window of radius ", r,
-           " px on ", first.pitch_mm, " mm pixels; at most ", kMaxKernelRadius);
-    radius = std::max(radius, r);
-  }
+  auto window = [&](const char* key, const std::vector<double>& sizes_mm, const char* piece) {
+    for (double d : sizes_mm) {
+      const int r = kernel_radius(d, first.pitch_mm, first.step_mm);
+      if (r > kMaxKernelRadius)
+        fail("inspection.", key, ": a ", d, " mm ", piece, " needs a window of radius ", r,
+             " px on ", first.pitch_mm, " mm pixels; at most ", kMaxKernelRadius);
+      radius = std::max(radius, r);
+    }
+  };
+  window("matched_kernels_mm", inspection.matched_kernels_mm, "sphere");
+  window("matched_needles_mm", inspection.matched_needles_mm, "needle");
   TextureCovariance cov(2 * radius, inspection.matched_clip);
   InspectionParams plain = inspection;
   plain.learned = {};
@@ -55,8 +59,11 @@ MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
     cov.add(m.z.data(), m.use.data(), seen.rows, seen.cols);
   }
   if (cov.fillets() == 0) return {};
-  return learn_matched_kernels(cov, inspection.matched_kernels_mm, first.pitch_mm, first.step_mm,
-                               first.detector_sigma_px);
+  MatchedKernels k = learn_matched_kernels(cov, inspection.matched_kernels_mm, first.pitch_mm,
+                                           first.step_mm, first.detector_sigma_px);
+  learn_needle_kernels(cov, inspection.matched_needles_mm, inspection.matched_needle_diameter_mm,
+                       first.pitch_mm, first.step_mm, first.detector_sigma_px, k);
+  return k;
 }
 
 LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspection,

@@ -97,10 +97,13 @@ double TextureCovariance::at(int drow, int dcol) const {
   return pairs_[k] > 0 ? sum_[k] / pairs_[k] : 0.0;
 }
 
-std::vector<double> sphere_profile(double d_mm, double pitch_mm, double step_mm, int radius,
-                                   double blur_px) {
+namespace {
+// A piece's chord (mm) at (x across, y along; mm from the window's centre) averaged over each
+// pixel of the window (8 x 8 rays), then blurred across the detector by blur_px.
+template <class Chord>
+std::vector<double> piece_profile(Chord chord, double pitch_mm, double step_mm, int radius,
+                                  double blur_px) {
   const int w = 2 * radius + 1, ss = 8;
-  const double R2 = 0.25 * d_mm * d_mm;
   std::vector<double> s(size_t(w) * w, 0.0);
   for (int i = 0; i < w; ++i)
     for (int j = 0; j < w; ++j) {
@@ -109,7 +112,7 @@ std::vector<double> sphere_profile(double d_mm, double pitch_mm, double step_mm,
         for (int b = 0; b < ss; ++b) {
           const double y = (i - radius + (a + 0.5) / ss - 0.5) * step_mm;
           const double x = (j - radius + (b + 0.5) / ss - 0.5) * pitch_mm;
-          acc += 2 * std::sqrt(std::max(0.0, R2 - x * x - y * y));
+          acc += chord(x, y);
         }
       s[size_t(i) * w + j] = acc / (ss * ss);
     }
@@ -126,6 +129,27 @@ std::vector<double> sphere_profile(double d_mm, double pitch_mm, double step_mm,
     s = std::move(out);
   }
   return s;
+}
+}  // namespace
+
+std::vector<double> sphere_profile(double d_mm, double pitch_mm, double step_mm, int radius,
+                                   double blur_px) {
+  const double R2 = 0.25 * d_mm * d_mm;
+  return piece_profile(
+      [R2](double x, double y) { return 2 * std::sqrt(std::max(0.0, R2 - x * x - y * y)); },
+      pitch_mm, step_mm, radius, blur_px);
+}
+
+std::vector<double> needle_profile(double len_mm, double diam_mm, double angle_rad, double pitch_mm,
+                                   double step_mm, int radius, double blur_px) {
+  const double R2 = 0.25 * diam_mm * diam_mm, ux = std::cos(angle_rad), uy = std::sin(angle_rad);
+  return piece_profile(
+      [=](double x, double y) {
+        const double along = x * ux + y * uy, across = y * ux - x * uy;
+        if (std::abs(along) > 0.5 * len_mm) return 0.0;
+        return 2 * std::sqrt(std::max(0.0, R2 - across * across));
+      },
+      pitch_mm, step_mm, radius, blur_px);
 }
 
 std::vector<double> whitened_kernel(const TextureCovariance& c, const std::vector<double>& s,
@@ -195,6 +219,28 @@ MatchedKernels learn_matched_kernels(const TextureCovariance& c,
     k.spreads.push_back(kernel_spread(c, k.taps.back(), r));
   }
   return k;
+}
+
+void learn_needle_kernels(const TextureCovariance& c, const std::vector<double>& lengths_mm,
+                          double diam_mm, double pitch_mm, double step_mm, double blur_px,
+                          MatchedKernels& k) {
+  if (!(diam_mm > 0)) fail("needle kernels: a needle of diameter ", diam_mm, " mm");
+  k.needle_diameter_mm = diam_mm;
+  for (double len : lengths_mm) {
+    const int r = kernel_radius(len, pitch_mm, step_mm);
+    if (2 * r > c.max_lag())
+      fail("needle kernels: a ", len, " mm needle needs a window of radius ", r,
+           " px, the texture was measured to lags of ", c.max_lag(), " px");
+    for (int d = 0; d < kNeedleDirections; ++d) {
+      const double deg = 180.0 * d / kNeedleDirections;
+      k.needle_lengths_mm.push_back(len);
+      k.needle_angles_deg.push_back(deg);
+      k.needle_radii.push_back(r);
+      k.needle_taps.push_back(whitened_kernel(
+          c, needle_profile(len, diam_mm, deg * M_PI / 180, pitch_mm, step_mm, r, blur_px), r));
+      k.needle_spreads.push_back(kernel_spread(c, k.needle_taps.back(), r));
+    }
+  }
 }
 
 double apply_kernel(const float* z, const uint8_t* use, int rows, int cols,
