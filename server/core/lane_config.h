@@ -83,8 +83,8 @@ struct InspectionParams {
   double matched_clip = 1.5;
   // And the needle statistic: kernels whitened by the same texture, matched to a needle of
   // this diameter and each of these lengths (mm) along 8 directions (`[]`: the elongated
-  // Gaussians of line_sigma_*_px stay). On rough meat a whitened 2 mm needle kernel has about
-  // 4x the signal-to-noise of the elongated Gaussian on a needle along it (docs/inspection.md).
+  // Gaussians of line_sigma_*_px stay). On rough meat the 2 mm kernel has 2.4-4.2x the
+  // signal-to-noise of the elongated Gaussian on a 1.5-5 mm needle along it (docs/inspection.md).
   std::vector<double> matched_needles_mm = {2.0};
   double matched_needle_diameter_mm = 0.6;
   // Thresholds learned from the plant's own clean product (rangexctl learn); when active

@@ -315,7 +315,7 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   // first; each brought to unit spread like the Gaussian, a pixel as bone-like as its most
   // bone-like kernel.
   std::vector<float> zc, zk;
-  if (!mk.empty()) clip_bright(z.data(), use.data(), n, mk.clip, zc);
+  if (!mk.empty() || mk.has_needles()) clip_bright(z.data(), use.data(), n, mk.clip, zc);
   auto most_bone_like = [&](const std::vector<double>& taps, int radius, double spread,
                             std::vector<float>& into) {
     apply_kernel(zc.data(), use.data(), img.rows, img.cols, taps, radius, zk);
