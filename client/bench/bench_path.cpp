@@ -310,7 +310,7 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
     std::sort(ms[k].begin(), ms[k].end());
     const double m = ms[k][ms[k].size() / 2];
     if (k == 0) base = m;
-    std::printf("  %-38s %8.2f  (%.2fx)\n", names[k], m, base > 0 ? m / base : 0.0);
+    std::printf("  %-44s %8.2f  (%.2fx)\n", names[k], m, base > 0 ? m / base : 0.0);
   }
 }
 
