@@ -201,8 +201,11 @@ TEST(Server, ADualEnergyLaneTakesBothXrayLines) {
   EXPECT_EQ(with_high, with_low);
   const RecordingReader recorded(started.dir + "/lane0");
   ASSERT_EQ(recorded.info().xray_energies, 2);
-  ASSERT_EQ(recorded.info().lines, int64_t(seq.size() - 1));
-  EXPECT_EQ(stopped.lines, seq.size() - 1);
+  // Every accepted line is in the recording or counted as left out: on a busy machine the
+  // disk can fall behind the stream, and ingest never waits for it (shift_recorder.h).
+  ASSERT_EQ(recorded.info().lines, int64_t(stopped.lines));
+  EXPECT_EQ(stopped.lines + stopped.left_out, seq.size() - 1);
+  ASSERT_GT(recorded.info().lines, 7);  // the queue holds 256 lines before any is left out
   std::vector<uint16_t> high(size_t(p.lanes[0].xray.pixels));
   recorded.read_high(0, 7, 1, high.data());
   EXPECT_EQ(0, std::memcmp(high.data(), seq[7].xray_high().data(), seq[7].xray_high().size()));
