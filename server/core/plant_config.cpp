@@ -220,6 +220,36 @@ bool read_spread(const Node& n) {
   return v == "thickness";
 }
 
+// A kernel bank's lists: each kernel's spread, its window (whole pixels within 1..radius)
+// and its taps, a full window each.
+std::vector<double> read_spreads(const Node& n, size_t m) {
+  std::vector<double> v = number_list(n, m);
+  for (double x : v)
+    if (!(x > 0 && x < 1e6)) n.bad("must be positive");
+  return v;
+}
+
+std::vector<int> read_radii(const Node& n, size_t m, int radius) {
+  std::vector<int> out;
+  for (double r : number_list(n, m)) {
+    if (!(r >= 1 && r <= radius && r == std::floor(r)))
+      n.bad("must be whole pixels within 1.." + std::to_string(radius) + " (radius)");
+    out.push_back(int(r));
+  }
+  return out;
+}
+
+std::vector<std::vector<double>> read_taps(const Node& t, const std::vector<int>& radii) {
+  std::vector<std::vector<double>> out;
+  for (size_t i = 0; i < radii.size(); ++i) {
+    const size_t w = size_t(2 * radii[i] + 1);
+    out.push_back(number_list(t.item(i), w * w));
+    for (double h : out.back())
+      if (!std::isfinite(h)) t.item(i).bad("taps must be finite");
+  }
+  return out;
+}
+
 // inspection.learned.matched.needles: the whitened needle kernels, one per length and
 // direction, within the bank's radius.
 void read_needles(const Node& n, int radius, MatchedKernels& k) {
@@ -235,22 +265,11 @@ void read_needles(const Node& n, int radius, MatchedKernels& k) {
   k.needle_angles_deg = number_list(n.at("angles_deg"), m);
   for (double a : k.needle_angles_deg)
     if (!(a >= 0 && a < 180)) n.at("angles_deg").bad("must be within [0, 180) degrees");
-  k.needle_spreads = number_list(n.at("spreads"), m);
-  for (double v : k.needle_spreads)
-    if (!(v > 0 && v < 1e6)) n.at("spreads").bad("must be positive");
-  for (double r : number_list(n.at("radii"), m)) {
-    if (!(r >= 1 && r <= radius && r == std::floor(r)))
-      n.at("radii").bad("must be whole pixels within 1.." + std::to_string(radius) + " (radius)");
-    k.needle_radii.push_back(int(r));
-  }
+  k.needle_spreads = read_spreads(n.at("spreads"), m);
+  k.needle_radii = read_radii(n.at("radii"), m, radius);
   const Node t = n.at("taps");
   if (!t.node.IsSequence() || t.node.size() != m) t.bad("expected one list of taps per kernel");
-  for (size_t i = 0; i < m; ++i) {
-    const size_t w = size_t(2 * k.needle_radii[i] + 1);
-    k.needle_taps.push_back(number_list(t.item(i), w * w));
-    for (double h : k.needle_taps.back())
-      if (!std::isfinite(h)) t.item(i).bad("taps must be finite");
-  }
+  k.needle_taps = read_taps(t, k.needle_radii);
 }
 
 // inspection.learned.matched: the whitened round kernels, a full window each.
@@ -264,28 +283,14 @@ void read_matched(const Node& n, MatchedKernels& k) {
   n.get("clip", k.clip);
   if (!(k.clip > 0 && k.clip <= 100)) n.at("clip").bad("must be within (0, 100] spreads");
   k.sizes_mm = number_list(n.at("sizes_mm"), 0);
-  k.spreads = number_list(n.at("spreads"), k.sizes_mm.size());
-  for (double v : k.spreads)
-    if (!(v > 0 && v < 1e6)) n.at("spreads").bad("must be positive");
+  k.spreads = read_spreads(n.at("spreads"), k.sizes_mm.size());
   const Node t = n.at("taps");
   if (!t.node.IsSequence() || t.node.size() != k.sizes_mm.size() || k.sizes_mm.empty())
     t.bad("expected one list of taps per size in sizes_mm");
   // Each kernel's window (radii; a file without them has one window, radius, for all).
-  if (n.has("radii")) {
-    for (double r : number_list(n.at("radii"), k.sizes_mm.size())) {
-      if (!(r >= 1 && r <= radius && r == std::floor(r)))
-        n.at("radii").bad("must be whole pixels within 1.." + std::to_string(radius) + " (radius)");
-      k.radii.push_back(int(r));
-    }
-  } else {
-    k.radii.assign(k.sizes_mm.size(), radius);
-  }
-  for (size_t i = 0; i < t.node.size(); ++i) {
-    const size_t w = size_t(2 * k.radii[i] + 1);
-    k.taps.push_back(number_list(t.item(i), w * w));
-    for (double h : k.taps.back())
-      if (!std::isfinite(h)) t.item(i).bad("taps must be finite");
-  }
+  k.radii = n.has("radii") ? read_radii(n.at("radii"), k.sizes_mm.size(), radius)
+                           : std::vector<int>(k.sizes_mm.size(), radius);
+  k.taps = read_taps(t, k.radii);
   if (n.has("needles")) read_needles(n.at("needles"), radius, k);
 }
 
@@ -947,7 +952,7 @@ std::string yaml_string(const std::string& s) {
 std::string learned_detection_yaml(const LearnedDetection& L) {
   std::ostringstream o;
   o.precision(12);
-  auto list = [&o](const std::vector<double>& v) {
+  auto list = [&o](const auto& v) {
     o << "[";
     for (size_t i = 0; i < v.size(); ++i) o << (i ? ", " : "") << v[i];
     o << "]";
@@ -965,9 +970,8 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
     o << "\nmatched:\n  radius: " << L.matched.radius() << "\n  clip: " << L.matched.clip
       << "\n  sizes_mm: ";
     list(L.matched.sizes_mm);
-    o << "\n  radii: [";
-    for (size_t i = 0; i < L.matched.radii.size(); ++i) o << (i ? ", " : "") << L.matched.radii[i];
-    o << "]";
+    o << "\n  radii: ";
+    list(L.matched.radii);
     o << "\n  spreads: ";
     list(L.matched.spreads);
     o << "\n  taps:";
@@ -981,9 +985,9 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
       list(k.needle_lengths_mm);
       o << "\n    angles_deg: ";
       list(k.needle_angles_deg);
-      o << "\n    radii: [";
-      for (size_t i = 0; i < k.needle_radii.size(); ++i) o << (i ? ", " : "") << k.needle_radii[i];
-      o << "]\n    spreads: ";
+      o << "\n    radii: ";
+      list(k.needle_radii);
+      o << "\n    spreads: ";
       list(k.needle_spreads);
       o << "\n    taps:";
       for (const std::vector<double>& t : k.needle_taps) {
