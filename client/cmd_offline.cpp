@@ -237,10 +237,14 @@ int cmd_process(int argc, char** argv) {
   if (a.has("calibration")) {
     apply_calibration_option(plant, a.get("calibration", ""));
     plant.calibration_id = a.get("calibration", "");
-    std::printf("replaying %s (made with calibration '%s') with %s\n",
-                a.positional(0, "recording folder").c_str(),
-                RecordingReader(a.positional(0, "recording folder")).info().calibration_id.c_str(),
-                plant.calibration_id.c_str());
+    if (a.flag("simulate"))
+      std::printf("simulating with %s\n", plant.calibration_id.c_str());
+    else
+      std::printf(
+          "replaying %s (made with calibration '%s') with %s\n",
+          a.positional(0, "recording folder").c_str(),
+          RecordingReader(a.positional(0, "recording folder")).info().calibration_id.c_str(),
+          plant.calibration_id.c_str());
   }
   if (a.flag("simulate")) {
     a.expect_positionals(

@@ -40,6 +40,11 @@ check "eval prints recall" grep -q "recall, calcified fragments >= 2 mm" "$work/
 "$ctl" process --simulate --lanes 1 --fillets 3 --seed 4 --out "$work/plant" --images none >"$work/plant.txt" \
   || fails=$((fails + 1))
 check "simulated plant prints the baseline" grep -q "X-ray only" "$work/plant.txt"
+# ... and with a calibration of its own (no recording to name).
+printf 'laser_plane: {normal: [0, 1, 0], offset_mm: 0.0}\n' >"$work/simcal.yaml"
+"$ctl" process --simulate --calibration "$work/simcal.yaml" --lanes 1 --fillets 1 --seed 4 \
+  --out "$work/plant_cal" --images none >"$work/plant_cal.txt" || fails=$((fails + 1))
+check "simulated plant with a calibration" grep -q "simulating with .*simcal.yaml" "$work/plant_cal.txt"
 "$ctl" eval "$work/plant" --json >"$work/plant.json" || fails=$((fails + 1))
 check "eval of a simulated run" grep -q '"xray_only"' "$work/plant.json"
 

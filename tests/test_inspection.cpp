@@ -2,9 +2,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "core/lane_config.h"
 #include "pipeline/inspection.h"
+#include "pipeline/matched_kernels.h"
 #include "sim/synthetic_fillet.h"
 
 using namespace rangex;
@@ -89,6 +91,40 @@ TEST(Inspection, ContrastInMillimetresOfMeatDropsCartilageOnlyWhenAsked) {
   ASSERT_EQ(strong.fragments.size(), 1u);
   EXPECT_NEAR(strong.fragments[0].x_mm, 10, 1.0);
   EXPECT_EQ(strong.decision, Decision::kReject);
+}
+
+// A small bone found by a whitened kernel (learned here from white noise, where the kernel is
+// its sphere's profile): its contrast is read under that kernel, the excess through its
+// centre, where the Gaussians smooth it down to part of that. A plant's min_fragment_meat_mm
+// between the two keeps it.
+TEST(Inspection, ABonesContrastIsReadUnderTheWhitenedKernelThatFoundIt) {
+  // A 1.5 mm sphere whose centre attenuates like 4 mm of this meat (0.12 / 0.03).
+  const std::vector<Bone> bone = {{5, 160, 0.75, 0.12}};
+  const FilletImage f = synthetic_fillet(std::log(3600.0), -0.03, bone, 6);
+  InspectionParams p = params();
+  const FilletResult gauss = inspect_fillet(f, p, false);
+  ASSERT_EQ(gauss.fragments.size(), 1u) << gauss.reason;
+  TextureCovariance white(8);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<float> g;
+  const int side = 120;
+  std::vector<float> z(size_t(side) * side);
+  std::vector<uint8_t> all(z.size(), 1);
+  for (int k = 0; k < 4; ++k) {
+    for (float& x : z) x = g(rng);
+    white.add(z.data(), all.data(), side, side);
+  }
+  p.learned.matched = learn_matched_kernels(white, {1.5}, 0.4, 0.4, 0);
+  const FilletResult kern = inspect_fillet(f, p, false);
+  ASSERT_EQ(kern.fragments.size(), 1u) << kern.reason;
+  std::printf("meat_mm: Gaussians %.2f, whitened kernel %.2f (truth 4.0)\n",
+              gauss.fragments[0].meat_mm, kern.fragments[0].meat_mm);
+  EXPECT_NEAR(kern.fragments[0].meat_mm, 4.0, 0.6);
+  EXPECT_LT(gauss.fragments[0].meat_mm, 3.0);
+  p.min_fragment_meat_mm = 3.0;
+  EXPECT_EQ(inspect_fillet(f, p, false).fragments.size(), 1u);
+  p.learned.matched = {};
+  EXPECT_TRUE(inspect_fillet(f, p, false).fragments.empty());
 }
 
 TEST(Inspection, PlantedFragmentsFoundWithinOneMillimetre) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "core/error.h"
@@ -109,12 +110,17 @@ double local_excess(const std::vector<float>& resid, const std::vector<uint8_t>&
   return std::isfinite(best) ? best : 0.0;
 }
 
+// The excess attenuation at pixel (r, c) under the whitened kernel whose statistic is that
+// pixel's, NaN where none is (matched_excess below).
+using KernelExcess = std::function<double(int r, int c)>;
+
 // Components of `on` of at least min_area_mm2; w: the statistic oriented so that larger is
 // more bone-like (sign -1) or air-like (+1).
 std::vector<Blob> blobs(const std::vector<float>& w_map, const std::vector<uint8_t>& on,
                         const std::vector<float>& resid, const std::vector<uint8_t>& use,
                         const FilletImage& img, double sign, double min_area_mm2,
-                        const RobustFit* fit, const InspectionParams& p) {
+                        const RobustFit* fit, const InspectionParams& p,
+                        const KernelExcess& kernel_excess = {}) {
   const double px_area = img.pitch_mm * img.step_mm;
   std::vector<int> labels;
   const auto comps = label_components(on.data(), img.rows, img.cols, labels);
@@ -148,15 +154,23 @@ std::vector<Blob> blobs(const std::vector<float>& w_map, const std::vector<uint8
         strongest.push_back({w, r, k});
       }
     // Its contrast where its statistic is strongest (the few best pixels: each evaluation
-    // runs the five kernels).
+    // runs the five kernels). Under the Gaussians and, where a whitened kernel found the
+    // pixel, under that kernel too, the larger: a Gaussian smooths a small piece away and
+    // reads the meat around it (nothing in a fat lump), a small kernel sees only part of a
+    // large piece.
     const size_t best = std::min<size_t>(8, strongest.size());
     std::partial_sort(strongest.begin(), strongest.begin() + long(best), strongest.end(),
                       [](const auto& a, const auto& b) { return a.w > b.w; });
     for (size_t q = 0; q < best; ++q) {
       const auto [w, r, k] = strongest[q];
       const double mu = meat_mu(fit, img.thickness[size_t(r) * img.cols + k]);
-      if (mu > 0)
-        b.meat_mm = std::max(b.meat_mm, local_excess(resid, use, img, r, k, -sign, p) / mu);
+      if (!(mu > 0)) continue;
+      double excess = local_excess(resid, use, img, r, k, -sign, p);
+      if (kernel_excess) {
+        const double e = kernel_excess(r, k);
+        if (std::isfinite(e)) excess = std::max(excess, e);
+      }
+      b.meat_mm = std::max(b.meat_mm, excess / mu);
     }
     strongest.clear();
     // The detector sees the fragment magnified by the fan beam; put it back at mid-depth of
@@ -314,20 +328,24 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   // Kernels whitened by the product's texture (matched_kernels.h), bright specks clipped
   // first; each brought to unit spread like the Gaussian, a pixel as bone-like as its most
   // bone-like kernel.
+  // which[i]: the kernel whose statistic pixel i's is (a fragment's contrast is measured
+  // under it).
   std::vector<float> zc, zk;
+  std::vector<int16_t> round_k, needle_k;
   if (!mk.empty() || mk.has_needles()) clip_bright(z.data(), use.data(), n, mk.clip, zc);
   auto most_bone_like = [&](const std::vector<double>& taps, int radius, double spread,
-                            std::vector<float>& into) {
+                            std::vector<float>& into, std::vector<int16_t>& which, size_t k) {
     apply_kernel(zc.data(), use.data(), img.rows, img.cols, taps, radius, zk);
     unit_spread_by_thickness(zk, img.thickness.data(), use.data(), bins, 0.5 * spread);
+    which.resize(n, -1);
     for (size_t i = 0; i < n; ++i)
-      if (std::isfinite(zk[i]) && !(into[i] >= -zk[i])) into[i] = -zk[i];
+      if (std::isfinite(zk[i]) && !(into[i] >= -zk[i])) into[i] = -zk[i], which[i] = int16_t(k);
   };
   if (mk.empty()) {
     for (size_t i = 0; i < n; ++i) stat[kStatRound][i] = -zs[i];
   } else {
     for (size_t k = 0; k < mk.taps.size(); ++k)
-      most_bone_like(mk.taps[k], mk.radii[k], mk.spreads[k], stat[kStatRound]);
+      most_bone_like(mk.taps[k], mk.radii[k], mk.spreads[k], stat[kStatRound], round_k, k);
   }
   // Needles and slivers: a pixel or less wide, they fade under the round kernel. Learned
   // needle kernels (one per length and direction) where the product taught them, else
@@ -335,8 +353,8 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   // pixel is as needle-like as its most needle-like kernel.
   if (mk.has_needles()) {
     for (size_t k = 0; k < mk.needle_taps.size(); ++k)
-      most_bone_like(mk.needle_taps[k], mk.needle_radii[k], mk.needle_spreads[k],
-                     stat[kStatNeedle]);
+      most_bone_like(mk.needle_taps[k], mk.needle_radii[k], mk.needle_spreads[k], stat[kStatNeedle],
+                     needle_k, k);
   } else if (p.line_sigma_along_px > 0) {
     std::vector<float> zl;
     for (int dir = 0; dir < 4; ++dir) {
@@ -366,7 +384,35 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
     bone_w[i] = std::isfinite(nd) ? std::max(r, nd) : r;
     air_on[i] = stat[kStatAir][i] > threshold(kStatAir, i);
   }
-  res.fragments = blobs(bone_w, bone_on, resid, use, img, -1, p.min_fragment_area_mm2, fit, p);
+  // A whitened kernel h has h . s = 1 for its piece's chord s (mm): on the residual it reads
+  // the piece's excess attenuation per mm of chord, unbiased in that shape, and times the
+  // piece's chord through its centre (the sphere's diameter, the needle's) the excess there.
+  // It runs on the residual as the kernels saw it, bright values clipped (zc / z of them).
+  const KernelExcess matched_excess = [&](int r, int c) {
+    const size_t i = size_t(r) * img.cols + c;
+    const float rs = stat[kStatRound][i], nd = stat[kStatNeedle][i];
+    const bool needle = std::isfinite(nd) && nd > rs;  // as bone_w below
+    const std::vector<int16_t>& which = needle ? needle_k : round_k;
+    const int k = which.empty() ? -1 : which[i];
+    if (k < 0) return double(kNaN);
+    const std::vector<double>& taps = needle ? mk.needle_taps[size_t(k)] : mk.taps[size_t(k)];
+    const int radius = needle ? mk.needle_radii[size_t(k)] : mk.radii[size_t(k)];
+    const double chord = needle ? mk.needle_diameter_mm : mk.sizes_mm[size_t(k)];
+    const int w = 2 * radius + 1;
+    double a = 0;
+    for (int dr = -radius; dr <= radius; ++dr)
+      for (int dc = -radius; dc <= radius; ++dc) {
+        const int rr = r + dr, cc = c + dc;
+        if (rr < 0 || rr >= img.rows || cc < 0 || cc >= img.cols) continue;
+        const size_t j = size_t(rr) * img.cols + cc;
+        if (!use[j] || !std::isfinite(z[j]) || !std::isfinite(resid[j])) continue;
+        const double v = z[j] > zc[j] && z[j] != 0 ? resid[j] * (zc[j] / z[j]) : resid[j];
+        a += taps[size_t(dr + radius) * w + size_t(dc + radius)] * v;
+      }
+    return -a * chord;
+  };
+  res.fragments =
+      blobs(bone_w, bone_on, resid, use, img, -1, p.min_fragment_area_mm2, fit, p, matched_excess);
   if (fit && p.min_fragment_meat_mm > 0)
     std::erase_if(res.fragments, [&](const Blob& b) { return b.meat_mm < p.min_fragment_meat_mm; });
   res.air_pockets = blobs(stat[kStatAir], air_on, resid, use, img, +1, p.min_air_area_mm2, fit, p);

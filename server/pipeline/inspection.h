@@ -29,9 +29,10 @@ struct Blob {
   double area_mm2 = 0;
   double peak_z = 0;           // most extreme smoothed z (negative for bone)
   double attenuation_mm2 = 0;  // sum of -ln(I / P) * pixel area: excess attenuation x area
-  // The excess attenuation at its strongest point (a 3x3 mean, or three pixels in a line for
-  // a needle), in mm of the fillet's own meat
-  // (its fitted attenuation per mm there); magnitude, for bone and air alike; 0 without a fit.
+  // The excess attenuation at its strongest point, in mm of the fillet's own meat (its
+  // fitted attenuation per mm there); magnitude, for bone and air alike; 0 without a fit.
+  // Under the round and elongated Gaussians and, for bone a whitened kernel found, under
+  // that kernel (its piece's excess through the centre): the larger.
   double meat_mm = 0;
   int pixels = 0;
   int row0 = 0, row1 = 0, col0 = 0, col1 = 0;  // bounding box in the fillet image
