@@ -310,6 +310,8 @@ TEST(MatchedKernels, AKernelSeesFlatMeatOffTheFilletAndGivesNothingThere) {
           ref += taps[size_t(i + 1) * 3 + size_t(j + 1)] * z[size_t(rr) * cols + cc];
         }
       EXPECT_NEAR(out[size_t(r) * cols + c], ref, 1e-4) << r << "," << c;
+      EXPECT_NEAR(apply_kernel_at(z.data(), use.data(), rows, cols, taps, radius, r, c), ref, 1e-9)
+          << r << "," << c;
     }
 }
 

@@ -331,13 +331,12 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   // which[i]: the kernel whose statistic pixel i's is (a fragment's contrast is measured
   // under it).
   std::vector<float> zc, zk;
-  std::vector<int16_t> round_k, needle_k;
+  std::vector<int16_t> round_k(mk.empty() ? 0 : n, -1), needle_k(mk.has_needles() ? n : 0, -1);
   if (!mk.empty() || mk.has_needles()) clip_bright(z.data(), use.data(), n, mk.clip, zc);
   auto most_bone_like = [&](const std::vector<double>& taps, int radius, double spread,
                             std::vector<float>& into, std::vector<int16_t>& which, size_t k) {
     apply_kernel(zc.data(), use.data(), img.rows, img.cols, taps, radius, zk);
     unit_spread_by_thickness(zk, img.thickness.data(), use.data(), bins, 0.5 * spread);
-    which.resize(n, -1);
     for (size_t i = 0; i < n; ++i)
       if (std::isfinite(zk[i]) && !(into[i] >= -zk[i])) into[i] = -zk[i], which[i] = int16_t(k);
   };
@@ -387,7 +386,9 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   // A whitened kernel h has h . s = 1 for its piece's chord s (mm): on the residual it reads
   // the piece's excess attenuation per mm of chord, unbiased in that shape, and times the
   // piece's chord through its centre (the sphere's diameter, the needle's) the excess there.
-  // It runs on the residual as the kernels saw it, bright values clipped (zc / z of them).
+  // It runs on the residual as the kernels saw it, bright values clipped (zc / z of them),
+  // made once a fillet has a fragment.
+  std::vector<float> resid_c;
   const KernelExcess matched_excess = [&](int r, int c) {
     const size_t i = size_t(r) * img.cols + c;
     const float rs = stat[kStatRound][i], nd = stat[kStatNeedle][i];
@@ -395,21 +396,16 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
     const std::vector<int16_t>& which = needle ? needle_k : round_k;
     const int k = which.empty() ? -1 : which[i];
     if (k < 0) return double(kNaN);
-    const std::vector<double>& taps = needle ? mk.needle_taps[size_t(k)] : mk.taps[size_t(k)];
-    const int radius = needle ? mk.needle_radii[size_t(k)] : mk.radii[size_t(k)];
-    const double chord = needle ? mk.needle_diameter_mm : mk.sizes_mm[size_t(k)];
-    const int w = 2 * radius + 1;
-    double a = 0;
-    for (int dr = -radius; dr <= radius; ++dr)
-      for (int dc = -radius; dc <= radius; ++dc) {
-        const int rr = r + dr, cc = c + dc;
-        if (rr < 0 || rr >= img.rows || cc < 0 || cc >= img.cols) continue;
-        const size_t j = size_t(rr) * img.cols + cc;
-        if (!use[j] || !std::isfinite(z[j]) || !std::isfinite(resid[j])) continue;
-        const double v = z[j] > zc[j] && z[j] != 0 ? resid[j] * (zc[j] / z[j]) : resid[j];
-        a += taps[size_t(dr + radius) * w + size_t(dc + radius)] * v;
-      }
-    return -a * chord;
+    if (resid_c.empty()) {
+      resid_c = resid;
+      for (size_t j = 0; j < n; ++j)
+        if (use[j] && z[j] > zc[j] && z[j] != 0) resid_c[j] = resid[j] * (zc[j] / z[j]);
+    }
+    const size_t kk = size_t(k);
+    const double a = apply_kernel_at(resid_c.data(), use.data(), img.rows, img.cols,
+                                     needle ? mk.needle_taps[kk] : mk.taps[kk],
+                                     needle ? mk.needle_radii[kk] : mk.radii[kk], r, c);
+    return -a * (needle ? mk.needle_diameter_mm : mk.sizes_mm[kk]);
   };
   res.fragments =
       blobs(bone_w, bone_on, resid, use, img, -1, p.min_fragment_area_mm2, fit, p, matched_excess);

@@ -281,4 +281,18 @@ double apply_kernel(const float* z, const uint8_t* use, int rows, int cols,
   return std::sqrt(g);
 }
 
+double apply_kernel_at(const float* z, const uint8_t* use, int rows, int cols,
+                       const std::vector<double>& taps, int radius, int r, int c) {
+  const int w = 2 * radius + 1;
+  double a = 0;
+  for (int i = 0; i < w; ++i)
+    for (int j = 0; j < w; ++j) {
+      const int rr = r + i - radius, cc = c + j - radius;
+      if (rr < 0 || rr >= rows || cc < 0 || cc >= cols) continue;
+      const size_t k = size_t(rr) * size_t(cols) + size_t(cc);
+      if (use[k] && std::isfinite(z[k])) a += taps[size_t(i) * w + size_t(j)] * z[k];
+    }
+  return a;
+}
+
 }  // namespace rangex

@@ -85,4 +85,8 @@ void learn_needle_kernels(const TextureCovariance& c, const std::vector<double>&
 double apply_kernel(const float* z, const uint8_t* use, int rows, int cols,
                     const std::vector<double>& taps, int radius, std::vector<float>& out);
 
+// apply_kernel's sum at one usable pixel (r, c) alone (a fragment's few best pixels).
+double apply_kernel_at(const float* z, const uint8_t* use, int rows, int cols,
+                       const std::vector<double>& taps, int radius, int r, int c);
+
 }  // namespace rangex
