@@ -22,6 +22,7 @@
 #include "core/error.h"
 #include "core/text_file.h"
 #include "eval_steps.h"
+#include "learning_check.h"
 #include "offline/fillet_records.h"
 
 namespace fs = std::filesystem;
@@ -116,9 +117,9 @@ Row run_variant(const fs::path& file, const fs::path& dir, const fs::path& confi
     const std::string key = kMethodKeys[k];
     const std::string cfg = (configs / ("plant-" + key + ".yaml")).string();
     const std::string learned = at("learned_" + key + ".yaml");
-    run_step(log, {"learn", at("learn_rec"), "--out", learned, "--calibration", cal, "--check",
-                   at("check_rec"), "--force", "--version", "matrix-" + r.name + "-" + key,
-                   "--config", cfg});
+    learn_as_a_plant_would(log, at("learn_rec"), learned,
+                           {"--calibration", cal, "--check", at("check_rec"), "--version",
+                            "matrix-" + r.name + "-" + key, "--config", cfg});
     run_step(log, {"process", at("rec"), "--out", at("out_" + key), "--images", "none",
                    "--calibration", cal, "--config", learned});
     MethodRun& m = r.m[k];
