@@ -16,10 +16,11 @@ struct LearningCheck {
   bool ok = false;  // the final learning's own verdict
 };
 
-// Runs `learn LEARN_REC --out OUT ... --force EXTRA...` (EXTRA: --calibration, --check,
+// Runs `learn LEARN_REC --out OUT EXTRA... --force` (EXTRA: --calibration, --check,
 // --version, --config), reads the report (OUT with the extension .report/learn.json) and,
 // when it named fillets that LEARN_REC's truth (one lane) says hold no bone, learns again
-// keeping them. The log says what was kept and why.
+// keeping them; up to three rounds, as long as a round names fillets not checked before.
+// The log says what was kept and why.
 LearningCheck learn_as_a_plant_would(const std::string& log, const std::string& learn_rec,
                                      const std::string& out, const std::vector<std::string>& extra);
 
