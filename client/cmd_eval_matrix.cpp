@@ -60,7 +60,7 @@ struct Row {
   int learn_fillets = 0;
   bool learned_run = false, learn_ok = false;
   int learn_flagged = 0, claims = 0, claims_held = 0;
-  LearningCheck check;  // the first learning's named fillets, checked against the truth
+  LearningCheck check;  // the fillets its learnings named, checked against the truth
   // The report's sentences checked on the check fillets, and their pieces pooled.
   int stated = 0, stated_held = 0, stated_found = 0, stated_injected = 0;
   // A large run of clean product alone with the learned thresholds: the false-reject rate

@@ -10,7 +10,7 @@
 namespace rangex::cli {
 
 struct LearningCheck {
-  int named = 0;    // fillets the first learning named
+  int named = 0;    // fillets the learnings named, each counted once
   int kept = 0;     // of those, found clean by the truth and learned again with
   int bony = 0;     // of those, holding bone by the truth (left out)
   bool ok = false;  // the final learning's own verdict
