@@ -326,7 +326,7 @@ std::string json(const std::vector<Row>& rows) {
       calcified_2mm(l, k, n);
       os << ", \"learned\": {\"ok\": " << (r.learn_ok ? "true" : "false")
          << ", \"learning_fillets\": " << r.learn_fillets << ", \"flagged\": " << r.learn_flagged
-         << ", \"named_first\": " << r.check.named << ", \"kept_checked_clean\": " << r.check.kept
+         << ", \"named\": " << r.check.named << ", \"kept_checked_clean\": " << r.check.kept
          << ", \"left_out_bony\": " << r.check.bony << ", \"recall_calcified_ge_2mm\": [" << k
          << ", " << n << "], \"recall_by_shape\": {";
       for (size_t q = 0; q < l.by_shape.size(); ++q)

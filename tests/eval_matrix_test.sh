@@ -37,7 +37,7 @@ check "the learned run is reported" pl "L['learning_fillets'] == 12 and not L['o
 check "its clean run counted over its two parts" pl "L['clean_run']['fillets'] == 3"
 check "each part inspected, its scan dropped" bash -c "test -d l/rough_meat/out_frr0 && test -d l/rough_meat/out_frr1 && test ! -e l/rough_meat/out_frr2 && test ! -e l/rough_meat/frr_rec && test ! -e l/rough_meat/learn_rec"
 check "the report's sentences checked on the check fillets" pl "0 <= L['stated_held'] <= L['stated'] and 0 <= L['stated_pieces'][0] <= L['stated_pieces'][1] and (L['stated'] == 0) == (L['stated_pieces'][1] == 0)"
-check "fillets the learning named are each kept (clean by the truth) or left out" pl "L['named_first'] == L['kept_checked_clean'] + L['left_out_bony'] and L['left_out_bony'] == 0"
+check "fillets the learning named are each kept (clean by the truth) or left out" pl "L['named'] == L['kept_checked_clean'] + L['left_out_bony'] and L['left_out_bony'] == 0"
 check "recall and false rejects as counts" pl "len(L['recall_calcified_ge_2mm']) == 2 and len(L['false_rejects']) == 2"
 check "the learned configuration was written and used" grep -q "learned:" l/rough_meat/learned.yaml
 check "the learning's report beside it" test -s l/rough_meat/learned.report/learn.json
