@@ -32,6 +32,7 @@
 #include "offline/evaluation.h"
 #include "offline/fillet_records.h"
 #include "offline/miss_margin.h"
+#include "offline/recorded_drift.h"
 #include "offline/replay.h"
 
 namespace fs = std::filesystem;
@@ -67,6 +68,10 @@ struct Row {
   // with an interval narrow enough to mean something.
   int frr_fillets = 0, frr_rejected = 0, frr_not_inspected = 0;
   int frr_fragments = 0;  // bone detections in the clean run
+  // What the lane's drift monitor said over the clean run's passed fillets, in order:
+  // whether the product's extremes follow the model learned from its 40 fillets.
+  RecordedDrift drift;
+  std::string drift_sentence;
   std::vector<std::string> sensitivity;
   double minutes = 0;
   std::string failed;  // why the variant stopped (its log says more); empty when it ran
@@ -189,10 +194,11 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
       r.learn_fillets = l.at("fillets").get<int>();
       if (l.contains("flagged_fillets")) r.learn_flagged = int(l.at("flagged_fillets").size());
       for (const auto& s : l.at("sensitivity").at("summary")) r.sensitivity.push_back(s);
+      std::vector<RecordSet> clean_runs;
       for (int part = 0; fs::is_directory(dir / ("out_frr" + std::to_string(part))); ++part) {
-        const RecordSet clean = read_records(
+        const RecordSet& clean = clean_runs.emplace_back(read_records(
             (dir / ("out_frr" + std::to_string(part)) / ("lane" + std::to_string(lane))).string(),
-            "");
+            ""));
         r.frr_fillets += int(clean.fillets.size());
         for (const auto& f : clean.fillets)
           r.frr_rejected += f.decision != "pass",
@@ -200,6 +206,12 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
         // Bone detections only: air pockets (marbling looks like them) do not reject.
         r.frr_fragments += int(std::count_if(clean.fragments.begin(), clean.fragments.end(),
                                              [](const auto& f) { return f.kind == "bone"; }));
+      }
+      if (const LearnedDetection L =
+              load_plant_config(at("learned.yaml")).lane(lane).inspection.learned;
+          !clean_runs.empty() && L.active()) {
+        r.drift = recorded_drift(L, clean_runs, lane);
+        r.drift_sentence = drift_sentence(lane, r.drift, L);
       }
       if (l.contains("held_out_check")) {
         const nlohmann::json& h = l["held_out_check"];
@@ -340,7 +352,13 @@ std::string json(const std::vector<Row>& rows) {
          << ", \"stated_pieces\": [" << r.stated_found << ", " << r.stated_injected << "]"
          << ", \"clean_run\": {\"fillets\": " << r.frr_fillets
          << ", \"rejected\": " << r.frr_rejected << ", \"not_inspected\": " << r.frr_not_inspected
-         << ", \"fragments\": " << r.frr_fragments << "}"
+         << ", \"fragments\": " << r.frr_fragments << ", \"drift\": {\"passed\": " << r.drift.passed
+         << ", \"last_window\": " << r.drift.last.fillets
+         << ", \"implied_frr\": " << r.drift.last.implied_frr
+         << ", \"learned_frr\": " << r.drift.learned_frr
+         << ", \"drifting\": " << (r.drift.drifting ? "true" : "false")
+         << ", \"first_flagged\": " << r.drift.first_flagged
+         << ", \"highest_frr\": " << r.drift.highest_frr << "}}"
          << ", \"sensitivity\": [";
       for (size_t q = 0; q < r.sensitivity.size(); ++q)
         os << (q ? ", " : "") << "\"" << r.sensitivity[q] << "\"";
@@ -459,6 +477,14 @@ int cmd_eval_matrix(int argc, char** argv) {
          << learned_table(rows, false);
       if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
         os << "\nheld out (never tuned on):\n" << learned_table(rows, true);
+      if (std::any_of(rows.begin(), rows.end(),
+                      [](const Row& r) { return !r.drift_sentence.empty(); })) {
+        os << "\nthe lane's drift monitor over the clean run (its passed fillets in order; "
+              "a warning when the last 200 imply more than twice the target):\n";
+        for (const Row& r : rows)
+          if (!r.drift_sentence.empty())
+            os << r.name << ":\n" << indented(r.drift_sentence) << "\n";
+      }
       os << "\nwhere the learned thresholds missed calcified fragments >= 2 mm:\n";
       for (const Row& r : rows)
         if (r.learned_run)

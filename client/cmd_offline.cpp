@@ -19,6 +19,7 @@
 #include "offline/evaluation.h"
 #include "offline/fillet_records.h"
 #include "offline/plant_run.h"
+#include "offline/recorded_drift.h"
 #include "offline/replay.h"
 #include "pipeline/fillet_images.h"
 #include "pipeline/recorded_stripes.h"
@@ -319,7 +320,20 @@ int cmd_process(int argc, char** argv) {
        << ", \"not_inspected\": " << count_decision(ours, "not_inspected")
        << ", \"debris\": " << r.assembly.debris << ", \"pipeline_seconds\": " << r.seconds
        << ", \"lines_per_second\": " << lines_per_s
-       << ", \"inspection_seconds\": " << r.inspection_seconds << "}";
+       << ", \"inspection_seconds\": " << r.inspection_seconds;
+    // With learned thresholds: what the lane's drift monitor would have said of this product.
+    std::string drift;
+    if (const LearnedDetection& L = plant.lane(r.lane).inspection.learned; L.active()) {
+      const RecordedDrift d = recorded_drift(L, {ours}, r.lane);
+      js << ", \"drift\": {\"passed\": " << d.passed << ", \"fillets\": " << d.last.fillets
+         << ", \"implied_frr\": " << d.last.implied_frr << ", \"learned_frr\": " << d.learned_frr
+         << ", \"target_frr\": " << L.target_frr
+         << ", \"drifting\": " << (d.drifting ? "true" : "false")
+         << ", \"first_flagged\": " << d.first_flagged << ", \"highest_frr\": " << d.highest_frr
+         << "}";
+      drift = drift_sentence(r.lane, d, L);
+    }
+    js << "}";
     char thickness[64] = "a recording of a real line";  // per-line arrays not kept
     if (!r.thickness.empty())
       std::snprintf(thickness, sizeof thickness, "%.1f%% of thickness pixels valid",
@@ -330,6 +344,7 @@ int cmd_process(int argc, char** argv) {
         r.lane, (long long)r.lines, thickness, ours.fillets.size(), count_decision(ours, "pass"),
         count_decision(ours, "reject"), count_decision(ours, "not_inspected"), lines_per_s,
         backend.name.c_str());
+    if (!drift.empty()) std::printf("%s\n", drift.c_str());
   }
   js << "]}\n";
   std::ofstream(out / "summary.json") << js.str();

@@ -2,11 +2,19 @@
 
 #include <algorithm>
 
+#include "core/error.h"
+
 namespace rangex {
 
 const char* statistic_name(int stat) {
   static const char* kNames[kStatistics] = {"round", "needle", "air"};
   return stat >= 0 && stat < kStatistics ? kNames[stat] : "?";
+}
+
+int parse_statistic(const std::string& name) {
+  for (int s = 0; s < kStatistics; ++s)
+    if (name == statistic_name(s)) return s;
+  fail("unknown detection statistic '", name, "' (round, needle or air)");
 }
 
 const std::vector<double>& default_band_edges_mm() {

@@ -15,6 +15,8 @@ namespace rangex {
 
 enum DetectionStatistic { kStatRound, kStatNeedle, kStatAir, kStatistics };
 const char* statistic_name(int stat);  // "round", "needle", "air"
+// The statistic statistic_name names; throws Error naming what it got otherwise.
+int parse_statistic(const std::string& name);
 
 // The thickness bands (mm of X-ray path) in which extremes are taken when nothing was learned.
 const std::vector<double>& default_band_edges_mm();

@@ -39,6 +39,7 @@ void RecordSet::add(const FilletResult& r) {
     for (const Blob& b : *list)
       fragments.push_back({r.lane, r.id, list == &r.fragments ? "bone" : "air", b.x_mm, b.y_mm,
                            b.area_mm2, b.peak_z, b.attenuation_mm2, b.meat_mm, b.bone_mg});
+  for (const BandExtreme& e : r.extremes) extremes.push_back({r.lane, r.id, e});
 }
 
 void write_records(const std::string& dir, const std::string& prefix, const RecordSet& s) {
@@ -71,6 +72,16 @@ void write_records(const std::string& dir, const std::string& prefix, const Reco
     g << buf;
   }
   if (!g) fail(gp.string(), ": write failed");
+  const fs::path ep = fs::path(dir) / (prefix + "extremes.csv");
+  std::ofstream e(ep);
+  e << "lane,fillet,statistic,band,extreme,pixels,thickness_mm\n";
+  for (const ExtremeRecord& x : s.extremes) {
+    std::snprintf(buf, sizeof buf, "%d,%lld,%s,%d,%.6g,%.0f,%.3f\n", x.lane, (long long)x.fillet,
+                  statistic_name(x.extreme.stat), x.extreme.band, x.extreme.x, x.extreme.n,
+                  x.extreme.t);
+    e << buf;
+  }
+  if (!e) fail(ep.string(), ": write failed");
 }
 
 namespace {
@@ -147,6 +158,16 @@ RecordSet read_records(const std::string& dir, const std::string& prefix) {
                                std::stod(c[8]), c.size() > 9 ? std::stod(c[9]) : 0.0});
       },
       10);
+  if (const fs::path ep = fs::path(dir) / (prefix + "extremes.csv"); fs::exists(ep))
+    read_table(ep, 7, [&](const std::vector<std::string>& c) {
+      BandExtreme e;
+      e.stat = parse_statistic(c[2]);
+      e.band = std::stoi(c[3]);
+      e.x = std::stod(c[4]);
+      e.n = std::stod(c[5]);
+      e.t = std::stod(c[6]);
+      s.extremes.push_back({std::stoi(c[0]), std::stoll(c[1]), e});
+    });
   return s;
 }
 

@@ -35,13 +35,23 @@ struct FragmentRecord {
   double bone_mg = 0;  // dual energy: bone-equivalent mass (0 at one energy)
 };
 
+// One of a fillet's detection extremes per thickness band (FilletResult::extremes): what
+// the learning fits and the drift monitor follows.
+struct ExtremeRecord {
+  int lane = 0;
+  int64_t fillet = 0;
+  BandExtreme extreme;
+};
+
 struct RecordSet {
   std::vector<FilletRecord> fillets;
   std::vector<FragmentRecord> fragments;
+  std::vector<ExtremeRecord> extremes;
   void add(const FilletResult& r);
 };
 
-// Writes <dir>/<prefix>fillets.csv and <dir>/<prefix>fragments.csv.
+// Writes <dir>/<prefix>fillets.csv, <prefix>fragments.csv and <prefix>extremes.csv (read back
+// when present: outputs written before it read with no extremes).
 void write_records(const std::string& dir, const std::string& prefix, const RecordSet& s);
 RecordSet read_records(const std::string& dir, const std::string& prefix);
 std::string fillets_json(const RecordSet& s);

@@ -15,9 +15,13 @@ bool DriftTracker::add(const LearnedDetection& L, const std::vector<BandExtreme>
   recent_.push_back(extremes);
   while (int(recent_.size()) > window_) recent_.pop_front();
   if (++since_ < every_) return false;
+  refresh(L);
+  return true;
+}
+
+void DriftTracker::refresh(const LearnedDetection& L) {
   since_ = 0;
   est_ = estimate_drift(L, std::vector<std::vector<BandExtreme>>(recent_.begin(), recent_.end()));
-  return true;
 }
 
 std::string product_drift_warning(int lane, int fillets, double implied_frr) {

@@ -20,7 +20,10 @@ class DriftTracker {
   // A passed fillet's extremes under `learned`; returns true when the estimate was refreshed.
   // A different learned version starts the window afresh.
   bool add(const LearnedDetection& learned, const std::vector<BandExtreme>& extremes);
+  // The estimate over the window as it stands now (a run's end, between refreshes).
+  void refresh(const LearnedDetection& learned);
   const DriftEstimate& estimate() const { return est_; }
+  int min_fillets() const { return min_; }
   // The last window implies more than twice the target (and holds enough fillets to say).
   bool drifting(const LearnedDetection& learned) const {
     return est_.fillets >= min_ && est_.implied_frr > 2 * learned.target_frr;
