@@ -40,6 +40,8 @@ check "the report's sentences checked on the check fillets" pl "0 <= L['stated_h
 check "fillets the learning named are each kept (clean by the truth) or left out" pl "L['named'] == L['kept_checked_clean'] + L['left_out_bony'] and L['left_out_bony'] == 0"
 check "recall and false rejects as counts" pl "len(L['recall_calcified_ge_2mm']) == 2 and len(L['false_rejects']) == 2"
 check "the learned configuration was written and used" grep -q "learned:" l/rough_meat/learned.yaml
+check "the drift monitor followed the clean run's passed fillets, its parts in order" pl "L['clean_run']['drift']['passed'] == L['clean_run']['fillets'] - L['clean_run']['rejected'] and not L['clean_run']['drift']['drifting'] and L['clean_run']['drift']['first_flagged'] == -1"
+check "the matrix says what it said" grep -qE "lane 0: drift monitor: [0-9] passed fillets, fewer than the 50" l/matrix.txt
 check "the learning's report beside it" test -s l/rough_meat/learned.report/learn.json
 # A lane on the shipped constants is warned about; the plant's own calibration silences it.
 "$ctl" simulate --out rec --lanes 1 --fillets 1 --seed 4 >/dev/null 2>&1
