@@ -69,7 +69,7 @@ struct Row {
   int frr_fillets = 0, frr_rejected = 0, frr_not_inspected = 0;
   int frr_fragments = 0;  // bone detections in the clean run
   // What the lane's drift monitor said over the clean run's passed fillets, in order:
-  // whether the product's extremes follow the model learned from its 40 fillets.
+  // whether the product's extremes follow the model learned from its learning fillets.
   RecordedDrift drift;
   std::string drift_sentence;
   std::vector<std::string> sensitivity;
@@ -211,7 +211,7 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
               load_plant_config(at("learned.yaml")).lane(lane).inspection.learned;
           !clean_runs.empty() && L.active()) {
         r.drift = recorded_drift(L, clean_runs, lane);
-        r.drift_sentence = drift_sentence(lane, r.drift, L);
+        r.drift_sentence = drift_sentence(lane, r.drift);
       }
       if (l.contains("held_out_check")) {
         const nlohmann::json& h = l["held_out_check"];
@@ -352,13 +352,7 @@ std::string json(const std::vector<Row>& rows) {
          << ", \"stated_pieces\": [" << r.stated_found << ", " << r.stated_injected << "]"
          << ", \"clean_run\": {\"fillets\": " << r.frr_fillets
          << ", \"rejected\": " << r.frr_rejected << ", \"not_inspected\": " << r.frr_not_inspected
-         << ", \"fragments\": " << r.frr_fragments << ", \"drift\": {\"passed\": " << r.drift.passed
-         << ", \"last_window\": " << r.drift.last.fillets
-         << ", \"implied_frr\": " << r.drift.last.implied_frr
-         << ", \"learned_frr\": " << r.drift.learned_frr
-         << ", \"drifting\": " << (r.drift.drifting ? "true" : "false")
-         << ", \"first_flagged\": " << r.drift.first_flagged
-         << ", \"highest_frr\": " << r.drift.highest_frr << "}}"
+         << ", \"fragments\": " << r.frr_fragments << ", \"drift\": " << drift_json(r.drift) << "}"
          << ", \"sensitivity\": [";
       for (size_t q = 0; q < r.sensitivity.size(); ++q)
         os << (q ? ", " : "") << "\"" << r.sensitivity[q] << "\"";

@@ -325,13 +325,8 @@ int cmd_process(int argc, char** argv) {
     std::string drift;
     if (const LearnedDetection& L = plant.lane(r.lane).inspection.learned; L.active()) {
       const RecordedDrift d = recorded_drift(L, {ours}, r.lane);
-      js << ", \"drift\": {\"passed\": " << d.passed << ", \"fillets\": " << d.last.fillets
-         << ", \"implied_frr\": " << d.last.implied_frr << ", \"learned_frr\": " << d.learned_frr
-         << ", \"target_frr\": " << L.target_frr
-         << ", \"drifting\": " << (d.drifting ? "true" : "false")
-         << ", \"first_flagged\": " << d.first_flagged << ", \"highest_frr\": " << d.highest_frr
-         << "}";
-      drift = drift_sentence(r.lane, d, L);
+      js << ", \"drift\": " << drift_json(d);
+      drift = drift_sentence(r.lane, d);
     }
     js << "}";
     char thickness[64] = "a recording of a real line";  // per-line arrays not kept

@@ -100,7 +100,7 @@ TEST(RecordedDrift, QuietOnTheLearnedProductWarnsOnlyOnceItsTailGrows) {
   EXPECT_EQ(same.first_flagged, -1) << same.highest_frr;
   EXPECT_LT(same.highest_frr, 2 * L.target_frr);
   EXPECT_GT(same.learned_frr, 0);
-  const std::string quiet = drift_sentence(0, same, L);
+  const std::string quiet = drift_sentence(0, same);
   EXPECT_NE(quiet.find("the last 200 of"), std::string::npos) << quiet;
   EXPECT_EQ(quiet.find("rougher than learned"), std::string::npos) << quiet;
 
@@ -110,7 +110,7 @@ TEST(RecordedDrift, QuietOnTheLearnedProductWarnsOnlyOnceItsTailGrows) {
   EXPECT_GT(rougher.first_flagged, same.passed);
   EXPECT_GT(rougher.last.implied_frr, 2 * L.target_frr);
   EXPECT_GE(rougher.highest_frr, rougher.last.implied_frr);
-  const std::string warned = drift_sentence(0, rougher, L);
+  const std::string warned = drift_sentence(0, rougher);
   EXPECT_NE(warned.find("lane 0: product rougher than learned: re-learn"), std::string::npos)
       << warned;
   EXPECT_NE(warned.find("it warned first at passed fillet"), std::string::npos) << warned;
@@ -122,7 +122,7 @@ TEST(RecordedDrift, TooFewPassedFilletsSayNothingAndNoLearningIsAnError) {
   const RecordedDrift d = recorded_drift(L, {inspected_run(rng, L, 30, 1.0, 0)}, 0);
   EXPECT_FALSE(d.drifting);
   EXPECT_EQ(d.first_flagged, -1);
-  EXPECT_NE(drift_sentence(0, d, L).find("fewer than the 50 it needs"), std::string::npos);
+  EXPECT_NE(drift_sentence(0, d).find("fewer than the 50 it needs"), std::string::npos);
   EXPECT_THROW(recorded_drift(LearnedDetection{}, {}, 0), Error);
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <map>
+#include <sstream>
 
 #include "core/error.h"
 #include "pipeline/product_drift.h"
@@ -12,9 +13,17 @@ namespace rangex {
 RecordedDrift recorded_drift(const LearnedDetection& learned, const std::vector<RecordSet>& runs,
                              int lane) {
   if (!learned.active()) fail("drift: the lane has no learned detection to follow");
+  DriftTracker tracker;
   RecordedDrift d;
   d.learned_frr = implied_false_reject_rate(learned);
-  DriftTracker tracker;
+  d.target_frr = learned.target_frr;
+  d.min_fillets = tracker.min_fillets();
+  // Each estimate of enough fillets: the highest rate, and where it first drifted.
+  auto note = [&] {
+    if (tracker.estimate().fillets < d.min_fillets) return;
+    d.highest_frr = std::max(d.highest_frr, tracker.estimate().implied_frr);
+    if (d.first_flagged < 0 && tracker.drifting(learned)) d.first_flagged = d.passed;
+  };
   for (const RecordSet& run : runs) {
     std::map<int64_t, std::vector<BandExtreme>> of;
     for (const ExtremeRecord& e : run.extremes)
@@ -23,36 +32,29 @@ RecordedDrift recorded_drift(const LearnedDetection& learned, const std::vector<
       if (f.lane != lane || f.decision != "pass") continue;
       ++d.passed;
       const auto it = of.find(f.fillet);
-      if (!tracker.add(learned, it == of.end() ? std::vector<BandExtreme>{} : it->second)) continue;
-      if (tracker.estimate().fillets < tracker.min_fillets()) continue;
-      d.highest_frr = std::max(d.highest_frr, tracker.estimate().implied_frr);
-      if (d.first_flagged < 0 && tracker.drifting(learned)) d.first_flagged = d.passed;
+      if (tracker.add(learned, it == of.end() ? std::vector<BandExtreme>{} : it->second)) note();
     }
   }
   tracker.refresh(learned);
+  note();
   d.last = tracker.estimate();
   d.drifting = tracker.drifting(learned);
-  if (d.last.fillets >= tracker.min_fillets()) {
-    d.highest_frr = std::max(d.highest_frr, d.last.implied_frr);
-    if (d.first_flagged < 0 && d.drifting) d.first_flagged = d.passed;
-  }
   return d;
 }
 
-std::string drift_sentence(int lane, const RecordedDrift& d, const LearnedDetection& learned) {
+std::string drift_sentence(int lane, const RecordedDrift& d) {
   char b[400];
-  const DriftTracker limits;
-  if (d.last.fillets < limits.min_fillets()) {
+  if (d.last.fillets < d.min_fillets) {
     std::snprintf(b, sizeof b,
                   "lane %d: drift monitor: %d passed fillets, fewer than the %d it needs to say",
-                  lane, d.passed, limits.min_fillets());
+                  lane, d.passed, d.min_fillets);
     return b;
   }
   std::snprintf(b, sizeof b,
                 "lane %d: drift monitor: the last %d of %d passed fillets imply %.3f %% false "
                 "rejects at the learned thresholds (learned: %.3f %%, target %.2f %%)",
                 lane, d.last.fillets, d.passed, 100 * d.last.implied_frr, 100 * d.learned_frr,
-                100 * learned.target_frr);
+                100 * d.target_frr);
   std::string s = b;
   if (d.first_flagged > 0) {
     std::snprintf(b, sizeof b,
@@ -62,6 +64,17 @@ std::string drift_sentence(int lane, const RecordedDrift& d, const LearnedDetect
   }
   if (d.drifting) s += "\n" + product_drift_warning(lane, d.last.fillets, d.last.implied_frr);
   return s;
+}
+
+std::string drift_json(const RecordedDrift& d) {
+  std::ostringstream os;
+  os.precision(8);
+  os << "{\"passed\": " << d.passed << ", \"last_window\": " << d.last.fillets
+     << ", \"implied_frr\": " << d.last.implied_frr << ", \"learned_frr\": " << d.learned_frr
+     << ", \"target_frr\": " << d.target_frr
+     << ", \"drifting\": " << (d.drifting ? "true" : "false")
+     << ", \"first_flagged\": " << d.first_flagged << ", \"highest_frr\": " << d.highest_frr << "}";
+  return os.str();
 }
 
 }  // namespace rangex

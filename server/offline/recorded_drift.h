@@ -20,6 +20,8 @@ struct RecordedDrift {
   int first_flagged = -1;  // the passed fillet (counted from 1) at which it first said so
   double highest_frr = 0;  // the highest rate any window of enough fillets implied
   double learned_frr = 0;  // what the learned models imply at their thresholds
+  double target_frr = 0;   // the learning's target
+  int min_fillets = 0;     // the tracker says nothing over fewer passed fillets
 };
 
 // Lane `lane`'s passed fillets of `runs`, in order, through a DriftTracker with the
@@ -31,6 +33,9 @@ RecordedDrift recorded_drift(const LearnedDetection& learned, const std::vector<
 // One line for rangexctl's output: "lane 0: drift monitor: the last 200 of 590 passed fillets
 // imply 0.05 % false rejects at the learned thresholds (learned: 0.03 %, target 0.30 %)",
 // the server's warning when the last window drifts, or why it says nothing yet.
-std::string drift_sentence(int lane, const RecordedDrift& d, const LearnedDetection& learned);
+std::string drift_sentence(int lane, const RecordedDrift& d);
+
+// The same as a JSON object (process's summary.json, eval-matrix's matrix.json).
+std::string drift_json(const RecordedDrift& d);
 
 }  // namespace rangex
