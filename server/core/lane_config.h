@@ -81,6 +81,12 @@ struct InspectionParams {
   // 1.5 instead of 3, rough_meat and marbled_fat found 25 of 28 fragments >= 2 mm where 3
   // found 22, each rejecting 0 of 338 clean fillets (docs/inspection.md).
   double matched_clip = 1.5;
+  // And before the clip, each pixel less how far the bright level that encloses it on every
+  // line through it, within the largest kernel's window, stands above the clip
+  // (pipeline/bright_enclosure.h): a fragment inside a fat streak keeps its depth below the
+  // streak, where the clip alone cuts both to one value. Lean meat beside a streak or between
+  // streaks along the muscle is not enclosed and stays as it was (docs/inspection.md).
+  bool matched_enclosure = false;
   // And the needle statistic: kernels whitened by the same texture, matched to a needle of
   // this diameter and each of these lengths (mm) along 8 directions (`[]`: the elongated
   // Gaussians of line_sigma_*_px stay). On rough meat the 2 mm kernel has 2.4-4.2x the

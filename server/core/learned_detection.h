@@ -47,6 +47,9 @@ struct MatchedKernels {
   // z above its median by more than this many robust spreads is clipped before the kernels:
   // a bright speck (fat, air) seen by a kernel's negative flank would look like bone.
   double clip = 3;
+  // And before the clip, each pixel less how far the bright level enclosing it within this
+  // many px stands above the clip (pipeline/bright_enclosure.h; 0: the clip alone).
+  int enclosure_px = 0;
   // Needle kernels, whitened by the same texture: a needle (a cylinder of needle_diameter_mm)
   // of each length along each direction (angle from across the belt toward along it), one
   // kernel each; the needle statistic takes the most bone-like. None: the elongated Gaussians.

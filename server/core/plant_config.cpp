@@ -274,7 +274,8 @@ void read_needles(const Node& n, int radius, MatchedKernels& k) {
 
 // inspection.learned.matched: the whitened round kernels, a full window each.
 void read_matched(const Node& n, MatchedKernels& k) {
-  n.only_keys({"radius", "radii", "clip", "sizes_mm", "spreads", "taps", "needles"});
+  n.only_keys(
+      {"radius", "radii", "clip", "enclosure_px", "sizes_mm", "spreads", "taps", "needles"});
   if (!n.has("radius") || !n.has("sizes_mm") || !n.has("spreads") || !n.has("taps"))
     n.bad("expected radius, sizes_mm, spreads and taps");
   int radius = 0;
@@ -282,6 +283,9 @@ void read_matched(const Node& n, MatchedKernels& k) {
   if (radius < 1 || radius > 8) n.at("radius").bad("must be within 1..8 pixels");
   n.get("clip", k.clip);
   if (!(k.clip > 0 && k.clip <= 100)) n.at("clip").bad("must be within (0, 100] spreads");
+  n.get("enclosure_px", k.enclosure_px);
+  if (k.enclosure_px < 0 || k.enclosure_px > 16)
+    n.at("enclosure_px").bad("must be within 0..16 pixels (0: the clip alone)");
   k.sizes_mm = number_list(n.at("sizes_mm"), 0);
   k.spreads = read_spreads(n.at("spreads"), k.sizes_mm.size());
   const Node t = n.at("taps");
@@ -588,6 +592,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
                   "false_reject_target",
                   "matched_kernels_mm",
                   "matched_clip",
+                  "matched_enclosure",
                   "matched_needles_mm",
                   "matched_needle_diameter_mm",
                   "learned",
@@ -626,6 +631,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     n->get("matched_clip", q.matched_clip);
     if (!(q.matched_clip >= 0.5 && q.matched_clip <= 100))
       n->at("matched_clip").bad("must be within 0.5..100 robust spreads");
+    n->get("matched_enclosure", q.matched_enclosure);
     if (n->has("matched_needles_mm")) {
       q.matched_needles_mm = number_list(n->at("matched_needles_mm"), 0);
       for (double d : q.matched_needles_mm)
@@ -967,8 +973,9 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
     o << (i ? ", " : "") << yaml_string(L.sensitivity[i]);
   o << "]";
   if (!L.matched.empty()) {
-    o << "\nmatched:\n  radius: " << L.matched.radius() << "\n  clip: " << L.matched.clip
-      << "\n  sizes_mm: ";
+    o << "\nmatched:\n  radius: " << L.matched.radius() << "\n  clip: " << L.matched.clip;
+    if (L.matched.enclosure_px > 0) o << "\n  enclosure_px: " << L.matched.enclosure_px;
+    o << "\n  sizes_mm: ";
     list(L.matched.sizes_mm);
     o << "\n  radii: ";
     list(L.matched.radii);

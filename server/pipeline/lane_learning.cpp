@@ -47,7 +47,8 @@ MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
   };
   window("matched_kernels_mm", inspection.matched_kernels_mm, "sphere");
   window("matched_needles_mm", inspection.matched_needles_mm, "needle");
-  TextureCovariance cov(2 * radius, inspection.matched_clip);
+  TextureCovariance cov(2 * radius, inspection.matched_clip,
+                        inspection.matched_enclosure ? radius : 0);
   InspectionParams plain = inspection;
   plain.learned = {};
   for (const FilletImage& img : images) {

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "pipeline/bright_enclosure.h"
 #include "pipeline/thickness_spread.h"
 
 namespace rangex {
@@ -42,33 +43,43 @@ bool cholesky(std::vector<double>& a, size_t m) {
 }
 }  // namespace
 
-void clip_bright(const float* z, const uint8_t* use, size_t n, double clip,
+void clip_bright(const float* z, const uint8_t* use, int rows, int cols, double clip, int reach,
                  std::vector<float>& out) {
+  const size_t n = size_t(rows) * size_t(cols);
   out.assign(n, std::numeric_limits<float>::quiet_NaN());
   double med = 0, sd = 0;
   const bool ok = robust_centre(z, use, n, med, sd);
   const float top = ok ? float(med + clip * sd) : std::numeric_limits<float>::infinity();
+  std::vector<float> excess;
+  if (ok && reach > 0) bright_enclosure_excess(z, use, rows, cols, top, reach, excess);
   for (size_t i = 0; i < n; ++i)
-    if (use[i] && std::isfinite(z[i])) out[i] = std::min(z[i], top);
+    if (use[i] && std::isfinite(z[i]))
+      out[i] = std::min(excess.empty() ? z[i] : z[i] - excess[i], top);
 }
 
-TextureCovariance::TextureCovariance(int max_lag, double clip)
+TextureCovariance::TextureCovariance(int max_lag, double clip, int reach)
     : max_lag_(max_lag),
       clip_(clip),
+      reach_(reach),
       sum_(size_t(2 * max_lag + 1) * size_t(2 * max_lag + 1), 0.0),
       pairs_(sum_.size(), 0.0) {
   if (max_lag < 1 || max_lag > 16) fail("texture covariance: max_lag ", max_lag, " not in 1..16");
+  if (reach < 0 || reach > 16) fail("texture covariance: reach ", reach, " not in 0..16");
 }
 
 void TextureCovariance::add(const float* z, const uint8_t* use, int rows, int cols) {
   const size_t n = size_t(rows) * size_t(cols);
   double med = 0, sd = 0;
   if (!robust_centre(z, use, n, med, sd)) return;
-  // Unit robust spread, bright side clipped, 0 (and not counted) off the usable pixels.
+  // Unit robust spread, bright side clipped (as clip_bright), 0 (and not counted) off the
+  // usable pixels.
+  std::vector<float> excess;
+  if (reach_ > 0)
+    bright_enclosure_excess(z, use, rows, cols, float(med + clip_ * sd), reach_, excess);
   std::vector<double> v(n, 0.0), u(n, 0.0);
   for (size_t i = 0; i < n; ++i)
     if (use[i] && std::isfinite(z[i])) {
-      v[i] = std::min((z[i] - med) / sd, clip_);
+      v[i] = std::min(((excess.empty() ? z[i] : z[i] - excess[i]) - med) / sd, clip_);
       u[i] = 1;
     }
   const int L = max_lag_, w = 2 * L + 1;
@@ -208,6 +219,7 @@ MatchedKernels learn_matched_kernels(const TextureCovariance& c,
                                      double step_mm, double blur_px) {
   MatchedKernels k;
   k.clip = c.clip();  // inspection clips as the texture was measured
+  k.enclosure_px = c.reach();
   for (double d : sizes_mm) {
     const int r = kernel_radius(d, pitch_mm, step_mm);
     if (2 * r > c.max_lag())

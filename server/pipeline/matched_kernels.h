@@ -18,24 +18,30 @@ namespace rangex {
 
 // z with its values above median + clip x spread (robust, over `use`) set to that bound, on
 // the usable pixels (NaN elsewhere): a bright speck cannot push a kernel's flank to bone.
-void clip_bright(const float* z, const uint8_t* use, size_t n, double clip,
+// With reach > 0, each pixel first less how far the bright level enclosing it within reach
+// px stands above that bound (pipeline/bright_enclosure.h): a dip inside a fat streak keeps
+// its depth below the streak instead of being cut to the streak's clipped value.
+void clip_bright(const float* z, const uint8_t* use, int rows, int cols, double clip, int reach,
                  std::vector<float>& out);
 
 // The autocovariance of z across fillets, at lags up to max_lag pixels in rows and columns.
-// Each fillet's z is brought to unit robust spread and clipped as detection clips it; a lag
-// is averaged over the pixel pairs both usable.
+// Each fillet's z is brought to unit robust spread and clipped as detection clips it (with
+// the bright enclosure of `reach` px when reach > 0); a lag is averaged over the pixel pairs
+// both usable.
 class TextureCovariance {
  public:
-  explicit TextureCovariance(int max_lag, double clip = 3);
+  explicit TextureCovariance(int max_lag, double clip = 3, int reach = 0);
   void add(const float* z, const uint8_t* use, int rows, int cols);
   int max_lag() const { return max_lag_; }
   double clip() const { return clip_; }
+  int reach() const { return reach_; }
   int fillets() const { return fillets_; }
   double at(int drow, int dcol) const;  // C(-d) = C(d); 0 beyond max_lag or unmeasured
 
  private:
   int max_lag_;
   double clip_;
+  int reach_;
   int fillets_ = 0;
   std::vector<double> sum_, pairs_;  // (2 max_lag + 1)^2, row-major over (drow, dcol)
 };
