@@ -488,6 +488,27 @@ TEST(MatchedKernels, LearnedKernelsTravelWithTheLearnedSettingsAndBadOnesAreRefu
     bad.replace(bad.find("radius: 4"), 9, "radius: 3");
     EXPECT_THROW(parse_learned_detection(bad, "test"), Error);
   }
+  {
+    // The bright enclosure's reach travels with the kernels learned with it; a file without
+    // it is the clip alone, and a reach beyond 16 px is refused, naming it.
+    EXPECT_EQ(L.matched.enclosure_px, 0);
+    EXPECT_EQ(yaml.find("enclosure_px"), std::string::npos);
+    TextureCovariance enclosed(14, 1.5, 4);
+    enclosed.add(z.data(), all.data(), kRows, kCols);
+    LearnedDetection e = L;
+    e.matched = learn_matched_kernels(enclosed, {1.5, 2.0}, 0.4, 0.4, 0.5);
+    EXPECT_EQ(e.matched.enclosure_px, 4);
+    std::string with = learned_detection_yaml(e);
+    EXPECT_EQ(parse_learned_detection(with, "test").matched.enclosure_px, 4);
+    with.replace(with.find("enclosure_px: 4"), 15, "enclosure_px: 17");
+    try {
+      parse_learned_detection(with, "test");
+      FAIL() << "a reach of 17 px";
+    } catch (const Error& x) {
+      EXPECT_NE(std::string(x.what()).find("enclosure_px"), std::string::npos) << x.what();
+    }
+    EXPECT_THROW(TextureCovariance(8, 1.5, -1), Error);
+  }
   // A sphere too large for the lags measured is refused, naming it.
   TextureCovariance short_lags(8);
   short_lags.add(z.data(), all.data(), kRows, kCols);

@@ -132,6 +132,9 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
   EXPECT_NE(error_of("lanes: [{id: 0, inspection: {matched_clip: 0.2}}]\n")
                 .find("inspection.matched_clip: must be within 0.5..100 robust spreads"),
             std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, inspection: {matched_enclosure: 4}}]\n")
+                .find("inspection.matched_enclosure: expected true or false"),
+            std::string::npos);
   EXPECT_NE(error_of("lanes: [{id: 0, inspection: {matched_needles_mm: [2, 0.5]}}]\n")
                 .find("inspection.matched_needles_mm: needle lengths must be within 1..6 mm"),
             std::string::npos);

@@ -253,20 +253,21 @@ void report(const char* title, const PathTimes& t, const Recorded& rec, int grid
 // Compensation and detection of the same fillets before product learning (one spread per fillet,
 // fixed thresholds, no band extremes) and after it (band extremes; fixed and learned
 // thresholds; one spread per fillet and spread by thickness; whitened round kernels, and
-// whitened needle kernels beside them), in alternating rounds; medians of the rounds, as
-// ratios to the first.
+// whitened needle kernels beside them; those after the bright enclosure), in alternating
+// rounds; medians of the rounds, as ratios to the first.
 void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   std::vector<FilletImage> imgs;
   run_lanes(lc, rec, 0, 1, batch, [&](FilletImage&& im) { imgs.push_back(std::move(im)); });
   if (imgs.empty()) return;
-  constexpr int kVariants = 6;
+  constexpr int kVariants = 7;
   InspectionParams v[kVariants];
   const char* names[kVariants] = {"before learning (fixed, no extremes)",
                                   "fixed, band extremes",
                                   "learned, round Gaussian",
                                   "learned, spread by thickness",
                                   "learned, whitened round kernels",
-                                  "learned, whitened round and needle kernels"};
+                                  "learned, whitened round and needle kernels",
+                                  "learned, whitened kernels, bright enclosure"};
   for (int k = 0; k < kVariants; ++k) {
     v[k] = lc.inspection;
     v[k].learned = LearnedDetection{};
@@ -276,8 +277,11 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   v[5].learned.matched = learn_lane_kernels(imgs, lc.inspection);
   v[4].learned.matched = v[5].learned.matched;
   v[4].learned.matched.drop_needles();
+  InspectionParams enclosed = lc.inspection;
+  enclosed.matched_enclosure = true;
+  v[6].learned.matched = learn_lane_kernels(imgs, enclosed);
   // Thresholds learned on these few fillets: for the timing, not for a decision.
-  for (int k : {2, 3, 4, 5}) {
+  for (int k : {2, 3, 4, 5, 6}) {
     std::vector<LearningFillet> fs;
     for (const FilletImage& im : imgs)
       fs.push_back({0, im.id, 0, inspect_fillet(im, v[k], false).extremes});
