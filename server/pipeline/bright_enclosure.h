@@ -6,8 +6,9 @@
 // or between two streaks along the muscle, has lean meat on at least one line through it.
 // So the level that encloses a pixel is taken along four lines (across, along, both
 // diagonals) as the lower of the brightest pixel within `reach` on either side, and the
-// lowest of the four: the infimum of linear closings, which fills compact dips and keeps
-// anything as long as the reach. The CPU reference over flat row-major buffers.
+// lowest of the four: it fills a dip that bright pixels close within the reach on every
+// line, and keeps whatever runs further than the reach along one. The CPU reference over
+// flat row-major buffers.
 #pragma once
 #include <cstddef>
 #include <cstdint>
