@@ -274,12 +274,14 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
     v[k].band_extremes = k > 0;
     v[k].spread_by_thickness = k == 3;
   }
-  v[5].learned.matched = learn_lane_kernels(imgs, lc.inspection);
+  // The kernels with the clip alone, then with the bright enclosure before it.
+  InspectionParams kernels = lc.inspection;
+  kernels.matched_enclosure = false;
+  v[5].learned.matched = learn_lane_kernels(imgs, kernels);
   v[4].learned.matched = v[5].learned.matched;
   v[4].learned.matched.drop_needles();
-  InspectionParams enclosed = lc.inspection;
-  enclosed.matched_enclosure = true;
-  v[6].learned.matched = learn_lane_kernels(imgs, enclosed);
+  kernels.matched_enclosure = true;
+  v[6].learned.matched = learn_lane_kernels(imgs, kernels);
   // Thresholds learned on these few fillets: for the timing, not for a decision.
   for (int k : {2, 3, 4, 5, 6}) {
     std::vector<LearningFillet> fs;
