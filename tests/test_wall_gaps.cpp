@@ -47,5 +47,37 @@ TEST(WallGaps, ColumnsAfterRows) {
   EXPECT_EQ(f.thickness[4], 0);
 }
 
+TEST(WallGaps, ALostRowIsClosedAndKeepsTheStepAcrossIt) {
+  // Row 1's frame was lost: closed from rows 0 and 2, which differ by 6, 2 and 0 mm; row 3's
+  // gap is a wall's rim (closed along its row) and keeps no step.
+  FilletImage f;
+  f.rows = 4, f.cols = 3;
+  f.thickness = {10, 10, 0, NAN, NAN, NAN, 16, 12, 0, 16, NAN, 0};
+  f.mask.assign(f.size(), 0);
+  EXPECT_EQ(close_wall_gaps(f, 4, 1.5), 4);
+  EXPECT_EQ(f.thickness[3], 10);  // the odd middle takes the lower, as a wall's foot
+  EXPECT_EQ(f.thickness[4], 10);
+  EXPECT_EQ(f.thickness[10], 0);
+  ASSERT_EQ(f.lost_line_step_mm.size(), f.size());
+  EXPECT_EQ(f.lost_line_step_mm, (std::vector<float>{0, 0, 0, 6, 2, 0, 0, 0, 0, 0, 0, 0}));
+  // var(ln P) = (slope step)^2 / 3, on the lost row and the rows either side.
+  const std::vector<float> v = lost_line_variance(f, -0.03, 0);
+  ASSERT_EQ(v.size(), f.size());
+  const float six = float(0.18 * 0.18 / 3), two = float(0.06 * 0.06 / 3);
+  for (int r : {0, 1, 2}) {
+    EXPECT_FLOAT_EQ(v[size_t(r) * 3], six) << r;
+    EXPECT_FLOAT_EQ(v[size_t(r) * 3 + 1], two) << r;
+    EXPECT_EQ(v[size_t(r) * 3 + 2], 0) << r;
+  }
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(v[size_t(9 + c)], 0) << c;
+  // A bent beam's slope is taken at the pixel's thickness: -0.03 + 2 * 0.0005 * 10.
+  EXPECT_FLOAT_EQ(lost_line_variance(f, -0.03, 0.0005)[3], float(0.02 * 6 * 0.02 * 6 / 3));
+  // Without a lost row there is nothing to carry.
+  FilletImage g = row_image({20, 20, NAN, NAN, NAN, 0, 0});
+  close_wall_gaps(g, 4, 1.5);
+  EXPECT_TRUE(g.lost_line_step_mm.empty());
+  EXPECT_TRUE(lost_line_variance(g, -0.03, 0).empty());
+}
+
 }  // namespace
 }  // namespace rangex

@@ -14,6 +14,7 @@
 #include "pipeline/masked_smooth.h"
 #include "pipeline/matched_kernels.h"
 #include "pipeline/thickness_spread.h"
+#include "pipeline/wall_gaps.h"
 
 namespace rangex {
 
@@ -238,10 +239,12 @@ void band_extremes(const FilletImage& img, const std::vector<uint8_t>& use,
 }
 
 // From the model of ln I to z: the residual, the noise model (into res) and z, with the
-// prediction P (DN) per pixel.
+// prediction P (DN) per pixel. closure_var: what lost rows' closures add to var(ln P) per
+// pixel (wall_gaps.h), or empty.
 void one_energy_z(const FilletImage& img, const std::vector<uint8_t>& use,
-                  const std::vector<float>& predicted_ln, FilletResult& res, std::vector<float>& z,
-                  std::vector<float>& resid, std::vector<float>& pred) {
+                  const std::vector<float>& predicted_ln, const std::vector<float>& closure_var,
+                  FilletResult& res, std::vector<float>& z, std::vector<float>& resid,
+                  std::vector<float>& pred) {
   StageLap lap(res);
   const size_t n = img.size();
   pred.assign(n, kNaN), resid.assign(n, kNaN);
@@ -279,10 +282,21 @@ void one_energy_z(const FilletImage& img, const std::vector<uint8_t>& use,
       const double gy = slope(i, i - C, i + C, r > 0, r + 1 < R);
       grad2[i] = float(gx * gx + gy * gy);
     }
-  res.noise.c = estimate_gradient_term(res.noise, pred.data(), resid.data(), grad2.data(), n);
+  const bool closures = closure_var.size() == n;
+  {
+    // A closed lost row's residual is the closure's, not the registration's: not fitted.
+    std::vector<float> fitted = grad2;
+    if (closures)
+      for (size_t i = 0; i < n; ++i)
+        if (closure_var[i] > 0) fitted[i] = kNaN;
+    res.noise.c = estimate_gradient_term(res.noise, pred.data(), resid.data(), fitted.data(), n);
+  }
   z.assign(n, kNaN);
-  for (size_t i = 0; i < n; ++i)
-    if (use[i]) z[i] = float(resid[i] / res.noise.sigma_ln(pred[i], grad2[i]));
+  for (size_t i = 0; i < n; ++i) {
+    if (!use[i]) continue;
+    const double s = res.noise.sigma_ln(pred[i], grad2[i]);
+    z[i] = float(resid[i] / (closures ? std::sqrt(s * s + closure_var[i]) : s));
+  }
   lap(kStageNoise);
 }
 
@@ -291,7 +305,7 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
                        const std::vector<float>& predicted_ln, const RobustFit* fit,
                        const InspectionParams& p, bool keep, FilletResult& res) {
   std::vector<float> z, resid, pred;
-  one_energy_z(img, use, predicted_ln, res, z, resid, pred);
+  one_energy_z(img, use, predicted_ln, {}, res, z, resid, pred);
   detect_from_z(img, use, z, resid, fit, p, keep, res);
   if (keep) res.pseudo = std::move(pred);
 }
@@ -497,7 +511,8 @@ bool one_energy_model(const FilletImage& raw, const InspectionParams& p, FilletR
       const double t = img->thickness[i];
       predicted[i] = float(res.fit.beta0 + t * (res.fit.beta1 + res.fit.beta2 * t));
     }
-  one_energy_z(*img, use, predicted, res, m.z, m.resid, m.pred);
+  one_energy_z(*img, use, predicted, lost_line_variance(*img, res.fit.beta1, res.fit.beta2), res,
+               m.z, m.resid, m.pred);
   return true;
 }
 

@@ -6,12 +6,25 @@
 // gap is uncertain by half the gap, which the noise model's gradient term carries.
 // Longer gaps stay unmeasured (and count toward the fail-safe).
 #pragma once
+#include <vector>
+
 #include "pipeline/fillet_image.h"
 
 namespace rangex {
 
+// A row with no thickness at all (a lost frame) is closed along the columns the same way,
+// but nothing says where a step between the rows on either side stood: the closed pixels'
+// thickness may be either row's, and img.lost_line_step_mm says by how much they differ,
+// for the noise model to carry.
+//
 // Closes gaps of at most max_gap_px pixels along rows, then along columns; a closed pixel
 // above floor_mm joins the mask. Returns how many pixels were closed.
 int close_wall_gaps(FilletImage& img, int max_gap_px, double floor_mm);
+
+// The variance of ln P that a lost row's closure leaves, per pixel (empty when the image
+// has none): its thickness lies anywhere between the rows either side, the closure took
+// one of them, so (slope * step)^2 / 3 with slope = d ln P / dT = beta1 + 2 beta2 T. Spread
+// to the rows either side, where the registration's fraction of a line carries it.
+std::vector<float> lost_line_variance(const FilletImage& img, double beta1, double beta2);
 
 }  // namespace rangex
