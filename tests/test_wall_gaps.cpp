@@ -61,7 +61,10 @@ TEST(WallGaps, ALostRowIsClosedAndKeepsTheStepAcrossIt) {
   ASSERT_EQ(f.lost_line_step_mm.size(), f.size());
   EXPECT_EQ(f.lost_line_step_mm, (std::vector<float>{0, 0, 0, 6, 2, 0, 0, 0, 0, 0, 0, 0}));
   // var(ln P) = (slope step)^2 / 3, on the lost row and the rows either side.
-  const std::vector<float> v = lost_line_variance(f, -0.03, 0);
+  // mu = -d ln P / dT of a straight beam (b1 -0.03), and of a bent one (b2 0.0005).
+  const auto straight = [](double) { return 0.03; };
+  const auto bent = [](double t) { return -(-0.03 + 2 * 0.0005 * t); };
+  const std::vector<float> v = lost_line_variance(f, straight);
   ASSERT_EQ(v.size(), f.size());
   const float six = float(0.18 * 0.18 / 3), two = float(0.06 * 0.06 / 3);
   for (int r : {0, 1, 2}) {
@@ -71,12 +74,12 @@ TEST(WallGaps, ALostRowIsClosedAndKeepsTheStepAcrossIt) {
   }
   for (int c = 0; c < 3; ++c) EXPECT_EQ(v[size_t(9 + c)], 0) << c;
   // A bent beam's slope is taken at the pixel's thickness: -0.03 + 2 * 0.0005 * 10.
-  EXPECT_FLOAT_EQ(lost_line_variance(f, -0.03, 0.0005)[3], float(0.02 * 6 * 0.02 * 6 / 3));
+  EXPECT_FLOAT_EQ(lost_line_variance(f, bent)[3], float(0.02 * 6 * 0.02 * 6 / 3));
   // Without a lost row there is nothing to carry.
   FilletImage g = row_image({20, 20, NAN, NAN, NAN, 0, 0});
   close_wall_gaps(g, 4, 1.5);
   EXPECT_TRUE(g.lost_line_step_mm.empty());
-  EXPECT_TRUE(lost_line_variance(g, -0.03, 0).empty());
+  EXPECT_TRUE(lost_line_variance(g, straight).empty());
 }
 
 }  // namespace

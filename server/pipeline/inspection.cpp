@@ -283,14 +283,15 @@ void one_energy_z(const FilletImage& img, const std::vector<uint8_t>& use,
       grad2[i] = float(gx * gx + gy * gy);
     }
   const bool closures = closure_var.size() == n;
-  {
-    // A closed lost row's residual is the closure's, not the registration's: not fitted.
-    std::vector<float> fitted = grad2;
-    if (closures)
-      for (size_t i = 0; i < n; ++i)
-        if (closure_var[i] > 0) fitted[i] = kNaN;
-    res.noise.c = estimate_gradient_term(res.noise, pred.data(), resid.data(), fitted.data(), n);
+  // A closed lost row's residual is the closure's, not the registration's: not fitted.
+  std::vector<float> fitted;
+  if (closures) {
+    fitted = grad2;
+    for (size_t i = 0; i < n; ++i)
+      if (closure_var[i] > 0) fitted[i] = kNaN;
   }
+  res.noise.c = estimate_gradient_term(res.noise, pred.data(), resid.data(),
+                                       (closures ? fitted : grad2).data(), n);
   z.assign(n, kNaN);
   for (size_t i = 0; i < n; ++i) {
     if (!use[i]) continue;
@@ -511,8 +512,8 @@ bool one_energy_model(const FilletImage& raw, const InspectionParams& p, FilletR
       const double t = img->thickness[i];
       predicted[i] = float(res.fit.beta0 + t * (res.fit.beta1 + res.fit.beta2 * t));
     }
-  one_energy_z(*img, use, predicted, lost_line_variance(*img, res.fit.beta1, res.fit.beta2), res,
-               m.z, m.resid, m.pred);
+  const auto mu = [&](double t) { return meat_mu(&res.fit, t); };
+  one_energy_z(*img, use, predicted, lost_line_variance(*img, mu), res, m.z, m.resid, m.pred);
   return true;
 }
 

@@ -45,17 +45,21 @@ int close_wall_gaps(FilletImage& img, int max_gap_px, double floor_mm) {
   if (max_gap_px <= 0) return 0;
   const int R = img.rows, C = img.cols;
   std::vector<uint8_t> lost(size_t(R), 1);
-  for (int r = 0; r < R; ++r)
+  bool any_lost = false;
+  for (int r = 0; r < R; ++r) {
     for (int c = 0; c < C && lost[size_t(r)]; ++c)
       if (std::isfinite(img.thickness[size_t(r) * C + c])) lost[size_t(r)] = 0;
+    any_lost = any_lost || lost[size_t(r)];
+  }
   int closed = 0;
   for (int r = 0; r < R; ++r)
     closed += close_line(&img.thickness[size_t(r) * C], &img.mask[size_t(r) * C], nullptr, C, 1,
                          max_gap_px, floor_mm);
-  std::vector<float> step(img.size(), 0.0f);
+  std::vector<float> step(any_lost ? img.size() : 0, 0.0f);
   for (int c = 0; c < C; ++c)
-    closed += close_line(&img.thickness[c], &img.mask[c], step.data() + c, R, size_t(C), max_gap_px,
-                         floor_mm);
+    closed += close_line(&img.thickness[c], &img.mask[c], any_lost ? step.data() + c : nullptr, R,
+                         size_t(C), max_gap_px, floor_mm);
+  if (!any_lost) return closed;
   // Only a lost row's closures: a wall's hidden rim is closed where the wall stands, and the
   // gradient term carries where within its pixel that is.
   bool any = false;
@@ -69,7 +73,8 @@ int close_wall_gaps(FilletImage& img, int max_gap_px, double floor_mm) {
   return closed;
 }
 
-std::vector<float> lost_line_variance(const FilletImage& img, double beta1, double beta2) {
+std::vector<float> lost_line_variance(const FilletImage& img,
+                                      const std::function<double(double)>& mu) {
   if (img.lost_line_step_mm.size() != img.size()) return {};
   const int R = img.rows, C = img.cols;
   std::vector<float> var(img.size(), 0.0f);
@@ -81,7 +86,7 @@ std::vector<float> lost_line_variance(const FilletImage& img, double beta1, doub
       if (step <= 0) continue;
       const size_t i = size_t(r) * C + c;
       const double t = std::isfinite(img.thickness[i]) ? img.thickness[i] : 0.0;
-      const double d = (beta1 + 2 * beta2 * t) * step;
+      const double d = mu(t) * step;
       var[i] = float(d * d / 3);
     }
   return var;

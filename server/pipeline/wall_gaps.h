@@ -6,6 +6,7 @@
 // gap is uncertain by half the gap, which the noise model's gradient term carries.
 // Longer gaps stay unmeasured (and count toward the fail-safe).
 #pragma once
+#include <functional>
 #include <vector>
 
 #include "pipeline/fillet_image.h"
@@ -23,8 +24,10 @@ int close_wall_gaps(FilletImage& img, int max_gap_px, double floor_mm);
 
 // The variance of ln P that a lost row's closure leaves, per pixel (empty when the image
 // has none): its thickness lies anywhere between the rows either side, the closure took
-// one of them, so (slope * step)^2 / 3 with slope = d ln P / dT = beta1 + 2 beta2 T. Spread
-// to the rows either side, where the registration's fraction of a line carries it.
-std::vector<float> lost_line_variance(const FilletImage& img, double beta1, double beta2);
+// one of them, so (mu(T) * step)^2 / 3 with mu(T) = -d ln P / dT, the meat's attenuation
+// per mm at the pixel's thickness. Spread to the rows either side, where the registration's
+// fraction of a line carries it.
+std::vector<float> lost_line_variance(const FilletImage& img,
+                                      const std::function<double(double)>& mu);
 
 }  // namespace rangex
