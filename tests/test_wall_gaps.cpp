@@ -1,4 +1,5 @@
-// A steep wall's hidden rim closed as a vertical wall in the gap's middle.
+// A steep wall's hidden rim closed as a vertical wall in the gap's middle, and the step it
+// leaves uncertain.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -47,9 +48,9 @@ TEST(WallGaps, ColumnsAfterRows) {
   EXPECT_EQ(f.thickness[4], 0);
 }
 
-TEST(WallGaps, ALostRowIsClosedAndKeepsTheStepAcrossIt) {
+TEST(WallGaps, EveryClosureKeepsTheStepAcrossItsGap) {
   // Row 1's frame was lost: closed from rows 0 and 2, which differ by 6, 2 and 0 mm; row 3's
-  // gap is a wall's rim (closed along its row) and keeps no step.
+  // gap is a wall's rim, closed along its row between 16 and 0 mm.
   FilletImage f;
   f.rows = 4, f.cols = 3;
   f.thickness = {10, 10, 0, NAN, NAN, NAN, 16, 12, 0, 16, NAN, 0};
@@ -58,28 +59,28 @@ TEST(WallGaps, ALostRowIsClosedAndKeepsTheStepAcrossIt) {
   EXPECT_EQ(f.thickness[3], 10);  // the odd middle takes the lower, as a wall's foot
   EXPECT_EQ(f.thickness[4], 10);
   EXPECT_EQ(f.thickness[10], 0);
-  ASSERT_EQ(f.lost_line_step_mm.size(), f.size());
-  EXPECT_EQ(f.lost_line_step_mm, (std::vector<float>{0, 0, 0, 6, 2, 0, 0, 0, 0, 0, 0, 0}));
-  // var(ln P) = (slope step)^2 / 3, on the lost row and the rows either side.
+  ASSERT_EQ(f.closure_step_mm.size(), f.size());
+  EXPECT_EQ(f.closure_step_mm, (std::vector<float>{0, 0, 0, 6, 2, 0, 0, 0, 0, 0, 16, 0}));
+  // var(ln P) = (slope step)^2 / 3, on the closed pixel and the rows either side.
   // mu = -d ln P / dT of a straight beam (b1 -0.03), and of a bent one (b2 0.0005).
   const auto straight = [](double) { return 0.03; };
   const auto bent = [](double t) { return -(-0.03 + 2 * 0.0005 * t); };
-  const std::vector<float> v = lost_line_variance(f, straight);
+  const std::vector<float> v = closure_variance(f, straight);
   ASSERT_EQ(v.size(), f.size());
-  const float six = float(0.18 * 0.18 / 3), two = float(0.06 * 0.06 / 3);
-  for (int r : {0, 1, 2}) {
-    EXPECT_FLOAT_EQ(v[size_t(r) * 3], six) << r;
-    EXPECT_FLOAT_EQ(v[size_t(r) * 3 + 1], two) << r;
-    EXPECT_EQ(v[size_t(r) * 3 + 2], 0) << r;
-  }
-  for (int c = 0; c < 3; ++c) EXPECT_EQ(v[size_t(9 + c)], 0) << c;
+  const float six = float(0.18 * 0.18 / 3), two = float(0.06 * 0.06 / 3),
+              sixteen = float(0.48 * 0.48 / 3);
+  for (int r : {0, 1, 2}) EXPECT_FLOAT_EQ(v[size_t(r) * 3], six) << r;
+  for (int r : {0, 1}) EXPECT_FLOAT_EQ(v[size_t(r) * 3 + 1], two) << r;
+  for (int r : {2, 3}) EXPECT_FLOAT_EQ(v[size_t(r) * 3 + 1], sixteen) << r;  // the larger
+  for (int r = 0; r < 4; ++r) EXPECT_EQ(v[size_t(r) * 3 + 2], 0) << r;
+  EXPECT_EQ(v[9], 0);
   // A bent beam's slope is taken at the pixel's thickness: -0.03 + 2 * 0.0005 * 10.
-  EXPECT_FLOAT_EQ(lost_line_variance(f, bent)[3], float(0.02 * 6 * 0.02 * 6 / 3));
-  // Without a lost row there is nothing to carry.
-  FilletImage g = row_image({20, 20, NAN, NAN, NAN, 0, 0});
-  close_wall_gaps(g, 4, 1.5);
-  EXPECT_TRUE(g.lost_line_step_mm.empty());
-  EXPECT_TRUE(lost_line_variance(g, straight).empty());
+  EXPECT_FLOAT_EQ(closure_variance(f, bent)[3], float(0.02 * 6 * 0.02 * 6 / 3));
+  // A gap between ends of one height leaves nothing to carry.
+  FilletImage g = row_image({20, 20, NAN, NAN, 20, 0, 0});
+  EXPECT_EQ(close_wall_gaps(g, 4, 1.5), 2);
+  EXPECT_TRUE(g.closure_step_mm.empty());
+  EXPECT_TRUE(closure_variance(g, straight).empty());
 }
 
 }  // namespace

@@ -294,7 +294,7 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
   res.stage_seconds[kStageFit] +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   res.dual_energy = true;
-  detect_from_z(img, use, z, resid, nullptr, p, keep, res);
+  detect_from_z(img, use, z, {}, resid, nullptr, p, keep, res);
   for (Blob& f : res.fragments) f.bone_mg = kBoneMgPerMm3 * f.attenuation_mm2;
   if (keep) {
     res.bone_mm.assign(n, kNaN);

@@ -39,10 +39,10 @@ struct FilletImage {
   kernel::DualEnergyK dual_energy{};
   std::vector<float> thickness;  // rows * cols, mm of X-ray path; NaN where not measured
   std::vector<uint8_t> mask;     // rows * cols, 1 on the fillet
-  // rows * cols, or empty: on a row that had no thickness at all (a lost camera frame), each
-  // pixel closed from the rows on either side holds how far those two differ (mm). The
-  // thickness there lies somewhere between them, wherever a step between them stood.
-  std::vector<float> lost_line_step_mm;
+  // rows * cols, or empty: each pixel closed from a gap's ends (a wall's hidden rim, a lost
+  // camera frame's row) holds how far those two differ (mm), 0 elsewhere. The thickness there
+  // lies somewhere between them, wherever the step between them stood (pipeline/wall_gaps.h).
+  std::vector<float> closure_step_mm;
   int bits = 12;
   // Fail-safe inputs, filled by the assembly.
   int missing_lines = 0;         // lines of the fillet that never arrived or were dropped

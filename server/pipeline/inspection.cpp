@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "pipeline/closure_spread.h"
 #include "pipeline/component_extreme.h"
 #include "pipeline/connected_components.h"
 #include "pipeline/detector_match.h"
@@ -239,12 +240,13 @@ void band_extremes(const FilletImage& img, const std::vector<uint8_t>& use,
 }
 
 // From the model of ln I to z: the residual, the noise model (into res) and z, with the
-// prediction P (DN) per pixel. closure_var: what lost rows' closures add to var(ln P) per
-// pixel (wall_gaps.h), or empty.
+// prediction P (DN) per pixel. closure_var: what the closures of gaps in the thickness add
+// to var(ln P) per pixel (wall_gaps.h), or empty; closure_z: their spread in z's units per
+// pixel (closure_spread.h), empty when there are none.
 void one_energy_z(const FilletImage& img, const std::vector<uint8_t>& use,
                   const std::vector<float>& predicted_ln, const std::vector<float>& closure_var,
                   FilletResult& res, std::vector<float>& z, std::vector<float>& resid,
-                  std::vector<float>& pred) {
+                  std::vector<float>& pred, std::vector<float>& closure_z) {
   StageLap lap(res);
   const size_t n = img.size();
   pred.assign(n, kNaN), resid.assign(n, kNaN);
@@ -283,7 +285,7 @@ void one_energy_z(const FilletImage& img, const std::vector<uint8_t>& use,
       grad2[i] = float(gx * gx + gy * gy);
     }
   const bool closures = closure_var.size() == n;
-  // A closed lost row's residual is the closure's, not the registration's: not fitted.
+  // A closed pixel's residual is the closure's, not the registration's: not fitted.
   std::vector<float> fitted;
   if (closures) {
     fitted = grad2;
@@ -293,10 +295,13 @@ void one_energy_z(const FilletImage& img, const std::vector<uint8_t>& use,
   res.noise.c = estimate_gradient_term(res.noise, pred.data(), resid.data(),
                                        (closures ? fitted : grad2).data(), n);
   z.assign(n, kNaN);
+  closure_z.assign(closures ? n : 0, 0.0f);
   for (size_t i = 0; i < n; ++i) {
     if (!use[i]) continue;
     const double s = res.noise.sigma_ln(pred[i], grad2[i]);
-    z[i] = float(resid[i] / (closures ? std::sqrt(s * s + closure_var[i]) : s));
+    const double v = closures ? closure_var[i] : 0.0;
+    z[i] = float(resid[i] / std::sqrt(s * s + v));
+    if (v > 0) closure_z[i] = float(std::sqrt(v / (s * s + v)));
   }
   lap(kStageNoise);
 }
@@ -305,17 +310,18 @@ void one_energy_z(const FilletImage& img, const std::vector<uint8_t>& use,
 void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
                        const std::vector<float>& predicted_ln, const RobustFit* fit,
                        const InspectionParams& p, bool keep, FilletResult& res) {
-  std::vector<float> z, resid, pred;
-  one_energy_z(img, use, predicted_ln, {}, res, z, resid, pred);
-  detect_from_z(img, use, z, resid, fit, p, keep, res);
+  std::vector<float> z, resid, pred, closure_z;
+  one_energy_z(img, use, predicted_ln, {}, res, z, resid, pred, closure_z);
+  detect_from_z(img, use, z, closure_z, resid, fit, p, keep, res);
   if (keep) res.pseudo = std::move(pred);
 }
 
 }  // namespace
 
 void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
-                   const std::vector<float>& z, std::vector<float>& resid, const RobustFit* fit,
-                   const InspectionParams& p, bool keep, FilletResult& res) {
+                   const std::vector<float>& z, const std::vector<float>& closure_z,
+                   std::vector<float>& resid, const RobustFit* fit, const InspectionParams& p,
+                   bool keep, FilletResult& res) {
   StageLap lap(res);
   const size_t n = img.size();
   std::vector<float> zs;
@@ -329,9 +335,27 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
       p.learned.active() ? p.learned.spread_by_thickness : p.spread_by_thickness;
   const ThicknessBins bins =
       thickness_bins(img.thickness.data(), use.data(), n, by_thickness ? 8 : 1);
+  const MatchedKernels& mk = p.learned.matched;
+  // Where gaps were closed, each statistic carries the closure's error as its kernel sums it
+  // (closure_spread.h): reach is the widest kernel's half-width.
+  int reach = int(std::ceil(3 * p.smooth_sigma_px)) + 1;
+  for (int r : mk.radii) reach = std::max(reach, r);
+  for (int r : mk.needle_radii) reach = std::max(reach, r);
+  if (!mk.has_needles() && p.line_sigma_along_px > 0)
+    reach = std::max(reach, int(std::ceil(3 * p.line_sigma_along_px)) +
+                                int(std::ceil(3 * p.line_sigma_across_px)) + 1);
+  const ClosureReach cr = closure_reach(closure_z, use.data(), img.rows, img.cols, reach);
+  auto smooth_at = [&](double along, double across, int dir) {
+    return [&, along, across, dir](size_t i) {
+      return masked_smooth_at(cr.e.data(), use.data(), img.rows, img.cols, along, across, dir,
+                              int(i / size_t(img.cols)), int(i % size_t(img.cols)));
+    };
+  };
   masked_gaussian(z.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, zs);
   const SpreadProfile round_spread = unit_spread_by_thickness(
       zs, img.thickness.data(), use.data(), bins, gaussian_noise_gain(p.smooth_sigma_px));
+  discount_closures(zs, cr, img.thickness.data(), round_spread,
+                    smooth_at(p.smooth_sigma_px, p.smooth_sigma_px, -1));
   res.z_spread =
       round_spread.scale.empty() ? 0.0 : round_spread.scale[round_spread.scale.size() / 2];
   // The statistics, oriented so that larger is more bone-like (round, needle) or air-like.
@@ -339,7 +363,6 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   stat[kStatRound].assign(n, kNaN);
   stat[kStatNeedle].assign(n, kNaN);
   stat[kStatAir] = zs;
-  const MatchedKernels& mk = p.learned.matched;
   // Kernels whitened by the product's texture (matched_kernels.h), bright specks clipped
   // first; each brought to unit spread like the Gaussian, a pixel as bone-like as its most
   // bone-like kernel.
@@ -349,10 +372,20 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   std::vector<int16_t> round_k(mk.empty() ? 0 : n, -1), needle_k(mk.has_needles() ? n : 0, -1);
   if (!mk.empty() || mk.has_needles())
     clip_bright(z.data(), use.data(), img.rows, img.cols, mk.clip, mk.enclosure_px, zc);
+  std::vector<double> abs_taps;
   auto most_bone_like = [&](const std::vector<double>& taps, int radius, double spread,
                             std::vector<float>& into, std::vector<int16_t>& which, size_t k) {
     apply_kernel(zc.data(), use.data(), img.rows, img.cols, taps, radius, zk);
-    unit_spread_by_thickness(zk, img.thickness.data(), use.data(), bins, 0.5 * spread);
+    const SpreadProfile s =
+        unit_spread_by_thickness(zk, img.thickness.data(), use.data(), bins, 0.5 * spread);
+    if (!cr.empty()) {
+      abs_taps.resize(taps.size());
+      for (size_t j = 0; j < taps.size(); ++j) abs_taps[j] = std::abs(taps[j]);
+      discount_closures(zk, cr, img.thickness.data(), s, [&](size_t i) {
+        return apply_kernel_at(cr.e.data(), use.data(), img.rows, img.cols, abs_taps, radius,
+                               int(i / size_t(img.cols)), int(i % size_t(img.cols)));
+      });
+    }
     for (size_t i = 0; i < n; ++i)
       if (std::isfinite(zk[i]) && !(into[i] >= -zk[i])) into[i] = -zk[i], which[i] = int16_t(k);
   };
@@ -376,7 +409,10 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
       const double gain =
           masked_line_gaussian(z.data(), use.data(), img.rows, img.cols, p.line_sigma_along_px,
                                p.line_sigma_across_px, dir, zl);
-      unit_spread_by_thickness(zl, img.thickness.data(), use.data(), bins, gain);
+      const SpreadProfile s =
+          unit_spread_by_thickness(zl, img.thickness.data(), use.data(), bins, gain);
+      discount_closures(zl, cr, img.thickness.data(), s,
+                        smooth_at(p.line_sigma_along_px, p.line_sigma_across_px, dir));
       for (size_t i = 0; i < n; ++i)
         if (std::isfinite(zl[i]) && !(stat[kStatNeedle][i] >= -zl[i]))
           stat[kStatNeedle][i] = -zl[i];
@@ -513,7 +549,8 @@ bool one_energy_model(const FilletImage& raw, const InspectionParams& p, FilletR
       predicted[i] = float(res.fit.beta0 + t * (res.fit.beta1 + res.fit.beta2 * t));
     }
   const auto mu = [&](double t) { return meat_mu(&res.fit, t); };
-  one_energy_z(*img, use, predicted, lost_line_variance(*img, mu), res, m.z, m.resid, m.pred);
+  one_energy_z(*img, use, predicted, closure_variance(*img, mu), res, m.z, m.resid, m.pred,
+               m.closure_z);
   return true;
 }
 
@@ -524,7 +561,7 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
   if (!start_inspection(raw, p, res)) return res;
   OneEnergyModel m;
   if (!one_energy_model(raw, p, res, m)) return res;
-  detect_from_z(m.image(raw), m.use, m.z, m.resid, &res.fit, p, keep, res);
+  detect_from_z(m.image(raw), m.use, m.z, m.closure_z, m.resid, &res.fit, p, keep, res);
   if (keep) res.pseudo = std::move(m.pred);
   return res;
 }

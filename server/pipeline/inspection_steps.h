@@ -18,10 +18,12 @@ bool start_inspection(const FilletImage& img, const InspectionParams& p, FilletR
 // thresholds (learned or fixed), fragments and air pockets, the band extremes and the
 // decision. resid: what z was made of, summed over a blob as its attenuation (ln I, or mm of
 // bone in dual energy); moved into the result when images are kept. fit: the single-energy
-// model of ln I (a blob's contrast in mm of meat), else null.
+// model of ln I (a blob's contrast in mm of meat), else null. closure_z: the closed gaps'
+// spread in z's units per pixel (closure_spread.h), or empty.
 void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
-                   const std::vector<float>& z, std::vector<float>& resid, const RobustFit* fit,
-                   const InspectionParams& p, bool keep, FilletResult& res);
+                   const std::vector<float>& z, const std::vector<float>& closure_z,
+                   std::vector<float>& resid, const RobustFit* fit, const InspectionParams& p,
+                   bool keep, FilletResult& res);
 
 // One energy's model of a fillet: the fit of ln I against the thickness (as the detector
 // sees it, where the lane's detector is measured), the noise model, and z on the usable
@@ -31,6 +33,7 @@ struct OneEnergyModel {
   FilletImage matched_image;
   std::vector<uint8_t> use;
   std::vector<float> z, resid, pred;  // resid: ln I - ln P; pred: P (DN)
+  std::vector<float> closure_z;       // the closures' spread in z's units; empty: none
   // The image the model was made on.
   const FilletImage& image(const FilletImage& raw) const { return matched ? matched_image : raw; }
 };

@@ -9,7 +9,7 @@ namespace rangex {
 namespace {
 
 // One line of pixels (stride apart): gaps of NaN between finite ends, at most max_gap long,
-// closed with the nearer end's value; `step` (when given) gets |end - end| at each.
+// closed with the nearer end's value; `step` gets |end - end| at each.
 int close_line(float* t, uint8_t* mask, float* step, int n, size_t stride, int max_gap,
                double floor_mm) {
   int closed = 0;
@@ -29,7 +29,7 @@ int close_line(float* t, uint8_t* mask, float* step, int n, size_t stride, int m
         const int from_a = k - i, from_b = e - 1 - k;
         const float v = from_a < from_b ? a : from_b < from_a ? b : std::min(a, b);
         t[size_t(k) * stride] = v;
-        if (step) step[size_t(k) * stride] = std::abs(a - b);
+        step[size_t(k) * stride] = std::abs(a - b);
         if (v > floor_mm) mask[size_t(k) * stride] = 1;
         ++closed;
       }
@@ -44,45 +44,29 @@ int close_line(float* t, uint8_t* mask, float* step, int n, size_t stride, int m
 int close_wall_gaps(FilletImage& img, int max_gap_px, double floor_mm) {
   if (max_gap_px <= 0) return 0;
   const int R = img.rows, C = img.cols;
-  std::vector<uint8_t> lost(size_t(R), 1);
-  bool any_lost = false;
-  for (int r = 0; r < R; ++r) {
-    for (int c = 0; c < C && lost[size_t(r)]; ++c)
-      if (std::isfinite(img.thickness[size_t(r) * C + c])) lost[size_t(r)] = 0;
-    any_lost = any_lost || lost[size_t(r)];
-  }
+  std::vector<float> step(img.size(), 0.0f);
   int closed = 0;
   for (int r = 0; r < R; ++r)
-    closed += close_line(&img.thickness[size_t(r) * C], &img.mask[size_t(r) * C], nullptr, C, 1,
-                         max_gap_px, floor_mm);
-  std::vector<float> step(any_lost ? img.size() : 0, 0.0f);
+    closed += close_line(&img.thickness[size_t(r) * C], &img.mask[size_t(r) * C],
+                         &step[size_t(r) * C], C, 1, max_gap_px, floor_mm);
   for (int c = 0; c < C; ++c)
-    closed += close_line(&img.thickness[c], &img.mask[c], any_lost ? step.data() + c : nullptr, R,
-                         size_t(C), max_gap_px, floor_mm);
-  if (!any_lost) return closed;
-  // Only a lost row's closures: a wall's hidden rim is closed where the wall stands, and the
-  // gradient term carries where within its pixel that is.
-  bool any = false;
-  for (int r = 0; r < R; ++r)
-    for (int c = 0; c < C; ++c) {
-      float& s = step[size_t(r) * C + c];
-      if (!lost[size_t(r)]) s = 0;
-      any = any || s > 0;
-    }
-  if (any) img.lost_line_step_mm = std::move(step);
+    closed +=
+        close_line(&img.thickness[c], &img.mask[c], &step[c], R, size_t(C), max_gap_px, floor_mm);
+  if (std::any_of(step.begin(), step.end(), [](float s) { return s > 0; }))
+    img.closure_step_mm = std::move(step);
   return closed;
 }
 
-std::vector<float> lost_line_variance(const FilletImage& img,
-                                      const std::function<double(double)>& mu) {
-  if (img.lost_line_step_mm.size() != img.size()) return {};
+std::vector<float> closure_variance(const FilletImage& img,
+                                    const std::function<double(double)>& mu) {
+  if (img.closure_step_mm.size() != img.size()) return {};
   const int R = img.rows, C = img.cols;
   std::vector<float> var(img.size(), 0.0f);
   for (int r = 0; r < R; ++r)
     for (int c = 0; c < C; ++c) {
       float step = 0;
       for (int q = std::max(0, r - 1); q <= std::min(R - 1, r + 1); ++q)
-        step = std::max(step, img.lost_line_step_mm[size_t(q) * C + c]);
+        step = std::max(step, img.closure_step_mm[size_t(q) * C + c]);
       if (step <= 0) continue;
       const size_t i = size_t(r) * C + c;
       const double t = std::isfinite(img.thickness[i]) ? img.thickness[i] : 0.0;

@@ -2,9 +2,14 @@
 // the detector pixels whose rays cross that stretch get no thickness, a rim one to a few
 // pixels wide along the wall. Such a short gap between a pixel on the meat and a pixel off
 // it is closed as a vertical wall in the gap's middle (the side it faces keeps its height),
-// so the rim is inspected rather than failing the fillet; where the wall stood within the
-// gap is uncertain by half the gap, which the noise model's gradient term carries.
-// Longer gaps stay unmeasured (and count toward the fail-safe).
+// so the rim is inspected rather than failing the fillet. A row with no thickness at all (a
+// lost camera frame) is closed along the columns the same way. Longer gaps stay unmeasured
+// (and count toward the fail-safe).
+//
+// Nothing says where within the gap the wall stood (a fold's oblique step may rise anywhere
+// in it) or, on a lost row, where a step between the rows either side stood: a closed
+// pixel's thickness lies somewhere between the gap's ends. img.closure_step_mm says how far
+// they differ, for the noise model to carry.
 #pragma once
 #include <functional>
 #include <vector>
@@ -13,21 +18,16 @@
 
 namespace rangex {
 
-// A row with no thickness at all (a lost frame) is closed along the columns the same way,
-// but nothing says where a step between the rows on either side stood: the closed pixels'
-// thickness may be either row's, and img.lost_line_step_mm says by how much they differ,
-// for the noise model to carry.
-//
 // Closes gaps of at most max_gap_px pixels along rows, then along columns; a closed pixel
 // above floor_mm joins the mask. Returns how many pixels were closed.
 int close_wall_gaps(FilletImage& img, int max_gap_px, double floor_mm);
 
-// The variance of ln P that a lost row's closure leaves, per pixel (empty when the image
-// has none): its thickness lies anywhere between the rows either side, the closure took
-// one of them, so (mu(T) * step)^2 / 3 with mu(T) = -d ln P / dT, the meat's attenuation
+// The variance of ln P that the closures leave, per pixel (empty when the image has none):
+// a closed pixel's thickness lies anywhere between its gap's ends, the closure took one of
+// them, so (mu(T) * step)^2 / 3 with mu(T) = -d ln P / dT, the meat's attenuation
 // per mm at the pixel's thickness. Spread to the rows either side, where the registration's
 // fraction of a line carries it.
-std::vector<float> lost_line_variance(const FilletImage& img,
-                                      const std::function<double(double)>& mu);
+std::vector<float> closure_variance(const FilletImage& img,
+                                    const std::function<double(double)>& mu);
 
 }  // namespace rangex

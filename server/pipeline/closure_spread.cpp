@@ -1,0 +1,64 @@
+#include "pipeline/closure_spread.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rangex {
+
+namespace {
+
+// Box dilation by `reach` along one axis (a running count over the window).
+std::vector<uint8_t> dilate(const std::vector<uint8_t>& in, int rows, int cols, int reach,
+                            bool along_rows) {
+  std::vector<uint8_t> out(in.size(), 0);
+  const int lines = along_rows ? rows : cols, len = along_rows ? cols : rows;
+  auto at = [&](int line, int k) {
+    return along_rows ? size_t(line) * cols + k : size_t(k) * cols + line;
+  };
+  for (int l = 0; l < lines; ++l) {
+    int count = 0;
+    for (int k = 0; k < std::min(reach, len); ++k) count += in[at(l, k)];
+    for (int k = 0; k < len; ++k) {
+      if (k + reach < len) count += in[at(l, k + reach)];
+      if (k - reach - 1 >= 0) count -= in[at(l, k - reach - 1)];
+      out[at(l, k)] = count > 0;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+ClosureReach closure_reach(std::vector<float> e, const uint8_t* use, int rows, int cols,
+                           int reach) {
+  ClosureReach cr;
+  const size_t n = size_t(rows) * cols;
+  if (e.size() != n) return cr;
+  std::vector<uint8_t> closed(n, 0);
+  bool any = false;
+  for (size_t i = 0; i < n; ++i) {
+    if (!use[i] || !(e[i] > 0)) e[i] = 0;
+    closed[i] = e[i] > 0;
+    any = any || closed[i];
+  }
+  if (!any) return cr;
+  const std::vector<uint8_t> near =
+      dilate(dilate(closed, rows, cols, reach, true), rows, cols, reach, false);
+  for (size_t i = 0; i < n; ++i)
+    if (near[i] && use[i]) cr.near.push_back(i);
+  cr.e = std::move(e);
+  return cr;
+}
+
+void discount_closures(std::vector<float>& v, const ClosureReach& cr, const float* thickness,
+                       const SpreadProfile& s, const std::function<double(size_t)>& sum_at) {
+  if (cr.empty() || s.centre_mm.empty()) return;
+  for (size_t i : cr.near) {
+    if (!std::isfinite(v[i])) continue;
+    const double t = std::isfinite(thickness[i]) ? thickness[i] : s.centre_mm.front();
+    const double c = sum_at(i) / s.scale_at(t);
+    v[i] = float(v[i] / std::sqrt(1 + c * c));
+  }
+}
+
+}  // namespace rangex

@@ -1,0 +1,33 @@
+// A closed gap's error is one error along the gap (wall_gaps.h): wherever the step stood, it
+// stood there for the whole gap and for the gap's neighbours along the wall. A kernel sums
+// such an error coherently, where it averages independent noise down, so the pixel's own
+// variance (closure_variance) understates it under every kernel that reaches the gap. Its
+// share of a statistic under kernel h is at most sum |h| e, e the closure's spread in z's
+// units per pixel; the statistic, already at unit spread, is divided by sqrt(1 + (that /
+// scale)^2) (its scale: the spread it was brought to unit with). A closure alone then stays
+// under sqrt(3) (the uniform error's largest over its spread), whatever the step.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "pipeline/thickness_spread.h"
+
+namespace rangex {
+
+struct ClosureReach {
+  std::vector<float> e;      // per pixel, z's units; 0 where nothing was closed
+  std::vector<size_t> near;  // the usable pixels within `reach` of a closed one
+  bool empty() const { return near.empty(); }
+};
+
+// e: per pixel (empty: no closure). reach: the largest kernel's half-width in pixels.
+ClosureReach closure_reach(std::vector<float> e, const uint8_t* use, int rows, int cols, int reach);
+
+// v <- v / sqrt(1 + (sum_at(i) / scale(T_i))^2) at each pixel near a closure, where sum_at(i)
+// is the kernel's sum of |h| e at pixel i and s the profile v was brought to unit spread with.
+void discount_closures(std::vector<float>& v, const ClosureReach& cr, const float* thickness,
+                       const SpreadProfile& s, const std::function<double(size_t)>& sum_at);
+
+}  // namespace rangex
