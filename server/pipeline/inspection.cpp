@@ -338,12 +338,11 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   const MatchedKernels& mk = p.learned.matched;
   // Where gaps were closed, each statistic carries the closure's error as its kernel sums it
   // (closure_spread.h): reach is the widest kernel's half-width.
-  int reach = int(std::ceil(3 * p.smooth_sigma_px)) + 1;
+  int reach = smooth_reach_px(p.smooth_sigma_px);
   for (int r : mk.radii) reach = std::max(reach, r);
   for (int r : mk.needle_radii) reach = std::max(reach, r);
   if (!mk.has_needles() && p.line_sigma_along_px > 0)
-    reach = std::max(reach, int(std::ceil(3 * p.line_sigma_along_px)) +
-                                int(std::ceil(3 * p.line_sigma_across_px)) + 1);
+    reach = std::max(reach, smooth_reach_px(p.line_sigma_along_px, p.line_sigma_across_px));
   const ClosureReach cr = closure_reach(closure_z, use.data(), img.rows, img.cols, reach);
   auto smooth_at = [&](double along, double across, int dir) {
     return [&, along, across, dir](size_t i) {

@@ -7,8 +7,11 @@
 namespace rangex {
 
 namespace {
+int radius(double sigma) {
+  return std::max(1, int(std::ceil(3 * sigma)));
+}
 std::vector<float> kernel(double sigma) {
-  const int r = std::max(1, int(std::ceil(3 * sigma)));
+  const int r = radius(sigma);
   std::vector<float> k(2 * r + 1);
   double sum = 0;
   for (int i = -r; i <= r; ++i) sum += k[i + r] = float(std::exp(-0.5 * i * i / (sigma * sigma)));
@@ -16,6 +19,10 @@ std::vector<float> kernel(double sigma) {
   return k;
 }
 }  // namespace
+
+int smooth_reach_px(double sigma_along, double sigma_across) {
+  return radius(sigma_along) + (sigma_across > 0 ? radius(sigma_across) : 0);
+}
 
 double gaussian_noise_gain(double sigma) {
   const auto k = kernel(sigma);

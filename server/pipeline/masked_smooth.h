@@ -22,6 +22,10 @@ double masked_line_gaussian(const float* v, const uint8_t* mask, int rows, int c
                             double sigma_along, double sigma_across, int direction,
                             std::vector<float>& out);
 
+// How far from its pixel any smoothing above reaches, in pixels: the along kernel's radius
+// plus, for an elongated one (sigma_across > 0), the across kernel's.
+int smooth_reach_px(double sigma_along, double sigma_across = 0);
+
 // The same smoothings evaluated at one pixel (r, c) only (direction -1: the round
 // masked_gaussian of sigma_along), for a few pixels where whole images would cost more.
 double masked_smooth_at(const float* v, const uint8_t* mask, int rows, int cols, double sigma_along,
