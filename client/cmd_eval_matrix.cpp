@@ -26,6 +26,7 @@
 #include "core/learned_detection.h"
 #include "core/recording.h"
 #include "core/text_file.h"
+#include "eval_bone_run.h"
 #include "eval_steps.h"
 #include "learning_check.h"
 #include "offline/detection_eval.h"
@@ -73,6 +74,8 @@ struct Row {
   RecordedDrift drift;
   std::string drift_sentence;
   std::vector<std::string> sensitivity;
+  // More bony fillets with the learned thresholds (--bones): recall with a narrow interval.
+  std::vector<BonePart> bones;
   double minutes = 0;
   std::string failed;  // why the variant stopped (its log says more); empty when it ran
 };
@@ -83,8 +86,9 @@ struct MatrixOptions {
   bool keep = false;
   int learn_fillets = 40;  // 0: no learning
   int check_fillets = 20;
-  int frr_fillets = 0;  // clean fillets inspected with the learned thresholds (0: none)
-  int frr_part = 60;    // simulated, inspected and dropped this many at a time
+  int frr_fillets = 0;   // clean fillets inspected with the learned thresholds (0: none)
+  int frr_part = 60;     // simulated, inspected and dropped this many at a time
+  int bone_fillets = 0;  // more bony fillets inspected with the learned thresholds (0: none)
 };
 
 // Scans are large (256 kB of camera frames a line, about 130 MB a fillet): each goes as soon
@@ -175,17 +179,24 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
     add_lane(r.learned, frags, truth, read_records(ll.string(), ""), &edges);
     finish(r.learned);
     // What finding each miss would cost: its fillet inspected again with the learned
-    // thresholds scaled down (offline/miss_margin.h), on the plant's recording replayed as
-    // the learned run was.
-    if (!r.learned.missed.empty()) {
+    // thresholds scaled down (offline/miss_margin.h), on the recording replayed as the
+    // learned run was.
+    auto margins = [&](DetectionEval& e, const RecordingReader& from) {
       PlantConfig lp = load_plant_config(at("learned.yaml"));
       apply_calibration_option(lp, cal);
       ReplayOptions ro;
       ro.keep_images = true, ro.baseline = false, ro.recalibrated = true;
-      ro.lanes = {lane};
-      const auto replayed = replay_recording(rec, lp, ro);
+      ro.lanes = {from.info().lanes.at(0)};
+      const auto replayed = replay_recording(from, lp, ro);
       for (const LaneReplay& l : replayed)
-        measure_miss_margins(r.learned, l.lane, l.fillets, lp.lane(l.lane).inspection);
+        measure_miss_margins(e, l.lane, l.fillets, lp.lane(l.lane).inspection);
+    };
+    if (!r.learned.missed.empty()) margins(r.learned, rec);
+    if (mo.bone_fillets > 0) {
+      BoneRunOptions bo;
+      bo.fillets = mo.bone_fillets, bo.part = mo.frr_part, bo.seed = seed + 10000;
+      bo.keep = mo.keep;
+      r.bones = run_bone_parts(dir.string(), log, V, cal, at("learned.yaml"), lc, bo, margins);
     }
     const auto j =
         nlohmann::json::parse(read_text_file((dir / "learned.report" / "learn.json").string()));
@@ -302,6 +313,50 @@ std::string learned_table(const std::vector<Row>& rows, bool held_out) {
   return os.str();
 }
 
+// The misses of `e` as JSON objects, comma-separated; `seed` >= 0 names the bone run's part.
+std::string missed_json(const DetectionEval& e, long seed) {
+  std::ostringstream os;
+  for (size_t q = 0; q < e.missed.size(); ++q) {
+    const MissedFragment& m = e.missed[q];
+    os << (q ? ", " : "") << "{";
+    if (seed >= 0) os << "\"seed\": " << seed << ", ";
+    os << "\"fillet\": " << m.fillet << ", \"shape\": \"" << m.shape
+       << "\", \"size_mm\": " << m.size_mm << ", \"calcification\": " << m.calcification
+       << ", \"volume_mm3\": " << m.volume_mm3 << ", \"meat_mm\": " << m.meat_mm
+       << ", \"edge_mm\": " << m.edge_mm << ", \"found_at\": " << m.found_at
+       << ", \"frr_at\": " << m.frr_at << ", \"margin_statistic\": \""
+       << (m.margin_stat >= 0 ? statistic_name(m.margin_stat) : "every") << "\"}";
+  }
+  return os.str();
+}
+
+// The bone run of each variant that had one: recall pooled with the plant's, by shape, the
+// clean fillets among them rejected, detections of no bone, and its misses.
+std::string bone_run_text(const std::vector<Row>& rows) {
+  std::ostringstream os;
+  char b[512];
+  for (const Row& r : rows) {
+    if (r.bones.empty()) continue;
+    const BoneRunTotals t = pooled(r.bones);
+    int k = 0, n = 0;
+    calcified_2mm(r.learned, k, n);
+    k += t.found, n += t.present;
+    std::snprintf(b, sizeof b,
+                  "%s%s: %d fillets: calcified >= 2 mm %d/%d; with the plant's %d/%d = %.1f %% "
+                  "[%s %%]; clean fillets rejected %d/%d [%s %%]; detections of no bone %.3f a "
+                  "fillet\n",
+                  r.name.c_str(), r.held_out ? " (held out)" : "", t.fillets, t.found, t.present, k,
+                  n, n ? 100.0 * k / n : 0.0, interval(k, n).c_str(), t.clean_rejected, t.clean,
+                  interval(t.clean_rejected, t.clean).c_str(),
+                  t.fillets ? double(t.false_fragments) / t.fillets : 0.0);
+    os << b << "  by shape (bone run):";
+    for (const auto& [shape, fp] : t.by_shape)
+      os << " " << shape << " " << fp.first << "/" << fp.second;
+    os << "\n" << indented(bone_run_missed_lines(r.bones));
+  }
+  return os.str();
+}
+
 std::string json(const std::vector<Row>& rows) {
   std::ostringstream os;
   os << "{\"variants\": [";
@@ -356,17 +411,23 @@ std::string json(const std::vector<Row>& rows) {
          << ", \"sensitivity\": [";
       for (size_t q = 0; q < r.sensitivity.size(); ++q)
         os << (q ? ", " : "") << "\"" << r.sensitivity[q] << "\"";
-      os << "], \"missed\": [";
-      for (size_t q = 0; q < l.missed.size(); ++q) {
-        const MissedFragment& m = l.missed[q];
-        os << (q ? ", " : "") << "{\"fillet\": " << m.fillet << ", \"shape\": \"" << m.shape
-           << "\", \"size_mm\": " << m.size_mm << ", \"calcification\": " << m.calcification
-           << ", \"volume_mm3\": " << m.volume_mm3 << ", \"meat_mm\": " << m.meat_mm
-           << ", \"edge_mm\": " << m.edge_mm << ", \"found_at\": " << m.found_at
-           << ", \"frr_at\": " << m.frr_at << ", \"margin_statistic\": \""
-           << (m.margin_stat >= 0 ? statistic_name(m.margin_stat) : "every") << "\"}";
+      os << "], \"missed\": [" << missed_json(l, -1) << "]";
+      if (!r.bones.empty()) {
+        const BoneRunTotals t = pooled(r.bones);
+        os << ", \"bone_run\": {\"fillets\": " << t.fillets << ", \"recall_calcified_ge_2mm\": ["
+           << t.found << ", " << t.present << "], \"recall_by_shape\": {";
+        for (size_t q = 0; q < t.by_shape.size(); ++q)
+          os << (q ? ", " : "") << "\"" << t.by_shape[q].first << "\": ["
+             << t.by_shape[q].second.first << ", " << t.by_shape[q].second.second << "]";
+        os << "}, \"false_rejects\": [" << t.clean_rejected << ", " << t.clean
+           << "], \"false_fragments\": " << t.false_fragments << ", \"missed\": [";
+        bool first = true;
+        for (const BonePart& b : r.bones)
+          if (!b.eval.missed.empty())
+            os << (first ? "" : ", ") << missed_json(b.eval, b.seed), first = false;
+        os << "]}";
       }
-      os << "]}";
+      os << "}";
     }
     os << "}";
   }
@@ -379,11 +440,12 @@ std::string json(const std::vector<Row>& rows) {
 int cmd_eval_matrix(int argc, char** argv) {
   const Args a(argc, argv, 2, {"keep-scans", "dual-energy"},
                {"variants", "only", "fillets", "seed", "out", "config", "learn", "check", "frr",
-                "frr-part"});
+                "frr-part", "bones"});
   a.expect_positionals(
       0,
       "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] "
-      "[--seed S] [--learn N (0: none)] [--check N] [--frr N] [--frr-part N] [--keep-scans] "
+      "[--seed S] [--learn N (0: none)] [--check N] [--frr N] [--frr-part N] [--bones N] "
+      "[--keep-scans] "
       "[--dual-energy]");
   const PlantConfig plant = load_config(a.get("config", ""));
   const fs::path vdir = a.get(
@@ -414,12 +476,17 @@ int cmd_eval_matrix(int argc, char** argv) {
   mo.check_fillets = int(a.integer("check", 20));
   mo.frr_fillets = int(a.integer("frr", 0));
   mo.frr_part = int(a.integer("frr-part", 60));
+  mo.bone_fillets = int(a.integer("bones", 0));
   if (mo.frr_fillets < 0 || mo.frr_part < 1) fail("--frr must be >= 0 and --frr-part >= 1");
+  if (mo.bone_fillets < 0) fail("--bones must be >= 0");
+  if (mo.bone_fillets > 0 && mo.learn_fillets == 0)
+    fail("--bones inspects with the learned thresholds: it needs --learn N > 0");
   if (mo.learn_fillets < 0 || mo.check_fillets < 1) fail("--learn must be >= 0 and --check >= 1");
   const int fillets = mo.fillets;
   const long seed = mo.seed;
   const fs::path out = a.require("out");
   if (a.flag("dual-energy")) {
+    if (mo.bone_fillets > 0) fail("--bones is not a part of --dual-energy's matrix");
     DualEnergyMatrixOptions d;
     d.fillets = mo.fillets, d.seed = mo.seed, d.learn_fillets = mo.learn_fillets;
     d.check_fillets = mo.check_fillets, d.frr_fillets = mo.frr_fillets, d.keep = mo.keep;
@@ -441,7 +508,7 @@ int cmd_eval_matrix(int argc, char** argv) {
       Row r;
       r.name = files[k].stem().string(), r.failed = e.what();
       drop_scans(out / files[k].stem(),
-                 {"rec", "pins", "blocks", "learn_rec", "check_rec", "frr_rec"}, mo);
+                 {"rec", "pins", "blocks", "learn_rec", "check_rec", "frr_rec", "bone_rec"}, mo);
       rows.push_back(r);
       std::fprintf(stderr, "%s failed: %s\n", r.name.c_str(), e.what());
     }
@@ -484,6 +551,13 @@ int cmd_eval_matrix(int argc, char** argv) {
         if (r.learned_run)
           os << r.name << ": " << missed_summary(r.learned) << "\n"
              << indented(missed_lines(r.learned));
+      if (mo.bone_fillets > 0)
+        os << "\nthe bone run: " << mo.bone_fillets
+           << " more fillets of each variant's plant, bones and all (seeds " << seed + 10000
+           << ", +100 a part of " << mo.frr_part
+           << "), inspected with the learned thresholds and judged against their truth; the "
+              "interval is Wilson's 95 %, pooled with the plant's fragments:\n"
+           << bone_run_text(rows);
     }
     for (const Row& r : rows)
       if (!r.failed.empty()) os << "\nfailed: " << r.name << ": " << r.failed << "\n";

@@ -25,8 +25,10 @@ commands:
   eval DIR OUT [--json]   |   eval OUT [--json]
       compare processed output with the truth of its recording (or of its simulation)
   eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] [--seed S] [--learn N] [--frr N]
+                  [--bones N]
       each plant variant (config/variants) calibrated from its own scenes, simulated,
-      inspected and evaluated beside the X-ray-only baseline (a benchmark: minutes each)
+      inspected and evaluated beside the X-ray-only baseline (a benchmark: minutes each);
+      --frr N and --bones N: more clean and more bony fillets with the learned thresholds
   learn RECORDING --out PLANT.yaml [--target-frr 0.003] [--confidence 0.9] [--lanes L,..]
         [--calibration F] [--report DIR] [--version NAME] [--excess-ratio 2] [--check REC] [--force]
         [--keep LANE:FILLET,...] [--tradeoff 0.001,0.01]

@@ -27,9 +27,9 @@ check "the variant's own calibration says where K1/K2 come from" grep -q "fitted
 check "the blur measured on the variant's pins" grep -q "detector_sigma_px: 0.9" m/strong_blur/lane0.yaml
 check "the scans are gone once evaluated" test ! -e m/strong_blur/rec
 # With learning: the variant's own clean fillets learned, its claims checked on
-# others, a clean run inspected with what was learned (too few fillets to pass the learning's
-# gate: the matrix forces it, and says so).
-"$ctl" eval-matrix --out l --only rough_meat --fillets 4 --seed 5 --learn 12 --check 3 --frr 3 --frr-part 2 \
+# others, a clean run and a bone run inspected with what was learned (too few fillets to pass
+# the learning's gate: the matrix forces it, and says so).
+"$ctl" eval-matrix --out l --only rough_meat --fillets 4 --seed 5 --learn 12 --check 3 --frr 3 --frr-part 2 --bones 3 \
   >learn.txt 2>&1 || { echo "FAIL eval-matrix --learn"; cat learn.txt; exit 1; }
 cat l/matrix.txt
 pl() { python3 -c "import json,sys; m=json.load(open('l/matrix.json')); v=m['variants'][0]; L=v['learned']; sys.exit(0 if ($1) else 1)"; }
@@ -43,6 +43,12 @@ check "the learned configuration was written and used" grep -q "learned:" l/roug
 check "the drift monitor followed the clean run's passed fillets, its parts in order" pl "L['clean_run']['drift']['passed'] == L['clean_run']['fillets'] - L['clean_run']['rejected'] and not L['clean_run']['drift']['drifting'] and L['clean_run']['drift']['first_flagged'] == -1"
 check "the matrix says what it said" grep -qE "lane 0: drift monitor: [0-9] passed fillets, fewer than the 50" l/matrix.txt
 check "the learning's report beside it" test -s l/rough_meat/learned.report/learn.json
+B="L['bone_run']"
+check "the bone run judged over its two parts" pl "$B['fillets'] == 3 and 0 <= $B['recall_calcified_ge_2mm'][0] <= $B['recall_calcified_ge_2mm'][1] and len($B['missed']) == $B['recall_calcified_ge_2mm'][1] - $B['recall_calcified_ge_2mm'][0] and all('seed' in m for m in $B['missed'])"
+check "each bone part inspected with the learned thresholds, its scan dropped" bash -c "test \$(tail -n +2 l/rough_meat/out_bones0/lane0/fillets.csv | wc -l) -eq 2 && test \$(tail -n +2 l/rough_meat/out_bones1/lane0/fillets.csv | wc -l) -eq 1 && test ! -e l/rough_meat/bone_rec"
+check "the matrix pools it with the plant's fragments" grep -q "rough_meat: 3 fillets: calcified >= 2 mm" l/matrix.txt
+"$ctl" eval-matrix --out x --only rough_meat --learn 0 --bones 2 >bones0.txt 2>&1
+check "a bone run without learning is refused, saying why" grep -q "bones inspects with the learned thresholds" bones0.txt
 # A lane on the shipped constants is warned about; the plant's own calibration silences it.
 "$ctl" simulate --out rec --lanes 1 --fillets 1 --seed 4 >/dev/null 2>&1
 "$ctl" process rec --out p1 --images none >p1.txt 2>&1

@@ -1,0 +1,49 @@
+// eval-matrix --bones N: N more fillets of a variant's plant, bones and all, inspected with
+// the thresholds it learned and judged against their truth. A 60-fillet plant holds 11-18
+// calcified fragments >= 2 mm, whose 95 % interval cannot tell 93 % from 99 %; this run
+// can. Simulated and judged in parts, each scan dropped once judged (130 MB a fillet).
+#pragma once
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/lane_config.h"
+#include "core/recording.h"
+#include "offline/detection_eval.h"
+
+namespace rangex::cli {
+
+struct BoneRunOptions {
+  int fillets = 0;  // 0: no bone run
+  int part = 60;    // simulated, judged and dropped this many at a time
+  long seed = 0;    // part k draws seed + 100 k
+  bool keep = false;
+};
+
+struct BonePart {
+  long seed = 0;
+  DetectionEval eval;  // finished, its misses' margins measured where `margins` did
+};
+
+// Simulates each part into `dir`/bone_rec with the physics `physics`, inspects it with
+// `learned` (a plant configuration) and `cal` (the lane calibration) into `dir`/out_bonesK,
+// and judges it against its truth; `margins` measures its misses while the scan is there.
+// `log`: where the steps write.
+std::vector<BonePart> run_bone_parts(
+    const std::string& dir, const std::string& log, const std::string& physics,
+    const std::string& cal, const std::string& learned, const LaneConfig& lane,
+    const BoneRunOptions& o,
+    const std::function<void(DetectionEval&, const RecordingReader&)>& margins);
+
+// The parts pooled: calcified fragments >= 2 mm found and present, clean fillets rejected
+// of clean fillets, detections of no bone, fillets.
+struct BoneRunTotals {
+  int found = 0, present = 0, clean_rejected = 0, clean = 0, false_fragments = 0, fillets = 0;
+  std::vector<std::pair<std::string, std::pair<int, int>>> by_shape;  // calcified >= 2 mm
+};
+BoneRunTotals pooled(const std::vector<BonePart>& parts);
+
+// Its misses, one line each, prefixed by their part's seed.
+std::string bone_run_missed_lines(const std::vector<BonePart>& parts);
+
+}  // namespace rangex::cli
