@@ -113,6 +113,12 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
     if (!config.empty()) args.insert(args.end(), {"--config", config});
     run_step(log, std::move(args));
   };
+  // More fillets inspected with what the variant learned, in parts of at most frr_part
+  // fillets: the clean run and the bone run.
+  PartRun more;
+  more.dir = dir, more.log = log, more.physics = V, more.cal = cal;
+  more.learned = at("learned.yaml"), more.config = config;
+  more.part = mo.frr_part, more.keep = mo.keep;
   // The plant's own calibration: fan beam and blur from its pins, registration from its
   // blocks, K1/K2 from its own recording.
   step({"calib", "simulate", "pins", at("pins"), "--physics", V});
@@ -145,16 +151,11 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
                    "--calibration", cal, "--config", at("learned.yaml")});
     r.learned_run = true;
     // The clean run in parts of at most frr_part fillets (seeds 3000, 3100, ... past the
-    // plant's), each part's scan dropped once inspected: a scan is about 130 MB a fillet.
-    for (int part = 0, done = 0; done < mo.frr_fillets; ++part) {
-      const int n = std::min(mo.frr_part, mo.frr_fillets - done);
-      step({"simulate", "--out", at("frr_rec"), "--lanes", "1", "--fillets", std::to_string(n),
-            "--seed", std::to_string(seed + 3000 + 100 * part), "--physics", V, "--clean"});
-      run_step(log, {"process", at("frr_rec"), "--out", at("out_frr" + std::to_string(part)),
-                     "--images", "none", "--calibration", cal, "--config", at("learned.yaml")});
-      drop_scans(dir, {"frr_rec"}, mo);
-      done += n;
-    }
+    // plant's), each part's scan dropped once inspected.
+    PartRun clean = more;
+    clean.rec = "frr_rec", clean.out = "out_frr";
+    clean.fillets = mo.frr_fillets, clean.seed = seed + 3000;
+    run_in_parts(clean, {});
   }
   // Evaluation against the recording's truth.
   const RecordingReader rec(at("rec"));
@@ -193,10 +194,9 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
     };
     if (!r.learned.missed.empty()) margins(r.learned, rec);
     if (mo.bone_fillets > 0) {
-      BoneRunOptions bo;
-      bo.fillets = mo.bone_fillets, bo.part = mo.frr_part, bo.seed = seed + 10000;
-      bo.keep = mo.keep;
-      r.bones = run_bone_parts(dir.string(), log, V, cal, at("learned.yaml"), lc, bo, margins);
+      PartRun bones = more;
+      bones.fillets = mo.bone_fillets, bones.seed = seed + 10000;
+      r.bones = run_bone_parts(bones, lc, margins);
     }
     const auto j =
         nlohmann::json::parse(read_text_file((dir / "learned.report" / "learn.json").string()));
@@ -260,19 +260,6 @@ std::string table(const std::vector<Row>& rows, bool held_out) {
     os << b;
   }
   return os.str();
-}
-
-// Each line of `text` indented by two spaces.
-std::string indented(const std::string& text) {
-  std::string out;
-  size_t at = 0;
-  while (at < text.size()) {
-    const size_t end = text.find('\n', at);
-    const size_t stop = end == std::string::npos ? text.size() : end + 1;
-    out += "  " + text.substr(at, stop - at);
-    at = stop;
-  }
-  return out;
 }
 
 std::string learned_table(const std::vector<Row>& rows, bool held_out) {
@@ -352,7 +339,7 @@ std::string bone_run_text(const std::vector<Row>& rows) {
     os << b << "  by shape (bone run):";
     for (const auto& [shape, fp] : t.by_shape)
       os << " " << shape << " " << fp.first << "/" << fp.second;
-    os << "\n" << indented(bone_run_missed_lines(r.bones));
+    os << "\n" << prefixed(bone_run_missed_lines(r.bones), "  ");
   }
   return os.str();
 }
@@ -544,13 +531,13 @@ int cmd_eval_matrix(int argc, char** argv) {
               "a warning when the last 200 imply more than twice the target):\n";
         for (const Row& r : rows)
           if (!r.drift_sentence.empty())
-            os << r.name << ":\n" << indented(r.drift_sentence) << "\n";
+            os << r.name << ":\n" << prefixed(r.drift_sentence, "  ") << "\n";
       }
       os << "\nwhere the learned thresholds missed calcified fragments >= 2 mm:\n";
       for (const Row& r : rows)
         if (r.learned_run)
           os << r.name << ": " << missed_summary(r.learned) << "\n"
-             << indented(missed_lines(r.learned));
+             << prefixed(missed_lines(r.learned), "  ");
       if (mo.bone_fillets > 0)
         os << "\nthe bone run: " << mo.bone_fillets
            << " more fillets of each variant's plant, bones and all (seeds " << seed + 10000

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "eval_steps.h"
 #include "offline/fillet_records.h"
 
 namespace fs = std::filesystem;
@@ -11,35 +10,21 @@ namespace fs = std::filesystem;
 namespace rangex::cli {
 
 std::vector<BonePart> run_bone_parts(
-    const std::string& dir, const std::string& log, const std::string& physics,
-    const std::string& cal, const std::string& learned, const LaneConfig& lane,
-    const BoneRunOptions& o,
+    PartRun o, const LaneConfig& lane,
     const std::function<void(DetectionEval&, const RecordingReader&)>& margins) {
+  o.clean = false, o.rec = "bone_rec", o.out = "out_bones";
   std::vector<BonePart> parts;
-  const std::string rec_dir = (fs::path(dir) / "bone_rec").string();
-  for (int part = 0, done = 0; done < o.fillets; ++part) {
-    const int n = std::min(o.part, o.fillets - done);
+  run_in_parts(o, [&](int, long seed, const std::string& rec_dir, const std::string& out) {
     BonePart& p = parts.emplace_back();
-    p.seed = o.seed + 100 * part;
-    const std::string out = (fs::path(dir) / ("out_bones" + std::to_string(part))).string();
-    run_step(log, {"simulate", "--out", rec_dir, "--lanes", "1", "--fillets", std::to_string(n),
-                   "--seed", std::to_string(p.seed), "--physics", physics});
-    // The learned configuration in place of the plant's (as the learned plant run).
-    run_step(log, {"process", rec_dir, "--out", out, "--images", "none", "--calibration", cal,
-                   "--config", learned});
-    {
-      const RecordingReader rec(rec_dir);
-      const VariantTruth vt(rec, lane);
-      const int l = rec.info().lanes.at(0);
-      add_lane(p.eval, vt.fragments, vt.fillets,
-               read_records((fs::path(out) / ("lane" + std::to_string(l))).string(), ""),
-               &vt.edges);
-      finish(p.eval);
-      if (!p.eval.missed.empty()) margins(p.eval, rec);
-    }
-    if (!o.keep) fs::remove_all(rec_dir);
-    done += n;
-  }
+    p.seed = seed;
+    const RecordingReader rec(rec_dir);
+    const VariantTruth vt(rec, lane);
+    const int l = rec.info().lanes.at(0);
+    add_lane(p.eval, vt.fragments, vt.fillets,
+             read_records((fs::path(out) / ("lane" + std::to_string(l))).string(), ""), &vt.edges);
+    finish(p.eval);
+    if (!p.eval.missed.empty()) margins(p.eval, rec);
+  });
   return parts;
 }
 
@@ -63,16 +48,8 @@ BoneRunTotals pooled(const std::vector<BonePart>& parts) {
 
 std::string bone_run_missed_lines(const std::vector<BonePart>& parts) {
   std::string out;
-  for (const BonePart& p : parts) {
-    const std::string lines = missed_lines(p.eval);
-    size_t at = 0;
-    while (at < lines.size()) {
-      const size_t end = lines.find('\n', at);
-      const size_t stop = end == std::string::npos ? lines.size() : end + 1;
-      out += "seed " + std::to_string(p.seed) + " " + lines.substr(at, stop - at);
-      at = stop;
-    }
-  }
+  for (const BonePart& p : parts)
+    out += prefixed(missed_lines(p.eval), "seed " + std::to_string(p.seed) + " ");
   return out;
 }
 

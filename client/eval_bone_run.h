@@ -9,30 +9,21 @@
 
 #include "core/lane_config.h"
 #include "core/recording.h"
+#include "eval_steps.h"
 #include "offline/detection_eval.h"
 
 namespace rangex::cli {
-
-struct BoneRunOptions {
-  int fillets = 0;  // 0: no bone run
-  int part = 60;    // simulated, judged and dropped this many at a time
-  long seed = 0;    // part k draws seed + 100 k
-  bool keep = false;
-};
 
 struct BonePart {
   long seed = 0;
   DetectionEval eval;  // finished, its misses' margins measured where `margins` did
 };
 
-// Simulates each part into `dir`/bone_rec with the physics `physics`, inspects it with
-// `learned` (a plant configuration) and `cal` (the lane calibration) into `dir`/out_bonesK,
-// and judges it against its truth; `margins` measures its misses while the scan is there.
-// `log`: where the steps write.
+// The parts of `o` (bones and all: o.clean is ignored; o.rec "bone_rec", o.out "out_bones"),
+// each judged against its truth on `lane`; `margins` measures its misses while the scan is
+// there.
 std::vector<BonePart> run_bone_parts(
-    const std::string& dir, const std::string& log, const std::string& physics,
-    const std::string& cal, const std::string& learned, const LaneConfig& lane,
-    const BoneRunOptions& o,
+    PartRun o, const LaneConfig& lane,
     const std::function<void(DetectionEval&, const RecordingReader&)>& margins);
 
 // The parts pooled: calcified fragments >= 2 mm found and present, clean fillets rejected

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -70,6 +71,42 @@ std::string shape_recall(const DetectionEval& e, const char* shape) {
   for (const auto& [name, fb] : e.by_shape)
     if (name == shape) return std::to_string(fb.first) + "/" + std::to_string(fb.second);
   return "-";
+}
+
+std::string prefixed(const std::string& text, const std::string& prefix) {
+  std::string out;
+  size_t at = 0;
+  while (at < text.size()) {
+    const size_t end = text.find('\n', at);
+    const size_t stop = end == std::string::npos ? text.size() : end + 1;
+    out += prefix + text.substr(at, stop - at);
+    at = stop;
+  }
+  return out;
+}
+
+void run_in_parts(
+    const PartRun& o,
+    const std::function<void(int, long, const std::string&, const std::string&)>& judged) {
+  const std::string rec = (o.dir / o.rec).string();
+  for (int part = 0, done = 0; done < o.fillets; ++part) {
+    const int n = std::min(o.part, o.fillets - done);
+    const long seed = o.seed + 100 * part;
+    const std::string out = (o.dir / (o.out + std::to_string(part))).string();
+    std::vector<std::string> sim = {"simulate",        "--out",  rec,
+                                    "--lanes",         "1",      "--fillets",
+                                    std::to_string(n), "--seed", std::to_string(seed),
+                                    "--physics",       o.physics};
+    if (o.clean) sim.push_back("--clean");
+    if (!o.config.empty()) sim.insert(sim.end(), {"--config", o.config});
+    run_step(o.log, std::move(sim));
+    // The learned configuration in place of the plant's.
+    run_step(o.log, {"process", rec, "--out", out, "--images", "none", "--calibration", o.cal,
+                     "--config", o.learned});
+    if (judged) judged(part, seed, rec, out);
+    if (!o.keep) std::filesystem::remove_all(rec);
+    done += n;
+  }
 }
 
 VariantRun::VariantRun(const std::filesystem::path& file, const std::filesystem::path& d)

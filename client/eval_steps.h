@@ -2,6 +2,7 @@
 // output in a log, and the figures' intervals.
 #pragma once
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,26 @@ struct VariantRun {
   bool held_out = false;
   std::filesystem::path dir;
 };
+
+// Each line of `text` with `prefix` before it.
+std::string prefixed(const std::string& text, const std::string& prefix);
+
+// More fillets of a variant inspected with its learned thresholds, in parts: part k simulates
+// min(part, what is left) fillets of seed + 100 k (no bone when `clean`) into dir/rec, and
+// `process`es them with `learned` and `cal` into dir/out + k. Each scan goes once `judged`
+// (may be empty) has seen it, unless `keep`: a scan is about 130 MB a fillet.
+struct PartRun {
+  std::filesystem::path dir;
+  std::string log, physics, cal, learned;
+  std::string config;  // the plant configuration the simulator reads ("" : the default)
+  std::string rec, out;
+  int fillets = 0, part = 60;
+  long seed = 0;
+  bool clean = true, keep = false;
+};
+void run_in_parts(const PartRun& o,
+                  const std::function<void(int part, long seed, const std::string& rec,
+                                           const std::string& out)>& judged);
 
 struct DualEnergyMatrixOptions {
   int fillets = 60;
