@@ -1,10 +1,13 @@
 // Product learning: the GEV model and its fit against known parameters, the
 // component extreme against a threshold sweep, the per-thickness spread against its
 // definition, learning from clean extremes (thresholds meet the budget on fillets it never
-// saw), refusal of a learning run with bone, drift, and the learned section's round trip.
+// saw; the confidence over many learning runs), refusal of a learning run with bone, drift,
+// and the learned section's round trip.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "core/error.h"
@@ -176,6 +179,60 @@ TEST(ProductLearning, ThresholdsMeetTheBudgetOnFilletsItNeverSaw) {
   // Exact with fixed seeds.
   const ProductLearning again = learn_product(clean_fillets(g, 60, 1), o);
   EXPECT_EQ(again.learned.stats[kStatRound].thresholds, L.learned.stats[kStatRound].thresholds);
+}
+
+// The rate at which fillets laid out as `layout` (bands and pixels; their drawn extremes are
+// not used) exceed the thresholds when their extremes follow `g`: exact given the layout.
+double true_false_reject_rate(const LearnedDetection& L, const GevModel& g,
+                              const std::vector<LearningFillet>& layout) {
+  double sum = 0;
+  for (const auto& f : layout) {
+    double pass = 1;
+    for (const BandExtreme& e : f.extremes) {
+      if (e.stat == kStatAir) continue;
+      GevModel gs = g;
+      gs.m0 += 0.3 * e.stat;
+      pass *= gs.cdf(L.stats[size_t(e.stat)].thresholds[size_t(e.band)], e.n, e.t);
+    }
+    sum += 1 - pass;
+  }
+  return sum / double(layout.size());
+}
+
+// "The thresholds meet 0.3 % with 90 % confidence", said of 40 fillets, is a statement
+// about learning runs: of many runs of the same product, about 90 % learn thresholds that
+// meet the target. Checked on a known product, with the rate each run's thresholds really
+// let through (exact given 4000 fillets' layouts). And they spend a fair part of the target:
+// a confidence bought with blindness would pass this by rejecting nothing.
+TEST(ProductLearning, TheConfidenceIsTheShareOfLearningRunsWhoseThresholdsMeetTheTarget) {
+  const GevModel g = truth_model();
+  LearnOptions o;  // target 0.003, confidence 0.9, 100 resamples
+  const auto layout = clean_fillets(g, 4000, 77);
+  const int runs = 30;
+  int met = 0, learned = 0;
+  std::vector<double> spent;
+  for (int k = 0; k < runs; ++k) {
+    o.seed = 100 + uint64_t(k);
+    const ProductLearning L = learn_product(clean_fillets(g, 40, 1000 + uint64_t(k)), o);
+    // This tail is heavy: now and then a clean fillet stands out enough to be named (an
+    // operator would check it and keep it in). Those runs say nothing of the confidence.
+    if (!L.ok) continue;
+    ++learned;
+    const double frr = true_false_reject_rate(L.learned, g, layout);
+    met += frr <= o.target_frr;
+    spent.push_back(frr / o.target_frr);
+  }
+  std::sort(spent.begin(), spent.end());
+  const double median = spent[spent.size() / 2];
+  std::printf(
+      "learning runs whose thresholds meet the target: %d of %d; median share of the "
+      "target spent %.3f\n",
+      met, learned, median);
+  ASSERT_GE(learned, int(0.8 * runs));
+  // 27 runs cannot tell 85 % from 90 %; they tell it from the 50 % of thresholds learned at
+  // 50 % confidence (13 of 27 met the target so).
+  EXPECT_GE(met, int(0.8 * learned));
+  EXPECT_GT(median, 0.1);
 }
 
 TEST(ProductLearning, ALearningRunWithBoneFailsNamingTheFillets) {
