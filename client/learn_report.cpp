@@ -101,6 +101,20 @@ std::string learn_summary_text(int lane, const ProductLearning& L, const Sensiti
                   st.fit.model.xi, 100 * st.implied_frr, st.ks_p);
     o << b;
   }
+  // What the confidence costs: the thresholds spend only part of the budget by the fitted
+  // models, and a longer learning run (a narrower margin) spends more of it.
+  const double implied = implied_false_reject_rate(L.learned);
+  std::snprintf(b, sizeof b, "  together: implied %.3f %% of fillets, of the %.2f %% asked",
+                100 * implied, 100 * L.learned.target_frr);
+  o << b;
+  if (L.ok && implied < 0.5 * L.learned.target_frr) {
+    std::snprintf(b, sizeof b,
+                  ": the rest is the margin for %.0f %% confidence from %d fillets; a longer "
+                  "learning run narrows it",
+                  100 * L.learned.confidence, L.fillets);
+    o << b;
+  }
+  o << "\n";
   for (const std::string& line : s.summary) o << "  sensitivity: " << line << "\n";
   return o.str();
 }

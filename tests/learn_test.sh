@@ -24,6 +24,8 @@ py() { python3 -c "import json,sys; j=json.load(open('learned.report/learn.json'
 check "report ok with 14 fillets" py "j['ok'] and l['fillets'] == 14"
 check "round thresholds per band, all finite and positive" py "len(l['statistics']['round']['thresholds']) == len(l['band_edges_mm']) - 1 and all(0 < t < 100 for t in l['statistics']['round']['thresholds'])"
 check "the thresholds spend at most the budget" py "l['statistics']['round']['implied_frr'] + l['statistics']['needle']['implied_frr'] <= 0.003"
+imp=$(python3 -c "import json; l=json.load(open('learned.report/learn.json'))['lanes'][0]; print('%.3f' % (100 * (l['statistics']['round']['implied_frr'] + l['statistics']['needle']['implied_frr'])))")
+check "the output says what they spend together" grep -q "together: implied $imp % of fillets, of the 0.30 % asked" learn.txt
 check "test pieces were injected and some found" py "sum(c['injected'] for c in l['sensitivity']['cells']) > 100 and sum(c['found'] for c in l['sensitivity']['cells']) > 0"
 check "every claim stands on its detection curve's lower bound and on the rate found" py "all(c['pod_lower'] >= l['sensitivity']['rate'] and any(x['shape'] == c['shape'] and x['band'] == c['band'] and x['size_mm'] == c['size_mm'] and x['found'] >= 0.95 * x['injected'] for x in l['sensitivity']['cells']) for c in l['sensitivity']['claims_95'])"
 check "large spheres are found in every band they were put in" py "all(c['found'] >= 0.9 * c['injected'] for c in l['sensitivity']['cells'] if c['shape'] == 'sphere' and c['size_mm'] >= 4)"
