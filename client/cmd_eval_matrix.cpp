@@ -240,17 +240,18 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
 std::string table(const std::vector<Row>& rows, bool held_out) {
   std::ostringstream os;
   char b[512];
-  std::snprintf(b, sizeof b, "%-19s %7s %7s | %8s %7s %7s %7s | %7s %6s %9s %6s %6s | %8s %7s\n",
-                "variant", "thick", "bias", "recall", "needle", "edge", "posit.", "f.rej", "n.i.",
+  std::snprintf(b, sizeof b,
+                "%-19s %7s %7s %6s | %8s %7s %7s %7s | %7s %6s %9s %6s %6s | %8s %7s\n", "variant",
+                "thick", "bias", "resid", "recall", "needle", "edge", "posit.", "f.rej", "n.i.",
                 "f.frag/f", "<1mm", "1-3mm", "xr:rec", "xr:frej");
   os << b;
   for (const Row& r : rows) {
     if (r.held_out != held_out || !r.failed.empty()) continue;
     const DetectionEval& e = r.ours;
     std::snprintf(b, sizeof b,
-                  "%-19s %7.3f %+7.3f | %7.1f%% %7s %7s %7.3f | %6.1f%% %6d %9.3f %6d %6d | "
+                  "%-19s %7.3f %+7.3f %6.1f | %7.1f%% %7s %7s %7.3f | %6.1f%% %6d %9.3f %6d %6d | "
                   "%7.1f%% %6.1f%%\n",
-                  r.name.c_str(), r.thickness.mean_abs, r.thickness.bias,
+                  r.name.c_str(), r.thickness.mean_abs, r.thickness.bias, e.resid_std_dn,
                   100 * e.recall_calcified_2mm(), shape_recall(e, "needle").c_str(),
                   (std::to_string(e.found_edge) + "/" + std::to_string(e.total_edge)).c_str(),
                   e.position.stats().mean_abs, 100 * e.false_reject_rate(), e.not_inspected,
@@ -358,6 +359,7 @@ std::string json(const std::vector<Row>& rows) {
        << "\", \"held_out\": " << (r.held_out ? "true" : "false")
        << ", \"thickness_mean_abs_mm\": " << r.thickness.mean_abs
        << ", \"thickness_bias_mm\": " << r.thickness.bias
+       << ", \"residual_std_dn\": " << e.resid_std_dn
        << ", \"recall_calcified_ge_2mm\": " << e.recall_calcified_2mm() << ", \"recall_edge\": ["
        << e.found_edge << ", " << e.total_edge << "]"
        << ", \"recall_inner\": [" << e.found_inner << ", " << e.total_inner << "]"
@@ -505,7 +507,9 @@ int cmd_eval_matrix(int argc, char** argv) {
     std::ostringstream os;
     os << "plant variants, each calibrated from its own scenes (" << fillets
        << " fillets each, seed " << seed << "):\n"
-       << "thick/bias: thickness mean |error| and bias, mm; recall: calcified fragments >= 2 mm;"
+       << "thick/bias: thickness mean |error| and bias, mm; resid: how rough the plant is, the "
+          "residual I - P's standard deviation in DN (the dissertation's real fillets: 29.6); "
+          "recall: calcified fragments >= 2 mm;"
           " needle, edge: the same for needles and within 3 mm of the edge or on meat under 6 "
           "mm (found/present); posit.: position error, mm; f.rej: clean fillets rejected; n.i.: "
           "fillets not inspected; f.frag/f: detections matching no bone per fillet, <1mm / "

@@ -20,7 +20,9 @@ check "a variant that fails says so by the exit status" test "$rc" -eq 2
 check "it is reported failed, naming what is wrong" py "'probability' in v['broken']['failed']"
 check "the matrix text names it" grep -q "failed: broken" m/matrix.txt
 check "both variants evaluated" py "set(v) - {'broken'} == {'strong_blur', 'steep_edges'} and all('failed' not in v[k] for k in ('strong_blur', 'steep_edges'))"
-check "every figure is a number" py "all(isinstance(x[k], (int, float)) for x in v.values() if 'failed' not in x for k in ('thickness_mean_abs_mm', 'recall_calcified_ge_2mm', 'false_reject_rate', 'position_mean_mm', 'baseline_recall_calcified_ge_2mm'))"
+check "every figure is a number" py "all(isinstance(x[k], (int, float)) for x in v.values() if 'failed' not in x for k in ('thickness_mean_abs_mm', 'residual_std_dn', 'recall_calcified_ge_2mm', 'false_reject_rate', 'position_mean_mm', 'baseline_recall_calcified_ge_2mm'))"
+check "how rough each plant is: its residual's spread in DN, as smooth meat leaves it (the nominal simulator: 18.6)" py "all(5 < v[k]['residual_std_dn'] < 100 for k in ('strong_blur', 'steep_edges'))"
+check "the matrix text gives it" grep -qE "^strong_blur +[0-9.]+ +[-+][0-9.]+ +[0-9]+\.[0-9] \|" m/matrix.txt
 check "strong blur: thickness within 0.1 mm after its own calibration" py "v['strong_blur']['thickness_mean_abs_mm'] <= 0.1"
 check "rangex recalls at least what the X-ray alone does" py "all(x['recall_calcified_ge_2mm'] >= x['baseline_recall_calcified_ge_2mm'] for x in v.values() if 'failed' not in x)"
 check "the variant's own calibration says where K1/K2 come from" grep -q "fitted_on: \"calib scatter on" m/strong_blur/lane0.yaml
