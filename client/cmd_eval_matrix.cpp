@@ -27,6 +27,7 @@
 #include "core/recording.h"
 #include "core/text_file.h"
 #include "eval_bone_run.h"
+#include "eval_claims.h"
 #include "eval_steps.h"
 #include "learning_check.h"
 #include "offline/detection_eval.h"
@@ -76,6 +77,9 @@ struct Row {
   std::vector<std::string> sensitivity;
   // More bony fillets with the learned thresholds (--bones): recall with a narrow interval.
   std::vector<BonePart> bones;
+  // The report's sphere claims held against the plant's and the bone run's fragments.
+  FragmentClaims fragment_claims;
+  bool claims_measured = false;
   double minutes = 0;
   std::string failed;  // why the variant stopped (its log says more); empty when it ran
 };
@@ -198,8 +202,10 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
       bones.fillets = mo.bone_fillets, bones.seed = seed + 10000;
       r.bones = run_bone_parts(bones, lc, margins);
     }
-    const auto j =
-        nlohmann::json::parse(read_text_file((dir / "learned.report" / "learn.json").string()));
+    const std::string report = (dir / "learned.report" / "learn.json").string();
+    r.fragment_claims = claims_on_fragments(report_claims(report, lane), r.learned, seed, r.bones);
+    r.claims_measured = true;
+    const auto j = nlohmann::json::parse(read_text_file(report));
     for (const auto& l : j.at("lanes")) {
       r.learn_ok = l.at("ok").get<bool>();
       r.learn_fillets = l.at("fillets").get<int>();
@@ -401,6 +407,7 @@ std::string json(const std::vector<Row>& rows) {
       for (size_t q = 0; q < r.sensitivity.size(); ++q)
         os << (q ? ", " : "") << "\"" << r.sensitivity[q] << "\"";
       os << "], \"missed\": [" << missed_json(l, -1) << "]";
+      if (r.claims_measured) os << ", \"claims_on_fragments\": " << claims_json(r.fragment_claims);
       if (!r.bones.empty()) {
         const BoneRunTotals t = pooled(r.bones);
         os << ", \"bone_run\": {\"fillets\": " << t.fillets << ", \"recall_calcified_ge_2mm\": ["
@@ -549,6 +556,13 @@ int cmd_eval_matrix(int argc, char** argv) {
            << "), inspected with the learned thresholds and judged against their truth; the "
               "interval is Wilson's 95 %, pooled with the plant's fragments:\n"
            << bone_run_text(rows);
+      os << "\nthe report's sphere claims on each variant's own fragments (the plant's"
+         << (mo.bone_fillets > 0 ? " and the bone run's" : "")
+         << "): a compact fragment is covered where the claim for its band of meat is a sphere "
+            "holding no more bone than it (volume x its attenuation over the meat, against the "
+            "test piece's); the claim says 95 %:\n";
+      for (const Row& r : rows)
+        if (r.claims_measured) os << claims_text(r.name, r.fragment_claims);
     }
     for (const Row& r : rows)
       if (!r.failed.empty()) os << "\nfailed: " << r.name << ": " << r.failed << "\n";

@@ -29,6 +29,12 @@ TEST(DetectionEval, ReadsEachTruthLayoutAndRefusesOthers) {
   EXPECT_DOUBLE_EQ(now[0].size_mm, 2.5);
   EXPECT_DOUBLE_EQ(now[0].xray_line, 300);
   EXPECT_DOUBLE_EQ(now[0].volume_mm3, 1.25);
+  EXPECT_EQ(now[0].excess_mu, -1);
+  const auto weighed = one(",shape,volume_mm3,excess_mu,meat_mu",
+                           "7,bone,1,100,5,300,2.5,0.8,chip,1.25,0.072,0.03");
+  EXPECT_DOUBLE_EQ(weighed[0].volume_mm3, 1.25);
+  EXPECT_DOUBLE_EQ(weighed[0].excess_mu, 0.072);
+  EXPECT_DOUBLE_EQ(weighed[0].meat_mu, 0.03);
   EXPECT_THROW(one(",shape,volume_mm3,more", "7,bone,1,100,5,300,2.5,0.8,chip,1.25,9"), Error);
 }
 
@@ -59,6 +65,11 @@ TEST(DetectionEval, AMissIsNamedWithTheBoneItHolds) {
   add_lane(e, parse_truth_fragments(truth, 0), parse_truth_fillets(fillets, 0), res);
   finish(e);
   EXPECT_DOUBLE_EQ(e.recall_calcified_2mm(), 0.5);
+  // Every bone is judged, found or not, for the claims to be held against.
+  ASSERT_EQ(e.judged.size(), 2u);
+  EXPECT_TRUE(e.judged[0].found);
+  EXPECT_FALSE(e.judged[1].found);
+  EXPECT_NEAR(e.judged[1].volume_mm3, v, 1e-5);
   ASSERT_EQ(e.missed.size(), 1u);
   EXPECT_EQ(e.missed[0].fillet, 2);
   EXPECT_NEAR(e.missed[0].volume_mm3, v, 1e-5);

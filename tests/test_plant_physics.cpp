@@ -112,12 +112,19 @@ TEST(PlantPhysics, EachEffectIsRendered) {
     std::vector<std::string> c;
     std::istringstream cells(row);
     for (std::string cell; std::getline(cells, cell, ',');) c.push_back(cell);
-    ASSERT_EQ(c.size(), 10u) << row;
+    ASSERT_EQ(c.size(), 12u) << row;
     if (c[1] != "bone") continue;
     ++bones_seen;
     const double size = std::stod(c[6]), volume = std::stod(c[9]);
     EXPECT_GT(volume, 0) << row;
     EXPECT_LE(volume, M_PI / 6 * size * size * size) << row;
+    // Its attenuation over the meat is its calcification's share of bone's (0.12 /mm) over
+    // the meat's own.
+    const double calcification = std::stod(c[7]), excess = std::stod(c[10]),
+                 meat = std::stod(c[11]);
+    EXPECT_GT(meat, 0.01) << row;
+    EXPECT_LT(meat, 0.06) << row;
+    EXPECT_NEAR(excess, calcification * (0.12 - meat), 1e-4) << row;
   }
   EXPECT_GT(bones_seen, 0);
   // Dropped lines arrive black, at about their rate.

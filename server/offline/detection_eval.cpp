@@ -40,11 +40,13 @@ int size_bin(double s) {
 
 std::vector<TruthFragment> parse_truth_fragments(const std::string& text, int lane) {
   std::vector<TruthFragment> out;
-  // fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification[,shape[,volume_mm3]]
-  for (const auto& c : csv_rows(text, {10, 8, 9}, "fragments.csv"))
+  // fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification[,shape[,volume_mm3[,excess_mu,
+  // meat_mu]]]
+  for (const auto& c : csv_rows(text, {12, 10, 8, 9}, "fragments.csv"))
     out.push_back({lane, std::stoi(c[0]), c[1], std::stod(c[2]), std::stod(c[3]), std::stod(c[6]),
                    std::stod(c[7]), c.size() > 8 ? c[8] : "compact", std::stod(c[5]),
-                   c.size() > 9 ? std::stod(c[9]) : -1.0});
+                   c.size() > 9 ? std::stod(c[9]) : -1.0, c.size() > 11 ? std::stod(c[10]) : -1.0,
+                   c.size() > 11 ? std::stod(c[11]) : -1.0});
   return out;
 }
 
@@ -146,6 +148,9 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
       used[best_i] = 1;
       e.position.add(best);
     }
+    e.judged.push_back({t.lane, t.fillet, t.shape, t.size_mm, t.calcification, t.volume_mm3,
+                        t.excess_mu, t.meat_mu,
+                        edges ? edges->thickness_mm(t.x_mm, t.xray_line) : -1.0, best <= tol});
     if (sb >= 1 && cb == 1 && best > tol) {
       MissedFragment m{t.lane, t.fillet, t.shape, t.size_mm, t.calcification};
       m.volume_mm3 = t.volume_mm3;

@@ -19,6 +19,18 @@ struct TruthFragment {
   // Its parts' volume (-1: a truth written before it was): a fragment's size is its longest
   // extent, and a flat one holds the bone of a much smaller sphere.
   double volume_mm3 = -1;
+  // Its attenuation over the meat's and the meat's own, 1/mm (-1: a truth written before).
+  double excess_mu = -1, meat_mu = -1;
+};
+
+// Each bone fragment judged, of any size and shape: what the learned report's sensitivity
+// claims are held against (offline/claim_coverage.h).
+struct JudgedFragment {
+  int lane = 0, fillet = 0;
+  std::string shape;
+  double size_mm = 0, calcification = 0, volume_mm3 = -1, excess_mu = -1, meat_mu = -1;
+  double meat_mm = -1;  // the true meat over it (with an EdgeMap)
+  bool found = false;
 };
 
 // The lane's true X-ray path thickness (truth/thickness.f32) with the geometry to find a
@@ -85,6 +97,7 @@ struct DetectionEval {
   // Calcified fragments >= 2 mm by shape: found / present.
   std::vector<std::pair<std::string, std::pair<int, int>>> by_shape;
   std::vector<MissedFragment> missed;  // calcified fragments >= 2 mm not found
+  std::vector<JudgedFragment> judged;  // every bone fragment
 
   double recall_calcified_2mm() const;  // calcified fragments >= 2 mm
   double false_reject_rate() const;     // clean fillets rejected for any reason

@@ -109,6 +109,9 @@ std::string learned_report_json(int lane, const ProductLearning& L, const Sensit
                       {"measured_on", "the learning fillets, with the learned thresholds"},
                       {"rate", s.rate},
                       {"claim_confidence", s.claim_confidence},
+                      {"material",
+                       {{"excess_ratio", s.material.excess_ratio},
+                        {"excess_per_mm", s.material.excess_per_mm}}},
                       {"claim_rule",
                        "found at >= rate at the size and every larger one, and the band's "
                        "hit/miss detection curve (logit POD linear in ln size, Firth's "

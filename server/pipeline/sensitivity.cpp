@@ -191,6 +191,7 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
   for (auto& [k, c] : cells) res.cells.push_back(c);
   res.claims = claim_sizes(res.cells, res.band_edges_mm, opt);
   res.rate = opt.rate, res.claim_confidence = opt.claim_confidence;
+  res.material = opt.material;
   state_claims(res, opt);
   return res;
 }

@@ -67,6 +67,7 @@ struct SensitivityResult {
   std::vector<StatedClaim> stated;   // what the summary says, one per sentence
   int inspections = 0;
   double rate = 0, claim_confidence = 0;  // the options the claims were made with
+  TestPieceMaterial material;             // the pieces' bone, as injected
 };
 
 struct SensitivityFillet {

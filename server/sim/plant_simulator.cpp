@@ -99,7 +99,10 @@ void LaneSimulator::render(int64_t n, uint8_t* cam0, uint8_t* cam1, uint16_t* xr
 
 std::string LaneSimulator::fragments_csv() const {
   std::ostringstream os;
-  os << "fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification,shape,volume_mm3\n";
+  // excess_mu: its attenuation over the meat's, meat_mu: the meat's (1/mm): what a
+  // sensitivity claim's bone-equivalent test piece is weighed against.
+  os << "fillet,kind,x_mm,b_mm,z_mm,xray_line,size_mm,calcification,shape,volume_mm3,excess_mu,"
+        "meat_mu\n";
   static const char* kKind[] = {"bone", "air", "fat", "cartilage"};
   static const char* kShape[] = {"compact", "needle", "chip", "rib", "cluster"};
   for (const Fillet& f : scene_.fillets())
@@ -119,7 +122,7 @@ std::string LaneSimulator::fragments_csv() const {
       const double line = (c.y + xray_.plane_y(c.x, c.z)) / lane_.encoder_step_mm;
       os << f.id << "," << kKind[in.kind] << "," << c.x << "," << c.y << "," << c.z << "," << line
          << "," << in.size_mm << "," << in.calcification << "," << kShape[in.shape] << ","
-         << 4.0 / 3.0 * M_PI * v << "\n";
+         << 4.0 / 3.0 * M_PI * v << "," << in.dmu << "," << f.mu << "\n";
     }
   return os.str();
 }
