@@ -1,7 +1,7 @@
 // eval-matrix: the learned report's sphere claims held against the variant's own fragments
 // (offline/claim_coverage.h), the plant's and the bone run's pooled. The test pieces say
-// what the claims are worth on pieces injected into clean fillets; this says it on bone the
-// simulator put there, of every shape the claims speak for.
+// what the claims are worth on pieces injected into clean fillets; this says it on the
+// compact bone the simulator put into the plant.
 #pragma once
 #include <string>
 #include <vector>
@@ -29,7 +29,7 @@ struct FragmentClaims {
 FragmentClaims claims_on_fragments(const ReportClaims& rc, const DetectionEval& plant,
                                    long plant_seed, const std::vector<BonePart>& bones);
 
-// "rough_meat: 57/58 found of the compact fragments its sphere claims cover ..." and each
+// "rough_meat: 87/89 found of the compact fragments its sphere claims cover ..." and each
 // covered miss.
 std::string claims_text(const std::string& name, const FragmentClaims& c);
 std::string claims_json(const FragmentClaims& c);

@@ -4,7 +4,8 @@
 // that sphere's bone (its volume times its attenuation over the meat, against the test
 // piece's) is one the claim covers, and should be found at the claimed rate. Fragments of
 // other shapes spread their bone differently and are left out; so are those the claims say
-// nothing of, which is most of what a recall short of 99 % misses (docs/figures.md).
+// nothing of, where the development plants' missed calcified fragments >= 2 mm lie
+// (docs/figures.md).
 #pragma once
 #include <vector>
 
