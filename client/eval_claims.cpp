@@ -34,6 +34,7 @@ FragmentClaims claims_on_fragments(const ReportClaims& rc, const DetectionEval& 
     const ClaimCoverage c = claim_coverage(e.judged, rc.spheres, rc.material);
     ClaimCoverage& p = out.pooled;
     p.found += c.found, p.covered += c.covered, p.unknown += c.unknown, p.weighed += c.weighed;
+    p.dense_found += c.dense_found, p.dense_covered += c.dense_covered;
     p.missed.insert(p.missed.end(), c.missed.begin(), c.missed.end());
     p.missed_sphere_mm.insert(p.missed_sphere_mm.end(), c.missed_sphere_mm.begin(),
                               c.missed_sphere_mm.end());
@@ -51,8 +52,9 @@ std::string claims_text(const std::string& name, const FragmentClaims& fc) {
   char b[400];
   std::snprintf(b, sizeof b,
                 "%s: %d/%d found of the compact fragments its sphere claims cover (holding at "
-                "least the claimed sphere's bone where they lie)%s\n",
-                name.c_str(), c.found, c.covered,
+                "least the claimed sphere's bone where they lie); of those at least as dense as "
+                "the test piece %d/%d%s\n",
+                name.c_str(), c.found, c.covered, c.dense_found, c.dense_covered,
                 c.unknown ? "; some fragments' truth cannot weigh their bone" : "");
   std::string out = b;
   for (size_t k = 0; k < c.missed.size(); ++k) {
@@ -82,6 +84,8 @@ std::string claims_json(const FragmentClaims& fc) {
   }
   return nlohmann::json{{"found", c.found},
                         {"covered", c.covered},
+                        {"dense_found", c.dense_found},
+                        {"dense_covered", c.dense_covered},
                         {"weighed", c.weighed},
                         {"unknown", c.unknown},
                         {"missed", missed}}

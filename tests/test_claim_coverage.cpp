@@ -11,11 +11,11 @@ using namespace rangex;
 
 namespace {
 // A compact fragment holding the bone of a test sphere of `d` mm (excess 2 x meat 0.03 /mm):
-// calcification 0.6 of bone at 0.12 /mm, over meat at 0.03 /mm.
-JudgedFragment holding(double d, double meat_mm, bool found) {
+// its calcification's share of bone at 0.12 /mm, over meat at 0.03 /mm.
+JudgedFragment holding(double d, double meat_mm, bool found, double calcification = 0.6) {
   JudgedFragment f;
-  f.shape = "compact", f.size_mm = 1.3 * d, f.calcification = 0.6;
-  f.meat_mu = 0.03, f.excess_mu = 0.6 * (0.12 - 0.03);
+  f.shape = "compact", f.size_mm = 1.3 * d, f.calcification = calcification;
+  f.meat_mu = 0.03, f.excess_mu = calcification * (0.12 - 0.03);
   f.volume_mm3 = M_PI / 6 * d * d * d * (2 * 0.03) / f.excess_mu;
   f.meat_mm = meat_mm, f.found = found;
   return f;
@@ -62,4 +62,19 @@ TEST(ClaimCoverage, CoversWhatTheClaimOfItsBandSpeaksFor) {
   // A band's edge belongs to the band above it.
   EXPECT_EQ(claim_coverage({holding(2.0, 20, true)}, claims, {}).covered, 0);
   EXPECT_EQ(claim_coverage({holding(2.5, 20, true)}, claims, {}).covered, 1);
+}
+
+TEST(ClaimCoverage, SaysWhichCoveredFragmentsAreAsDenseAsThePiece) {
+  // Both hold a 2 mm sphere's bone under a 1.5 mm claim. The piece is 0.06 /mm over the meat:
+  // calcification 0.9 (0.081 /mm) is denser, 0.2 (0.018 /mm) spreads the same bone over a
+  // fragment 1.5 times as wide, which stands out less than the sphere.
+  const std::vector<SphereClaim> claims = {{0, 20, 1.5}};
+  const ClaimCoverage c =
+      claim_coverage({holding(2.0, 10, true, 0.9), holding(2.0, 10, false, 0.2)}, claims, {});
+  EXPECT_EQ(c.covered, 2);
+  EXPECT_EQ(c.found, 1);
+  EXPECT_EQ(c.dense_covered, 1);
+  EXPECT_EQ(c.dense_found, 1);
+  // 0.6 is just short of the piece (0.054 /mm): covered, not dense.
+  EXPECT_EQ(claim_coverage({holding(2.0, 10, true)}, claims, {}).dense_covered, 0);
 }

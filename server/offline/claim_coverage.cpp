@@ -4,9 +4,15 @@
 
 namespace rangex {
 
+namespace {
+double piece_excess(const JudgedFragment& f, const ClaimMaterial& m) {
+  return m.excess_per_mm > 0 ? m.excess_per_mm : m.excess_ratio * f.meat_mu;
+}
+}  // namespace
+
 double equivalent_sphere_mm(const JudgedFragment& f, const ClaimMaterial& m) {
   if (f.volume_mm3 <= 0 || f.excess_mu <= 0) return -1;
-  const double piece = m.excess_per_mm > 0 ? m.excess_per_mm : m.excess_ratio * f.meat_mu;
+  const double piece = piece_excess(f, m);
   if (!(piece > 0)) return -1;
   return std::cbrt(6 / M_PI * f.volume_mm3 * f.excess_mu / piece);
 }
@@ -28,6 +34,7 @@ ClaimCoverage claim_coverage(const std::vector<JudgedFragment>& fragments,
     if (!claim || d < claim->size_mm) continue;
     ++c.covered;
     c.found += f.found;
+    if (f.excess_mu >= piece_excess(f, m)) ++c.dense_covered, c.dense_found += f.found;
     if (!f.found) {
       c.missed.push_back(f);
       c.missed_sphere_mm.push_back(d);

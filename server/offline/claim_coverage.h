@@ -34,8 +34,12 @@ struct ClaimCoverage {
   std::vector<JudgedFragment> missed;    // covered ones not found
   std::vector<double> missed_sphere_mm;  // their equivalent spheres
   std::vector<double> missed_claim_mm;   // and the claims that covered them
-  int weighed = 0;                       // compact bone fragments weighed
-  int unknown = 0;                       // compact bone fragments the truth cannot weigh
+  // Of the covered, those at least as dense as the test piece (its excess per mm or more): a
+  // claim's sphere has the piece's material, so a larger, thinner fragment holding as much
+  // bone stands out less than the sphere does.
+  int dense_found = 0, dense_covered = 0;
+  int weighed = 0;  // compact bone fragments weighed
+  int unknown = 0;  // compact bone fragments the truth cannot weigh
 };
 
 ClaimCoverage claim_coverage(const std::vector<JudgedFragment>& fragments,
