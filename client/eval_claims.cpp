@@ -36,10 +36,6 @@ FragmentClaims claims_on_fragments(const ReportClaims& rc, const DetectionEval& 
     p.found += c.found, p.covered += c.covered, p.unknown += c.unknown, p.weighed += c.weighed;
     p.dense_found += c.dense_found, p.dense_covered += c.dense_covered;
     p.missed.insert(p.missed.end(), c.missed.begin(), c.missed.end());
-    p.missed_sphere_mm.insert(p.missed_sphere_mm.end(), c.missed_sphere_mm.begin(),
-                              c.missed_sphere_mm.end());
-    p.missed_claim_mm.insert(p.missed_claim_mm.end(), c.missed_claim_mm.begin(),
-                             c.missed_claim_mm.end());
     out.missed_seed.insert(out.missed_seed.end(), c.missed.size(), seed);
   };
   add(plant, plant_seed);
@@ -58,12 +54,12 @@ std::string claims_text(const std::string& name, const FragmentClaims& fc) {
                 c.unknown ? "; some fragments' truth cannot weigh their bone" : "");
   std::string out = b;
   for (size_t k = 0; k < c.missed.size(); ++k) {
-    const JudgedFragment& f = c.missed[k];
+    const JudgedFragment& f = c.missed[k].fragment;
     std::snprintf(b, sizeof b,
                   "  missed: seed %ld fillet %d, %.1f mm, the bone of a %.2f mm sphere under "
                   "%.1f mm of meat, where %.1f mm is claimed\n",
-                  fc.missed_seed[k], f.fillet, f.size_mm, c.missed_sphere_mm[k], f.meat_mm,
-                  c.missed_claim_mm[k]);
+                  fc.missed_seed[k], f.fillet, f.size_mm, c.missed[k].sphere_mm, f.meat_mm,
+                  c.missed[k].claim_mm);
     out += b;
   }
   return out;
@@ -73,14 +69,14 @@ std::string claims_json(const FragmentClaims& fc) {
   const ClaimCoverage& c = fc.pooled;
   nlohmann::json missed = nlohmann::json::array();
   for (size_t k = 0; k < c.missed.size(); ++k) {
-    const JudgedFragment& f = c.missed[k];
+    const JudgedFragment& f = c.missed[k].fragment;
     missed.push_back({{"seed", fc.missed_seed[k]},
                       {"fillet", f.fillet},
                       {"size_mm", f.size_mm},
                       {"calcification", f.calcification},
                       {"meat_mm", f.meat_mm},
-                      {"sphere_mm", c.missed_sphere_mm[k]},
-                      {"claimed_mm", c.missed_claim_mm[k]}});
+                      {"sphere_mm", c.missed[k].sphere_mm},
+                      {"claimed_mm", c.missed[k].claim_mm}});
   }
   return nlohmann::json{{"found", c.found},
                         {"covered", c.covered},

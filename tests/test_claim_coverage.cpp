@@ -56,9 +56,9 @@ TEST(ClaimCoverage, CoversWhatTheClaimOfItsBandSpeaksFor) {
   EXPECT_EQ(c.weighed, 5);  // the compact ones with their bone known
   EXPECT_EQ(c.unknown, 1);
   ASSERT_EQ(c.missed.size(), 1u);
-  EXPECT_NEAR(c.missed_sphere_mm[0], 2.6, 1e-9);
-  EXPECT_EQ(c.missed_claim_mm[0], 2.5);
-  EXPECT_EQ(c.missed[0].meat_mm, 25);
+  EXPECT_NEAR(c.missed[0].sphere_mm, 2.6, 1e-9);
+  EXPECT_EQ(c.missed[0].claim_mm, 2.5);
+  EXPECT_EQ(c.missed[0].fragment.meat_mm, 25);
   // A band's edge belongs to the band above it.
   EXPECT_EQ(claim_coverage({holding(2.0, 20, true)}, claims, {}).covered, 0);
   EXPECT_EQ(claim_coverage({holding(2.5, 20, true)}, claims, {}).covered, 1);

@@ -35,11 +35,7 @@ ClaimCoverage claim_coverage(const std::vector<JudgedFragment>& fragments,
     ++c.covered;
     c.found += f.found;
     if (f.excess_mu >= piece_excess(f, m)) ++c.dense_covered, c.dense_found += f.found;
-    if (!f.found) {
-      c.missed.push_back(f);
-      c.missed_sphere_mm.push_back(d);
-      c.missed_claim_mm.push_back(claim->size_mm);
-    }
+    if (!f.found) c.missed.push_back({f, d, claim->size_mm});
   }
   return c;
 }

@@ -29,11 +29,15 @@ struct ClaimMaterial {
 // the truth lacks what it takes.
 double equivalent_sphere_mm(const JudgedFragment& f, const ClaimMaterial& m);
 
+// A covered fragment not found, with its equivalent sphere and the claim that covered it.
+struct CoveredMiss {
+  JudgedFragment fragment;
+  double sphere_mm = 0, claim_mm = 0;
+};
+
 struct ClaimCoverage {
-  int found = 0, covered = 0;            // covered: compact, in a claimed band, at least the size
-  std::vector<JudgedFragment> missed;    // covered ones not found
-  std::vector<double> missed_sphere_mm;  // their equivalent spheres
-  std::vector<double> missed_claim_mm;   // and the claims that covered them
+  int found = 0, covered = 0;       // covered: compact, in a claimed band, at least the size
+  std::vector<CoveredMiss> missed;  // covered ones not found
   // Of the covered, those at least as dense as the test piece (its excess per mm or more): a
   // claim's sphere has the piece's material, so a larger, thinner fragment holding as much
   // bone stands out less than the sphere does.
