@@ -21,10 +21,9 @@
 namespace rangex {
 namespace {
 
-// A product whose extremes have a heavy tail (xi 0.12), or with `xi` another one.
-GevModel truth_model(double xi = 0.12) {
+GevModel truth_model() {
   GevModel g;
-  g.m0 = 4.0, g.m_logn = 0.45, g.m_t = 0.04, g.s0 = std::log(0.5), g.s_t = 0.02, g.xi = xi;
+  g.m0 = 4.0, g.m_logn = 0.45, g.m_t = 0.04, g.s0 = std::log(0.5), g.s_t = 0.02, g.xi = 0.12;
   g.log_n_ref = std::log(8000.0), g.t_ref = 12;
   return g;
 }
@@ -62,40 +61,6 @@ TEST(GevFit, RecoversKnownParametersWithCovariates) {
           << "p " << p << " t " << tt;
   EXPECT_NEAR(f.model.xi, g.xi, 0.05);
   EXPECT_NEAR(f.model.m_logn, g.m_logn, 0.1);
-}
-
-// The profile likelihood's upper bound on a far quantile (1 in 10 000, 200 extremes a fit,
-// the shape free on both sides of Gumbel) lies above the true level in about `confidence`
-// of repeated samples, and above the fit's own estimate always.
-TEST(GevFit, TheProfileBoundCoversTheTrueLevelAtItsConfidence) {
-  std::uniform_real_distribution<double> n(1000, 20000), t(2, 26);
-  for (const double xi : {-0.1, 0.12}) {
-    const GevModel g = truth_model(xi);
-    const double q = 1e-4, truth = g.quantile(1 - q, 8000, 12);
-    const int reps = 40;
-    int covered = 0, mle_covered = 0;
-    for (int k = 0; k < reps; ++k) {
-      std::mt19937_64 rng(500 + uint64_t(k));
-      std::vector<ExtremeSample> s;
-      for (int i = 0; i < 200; ++i) s.push_back(draw(g, rng, n(rng), t(rng)));
-      const GevFit f = fit_gev(s);
-      ASSERT_TRUE(f.converged);
-      const double mle = f.model.quantile(1 - q, 8000, 12);
-      const double bound = profile_upper_level(s, f, q, 8000, 12, 0.9);
-      EXPECT_GT(bound, mle);
-      EXPECT_TRUE(std::isfinite(bound));
-      covered += bound >= truth;
-      mle_covered += mle >= truth;
-    }
-    std::printf(
-        "xi %.2f: the bound covers the true level in %d of %d samples (the fit's own "
-        "estimate in %d)\n",
-        xi, covered, reps, mle_covered);
-    // A bound that covers 90 % of the time gives 31 or more of 40 in 99.5 % of seed sets;
-    // the fit's own estimate covers about half the time.
-    EXPECT_GE(covered, 31) << "xi " << xi;
-    EXPECT_LT(mle_covered, covered);
-  }
 }
 
 TEST(GevFit, LocationShiftIsFound) {
@@ -243,59 +208,35 @@ double true_false_reject_rate(const LearnedDetection& L, const GevModel& g,
 // meet the target. Checked on a known product, with the rate each run's thresholds really
 // let through (exact given 4000 fillets' layouts). And they spend a fair part of the target:
 // a confidence bought with blindness would pass this by rejecting nothing.
-struct ConfidenceRuns {
-  int met = 0, learned = 0;
-  double median_spent = 0;  // of the target, over the runs that learned
-};
-
-ConfidenceRuns confidence_runs(const GevModel& g, int runs) {
+TEST(ProductLearning, TheConfidenceIsTheShareOfLearningRunsWhoseThresholdsMeetTheTarget) {
+  const GevModel g = truth_model();
   LearnOptions o;  // target 0.003, confidence 0.9, 100 resamples
   const auto layout = clean_fillets(g, 4000, 77);
-  ConfidenceRuns c;
+  const int runs = 30;
+  int met = 0, learned = 0;
   std::vector<double> spent;
   for (int k = 0; k < runs; ++k) {
     o.seed = 100 + uint64_t(k);
     const ProductLearning L = learn_product(clean_fillets(g, 40, 1000 + uint64_t(k)), o);
-    // A heavy tail now and then makes a clean fillet stand out enough to be named (an
+    // This tail is heavy: now and then a clean fillet stands out enough to be named (an
     // operator would check it and keep it in). Those runs say nothing of the confidence.
     if (!L.ok) continue;
-    ++c.learned;
+    ++learned;
     const double frr = true_false_reject_rate(L.learned, g, layout);
-    c.met += frr <= o.target_frr;
+    met += frr <= o.target_frr;
     spent.push_back(frr / o.target_frr);
   }
+  ASSERT_GE(learned, int(0.8 * runs));
   std::sort(spent.begin(), spent.end());
-  if (!spent.empty()) c.median_spent = spent[spent.size() / 2];
+  const double median = spent[spent.size() / 2];
   std::printf(
-      "xi %.2f: learning runs whose thresholds meet the target: %d of %d; median share of "
-      "the target spent %.3f\n",
-      g.xi, c.met, c.learned, c.median_spent);
-  return c;
-}
-
-TEST(ProductLearning, TheConfidenceIsTheShareOfLearningRunsWhoseThresholdsMeetTheTarget) {
-  const int runs = 30;
-  const ConfidenceRuns c = confidence_runs(truth_model(), runs);
-  ASSERT_GE(c.learned, int(0.8 * runs));
+      "learning runs whose thresholds meet the target: %d of %d; median share of the "
+      "target spent %.3f\n",
+      met, learned, median);
   // 27 runs cannot tell 85 % from 90 %; they tell it from the 50 % of thresholds learned at
   // 50 % confidence (13 of 27 met the target so).
-  EXPECT_GE(c.met, int(0.8 * c.learned));
-  EXPECT_GT(c.median_spent, 0.1);
-}
-
-// A product whose extremes have a bounded tail (xi -0.1: meat whose dark side has a floor).
-// With the shape held at Gumbel or heavier, every run met the target by spending a
-// five-hundredth of it (30 of 30, median 0.002): thresholds far beyond anything the product
-// does, and bone below them missed. With the shape free, the bootstrap alone met it in 75 of
-// 90 runs; with the profile likelihood's bound 80 of 90 (these 30: 23), spending 0.078.
-TEST(ProductLearning, ALightTailedProductIsLearnedWithItsOwnTailAndTheSameConfidence) {
-  const int runs = 30;
-  const ConfidenceRuns c = confidence_runs(truth_model(-0.1), runs);
-  ASSERT_GE(c.learned, int(0.8 * runs));
-  // Runs that meet the target 90 % of the time give 22 or more of 30 in 99.8 % of seed sets;
-  // thresholds learned at 50 % confidence gave 7 (spending 2.7 times the target).
-  EXPECT_GE(c.met, 22 * c.learned / 30);
-  EXPECT_GT(c.median_spent, 0.02);
+  EXPECT_GE(met, int(0.8 * learned));
+  EXPECT_GT(median, 0.1);
 }
 
 TEST(ProductLearning, ALearningRunWithBoneFailsNamingTheFillets) {

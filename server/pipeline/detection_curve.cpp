@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/normal_quantile.h"
-
 namespace rangex {
 
 namespace {
@@ -82,6 +80,15 @@ double profile(const Centred& c, double a, double& b) {
     if (done) break;
   }
   return e.value;
+}
+
+double normal_quantile(double p) {
+  double lo = -40, hi = 40;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
 }
 
 double logistic(double eta) {

@@ -4,7 +4,6 @@
 #include <cmath>
 
 #include "core/error.h"
-#include "core/normal_quantile.h"
 #include "pipeline/nelder_mead.h"
 
 namespace rangex {
@@ -15,12 +14,6 @@ namespace {
 // simplex to stall on.
 double shape(double p, const GevFitOptions& o) {
   return o.xi_min + (o.xi_max - o.xi_min) / (1 + std::exp(-p));
-}
-
-// The inverse: the free parameter of shape xi (clamped inside the range).
-double shape_param(double xi, const GevFitOptions& o) {
-  const double u = std::clamp((xi - o.xi_min) / (o.xi_max - o.xi_min), 1e-6, 1 - 1e-6);
-  return std::log(u / (1 - u));
 }
 
 GevModel from_params(const std::vector<double>& p, const GevModel& centre, const GevFitOptions& o) {
@@ -57,11 +50,9 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
   var /= double(s.size() - 1);
   // Gumbel moments as the start.
   const double sigma = std::max(1e-3, std::sqrt(6 * var) / M_PI);
-  // The shape starts at Gumbel, or a tenth into its range where that excludes Gumbel's
-  // neighbourhood (the logistic is flat at its ends: the simplex would stall there).
-  const double u0 = std::clamp(-opt.xi_min / (opt.xi_max - opt.xi_min), 0.1, 0.9);
-  const std::vector<double> x0 = {mean - 0.5772 * sigma,   0.0, std::log(sigma),
-                                  std::log(u0 / (1 - u0)), 0.0, 0.0};
+  // The shape starts a tenth into its range (near Gumbel for the default range).
+  const std::vector<double> x0 = {mean - 0.5772 * sigma, 0.0, std::log(sigma),
+                                  std::log(0.1 / 0.9),   0.0, 0.0};
   const std::vector<double> step = {0.5 * sigma, 0.2 * sigma, 0.3, 1.0, 0.02, 0.02};
   auto objective = [&](const std::vector<double>& p) {
     return truncated_nll(from_params(p, centre, opt), s);
@@ -71,57 +62,6 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
   f.model = from_params(r.x, centre, opt);
   f.converged = r.converged && std::isfinite(r.value);
   return f;
-}
-
-double profile_upper_level(const std::vector<ExtremeSample>& s, const GevFit& fit, double q,
-                           double n, double t, double confidence, const GevFitOptions& opt) {
-  const GevModel& m = fit.model;
-  const double h = -std::log1p(-q);  // the intensity at the quantile 1 - q
-  const double dn = std::log(n) - m.log_n_ref, dt = t - m.t_ref;
-  // The model whose quantile at (n, t) is z: the location's intercept follows the rest.
-  auto at = [&](double z, const std::vector<double>& p) {
-    GevModel g = m;
-    g.m_logn = p[0], g.s0 = p[1], g.xi = shape(p[2], opt), g.m_t = p[3], g.s_t = p[4];
-    const double y = std::abs(g.xi) < 1e-6 ? -std::log(h) : (std::pow(h, -g.xi) - 1) / g.xi;
-    g.m0 = z - g.m_logn * dn - g.m_t * dt - g.scale(t) * y;
-    return g;
-  };
-  std::vector<double> best = {m.m_logn, m.s0, shape_param(m.xi, opt), m.m_t, m.s_t};
-  const double z_hat = m.quantile(1 - q, n, t);
-  auto profile = [&](double z) {
-    const NelderMeadResult r = nelder_mead(
-        [&](const std::vector<double>& p) {
-          const double v = truncated_nll(at(z, p), s);
-          return std::isfinite(v) ? v : 1e300;  // outside the support
-        },
-        best, {0.05, 0.1, 0.5, 0.01, 0.01}, 1e-9, 3000);
-    if (r.value < 1e299) best = r.x;  // the next level starts from this one's best model
-    return r.value;
-  };
-  const double peak = std::min(truncated_nll(m, s), profile(z_hat));
-  // 2 (nll - peak) against chi2_1(2 confidence - 1) = zq^2; its root grows about linearly
-  // in z: bracket its crossing of zq, then regula falsi (Illinois) on it.
-  const double zq = normal_quantile(confidence);
-  auto g = [&](double z) { return std::sqrt(2 * std::max(0.0, profile(z) - peak)) - zq; };
-  double lo = z_hat, g_lo = -zq, step = m.scale(t), hi = z_hat + step, g_hi = g(hi);
-  for (int k = 0; g_hi < 0; ++k) {
-    if (k == 20) return HUGE_VAL;
-    lo = hi, g_lo = g_hi, step *= 2, hi = z_hat + step, g_hi = g(hi);
-  }
-  int side = 0;
-  for (int k = 0; k < 40 && hi - lo > 1e-4 * m.scale(t); ++k) {
-    const double z = hi - g_hi * (hi - lo) / (g_hi - g_lo), gz = g(z);
-    if (gz < 0) {
-      lo = z, g_lo = gz;
-      if (side == -1) g_hi *= 0.5;
-      side = -1;
-    } else {
-      hi = z, g_hi = gz;
-      if (side == 1) g_lo *= 0.5;
-      side = 1;
-    }
-  }
-  return hi;
 }
 
 GevModel refit_drifted(const GevModel& model, const std::vector<ExtremeSample>& s,

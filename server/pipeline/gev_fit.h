@@ -17,12 +17,10 @@ struct ExtremeSample {
 };
 
 struct GevFitOptions {
-  // The shape, held where 40 maxima can say something. A bounded (Weibull, xi < 0) tail is
-  // allowed: the maxima of meat whose dark side has a floor (lean meat; fat only brightens)
-  // come out so, and holding xi at 0 there spent a five-hundredth of the false-reject
-  // budget (test_product_learning). What a few dozen maxima cannot pin down about the shape
-  // goes into the thresholds' confidence (profile_upper_level), not into a bound.
-  double xi_min = -0.3, xi_max = 0.6;
+  // The shape, held where 40 maxima can say something. Never below 0: a bounded (Weibull)
+  // tail fitted to a few dozen maxima claims that nothing lies beyond its end point, and
+  // a false reject there would be "impossible"; Gumbel or heavier errs on the safe side.
+  double xi_min = 0, xi_max = 0.6;
 };
 
 struct GevFit {
@@ -33,15 +31,6 @@ struct GevFit {
 // Throws Error with fewer than 10 samples. Samples with a finite `upper` count truncated
 // there (a fit to the extremes below a level, robust to what lies above it).
 GevFit fit_gev(const std::vector<ExtremeSample>& samples, const GevFitOptions& opt = {});
-
-// The upper end of the one-sided `confidence` profile-likelihood interval for the level that
-// the extreme of n pixels at thickness t exceeds with probability q, under the model `fit`
-// (the maximum-likelihood fit of `samples` with the same options): the largest level z
-// whose best model with that quantile at z lies within chi2_1(2 confidence - 1) / 2 of the
-// maximum log-likelihood. Infinity where no level is excluded (a tail the samples leave
-// open). Unlike a bootstrap of the fits, it carries the shape's uncertainty into the level.
-double profile_upper_level(const std::vector<ExtremeSample>& samples, const GevFit& fit, double q,
-                           double n, double t, double confidence, const GevFitOptions& opt = {});
 
 // The MLE of a location shift d of `model` (x ~ model moved by d) on `samples`, the other
 // parameters held: how far a product's extremes have drifted from what was learned. Samples

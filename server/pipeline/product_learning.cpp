@@ -47,22 +47,19 @@ std::vector<ExtremeSample> samples_of(const std::vector<const LearningFillet*>& 
   return s;
 }
 
-// Per band the share of `budget` a fillet that holds it may spend there: in proportion to
-// the band's expected pixels (a pixel anywhere is as likely to raise a false detection).
-// NAN for a band no learning fillet holds.
-std::vector<double> band_shares(const BandUse& u, double budget) {
+// Per band the quantile that spends `budget` over the bands in proportion to their expected
+// pixels (a pixel anywhere is as likely to raise a false detection); absent bands take
+// their nearest present neighbour's threshold.
+std::vector<double> thresholds_for(const GevModel& g, const BandUse& u, double budget) {
   const size_t bands = u.fraction.size();
   double w = 0;
   for (size_t b = 0; b < bands; ++b) w += u.fraction[b] * u.pixels[b];
-  std::vector<double> q(bands, NAN);
-  for (size_t b = 0; b < bands; ++b)
-    if (u.fraction[b] > 0 && w > 0) q[b] = std::clamp(budget * u.pixels[b] / w, 1e-12, 0.5);
-  return q;
-}
-
-// Absent bands take their nearest present neighbour's threshold.
-void fill_absent(const BandUse& u, std::vector<double>& t) {
-  const size_t bands = t.size();
+  std::vector<double> t(bands, NAN);
+  for (size_t b = 0; b < bands; ++b) {
+    if (u.fraction[b] <= 0 || w <= 0) continue;
+    const double q = std::clamp(budget * u.pixels[b] / w, 1e-12, 0.5);
+    t[b] = std::max(1.0, g.quantile(1 - q, u.pixels[b], u.thickness[b]));
+  }
   for (size_t b = 0; b < bands; ++b) {
     if (std::isfinite(t[b])) continue;
     for (size_t d = 1; d < bands && !std::isfinite(t[b]); ++d) {
@@ -73,16 +70,6 @@ void fill_absent(const BandUse& u, std::vector<double>& t) {
     }
     if (!std::isfinite(t[b])) t[b] = 5.0;  // no band present at all: the fixed default
   }
-}
-
-// Per band the model's quantile that spends the band's share of `budget`.
-std::vector<double> thresholds_for(const GevModel& g, const BandUse& u, double budget) {
-  const std::vector<double> q = band_shares(u, budget);
-  std::vector<double> t(q.size(), NAN);
-  for (size_t b = 0; b < q.size(); ++b)
-    if (std::isfinite(q[b]))
-      t[b] = std::max(1.0, g.quantile(1 - q[b], u.pixels[b], u.thickness[b]));
-  fill_absent(u, t);
   return t;
 }
 
@@ -135,11 +122,6 @@ FlaggedFillet worst_of(const LearningFillet& f, const std::array<GevModel, kStat
 
 ProductLearning learn_product(const std::vector<LearningFillet>& all, const LearnOptions& opt) {
   ProductLearning r;
-  const GevFitOptions go;
-  // Whether a fillet is too improbable to be clean is judged under a tail no lighter than
-  // Gumbel: a bounded tail fitted to the others would name clean fillets beyond its end.
-  GevFitOptions screen;
-  screen.xi_min = 0;
   const int bands = int(opt.band_edges_mm.size()) - 1;
   std::vector<const LearningFillet*> use;
   for (const auto& f : all)
@@ -156,7 +138,7 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
   auto fit_stat = [&](const std::vector<const LearningFillet*>& fs, int s) -> GevFit {
     const auto smp = samples_of(fs, s);
     if (smp.size() < 10) return {};
-    return fit_gev(smp, screen);
+    return fit_gev(smp);
   };
   // Bone in the learning run, in two steps. First a gross-error screen that several bony
   // fillets cannot mask: per statistic and band, a fillet whose extreme stands more than
@@ -294,7 +276,7 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
       ls.thresholds.assign(size_t(bands), 5.0);
       continue;
     }
-    st.fit = fit_gev(smp, go);
+    st.fit = fit_gev(smp);
     // Air pockets are reported, never rejected: their fit is information, not a gate.
     if (!st.fit.converged && rejecting(s))
       r.problems.push_back(std::string(statistic_name(s)) +
@@ -310,7 +292,7 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
       for (size_t i = 0; i < use.size(); ++i) re.push_back(use[pick(rng)]);
       const auto rs = samples_of(re, s);
       if (rs.size() < 10) continue;
-      const GevFit f = fit_gev(rs, go);
+      const GevFit f = fit_gev(rs);
       if (!f.converged) continue;
       const auto t = thresholds_for(f.model, band_use(re, s, bands), st.budget);
       for (int b = 0; b < bands; ++b) boot[size_t(b)].push_back(t[size_t(b)]);
@@ -322,21 +304,6 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
       std::sort(v.begin(), v.end());
       const double q = v[std::min(v.size() - 1, size_t(opt.confidence * double(v.size())))];
       st.thresholds[size_t(b)] = std::max(st.point_thresholds[size_t(b)], q);
-    }
-    // And no lower than the profile likelihood's bound at the same confidence: the
-    // bootstrap resamples fillets (what varies between them), but its fits share the
-    // sample's view of the shape; with the shape free it alone met the target in 83 % of
-    // learning runs of a light-tailed product, with the bound 89 % (test_product_learning).
-    if (opt.profile_bound) {
-      const std::vector<double> share = band_shares(u, st.budget);
-      std::vector<double> prof(size_t(bands), NAN);
-      for (int b = 0; b < bands; ++b)
-        if (std::isfinite(share[size_t(b)]))
-          prof[size_t(b)] = profile_upper_level(smp, st.fit, share[size_t(b)], u.pixels[size_t(b)],
-                                                u.thickness[size_t(b)], opt.confidence, go);
-      fill_absent(u, prof);
-      for (int b = 0; b < bands; ++b)
-        st.thresholds[size_t(b)] = std::max(st.thresholds[size_t(b)], prof[size_t(b)]);
     }
     // A tail too heavy for the extremes it was fitted to (a handful of fillets, xi at its
     // bound) puts thresholds beyond any statistic, and beyond what plant.yaml reads back.

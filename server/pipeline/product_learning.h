@@ -26,10 +26,8 @@ struct LearningFillet {
 
 struct LearnOptions {
   double target_frr = 0.003;  // per fillet, for the rejecting statistics together
-  double confidence = 0.9;    // the thresholds meet the budget this sure
+  double confidence = 0.9;    // of the bootstrap: the thresholds meet the budget this sure
   int bootstrap = 100;
-  // The thresholds also no lower than each band's profile-likelihood bound at `confidence`.
-  bool profile_bound = true;
   int min_fillets = 30;
   uint64_t seed = 1;
   std::vector<double> band_edges_mm = default_band_edges_mm();
