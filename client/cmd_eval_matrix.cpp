@@ -319,7 +319,8 @@ std::string missed_json(const DetectionEval& e, long seed) {
        << ", \"volume_mm3\": " << m.volume_mm3 << ", \"meat_mm\": " << m.meat_mm
        << ", \"edge_mm\": " << m.edge_mm << ", \"found_at\": " << m.found_at
        << ", \"frr_at\": " << m.frr_at << ", \"margin_statistic\": \""
-       << (m.margin_stat >= 0 ? statistic_name(m.margin_stat) : "every") << "\"}";
+       << (m.margin_stat >= 0 ? statistic_name(m.margin_stat) : "every")
+       << "\", \"fillet_decision\": \"" << m.fillet_decision << "\"}";
   }
   return os.str();
 }

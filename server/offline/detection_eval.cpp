@@ -153,6 +153,11 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
                         edges ? edges->thickness_mm(t.x_mm, t.xray_line) : -1.0, best <= tol});
     if (sb >= 1 && cb == 1 && best > tol) {
       MissedFragment m{t.lane, t.fillet, t.shape, t.size_mm, t.calcification};
+      for (const TruthFillet& tf : truth_fillets)
+        if (tf.fillet == t.fillet)
+          for (const FilletRecord* f : overlapping(tf.b_start, tf.b_end))
+            if (m.fillet_decision.empty() || m.fillet_decision == "pass")
+              m.fillet_decision = f->decision;
       m.volume_mm3 = t.volume_mm3;
       m.x_mm = t.x_mm, m.b_mm = t.b_mm, m.tol_mm = tol;
       if (edges) {
@@ -272,7 +277,13 @@ std::string missed_lines(const DetectionEval& e) {
     if (m.meat_mm >= 0)
       k += std::snprintf(b + k, sizeof b - size_t(k),
                          ", under %.1f mm of meat, %s mm from the edge", m.meat_mm, edge);
-    out += std::string(b) + margin_text(m) + "\n";
+    // Whether the bone went down the line all the same.
+    const char* fate = m.fillet_decision == "not_inspected"
+                           ? "; its fillet not inspected (rejected by the fail-safe)"
+                       : m.fillet_decision == "reject"
+                           ? "; its fillet rejected for another detection"
+                           : "";
+    out += std::string(b) + margin_text(m) + fate + "\n";
   }
   return out;
 }

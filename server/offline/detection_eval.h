@@ -62,6 +62,10 @@ struct MissedFragment {
   double found_at = -1, frr_at = -1;
   int margin_stat = -1;     // the statistic whose thresholds were lowered (-1: every rejecting one)
   double margin_floor = 0;  // the lowest fraction tried
+  // What became of the fillet that holds it: "pass" (the bone went down the line),
+  // "reject" (rejected for something else found in it), "not_inspected" (rejected by the
+  // fail-safe), "" (no fillet of the records holds it: not passed either).
+  std::string fillet_decision;
 };
 
 struct TruthFillet {
