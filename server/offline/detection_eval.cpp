@@ -153,6 +153,7 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
                         edges ? edges->thickness_mm(t.x_mm, t.xray_line) : -1.0, best <= tol});
     if (sb >= 1 && cb == 1 && best > tol) {
       MissedFragment m{t.lane, t.fillet, t.shape, t.size_mm, t.calcification};
+      // What became of its fillet: rejected for anything, the bone did not go down the line.
       for (const TruthFillet& tf : truth_fillets)
         if (tf.fillet == t.fillet)
           for (const FilletRecord* f : overlapping(tf.b_start, tf.b_end))
@@ -178,13 +179,6 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
         ++(edge ? e.total_edge : e.total_inner);
       }
     }
-    for (const TruthFillet& tf : truth_fillets)
-      if (tf.fillet == t.fillet) {
-        bool rejected = false;
-        const auto hits = overlapping(tf.b_start, tf.b_end);
-        for (const FilletRecord* f : hits) rejected |= f->decision != "pass";
-        e.in_rejected[sb][cb] += rejected || hits.empty();
-      }
   }
   for (size_t i = 0; i < res.fragments.size(); ++i)
     if (res.fragments[i].kind == "bone" && !used[i]) {

@@ -85,7 +85,6 @@ constexpr double kCalcified = 0.6;
 struct DetectionEval {
   int found[kSizeBins][kCalcBins] = {};
   int total[kSizeBins][kCalcBins] = {};
-  int in_rejected[kSizeBins][kCalcBins] = {};  // bone's fillet rejected for any reason
   int fillets = 0, not_inspected = 0, unmatched_truth_fillets = 0;
   int clean_fillets = 0, clean_rejected = 0, clean_not_inspected = 0;
   int bony_fillets = 0, bony_rejected = 0;
