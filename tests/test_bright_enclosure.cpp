@@ -57,14 +57,14 @@ TEST(BrightEnclosure, LiftsWhatTheBrightEnclosesOnEveryLineAndNothingElse) {
   // 3 below the clipped fat, the fat at the clip, lean meat as it was; with no reach, the
   // clip alone, fragment and fat alike.
   std::vector<float> zc;
-  clip_bright(z.data(), use.data(), rows, cols, 3.0, 4, zc);
+  clip_bright(z.data(), use.data(), rows, cols, 3.0, 4, 0, zc);
   const float held = at(zc, cols, 8, 8);
   EXPECT_GT(held, 0.4f);
   EXPECT_LT(held, 3.f);
   EXPECT_NEAR(at(zc, cols, 12, 12), held - 3.f, 1e-5);
   EXPECT_EQ(at(zc, cols, 26, 30), held);
   for (int c = 0; c < cols - 1; ++c) EXPECT_EQ(at(zc, cols, 29, c), at(z, cols, 29, c));
-  clip_bright(z.data(), use.data(), rows, cols, 3.0, 0, zc);
+  clip_bright(z.data(), use.data(), rows, cols, 3.0, 0, 0, zc);
   EXPECT_EQ(at(zc, cols, 12, 12), at(zc, cols, 8, 8));
   bright_enclosure_excess(z.data(), use.data(), rows, cols, top, 0, e);
   EXPECT_FLOAT_EQ(at(e, cols, 12, 12), 0.f);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -90,6 +91,18 @@ void bone_likeness(const std::vector<float>& out, const std::vector<std::pair<in
     }
   extremes.push_back(top);
   for (auto [r0, c0] : where) bones.push_back((-out[size_t(r0) * kCols + c0] - med) / sd);
+}
+
+// Bone darkens z: a sphere's profile s (over a window of `radius`), 6 robust spreads deep at
+// its centre, at each of `where`.
+void plant_bones(std::vector<float>& z, const std::vector<std::pair<int, int>>& where,
+                 const std::vector<double>& s, int radius) {
+  const int w = 2 * radius + 1;
+  for (auto [r0, c0] : where)
+    for (int i = 0; i < w; ++i)
+      for (int j = 0; j < w; ++j)
+        z[size_t(r0 + i - radius) * kCols + size_t(c0 + j - radius)] -=
+            float(6.0 * s[size_t(i) * w + j] / s[size_t(radius) * w + radius]);
 }
 
 }  // namespace
@@ -227,7 +240,7 @@ TEST(MatchedKernels, BrightSpecksAreClippedAndBoneLikeValuesKept) {
   std::vector<uint8_t> use(z.size(), 1);
   use[12] = 0;
   std::vector<float> out;
-  clip_bright(z.data(), use.data(), 1, int(z.size()), 3, 0, out);
+  clip_bright(z.data(), use.data(), 1, int(z.size()), 3, 0, 0, out);
   EXPECT_LT(out[10], 3.5f);
   EXPECT_GT(out[10], 2.5f);
   EXPECT_EQ(out[11], -40.f);
@@ -267,17 +280,13 @@ TEST(MatchedKernels, ClippingAtOneAndAHalfSpreadsSeparatesBoneFromMarbledMeat) {
     std::uniform_int_distribution<int> at(30, kRows - 30);
     for (int f = 0; f < 8; ++f) {
       std::vector<float> z = marbled(rng), zc, out;
-      // Bone darkens z: a 2 mm sphere's profile, 6 robust spreads deep at its centre.
       std::vector<std::pair<int, int>> where;
       for (int b = 0; b < 4; ++b) {
         const int r0 = at(rng), c0 = at(rng);
         where.push_back({r0, c0});
-        for (int i = 0; i < w; ++i)
-          for (int j = 0; j < w; ++j)
-            z[size_t(r0 + i - radius) * kCols + size_t(c0 + j - radius)] -=
-                float(6.0 * s[size_t(i) * w + j] / s[size_t(radius) * w + radius]);
       }
-      clip_bright(z.data(), all.data(), kRows, kCols, clip, 0, zc);
+      plant_bones(z, where, s, radius);
+      clip_bright(z.data(), all.data(), kRows, kCols, clip, 0, 0, zc);
       apply_kernel(zc.data(), all.data(), kRows, kCols, h, radius, out);
       bone_likeness(out, where, w, extremes, bones);
     }
@@ -348,12 +357,8 @@ TEST(MatchedKernels, TheBrightEnclosureFindsBoneInsideAFatStreak) {
                   (std::abs(r0 - st.r) > st.half_len + w || std::abs(c0 - st.c) > st.half_wid + w);
         if (clear) where.push_back({r0, c0});
       }
-      for (auto [r0, c0] : where)
-        for (int i = 0; i < w; ++i)
-          for (int j = 0; j < w; ++j)
-            z[size_t(r0 + i - radius) * kCols + size_t(c0 + j - radius)] -=
-                float(6.0 * s[size_t(i) * w + j] / s[size_t(radius) * w + radius]);
-      clip_bright(z.data(), all.data(), kRows, kCols, 1.5, reach, zc);
+      plant_bones(z, where, s, radius);
+      clip_bright(z.data(), all.data(), kRows, kCols, 1.5, reach, 0, zc);
       apply_kernel(zc.data(), all.data(), kRows, kCols, h, radius, out);
       std::vector<double> bones;
       bone_likeness(out, where, w, extremes, bones);
@@ -371,6 +376,119 @@ TEST(MatchedKernels, TheBrightEnclosureFindsBoneInsideAFatStreak) {
   EXPECT_LT(clip.in_fat, 1.0);
   EXPECT_GT(enclosed.in_fat, 1.0);
   EXPECT_GT(enclosed.in_lean, 0.9 * clip.in_lean);
+}
+
+// An air pocket removes meat: it stands far brighter than any texture. Clipped to the
+// texture's bright level over its whole area, it is a plateau whose rim a whitened kernel's
+// negative flank reads as bone (the nominal plant's rare false detections). Its level is
+// learned as twice the fillets' median brightest thousandth; above it, a pocket and its ring
+// are set to the median before the kernels, in learning and inspection alike. Pockets of
+// 4-7 px radius, 25 spreads bright (two in a quarter of the learning fillets); 2 mm bones in lean
+// meat: the rim's most bone-like value against clean meat's typical extreme falls from above 1.1 to
+// under 1, and the bones keep their margin.
+TEST(MatchedKernels, AnAirPocketsRimIsNotReadAsBone) {
+  const size_t n = size_t(kRows) * kCols;
+  std::vector<uint8_t> all(n, 1);
+  const int radius = 4, w = 2 * radius + 1;
+  struct Pocket {
+    int r, c, rad;
+  };
+  auto fillet = [&](std::mt19937_64& rng, std::vector<Pocket>& pockets, bool with) {
+    std::vector<float> z = noise(rng, 0.6, 1.0, 2.5);
+    std::uniform_int_distribution<int> pos(40, kRows - 40), rad(4, 7);
+    pockets.clear();
+    if (with)
+      for (int k = 0; k < 2; ++k) pockets.push_back({pos(rng), pos(rng), rad(rng)});
+    for (const Pocket& p : pockets)
+      for (int r = p.r - p.rad; r <= p.r + p.rad; ++r)
+        for (int c = p.c - p.rad; c <= p.c + p.rad; ++c)
+          if ((r - p.r) * (r - p.r) + (c - p.c) * (c - p.c) <= p.rad * p.rad)
+            z[size_t(r) * kCols + c] += 25.f;
+    return z;
+  };
+  // The level, learned from 16 fillets, a quarter of them with pockets.
+  std::vector<double> bright;
+  {
+    std::mt19937_64 rng(5);
+    std::vector<Pocket> p;
+    for (int f = 0; f < 16; ++f) {
+      const std::vector<float> z = fillet(rng, p, f % 4 == 0);
+      bright.push_back(bright_quantile(z.data(), all.data(), n, 0.999));
+    }
+  }
+  const double level = learned_void_level(bright, 2.0, 1.5);
+  EXPECT_GT(level, 4.0);  // texture's brightest thousandth: about 3 spreads
+  EXPECT_LT(level, 10.0);
+  EXPECT_EQ(learned_void_level(bright, 0, 1.5), 0);
+  EXPECT_EQ(learned_void_level({0.3, 0.4}, 2.0, 1.5), 1.5);  // never under the clip
+  EXPECT_EQ(learned_void_level({}, 2.0, 1.5), 0);
+
+  const std::vector<double> s = sphere_profile(2.0, 0.4, 0.4, radius, 0);
+  struct Margins {
+    double rim, bone;
+  };
+  auto margins = [&](double void_level) {
+    std::mt19937_64 rng(11);
+    TextureCovariance c(8, 1.5, radius, void_level);
+    std::vector<Pocket> pockets;
+    for (int f = 0; f < 8; ++f) {
+      const std::vector<float> z = fillet(rng, pockets, f % 2 == 0);
+      c.add(z.data(), all.data(), kRows, kCols);
+    }
+    const std::vector<double> h = whitened_kernel(c, s, radius);
+    std::vector<double> extremes, bones, rims;
+    std::uniform_int_distribution<int> at(30, kRows - 30);
+    for (int f = 0; f < 8; ++f) {
+      std::vector<float> z = fillet(rng, pockets, true), zc, out;
+      std::vector<std::pair<int, int>> where;
+      while (where.size() < 3) {  // bones in lean meat, clear of the pockets
+        const int r0 = at(rng), c0 = at(rng);
+        bool clear = true;
+        for (const Pocket& p : pockets)
+          clear =
+              clear && (std::abs(r0 - p.r) > p.rad + 2 * w || std::abs(c0 - p.c) > p.rad + 2 * w);
+        if (clear) where.push_back({r0, c0});
+      }
+      plant_bones(z, where, s, radius);
+      clip_bright(z.data(), all.data(), kRows, kCols, 1.5, radius, void_level, zc);
+      apply_kernel(zc.data(), all.data(), kRows, kCols, h, radius, out);
+      // The pockets' surroundings count as bones here: their rims are measured apart.
+      std::vector<std::pair<int, int>> away = where;
+      for (const Pocket& p : pockets) away.push_back({p.r, p.c});
+      std::vector<double> b, rim_here;
+      bone_likeness(out, away, w + 4, extremes, b);
+      bones.insert(bones.end(), b.begin(), b.begin() + long(where.size()));
+      // The rim: outside each pocket, within a kernel's radius of its edge, bone-like values
+      // in the same units (the clean meat's median and spread, from bone_likeness's pass).
+      std::vector<float> v;
+      for (int r = 20; r < kRows - 20; ++r)
+        for (int cc = 20; cc < kCols - 20; ++cc) v.push_back(-out[size_t(r) * kCols + cc]);
+      std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+      const double med = v[v.size() / 2];
+      for (auto& x : v) x = std::abs(x - float(med));
+      std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+      const double sd = v[v.size() / 2] / 0.6745;
+      double top = 0;
+      for (const Pocket& p : pockets)
+        for (int r = p.r - p.rad - radius; r <= p.r + p.rad + radius; ++r)
+          for (int cc = p.c - p.rad - radius; cc <= p.c + p.rad + radius; ++cc) {
+            const int d2 = (r - p.r) * (r - p.r) + (cc - p.c) * (cc - p.c);
+            if (d2 <= (p.rad + 1) * (p.rad + 1)) continue;
+            top = std::max(top, (-out[size_t(r) * kCols + cc] - med) / sd);
+          }
+      rims.push_back(top);
+    }
+    for (auto* v : {&extremes, &bones, &rims}) std::sort(v->begin(), v->end());
+    const double typical = extremes[extremes.size() / 2];
+    return Margins{rims.back() / typical, bones[bones.size() / 4] / typical};
+  };
+  const Margins clipped = margins(0), flattened = margins(level);
+  std::printf("void level %.2f; the pockets' rims %.2f -> %.2f, bone %.2f -> %.2f\n", level,
+              clipped.rim, flattened.rim, clipped.bone, flattened.bone);
+  EXPECT_GT(clipped.rim, 1.1);
+  EXPECT_LT(flattened.rim, 1.0);
+  EXPECT_GT(flattened.bone, 0.95 * clipped.bone);
+  EXPECT_GT(flattened.bone, 1.0);
 }
 
 TEST(MatchedKernels, AKernelSeesFlatMeatOffTheFilletAndGivesNothingThere) {
@@ -489,25 +607,36 @@ TEST(MatchedKernels, LearnedKernelsTravelWithTheLearnedSettingsAndBadOnesAreRefu
     EXPECT_THROW(parse_learned_detection(bad, "test"), Error);
   }
   {
-    // The bright enclosure's reach travels with the kernels learned with it; a file without
-    // it is the clip alone, and a reach beyond 16 px is refused, naming it.
+    // The bright enclosure's reach and the void level travel with the kernels learned with
+    // them; a file without them is the clip alone, and a reach beyond 16 px or a void level
+    // under the clip is refused, naming it.
     EXPECT_EQ(L.matched.enclosure_px, 0);
     EXPECT_EQ(yaml.find("enclosure_px"), std::string::npos);
-    TextureCovariance enclosed(14, 1.5, 4);
+    EXPECT_EQ(yaml.find("void_level"), std::string::npos);
+    EXPECT_EQ(parse_learned_detection(yaml, "test").matched.void_level, 0);
+    TextureCovariance enclosed(14, 1.5, 4, 6.5);
     enclosed.add(z.data(), all.data(), kRows, kCols);
     LearnedDetection e = L;
     e.matched = learn_matched_kernels(enclosed, {1.5, 2.0}, 0.4, 0.4, 0.5);
     EXPECT_EQ(e.matched.enclosure_px, 4);
-    std::string with = learned_detection_yaml(e);
+    EXPECT_EQ(e.matched.void_level, 6.5);
+    const std::string with = learned_detection_yaml(e);
     EXPECT_EQ(parse_learned_detection(with, "test").matched.enclosure_px, 4);
-    with.replace(with.find("enclosure_px: 4"), 15, "enclosure_px: 17");
-    try {
-      parse_learned_detection(with, "test");
-      FAIL() << "a reach of 17 px";
-    } catch (const Error& x) {
-      EXPECT_NE(std::string(x.what()).find("enclosure_px"), std::string::npos) << x.what();
+    EXPECT_EQ(parse_learned_detection(with, "test").matched.void_level, 6.5);
+    for (auto [was, bad, key] :
+         {std::array<const char*, 3>{"enclosure_px: 4", "enclosure_px: 17", "enclosure_px"},
+          {"void_level: 6.5", "void_level: 1.2", "void_level"}}) {
+      std::string y = with;
+      y.replace(y.find(was), std::string(was).size(), bad);
+      try {
+        parse_learned_detection(y, "test");
+        FAIL() << bad;
+      } catch (const Error& x) {
+        EXPECT_NE(std::string(x.what()).find(key), std::string::npos) << x.what();
+      }
     }
     EXPECT_THROW(TextureCovariance(8, 1.5, -1), Error);
+    EXPECT_THROW(TextureCovariance(8, 1.5, 0, -1), Error);
   }
   // A sphere too large for the lags measured is refused, naming it.
   TextureCovariance short_lags(8);

@@ -90,6 +90,12 @@ struct InspectionParams {
   // rough_meat, needles, cartilage_heavy and nominal found and rejected what they did
   // without it (docs/inspection.md). Settings learned without it keep the clip alone.
   bool matched_enclosure = true;
+  // A void's level, learned: this many times the learning fillets' median of their brightest
+  // thousandth (99.9th percentile of z, in robust spreads). An air pocket removes meat
+  // itself and stands far beyond any texture of the product; clipped to the texture's level
+  // over its whole area, it is a bright plateau whose rim the whitened kernels read as bone
+  // (the nominal plant's rare false detections, docs/inspection.md). 0: no voids.
+  double matched_void_factor = 2.0;
   // And the needle statistic: kernels whitened by the same texture, matched to a needle of
   // this diameter and each of these lengths (mm) along 8 directions (`[]`: the elongated
   // Gaussians of line_sigma_*_px stay). On rough meat the 2 mm kernel has 2.4-4.2x the

@@ -50,6 +50,11 @@ struct MatchedKernels {
   // And before the clip, each pixel less how far the bright level enclosing it within this
   // many px stands above the clip (pipeline/bright_enclosure.h; 0: the clip alone).
   int enclosure_px = 0;
+  // z above its median by more than this many robust spreads is no texture of the product
+  // but a void (an air pocket): it and its neighbours are set to the median before the
+  // kernels, as meat of no texture, so that its rim does not read as bone to a kernel's
+  // negative flank. Learned from the product's own brightest texture; 0: none.
+  double void_level = 0;
   // Needle kernels, whitened by the same texture: a needle (a cylinder of needle_diameter_mm)
   // of each length along each direction (angle from across the belt toward along it), one
   // kernel each; the needle statistic takes the most bone-like. None: the elongated Gaussians.

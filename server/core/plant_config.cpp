@@ -274,8 +274,8 @@ void read_needles(const Node& n, int radius, MatchedKernels& k) {
 
 // inspection.learned.matched: the whitened round kernels, a full window each.
 void read_matched(const Node& n, MatchedKernels& k) {
-  n.only_keys(
-      {"radius", "radii", "clip", "enclosure_px", "sizes_mm", "spreads", "taps", "needles"});
+  n.only_keys({"radius", "radii", "clip", "enclosure_px", "void_level", "sizes_mm", "spreads",
+               "taps", "needles"});
   if (!n.has("radius") || !n.has("sizes_mm") || !n.has("spreads") || !n.has("taps"))
     n.bad("expected radius, sizes_mm, spreads and taps");
   int radius = 0;
@@ -286,6 +286,9 @@ void read_matched(const Node& n, MatchedKernels& k) {
   n.get("enclosure_px", k.enclosure_px);
   if (k.enclosure_px < 0 || k.enclosure_px > 16)
     n.at("enclosure_px").bad("must be within 0..16 pixels (0: the clip alone)");
+  n.get("void_level", k.void_level);
+  if (!(k.void_level == 0 || (k.void_level >= k.clip && k.void_level <= 1000)))
+    n.at("void_level").bad("must be 0 (no voids) or within clip..1000 spreads");
   k.sizes_mm = number_list(n.at("sizes_mm"), 0);
   k.spreads = read_spreads(n.at("spreads"), k.sizes_mm.size());
   const Node t = n.at("taps");
@@ -593,6 +596,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
                   "matched_kernels_mm",
                   "matched_clip",
                   "matched_enclosure",
+                  "matched_void_factor",
                   "matched_needles_mm",
                   "matched_needle_diameter_mm",
                   "learned",
@@ -632,6 +636,10 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     if (!(q.matched_clip >= 0.5 && q.matched_clip <= 100))
       n->at("matched_clip").bad("must be within 0.5..100 robust spreads");
     n->get("matched_enclosure", q.matched_enclosure);
+    n->get("matched_void_factor", q.matched_void_factor);
+    if (!(q.matched_void_factor == 0 ||
+          (q.matched_void_factor >= 1 && q.matched_void_factor <= 100)))
+      n->at("matched_void_factor").bad("must be 0 (no voids) or within 1..100");
     if (n->has("matched_needles_mm")) {
       q.matched_needles_mm = number_list(n->at("matched_needles_mm"), 0);
       for (double d : q.matched_needles_mm)
@@ -975,6 +983,7 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
   if (!L.matched.empty()) {
     o << "\nmatched:\n  radius: " << L.matched.radius() << "\n  clip: " << L.matched.clip;
     if (L.matched.enclosure_px > 0) o << "\n  enclosure_px: " << L.matched.enclosure_px;
+    if (L.matched.void_level > 0) o << "\n  void_level: " << L.matched.void_level;
     o << "\n  sizes_mm: ";
     list(L.matched.sizes_mm);
     o << "\n  radii: ";

@@ -65,7 +65,7 @@ struct MissedFragment {
   // What became of the fillet that holds it: "pass" (the bone went down the line),
   // "reject" (rejected for something else found in it), "not_inspected" (rejected by the
   // fail-safe), "" (no fillet of the records holds it: not passed either).
-  std::string fillet_decision;
+  std::string fillet_decision{};
 };
 
 struct TruthFillet {

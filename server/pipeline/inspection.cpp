@@ -370,7 +370,8 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   std::vector<float> zc, zk;
   std::vector<int16_t> round_k(mk.empty() ? 0 : n, -1), needle_k(mk.has_needles() ? n : 0, -1);
   if (!mk.empty() || mk.has_needles())
-    clip_bright(z.data(), use.data(), img.rows, img.cols, mk.clip, mk.enclosure_px, zc);
+    clip_bright(z.data(), use.data(), img.rows, img.cols, mk.clip, mk.enclosure_px, mk.void_level,
+                zc);
   std::vector<double> abs_taps;
   auto most_bone_like = [&](const std::vector<double>& taps, int radius, double spread,
                             std::vector<float>& into, std::vector<int16_t>& which, size_t k) {

@@ -47,18 +47,30 @@ MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
   };
   window("matched_kernels_mm", inspection.matched_kernels_mm, "sphere");
   window("matched_needles_mm", inspection.matched_needles_mm, "needle");
-  TextureCovariance cov(2 * radius, inspection.matched_clip,
-                        inspection.matched_enclosure ? radius : 0);
   InspectionParams plain = inspection;
   plain.learned = {};
+  struct Seen {
+    std::vector<float> z;
+    std::vector<uint8_t> use;
+    int rows, cols;
+  };
+  std::vector<Seen> seen;
+  std::vector<double> bright;
   for (const FilletImage& img : images) {
     if (!img.xray_high.empty()) return {};
     FilletResult r;
     OneEnergyModel m;
     if (!start_inspection(img, plain, r) || !one_energy_model(img, plain, r, m)) continue;
-    const FilletImage& seen = m.image(img);
-    cov.add(m.z.data(), m.use.data(), seen.rows, seen.cols);
+    const FilletImage& at = m.image(img);
+    bright.push_back(bright_quantile(m.z.data(), m.use.data(), m.z.size(), 0.999));
+    seen.push_back({std::move(m.z), std::move(m.use), at.rows, at.cols});
   }
+  // The level no texture of this product reaches, from its own fillets' brightest texture.
+  const double void_level =
+      learned_void_level(bright, inspection.matched_void_factor, inspection.matched_clip);
+  TextureCovariance cov(2 * radius, inspection.matched_clip,
+                        inspection.matched_enclosure ? radius : 0, void_level);
+  for (const Seen& s : seen) cov.add(s.z.data(), s.use.data(), s.rows, s.cols);
   if (cov.fillets() == 0) return {};
   MatchedKernels k = learn_matched_kernels(cov, inspection.matched_kernels_mm, first.pitch_mm,
                                            first.step_mm, first.detector_sigma_px);

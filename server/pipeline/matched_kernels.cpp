@@ -43,11 +43,13 @@ bool cholesky(std::vector<double>& a, size_t m) {
 }
 }  // namespace
 
-void clip_bright(const float* z, const uint8_t* use, int rows, int cols, double clip, int reach,
-                 std::vector<float>& out) {
+namespace {
+// clip_bright, also handing back the median and spread it used; false (out all NaN) when
+// there is no spread to measure against.
+bool clip_bright_at(const float* z, const uint8_t* use, int rows, int cols, double clip, int reach,
+                    double void_level, std::vector<float>& out, double& med, double& sd) {
   const size_t n = size_t(rows) * size_t(cols);
   out.assign(n, std::numeric_limits<float>::quiet_NaN());
-  double med = 0, sd = 0;
   const bool ok = robust_centre(z, use, n, med, sd);
   const float top = ok ? float(med + clip * sd) : std::numeric_limits<float>::infinity();
   std::vector<float> excess;
@@ -55,31 +57,76 @@ void clip_bright(const float* z, const uint8_t* use, int rows, int cols, double 
   for (size_t i = 0; i < n; ++i)
     if (use[i] && std::isfinite(z[i]))
       out[i] = std::min(excess.empty() ? z[i] : z[i] - excess[i], top);
+  if (!ok || !(void_level > 0)) return ok;
+  // A void and the ring its blurred rim spills into: flat meat at the median.
+  const float lid = float(med + void_level * sd);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      const size_t i = size_t(r) * cols + c;
+      if (!(use[i] && z[i] > lid)) continue;
+      for (int dr = -1; dr <= 1; ++dr)
+        for (int dc = -1; dc <= 1; ++dc) {
+          const int rr = r + dr, cc = c + dc;
+          if (rr < 0 || rr >= rows || cc < 0 || cc >= cols) continue;
+          float& o = out[size_t(rr) * cols + cc];
+          if (std::isfinite(o)) o = float(med);
+        }
+    }
+  return ok;
+}
+}  // namespace
+
+void clip_bright(const float* z, const uint8_t* use, int rows, int cols, double clip, int reach,
+                 double void_level, std::vector<float>& out) {
+  double med = 0, sd = 0;
+  clip_bright_at(z, use, rows, cols, clip, reach, void_level, out, med, sd);
 }
 
-TextureCovariance::TextureCovariance(int max_lag, double clip, int reach)
+double bright_quantile(const float* z, const uint8_t* use, size_t n, double q) {
+  double med = 0, sd = 0;
+  if (!robust_centre(z, use, n, med, sd)) return std::numeric_limits<double>::quiet_NaN();
+  std::vector<float> v;
+  for (size_t i = 0; i < n; ++i)
+    if (use[i] && std::isfinite(z[i])) v.push_back(z[i]);
+  const size_t k = std::min(v.size() - 1, size_t(std::clamp(q, 0.0, 1.0) * double(v.size())));
+  std::nth_element(v.begin(), v.begin() + long(k), v.end());
+  return (double(v[k]) - med) / sd;
+}
+
+double learned_void_level(std::vector<double> bright_quantiles, double factor, double clip) {
+  bright_quantiles.erase(std::remove_if(bright_quantiles.begin(), bright_quantiles.end(),
+                                        [](double x) { return !std::isfinite(x); }),
+                         bright_quantiles.end());
+  if (!(factor > 0) || bright_quantiles.empty()) return 0;
+  const size_t m = bright_quantiles.size() / 2;
+  std::nth_element(bright_quantiles.begin(), bright_quantiles.begin() + long(m),
+                   bright_quantiles.end());
+  return std::max(clip, factor * bright_quantiles[m]);
+}
+
+TextureCovariance::TextureCovariance(int max_lag, double clip, int reach, double void_level)
     : max_lag_(max_lag),
       clip_(clip),
       reach_(reach),
+      void_level_(void_level),
       sum_(size_t(2 * max_lag + 1) * size_t(2 * max_lag + 1), 0.0),
       pairs_(sum_.size(), 0.0) {
   if (max_lag < 1 || max_lag > 16) fail("texture covariance: max_lag ", max_lag, " not in 1..16");
   if (reach < 0 || reach > 16) fail("texture covariance: reach ", reach, " not in 0..16");
+  if (void_level < 0) fail("texture covariance: void level ", void_level, " below 0");
 }
 
 void TextureCovariance::add(const float* z, const uint8_t* use, int rows, int cols) {
   const size_t n = size_t(rows) * size_t(cols);
   double med = 0, sd = 0;
-  if (!robust_centre(z, use, n, med, sd)) return;
-  // Unit robust spread, bright side clipped (as clip_bright), 0 (and not counted) off the
-  // usable pixels.
-  std::vector<float> excess;
-  if (reach_ > 0)
-    bright_enclosure_excess(z, use, rows, cols, float(med + clip_ * sd), reach_, excess);
+  std::vector<float> zc;
+  if (!clip_bright_at(z, use, rows, cols, clip_, reach_, void_level_, zc, med, sd)) return;
+  // Unit robust spread, prepared as detection prepares it (clip_bright), 0 (and not counted)
+  // off the usable pixels.
   std::vector<double> v(n, 0.0), u(n, 0.0);
   for (size_t i = 0; i < n; ++i)
-    if (use[i] && std::isfinite(z[i])) {
-      v[i] = std::min(((excess.empty() ? z[i] : z[i] - excess[i]) - med) / sd, clip_);
+    if (std::isfinite(zc[i])) {
+      v[i] = (zc[i] - med) / sd;
       u[i] = 1;
     }
   const int L = max_lag_, w = 2 * L + 1;
@@ -220,6 +267,7 @@ MatchedKernels learn_matched_kernels(const TextureCovariance& c,
   MatchedKernels k;
   k.clip = c.clip();  // inspection clips as the texture was measured
   k.enclosure_px = c.reach();
+  k.void_level = c.void_level();
   for (double d : sizes_mm) {
     const int r = kernel_radius(d, pitch_mm, step_mm);
     if (2 * r > c.max_lag())

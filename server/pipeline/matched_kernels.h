@@ -21,20 +21,32 @@ namespace rangex {
 // With reach > 0, each pixel first less how far the bright level enclosing it within reach
 // px stands above that bound (pipeline/bright_enclosure.h): a dip inside a fat streak keeps
 // its depth below the streak instead of being cut to the streak's clipped value.
+// With void_level > 0, the pixels above median + void_level x spread and their 8 neighbours
+// are a void (an air pocket, no texture of the meat): set to the median, as flat meat.
 void clip_bright(const float* z, const uint8_t* use, int rows, int cols, double clip, int reach,
-                 std::vector<float>& out);
+                 double void_level, std::vector<float>& out);
+
+// The q-quantile of z over the usable finite pixels in robust spreads above their median
+// (NaN when there are none or no spread): how bright a fillet's brightest texture stands.
+double bright_quantile(const float* z, const uint8_t* use, size_t n, double q);
+
+// A product's void level: `factor` times the median of its learning fillets' bright
+// quantiles (bright_quantile at 0.999), never below `clip`; 0 when factor is 0 or there are
+// none.
+double learned_void_level(std::vector<double> bright_quantiles, double factor, double clip);
 
 // The autocovariance of z across fillets, at lags up to max_lag pixels in rows and columns.
 // Each fillet's z is brought to unit robust spread and clipped as detection clips it (with
-// the bright enclosure of `reach` px when reach > 0); a lag is averaged over the pixel pairs
-// both usable.
+// the bright enclosure of `reach` px when reach > 0, voids flattened above void_level > 0);
+// a lag is averaged over the pixel pairs both usable.
 class TextureCovariance {
  public:
-  explicit TextureCovariance(int max_lag, double clip = 3, int reach = 0);
+  explicit TextureCovariance(int max_lag, double clip = 3, int reach = 0, double void_level = 0);
   void add(const float* z, const uint8_t* use, int rows, int cols);
   int max_lag() const { return max_lag_; }
   double clip() const { return clip_; }
   int reach() const { return reach_; }
+  double void_level() const { return void_level_; }
   int fillets() const { return fillets_; }
   double at(int drow, int dcol) const;  // C(-d) = C(d); 0 beyond max_lag or unmeasured
 
@@ -42,6 +54,7 @@ class TextureCovariance {
   int max_lag_;
   double clip_;
   int reach_;
+  double void_level_;
   int fillets_ = 0;
   std::vector<double> sum_, pairs_;  // (2 max_lag + 1)^2, row-major over (drow, dcol)
 };
