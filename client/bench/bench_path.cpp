@@ -253,13 +253,14 @@ void report(const char* title, const PathTimes& t, const Recorded& rec, int grid
 // Compensation and detection of the same fillets before product learning (one spread per fillet,
 // fixed thresholds, no band extremes) and after it (band extremes; fixed and learned
 // thresholds; one spread per fillet and spread by thickness; whitened round kernels, and
-// whitened needle kernels beside them; those after the bright enclosure), in alternating
+// whitened needle kernels beside them; those after the bright enclosure, and with air pockets
+// flattened too), in alternating
 // rounds; medians of the rounds, as ratios to the first.
 void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   std::vector<FilletImage> imgs;
   run_lanes(lc, rec, 0, 1, batch, [&](FilletImage&& im) { imgs.push_back(std::move(im)); });
   if (imgs.empty()) return;
-  constexpr int kVariants = 7;
+  constexpr int kVariants = 8;
   InspectionParams v[kVariants];
   const char* names[kVariants] = {"before learning (fixed, no extremes)",
                                   "fixed, band extremes",
@@ -267,23 +268,30 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
                                   "learned, spread by thickness",
                                   "learned, whitened round kernels",
                                   "learned, whitened round and needle kernels",
-                                  "learned, whitened kernels, bright enclosure"};
+                                  "learned, whitened kernels, bright enclosure",
+                                  "learned, enclosure and voids flattened"};
   for (int k = 0; k < kVariants; ++k) {
     v[k] = lc.inspection;
     v[k].learned = LearnedDetection{};
     v[k].band_extremes = k > 0;
     v[k].spread_by_thickness = k == 3;
   }
-  // The kernels with the clip alone, then with the bright enclosure before it.
+  // The kernels with the clip alone, then with the bright enclosure before it, then with air
+  // pockets flattened as well.
   InspectionParams kernels = lc.inspection;
   kernels.matched_enclosure = false;
+  kernels.matched_void_factor = 0;
   v[5].learned.matched = learn_lane_kernels(imgs, kernels);
   v[4].learned.matched = v[5].learned.matched;
   v[4].learned.matched.drop_needles();
   kernels.matched_enclosure = true;
   v[6].learned.matched = learn_lane_kernels(imgs, kernels);
+  kernels.matched_void_factor = lc.inspection.matched_void_factor > 0
+                                    ? lc.inspection.matched_void_factor
+                                    : InspectionParams{}.matched_void_factor;
+  v[7].learned.matched = learn_lane_kernels(imgs, kernels);
   // Thresholds learned on these few fillets: for the timing, not for a decision.
-  for (int k : {2, 3, 4, 5, 6}) {
+  for (int k : {2, 3, 4, 5, 6, 7}) {
     std::vector<LearningFillet> fs;
     for (const FilletImage& im : imgs)
       fs.push_back({0, im.id, 0, inspect_fillet(im, v[k], false).extremes});
