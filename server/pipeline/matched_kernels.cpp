@@ -41,9 +41,7 @@ bool cholesky(std::vector<double>& a, size_t m) {
   }
   return true;
 }
-}  // namespace
 
-namespace {
 // clip_bright, also handing back the median and spread it used; false (out all NaN) when
 // there is no spread to measure against.
 bool clip_bright_at(const float* z, const uint8_t* use, int rows, int cols, double clip, int reach,
