@@ -33,6 +33,7 @@
 #include "offline/detection_eval.h"
 #include "offline/evaluation.h"
 #include "offline/fillet_records.h"
+#include "offline/fragment_chance.h"
 #include "offline/miss_margin.h"
 #include "offline/recorded_drift.h"
 #include "offline/replay.h"
@@ -193,10 +194,14 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
       ro.keep_images = true, ro.baseline = false, ro.recalibrated = true;
       ro.lanes = {from.info().lanes.at(0)};
       const auto replayed = replay_recording(from, lp, ro);
-      for (const LaneReplay& l : replayed)
+      for (const LaneReplay& l : replayed) {
         measure_miss_margins(e, l.lane, l.fillets, lp.lane(l.lane).inspection);
+        measure_fragment_chances(e, l.lane, l.fillets, lp.lane(l.lane).inspection);
+      }
     };
-    if (!r.learned.missed.empty()) margins(r.learned, rec);
+    // Every fragment's chance is measured (what recall the bone allows), so each run is
+    // replayed, misses or none.
+    margins(r.learned, rec);
     if (mo.bone_fillets > 0) {
       PartRun bones = more;
       bones.fillets = mo.bone_fillets, bones.seed = seed + 10000;
@@ -320,7 +325,9 @@ std::string missed_json(const DetectionEval& e, long seed) {
        << ", \"edge_mm\": " << m.edge_mm << ", \"found_at\": " << m.found_at
        << ", \"frr_at\": " << m.frr_at << ", \"margin_statistic\": \""
        << (m.margin_stat >= 0 ? statistic_name(m.margin_stat) : "every")
-       << "\", \"fillet_decision\": \"" << m.fillet_decision << "\"}";
+       << "\", \"chance\": " << m.chance << ", \"response\": " << m.response
+       << ", \"chance_threshold\": " << m.chance_threshold << ", \"fillet_decision\": \""
+       << m.fillet_decision << "\"}";
   }
   return os.str();
 }
@@ -347,6 +354,23 @@ std::string bone_run_text(const std::vector<Row>& rows) {
     os << b << "  by shape (bone run):";
     for (const auto& [shape, fp] : t.by_shape)
       os << " " << shape << " " << fp.first << "/" << fp.second;
+    // What the fragments' own bone allows at these thresholds (offline/fragment_chance.h).
+    double sum = 0;
+    int measured = 0;
+    auto add = [&](const DetectionEval& e) {
+      int m = 0;
+      const double mean = expected_recall(e, m);
+      if (m > 0) sum += mean * m, measured += m;
+    };
+    add(r.learned);
+    for (const BonePart& p : r.bones) add(p.eval);
+    if (measured > 0) {
+      std::snprintf(b, sizeof b,
+                    "\n  the recall their bone allows at these thresholds (each fragment's bone "
+                    "packed as a sphere, its chance Phi(E - T) summed): %.1f of %d = %.1f %%",
+                    sum, measured, 100 * sum / measured);
+      os << b;
+    }
     os << "\n" << prefixed(bone_run_missed_lines(r.bones), "  ");
   }
   return os.str();

@@ -23,7 +23,7 @@ std::vector<BonePart> run_bone_parts(
     add_lane(p.eval, vt.fragments, vt.fillets,
              read_records((fs::path(out) / ("lane" + std::to_string(l))).string(), ""), &vt.edges);
     finish(p.eval);
-    if (!p.eval.missed.empty()) margins(p.eval, rec);
+    margins(p.eval, rec);
   });
   return parts;
 }

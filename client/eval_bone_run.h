@@ -21,7 +21,7 @@ struct BonePart {
 
 // The parts of `o` (bones and all: o.clean is ignored; o.rec "bone_rec", o.out "out_bones"),
 // each judged against its truth on `lane`; `margins` measures its misses while the scan is
-// there.
+// there (every part: each fragment's chance is measured too).
 std::vector<BonePart> run_bone_parts(
     PartRun o, const LaneConfig& lane,
     const std::function<void(DetectionEval&, const RecordingReader&)>& margins);

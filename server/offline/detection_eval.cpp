@@ -151,6 +151,7 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
     e.judged.push_back({t.lane, t.fillet, t.shape, t.size_mm, t.calcification, t.volume_mm3,
                         t.excess_mu, t.meat_mu,
                         edges ? edges->thickness_mm(t.x_mm, t.xray_line) : -1.0, best <= tol});
+    e.judged.back().x_mm = t.x_mm, e.judged.back().b_mm = t.b_mm, e.judged.back().tol_mm = tol;
     if (sb >= 1 && cb == 1 && best > tol) {
       MissedFragment m{t.lane, t.fillet, t.shape, t.size_mm, t.calcification};
       // What became of its fillet: rejected for anything, the bone did not go down the line.
@@ -253,6 +254,17 @@ std::string margin_text(const MissedFragment& m) {
                   m.margin_floor);
   return b;
 }
+
+// What its bone could show (offline/fragment_chance.h).
+std::string chance_text(const MissedFragment& m) {
+  if (m.chance < 0) return "";
+  char b[200];
+  std::snprintf(b, sizeof b,
+                "; its bone packed as a sphere would add %.1f to the %s statistic against a "
+                "threshold of %.1f there: a chance of %.0f %%",
+                m.response, statistic_name(m.chance_stat), m.chance_threshold, 100 * m.chance);
+  return b;
+}
 }  // namespace
 
 std::string missed_lines(const DetectionEval& e) {
@@ -277,7 +289,7 @@ std::string missed_lines(const DetectionEval& e) {
                        : m.fillet_decision == "reject"
                            ? "; its fillet rejected for another detection"
                            : "";
-    out += std::string(b) + margin_text(m) + fate + "\n";
+    out += std::string(b) + margin_text(m) + chance_text(m) + fate + "\n";
   }
   return out;
 }

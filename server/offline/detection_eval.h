@@ -31,6 +31,10 @@ struct JudgedFragment {
   double size_mm = 0, calcification = 0, volume_mm3 = -1, excess_mu = -1, meat_mu = -1;
   double meat_mm = -1;  // the true meat over it (with an EdgeMap)
   bool found = false;
+  double x_mm = 0, b_mm = 0, tol_mm = 2;  // where it lies, and the matching's tolerance
+  // The chance its bone clears the thresholds (offline/fragment_chance.h): the noise-free
+  // response and the threshold where it peaks; -1: not measured.
+  double chance = -1, response = -1, threshold = -1;
 };
 
 // The lane's true X-ray path thickness (truth/thickness.f32) with the geometry to find a
@@ -62,6 +66,9 @@ struct MissedFragment {
   double found_at = -1, frr_at = -1;
   int margin_stat = -1;     // the statistic whose thresholds were lowered (-1: every rejecting one)
   double margin_floor = 0;  // the lowest fraction tried
+  // Its bone's chance of clearing the thresholds (offline/fragment_chance.h); -1: not measured.
+  double chance = -1, response = -1, chance_threshold = -1;
+  int chance_stat = -1;  // the statistic it was measured in
   // What became of the fillet that holds it: "pass" (the bone went down the line),
   // "reject" (rejected for something else found in it), "not_inspected" (rejected by the
   // fail-safe), "" (no fillet of the records holds it: not passed either).

@@ -52,24 +52,31 @@ MissMargin miss_margin(const FilletImage& img, const InspectionParams& p, double
   return best;
 }
 
+const InspectedFillet* fillet_holding(const std::vector<InspectedFillet>& fillets, double x_mm,
+                                      double b_mm) {
+  for (const InspectedFillet& f : fillets) {
+    const FilletImage& img = f.image;
+    if (img.xray.empty() || f.result.decision == Decision::kNotInspected) continue;
+    // Its box on the belt (x at mid-depth spreads by the fan beam's few percent: a margin).
+    const double y1 = img.y0_mm + img.rows * img.step_mm;
+    const double xa = f.result.x0_mm - 2, xb = f.result.x0_mm + img.cols * img.pitch_mm + 2;
+    if (b_mm < img.y0_mm || b_mm > y1 || x_mm < xa || x_mm > xb) continue;
+    return &f;
+  }
+  return nullptr;
+}
+
 void measure_miss_margins(DetectionEval& e, int lane, const std::vector<InspectedFillet>& fillets,
                           const InspectionParams& p, const MarginOptions& o) {
   for (MissedFragment& m : e.missed) {
     if (m.lane != lane) continue;
-    for (const InspectedFillet& f : fillets) {
-      const FilletImage& img = f.image;
-      if (img.xray.empty() || f.result.decision == Decision::kNotInspected) continue;
-      // Its box on the belt (x at mid-depth spreads by the fan beam's few percent: a margin).
-      const double y1 = img.y0_mm + img.rows * img.step_mm;
-      const double xa = f.result.x0_mm - 2, xb = f.result.x0_mm + img.cols * img.pitch_mm + 2;
-      if (m.b_mm < img.y0_mm || m.b_mm > y1 || m.x_mm < xa || m.x_mm > xb) continue;
-      const MissMargin mm = miss_margin(img, p, m.x_mm, m.b_mm, m.tol_mm, o);
-      m.found_at = mm.found_at;
-      m.frr_at = mm.implied_frr;
-      m.margin_stat = mm.stat;
-      m.margin_floor = o.floor;
-      break;
-    }
+    const InspectedFillet* f = fillet_holding(fillets, m.x_mm, m.b_mm);
+    if (!f) continue;
+    const MissMargin mm = miss_margin(f->image, p, m.x_mm, m.b_mm, m.tol_mm, o);
+    m.found_at = mm.found_at;
+    m.frr_at = mm.implied_frr;
+    m.margin_stat = mm.stat;
+    m.margin_floor = o.floor;
   }
 }
 

@@ -41,6 +41,10 @@ InspectionParams scaled_thresholds(const InspectionParams& p, double f, int stat
 MissMargin miss_margin(const FilletImage& img, const InspectionParams& p, double x_mm, double b_mm,
                        double tol_mm, const MarginOptions& o = {});
 
+// The inspected fillet (with its pixels) whose box on the belt holds (x_mm, b_mm), or null.
+const InspectedFillet* fillet_holding(const std::vector<InspectedFillet>& fillets, double x_mm,
+                                      double b_mm);
+
 // Each miss of `e` in the lane `lane`, in the inspected fillet (with its pixels) that holds
 // its position: found_at, frr_at and margin_stat filled; misses in no such fillet are left
 // unmeasured.

@@ -481,6 +481,8 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   if (keep) {
     res.residual = std::move(resid);
     res.zs = std::move(stat[kStatAir]);
+    res.round_stat = std::move(stat[kStatRound]);
+    res.needle_stat = std::move(stat[kStatNeedle]);
   }
 }
 

@@ -88,12 +88,15 @@ struct FilletResult {
   // Images over the fillet's box (kept on request): pseudo-X-ray (DN), residual ln I - ln P,
   // smoothed z; NaN off the fillet.
   std::vector<float> pseudo, residual, zs;
+  // The round and needle statistics at unit spread (larger: more bone-like), as thresholded;
+  // kept on request; NaN off the fillet.
+  std::vector<float> round_stat, needle_stat;
   // Dual energy (kept on request): bone-equivalent length per pixel (mm) and the fat's share
   // of the soft tissue (0..1; with the laser only); NaN off the fillet.
   std::vector<float> bone_mm, fat_share;
 };
 
-// keep_images: fill pseudo / residual / zs.
+// keep_images: fill pseudo / residual / zs (and round_stat / needle_stat where computed).
 FilletResult inspect_fillet(const FilletImage& img, const InspectionParams& p, bool keep_images);
 FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionParams& p,
                                       bool keep_images);

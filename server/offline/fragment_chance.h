@@ -1,0 +1,53 @@
+// What a fragment's bone can show at the thresholds a lane uses, apart from the texture that
+// happened to lie on it. The fragment's own bone (its volume at its excess attenuation over
+// the meat, from the truth) is packed into a sphere and injected once more where it lies
+// (pipeline/test_pieces.h): what the fillet's round and needle statistics gain there is the
+// bone's noise-free response, E, in the statistic's unit spread. Against the threshold T at
+// that pixel, Phi(E - T) is the chance the statistic clears it with the texture's unit
+// spread added. Summed over a plant's fragments it is the recall its bone allows at these
+// thresholds.
+//
+// Why a sphere: the round kernels are whitened matched filters for spheres (C^-1 s), the
+// best linear detectors of such a piece in the learned texture; a fragment of the same bone
+// spread flatter puts more of its signal where the texture is strong, and shows less. So E
+// is about the most the bone could show in these statistics.
+//
+// The chance is the statistic's at the bone's peak. A detection also needs its area (two
+// pixels or more), which lowers it; the texture crossing the threshold at a pixel beside the
+// peak raises it. On synthetic fillets (test_fragment_chance) pieces whose chances added up
+// to 35.6 of 40 were found 28 times, and crossed the threshold within 2 mm 39 times. Read
+// the sum as the recall the fragments' bone allows at these thresholds, not as a prediction.
+#pragma once
+#include <vector>
+
+#include "offline/detection_eval.h"
+#include "pipeline/inspection.h"
+#include "pipeline/lane_processor.h"
+
+namespace rangex {
+
+struct FragmentChance {
+  int stat = -1;          // kStatRound or kStatNeedle: the one with the better chance
+  double response = -1;   // E: the bone's noise-free gain in that statistic
+  double threshold = -1;  // T where the response peaks
+  double chance = -1;     // Phi(E - T); -1 where it could not be measured
+};
+
+// For a bone of `volume_mm3` at `excess_per_mm` over the meat, at (x_mm, b_mm) (across the
+// belt at mid-depth, belt position: as detections are placed), its response looked for
+// within tol_mm, in the fillet `img` inspected with `p`. Unmeasured (chance -1) off the
+// fillet, without thickness there, or without a statistic.
+FragmentChance fragment_chance(const FilletImage& img, const InspectionParams& p, double x_mm,
+                               double b_mm, double tol_mm, double volume_mm3, double excess_per_mm);
+
+// Each calcified fragment >= 2 mm of `e` on `lane` judged (and each miss), in the inspected
+// fillet (with its pixels) that holds it: its chance filled where the truth weighs its bone.
+void measure_fragment_chances(DetectionEval& e, int lane,
+                              const std::vector<InspectedFillet>& fillets,
+                              const InspectionParams& p);
+
+// The recall the fragments' bone allows: the mean chance over the calcified fragments >= 2 mm
+// measured (n: how many), -1 when none.
+double expected_recall(const DetectionEval& e, int& n);
+
+}  // namespace rangex
