@@ -332,6 +332,21 @@ std::string missed_json(const DetectionEval& e, long seed) {
   return os.str();
 }
 
+// What the calcified fragments >= 2 mm of the plant and the bone run allow at the learned
+// thresholds (offline/fragment_chance.h): their chances summed, over `measured` of them.
+double bone_allows(const Row& r, int& measured) {
+  double sum = 0;
+  measured = 0;
+  auto add = [&](const DetectionEval& e) {
+    int m = 0;
+    const double mean = expected_recall(e, m);
+    if (m > 0) sum += mean * m, measured += m;
+  };
+  add(r.learned);
+  for (const BonePart& p : r.bones) add(p.eval);
+  return sum;
+}
+
 // The bone run of each variant that had one: recall pooled with the plant's, by shape, the
 // clean fillets among them rejected, detections of no bone, and its misses.
 std::string bone_run_text(const std::vector<Row>& rows) {
@@ -354,16 +369,8 @@ std::string bone_run_text(const std::vector<Row>& rows) {
     os << b << "  by shape (bone run):";
     for (const auto& [shape, fp] : t.by_shape)
       os << " " << shape << " " << fp.first << "/" << fp.second;
-    // What the fragments' own bone allows at these thresholds (offline/fragment_chance.h).
-    double sum = 0;
     int measured = 0;
-    auto add = [&](const DetectionEval& e) {
-      int m = 0;
-      const double mean = expected_recall(e, m);
-      if (m > 0) sum += mean * m, measured += m;
-    };
-    add(r.learned);
-    for (const BonePart& p : r.bones) add(p.eval);
+    const double sum = bone_allows(r, measured);
     if (measured > 0) {
       std::snprintf(b, sizeof b,
                     "\n  the recall their bone allows at these thresholds (each fragment's bone "
@@ -440,7 +447,10 @@ std::string json(const std::vector<Row>& rows) {
         for (size_t q = 0; q < t.by_shape.size(); ++q)
           os << (q ? ", " : "") << "\"" << t.by_shape[q].first << "\": ["
              << t.by_shape[q].second.first << ", " << t.by_shape[q].second.second << "]";
-        os << "}, \"false_rejects\": [" << t.clean_rejected << ", " << t.clean
+        int measured = 0;
+        const double allows = bone_allows(r, measured);
+        os << "}, \"bone_allows\": [" << allows << ", " << measured << "]";
+        os << ", \"false_rejects\": [" << t.clean_rejected << ", " << t.clean
            << "], \"false_fragments\": " << t.false_fragments << ", \"missed\": [";
         bool first = true;
         for (const BonePart& b : r.bones)

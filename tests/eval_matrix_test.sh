@@ -49,6 +49,7 @@ B="L['bone_run']"
 check "the bone run judged over its two parts" pl "$B['fillets'] == 3 and 0 <= $B['recall_calcified_ge_2mm'][0] <= $B['recall_calcified_ge_2mm'][1] and len($B['missed']) == $B['recall_calcified_ge_2mm'][1] - $B['recall_calcified_ge_2mm'][0] and all('seed' in m for m in $B['missed'])"
 check "each bone part inspected with the learned thresholds, its scan dropped" bash -c "test \$(tail -n +2 l/rough_meat/out_bones0/lane0/fillets.csv | wc -l) -eq 2 && test \$(tail -n +2 l/rough_meat/out_bones1/lane0/fillets.csv | wc -l) -eq 1 && test ! -e l/rough_meat/bone_rec"
 check "the matrix pools it with the plant's fragments" grep -q "rough_meat: 3 fillets: calcified >= 2 mm" l/matrix.txt
+check "the chances of the calcified fragments >= 2 mm, plant and bone run, summed over those weighed" pl "0 <= $B['bone_allows'][0] <= $B['bone_allows'][1] <= $B['recall_calcified_ge_2mm'][1] + L['recall_calcified_ge_2mm'][1]"
 C="L['claims_on_fragments']"
 check "the report's sphere claims held against the plant's and the bone run's own fragments, each weighed by its truth" pl "$C['weighed'] > 0 and $C['unknown'] == 0 and 0 <= $C['found'] <= $C['covered'] <= $C['weighed'] and 0 <= $C['dense_found'] <= $C['dense_covered'] <= $C['covered'] and len($C['missed']) == $C['covered'] - $C['found']"
 check "the matrix says how many of them were found" grep -qE "^rough_meat: [0-9]+/[0-9]+ found of the compact fragments its sphere claims cover" l/matrix.txt
