@@ -373,8 +373,9 @@ std::string bone_run_text(const std::vector<Row>& rows) {
     const double sum = bone_allows(r, measured);
     if (measured > 0) {
       std::snprintf(b, sizeof b,
-                    "\n  the recall their bone allows at these thresholds (each fragment's bone "
-                    "packed as a sphere, its chance Phi(E - T) summed): %.1f of %d = %.1f %%",
+                    "\n  were each fragment's bone a sphere (one more injected where it lies, its "
+                    "chance at the thresholds Phi(E - T)), their chances would sum to %.1f of "
+                    "%d = %.1f %%",
                     sum, measured, 100 * sum / measured);
       os << b;
     }

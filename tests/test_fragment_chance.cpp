@@ -148,8 +148,8 @@ TEST(FragmentChance, APlantsFragmentsAndMissesCarryIt) {
   // The miss's line says it.
   char want[160];
   std::snprintf(want, sizeof want,
-                "; its bone packed as a sphere would add %.1f to the %s statistic against a "
-                "threshold of %.1f there",
+                "; one more sphere of its bone there adds %.1f to the %s statistic against a "
+                "threshold of %.1f",
                 e.missed[0].response, statistic_name(e.missed[0].chance_stat),
                 e.missed[0].chance_threshold);
   EXPECT_NE(missed_lines(e).find(want), std::string::npos) << missed_lines(e);

@@ -1,22 +1,24 @@
-// What a fragment's bone can show at the thresholds a lane uses, apart from the texture that
-// happened to lie on it. The fragment's own bone (its volume at its excess attenuation over
-// the meat, from the truth) is packed into a sphere and injected once more where it lies
-// (pipeline/test_pieces.h): what the fillet's round and needle statistics gain there is the
-// bone's noise-free response, E, in the statistic's unit spread. Against the threshold T at
-// that pixel, Phi(E - T) is the chance the statistic clears it with the texture's unit
-// spread added. Summed over a plant's fragments it is the recall its bone allows at these
-// thresholds.
+// What a fragment's bone would show at the thresholds a lane uses were it a sphere, apart
+// from the texture that happened to lie on it. The fragment's own bone (its volume at its
+// excess attenuation over the meat, from the truth) is packed into a sphere and injected once
+// more where it lies (pipeline/test_pieces.h): what the fillet's round and needle statistics
+// gain there is that sphere's noise-free response, E, in the statistic's unit spread.
+// Against the threshold T where it peaks, Phi(E - T) is the chance the statistic clears it
+// with the texture's unit spread added. A plant's recall against the sum of its fragments'
+// chances says how much of what was missed is the bone's amount and depth (a low chance)
+// and how much is the way it lies: spread flat, or among fat.
 //
 // Why a sphere: the round kernels are whitened matched filters for spheres (C^-1 s), the
 // best linear detectors of such a piece in the learned texture; a fragment of the same bone
-// spread flatter puts more of its signal where the texture is strong, and shows less. So E
-// is about the most the bone could show in these statistics.
+// spread flatter puts more of its signal where the texture is strong, and shows less.
 //
-// The chance is the statistic's at the bone's peak. A detection also needs its area (two
-// pixels or more), which lowers it; the texture crossing the threshold at a pixel beside the
-// peak raises it. On synthetic fillets (test_fragment_chance) pieces whose chances added up
-// to 35.6 of 40 were found 28 times, and crossed the threshold within 2 mm 39 times. Read
-// the sum as the recall the fragments' bone allows at these thresholds, not as a prediction.
+// What it is not: the fragment's own response. Detection is not linear where bright meat is
+// clipped (a fat streak's pixels held at the clip): a second piece on a fragment that
+// already darkened such pixels adds more than the first did. And the chance is the
+// statistic's at the peak: a detection also needs its area (two pixels or more), which
+// lowers it, while the texture crossing the threshold beside the peak raises it. On
+// synthetic fillets (test_fragment_chance) pieces whose chances summed to 35.6 of 40 were
+// found 28 times, and crossed the threshold within 2 mm 39 times.
 #pragma once
 #include <vector>
 
