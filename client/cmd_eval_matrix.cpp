@@ -347,6 +347,24 @@ double bone_allows(const Row& r, int& measured) {
   return sum;
 }
 
+// Each calcified fragment >= 2 mm whose chance was measured (offline/fragment_chance.h),
+// with its part's seed (-1: the plant's).
+std::string chances_json(const DetectionEval& e, long seed, bool& first) {
+  std::ostringstream os;
+  for (const JudgedFragment& j : e.judged) {
+    if (j.chance < 0) continue;
+    os << (first ? "" : ", ") << "{\"seed\": " << seed << ", \"fillet\": " << j.fillet
+       << ", \"size_mm\": " << j.size_mm << ", \"volume_mm3\": " << j.volume_mm3
+       << ", \"calcification\": " << j.calcification << ", \"meat_mm\": " << j.meat_mm
+       << ", \"found\": " << (j.found ? "true" : "false") << ", \"statistic\": \""
+       << statistic_name(j.chance_stat) << "\", \"response\": " << j.response
+       << ", \"observed\": " << j.observed << ", \"threshold\": " << j.threshold
+       << ", \"chance\": " << j.chance << "}";
+    first = false;
+  }
+  return os.str();
+}
+
 // The bone run of each variant that had one: recall pooled with the plant's, by shape, the
 // clean fillets among them rejected, detections of no bone, and its misses.
 std::string bone_run_text(const std::vector<Row>& rows) {
@@ -441,6 +459,12 @@ std::string json(const std::vector<Row>& rows) {
         os << (q ? ", " : "") << "\"" << r.sensitivity[q] << "\"";
       os << "], \"missed\": [" << missed_json(l, -1) << "]";
       if (r.claims_measured) os << ", \"claims_on_fragments\": " << claims_json(r.fragment_claims);
+      {
+        bool first = true;
+        os << ", \"fragment_chances\": [" << chances_json(r.learned, -1, first);
+        for (const BonePart& b : r.bones) os << chances_json(b.eval, b.seed, first);
+        os << "]";
+      }
       if (!r.bones.empty()) {
         const BoneRunTotals t = pooled(r.bones);
         os << ", \"bone_run\": {\"fillets\": " << t.fillets << ", \"recall_calcified_ge_2mm\": ["

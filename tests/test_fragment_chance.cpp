@@ -52,6 +52,9 @@ TEST(FragmentChance, TheResponseIsWhatTheBoneAddsNotWhatLiesThere) {
   // The bone there changes the fillet's spread a little, not what one more piece adds.
   EXPECT_NEAR(b.response, a.response, 0.1 * a.response);
   EXPECT_DOUBLE_EQ(a.threshold, p.z_threshold);  // fixed thresholds: the z threshold
+  // Its own peak: the texture on clean meat, the planted bone where there is one.
+  EXPECT_LT(a.observed, p.z_threshold);
+  EXPECT_GT(b.observed, p.z_threshold);
   EXPECT_NEAR(a.chance, 0.5 * std::erfc(-(a.response - a.threshold) / std::sqrt(2.0)), 1e-12);
   // More bone, more response: twice the excess about twice (the counts are linear in it to
   // a few percent at this size), a larger sphere more.
@@ -59,8 +62,10 @@ TEST(FragmentChance, TheResponseIsWhatTheBoneAddsNotWhatLiesThere) {
   EXPECT_NEAR(dense.response, 2 * a.response, 0.15 * a.response);
   EXPECT_GT(fragment_chance(clean, p, 5, 160, kTol, sphere_volume(2.0), kExcess).response,
             a.response);
-  std::printf("a 1.4 mm sphere: response %.2f (with a bone there %.2f, twice as dense %.2f)\n",
-              a.response, b.response, dense.response);
+  std::printf(
+      "a 1.4 mm sphere: response %.2f (with a bone there %.2f, twice as dense %.2f); the "
+      "peak there %.2f (with the bone %.2f)\n",
+      a.response, b.response, dense.response, a.observed, b.observed);
 }
 
 TEST(FragmentChance, ItsChanceBoundsHowOftenSuchPiecesAreFound) {
@@ -148,9 +153,9 @@ TEST(FragmentChance, APlantsFragmentsAndMissesCarryIt) {
   // The miss's line says it.
   char want[160];
   std::snprintf(want, sizeof want,
-                "; one more sphere of its bone there adds %.1f to the %s statistic against a "
-                "threshold of %.1f",
-                e.missed[0].response, statistic_name(e.missed[0].chance_stat),
+                "; one more sphere of its bone there adds %.1f to the %s statistic (its own "
+                "peak there: %.1f) against a threshold of %.1f",
+                e.missed[0].response, statistic_name(e.missed[0].chance_stat), e.missed[0].observed,
                 e.missed[0].chance_threshold);
   EXPECT_NE(missed_lines(e).find(want), std::string::npos) << missed_lines(e);
 }

@@ -260,9 +260,10 @@ std::string chance_text(const MissedFragment& m) {
   if (m.chance < 0) return "";
   char b[200];
   std::snprintf(b, sizeof b,
-                "; one more sphere of its bone there adds %.1f to the %s statistic against a "
-                "threshold of %.1f: a chance of %.0f %%",
-                m.response, statistic_name(m.chance_stat), m.chance_threshold, 100 * m.chance);
+                "; one more sphere of its bone there adds %.1f to the %s statistic (its own "
+                "peak there: %.1f) against a threshold of %.1f: a chance of %.0f %%",
+                m.response, statistic_name(m.chance_stat), m.observed, m.chance_threshold,
+                100 * m.chance);
   return b;
 }
 }  // namespace

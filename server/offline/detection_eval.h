@@ -35,6 +35,8 @@ struct JudgedFragment {
   // The chance its bone clears the thresholds (offline/fragment_chance.h): the noise-free
   // response and the threshold where it peaks; -1: not measured.
   double chance = -1, response = -1, threshold = -1;
+  double observed = -1;  // that statistic's own peak there (FragmentChance::observed)
+  int chance_stat = -1;
 };
 
 // The lane's true X-ray path thickness (truth/thickness.f32) with the geometry to find a
@@ -69,6 +71,7 @@ struct MissedFragment {
   // Its bone's chance of clearing the thresholds (offline/fragment_chance.h); -1: not measured.
   double chance = -1, response = -1, chance_threshold = -1;
   int chance_stat = -1;  // the statistic it was measured in
+  double observed = -1;  // that statistic's own peak there
   // What became of the fillet that holds it: "pass" (the bone went down the line),
   // "reject" (rejected for something else found in it), "not_inspected" (rejected by the
   // fail-safe), "" (no fillet of the records holds it: not passed either).

@@ -63,18 +63,19 @@ FragmentChance fragment_chance(const FilletImage& img, const InspectionParams& p
   for (int s : {int(kStatRound), int(kStatNeedle)}) {
     const std::vector<float>& a = s == kStatRound ? before.round_stat : before.needle_stat;
     const std::vector<float>& b = s == kStatRound ? after.round_stat : after.needle_stat;
-    double best = -1;
+    double best = -1, seen = -1e30;
     size_t at = 0;
     for (int r = std::max(0, row - gr); r <= std::min(img.rows - 1, row + gr); ++r)
       for (int c = std::max(0, col - gc); c <= std::min(img.cols - 1, col + gc); ++c) {
         const size_t i = size_t(r) * img.cols + c;
         if (!std::isfinite(a[i]) || !std::isfinite(b[i])) continue;
         if (b[i] - a[i] > best) best = b[i] - a[i], at = i;
+        seen = std::max(seen, double(a[i]));
       }
     if (best < 0) continue;
     const double th = L.active() ? L.threshold(s, img.thickness[at]) : p.z_threshold;
     const double chance = normal_cdf(best - th);
-    if (chance > out.chance) out = {s, best, th, chance};
+    if (chance > out.chance) out = {s, best, th, chance, seen};
   }
   return out;
 }
@@ -91,10 +92,11 @@ void measure_fragment_chances(DetectionEval& e, int lane,
         fragment_chance(f->image, p, j.x_mm, j.b_mm, j.tol_mm, j.volume_mm3, j.excess_mu);
     if (c.chance < 0) continue;
     j.chance = c.chance, j.response = c.response, j.threshold = c.threshold;
+    j.observed = c.observed, j.chance_stat = c.stat;
     for (MissedFragment& m : e.missed)
       if (m.lane == lane && m.x_mm == j.x_mm && m.b_mm == j.b_mm)
         m.chance = c.chance, m.response = c.response, m.chance_threshold = c.threshold,
-        m.chance_stat = c.stat;
+        m.chance_stat = c.stat, m.observed = c.observed;
   }
 }
 

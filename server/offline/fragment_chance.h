@@ -33,6 +33,9 @@ struct FragmentChance {
   double response = -1;   // E: the bone's noise-free gain in that statistic
   double threshold = -1;  // T where the response peaks
   double chance = -1;     // Phi(E - T); -1 where it could not be measured
+  // That statistic's peak within the window as the fillet is: the fragment's own response
+  // with the texture on it (the same fragment in two plants: what the second's meat costs).
+  double observed = -1;
 };
 
 // For a bone of `volume_mm3` at `excess_per_mm` over the meat, at (x_mm, b_mm) (across the
