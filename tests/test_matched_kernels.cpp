@@ -105,6 +105,17 @@ void plant_bones(std::vector<float>& z, const std::vector<std::pair<int, int>>& 
             float(6.0 * s[size_t(i) * w + j] / s[size_t(radius) * w + radius]);
 }
 
+// The covariance learned from 8 fields of that noise, to lags of 8 px.
+TextureCovariance texture_of(std::mt19937_64& rng, double white, double field, double corr) {
+  TextureCovariance c(8);
+  std::vector<uint8_t> all(size_t(kRows) * kCols, 1);
+  for (int f = 0; f < 8; ++f) {
+    const std::vector<float> z = noise(rng, white, field, corr);
+    c.add(z.data(), all.data(), kRows, kCols);
+  }
+  return c;
+}
+
 }  // namespace
 
 TEST(MatchedKernels, InWhiteNoiseTheKernelIsTheProfile) {
@@ -195,14 +206,9 @@ TEST(MatchedKernels, InCorrelatedNoiseANeedleKernelBeatsTheElongatedGaussian) {
   // round kernel beats the round Gaussian; a needle 90 degrees off its axis it barely sees.
   std::mt19937_64 rng(5);
   const double white = 0.6, field = 1.0, corr = 2.5;
-  TextureCovariance c(8);
-  std::vector<uint8_t> all(size_t(kRows) * kCols, 1);
-  for (int f = 0; f < 8; ++f) {
-    const std::vector<float> z = noise(rng, white, field, corr);
-    c.add(z.data(), all.data(), kRows, kCols);
-  }
+  const TextureCovariance c = texture_of(rng, white, field, corr);
   MatchedKernels k;
-  learn_needle_kernels(c, {2.0}, 0.6, 0.4, 0.4, 0, k);
+  learn_needle_kernels(c, {2.0}, {0.6}, 0.4, 0.4, 0, k);
   ASSERT_EQ(k.needle_taps.size(), size_t(kNeedleDirections));
   EXPECT_EQ(k.needle_angles_deg[2], 45.0);
   EXPECT_EQ(k.needle_radii[0], 4);
@@ -229,6 +235,33 @@ TEST(MatchedKernels, InCorrelatedNoiseANeedleKernelBeatsTheElongatedGaussian) {
   EXPECT_GT(snr_learned, 2.0 * snr_gauss);
   const std::vector<double> crossing = needle_profile(2.0, 0.6, M_PI / 2, 0.4, 0.4, radius, 0);
   EXPECT_LT(dot(h, crossing) / spread, 0.5 * snr_learned);
+}
+
+TEST(MatchedKernels, ABankOfWidthsSeesAFlatFragmentBetterThanTheNarrowNeedle) {
+  // A bone that lies flat (a 2 mm needle 1.0 mm wide) in texture correlated over ~2 mm: the
+  // kernel learned for its width has more signal-to-noise on it than the 0.6 mm needle's
+  // kernel along the same axis, and each width keeps its own kernels in the bank (they
+  // travel with their diameters: LearnedKernelsTravelWithTheLearnedSettings...).
+  std::mt19937_64 rng(7);
+  const double white = 0.6, field = 1.0, corr = 2.5;
+  const TextureCovariance c = texture_of(rng, white, field, corr);
+  MatchedKernels k;
+  learn_needle_kernels(c, {2.0}, {0.6, 1.0}, 0.4, 0.4, 0, k);
+  ASSERT_EQ(k.needle_taps.size(), size_t(2 * kNeedleDirections));
+  EXPECT_EQ(k.needle_diameters_mm.front(), 0.6);
+  EXPECT_EQ(k.needle_diameters_mm.back(), 1.0);
+  const int radius = 4;
+  const std::vector<double> flat = needle_profile(2.0, 1.0, 0, 0.4, 0.4, radius, 0);
+  auto snr = [&](size_t kernel) {
+    const std::vector<double>& h = k.needle_taps[kernel];
+    return dot(h, flat) / output_spread(h, radius, rng, white, field, corr);
+  };
+  const double narrow = snr(0), wide = snr(kNeedleDirections);  // both across the belt
+  std::printf(
+      "a 2 x 1.0 mm needle: signal-to-noise %.2f under the 0.6 mm kernel, %.2f under "
+      "the 1.0 mm one\n",
+      narrow, wide);
+  EXPECT_GT(wide, 1.05 * narrow);
 }
 
 TEST(MatchedKernels, BrightSpecksAreClippedAndBoneLikeValuesKept) {
@@ -556,11 +589,13 @@ TEST(MatchedKernels, LearnedKernelsTravelWithTheLearnedSettingsAndBadOnesAreRefu
                   1e-9 * std::abs(L.matched.taps[k][i]));
   }
   // The needle kernels travel beside them.
-  learn_needle_kernels(c, {2.0}, 0.6, 0.4, 0.4, 0.5, L.matched);
+  learn_needle_kernels(c, {2.0}, {0.6}, 0.4, 0.4, 0.5, L.matched);
   ASSERT_EQ(L.matched.needle_taps.size(), size_t(kNeedleDirections));
   {
     const LearnedDetection n = parse_learned_detection(learned_detection_yaml(L), "test");
-    EXPECT_EQ(n.matched.needle_diameter_mm, 0.6);
+    EXPECT_EQ(n.matched.needle_diameters_mm, std::vector<double>(kNeedleDirections, 0.6));
+    // One width writes one diameter, as every learning did before a bank of widths.
+    EXPECT_NE(learned_detection_yaml(L).find("diameter_mm: 0.6"), std::string::npos);
     EXPECT_EQ(n.matched.needle_lengths_mm, L.matched.needle_lengths_mm);
     EXPECT_EQ(n.matched.needle_angles_deg, L.matched.needle_angles_deg);
     EXPECT_EQ(n.matched.needle_radii, L.matched.needle_radii);
@@ -578,6 +613,23 @@ TEST(MatchedKernels, LearnedKernelsTravelWithTheLearnedSettingsAndBadOnesAreRefu
     bad = with;  // one kernel's taps missing
     const size_t last = bad.rfind("\n      - [");
     bad.erase(last, bad.find('\n', last + 1) - last);
+    EXPECT_THROW(parse_learned_detection(bad, "test"), Error);
+  }
+  // A bank of two widths travels with one diameter per kernel; one too few, or both keys,
+  // is refused.
+  L.matched.drop_needles();
+  learn_needle_kernels(c, {2.0}, {0.6, 1.0}, 0.4, 0.4, 0.5, L.matched);
+  {
+    const std::string two = learned_detection_yaml(L);
+    const LearnedDetection n = parse_learned_detection(two, "test");
+    EXPECT_EQ(n.matched.needle_diameters_mm, L.matched.needle_diameters_mm);
+    ASSERT_EQ(n.matched.needle_taps.size(), size_t(2 * kNeedleDirections));
+    EXPECT_NEAR(n.matched.needle_taps.back()[40], L.matched.needle_taps.back()[40], 1e-9);
+    std::string bad = two;
+    bad.replace(bad.find("diameters_mm: [0.6, "), 20, "diameters_mm: [");
+    EXPECT_THROW(parse_learned_detection(bad, "test"), Error);
+    bad = two;
+    bad.replace(bad.find("diameters_mm: "), 14, "diameter_mm: 0.6\n    diameters_mm: ");
     EXPECT_THROW(parse_learned_detection(bad, "test"), Error);
   }
   L.matched.drop_needles();

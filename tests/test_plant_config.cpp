@@ -141,6 +141,22 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
   EXPECT_NE(error_of("lanes: [{id: 0, inspection: {matched_needle_diameter_mm: 3}}]\n")
                 .find("inspection.matched_needle_diameter_mm: must be within 0.2..2 mm"),
             std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, inspection: {matched_needle_diameter_mm: [0.6, 3]}}]\n")
+                .find("inspection.matched_needle_diameter_mm: must be within 0.2..2 mm"),
+            std::string::npos);
+  EXPECT_NE(error_of("lanes: [{id: 0, inspection: {matched_needle_diameter_mm: []}}]\n")
+                .find("inspection.matched_needle_diameter_mm: expected a diameter or a list"),
+            std::string::npos);
+  // One diameter or a bank of widths.
+  EXPECT_EQ(parse_plant_config("lanes: [{id: 0}]\n", "test")
+                .lane(0)
+                .inspection.matched_needle_diameters_mm,
+            std::vector<double>{0.6});
+  EXPECT_EQ(parse_plant_config(
+                "lanes: [{id: 0, inspection: {matched_needle_diameter_mm: [0.6, 1.0]}}]\n", "test")
+                .lane(0)
+                .inspection.matched_needle_diameters_mm,
+            (std::vector<double>{0.6, 1.0}));
 }
 
 TEST(PlantConfig, ThePlantWideDatabaseTakesNoPasswordInTheFile) {

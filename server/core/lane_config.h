@@ -97,11 +97,13 @@ struct InspectionParams {
   // (the nominal plant's rare false detections, docs/inspection.md). 0: no voids.
   double matched_void_factor = 2.0;
   // And the needle statistic: kernels whitened by the same texture, matched to a needle of
-  // this diameter and each of these lengths (mm) along 8 directions (`[]`: the elongated
+  // each of these diameters and lengths (mm) along 8 directions (`[]`: the elongated
   // Gaussians of line_sigma_*_px stay). On rough meat the 2 mm kernel has 2.4-4.2x the
   // signal-to-noise of the elongated Gaussian on a 1.5-5 mm needle along it (docs/inspection.md).
+  // A second, wider diameter matches fragments that lie flat (`matched_needle_diameter_mm`
+  // takes a number or a list).
   std::vector<double> matched_needles_mm = {2.0};
-  double matched_needle_diameter_mm = 0.6;
+  std::vector<double> matched_needle_diameters_mm = {0.6};
   // Thresholds learned from the plant's own clean product (rangexctl learn); when active
   // they replace z_threshold and air_z_threshold.
   LearnedDetection learned;

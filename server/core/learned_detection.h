@@ -55,11 +55,10 @@ struct MatchedKernels {
   // kernels, as meat of no texture, so that its rim does not read as bone to a kernel's
   // negative flank. Learned from the product's own brightest texture; 0: none.
   double void_level = 0;
-  // Needle kernels, whitened by the same texture: a needle (a cylinder of needle_diameter_mm)
-  // of each length along each direction (angle from across the belt toward along it), one
-  // kernel each; the needle statistic takes the most bone-like. None: the elongated Gaussians.
-  double needle_diameter_mm = 0;
-  std::vector<double> needle_lengths_mm, needle_angles_deg;  // per kernel
+  // Needle kernels, whitened by the same texture: a needle (a cylinder) of each diameter and
+  // length along each direction (angle from across the belt toward along it), one kernel
+  // each; the needle statistic takes the most bone-like. None: the elongated Gaussians.
+  std::vector<double> needle_diameters_mm, needle_lengths_mm, needle_angles_deg;  // per kernel
   std::vector<int> needle_radii;
   std::vector<std::vector<double>> needle_taps;
   std::vector<double> needle_spreads;
@@ -67,8 +66,8 @@ struct MatchedKernels {
   bool has_needles() const { return !needle_taps.empty(); }
   // The round kernels alone: the needle statistic back to the elongated Gaussians.
   void drop_needles() {
-    needle_diameter_mm = 0;
-    needle_lengths_mm.clear(), needle_angles_deg.clear(), needle_radii.clear();
+    needle_diameters_mm.clear(), needle_lengths_mm.clear(), needle_angles_deg.clear(),
+        needle_radii.clear();
     needle_taps.clear(), needle_spreads.clear();
   }
   // The largest window's radius; the covariance was measured to twice it.

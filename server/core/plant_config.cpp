@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
@@ -250,18 +251,27 @@ std::vector<std::vector<double>> read_taps(const Node& t, const std::vector<int>
   return out;
 }
 
-// inspection.learned.matched.needles: the whitened needle kernels, one per length and
-// direction, within the bank's radius.
+// inspection.learned.matched.needles: the whitened needle kernels, one per diameter, length
+// and direction, within the bank's radius. One diameter for all (`diameter_mm`, as every
+// learning wrote before a bank of widths) or one per kernel (`diameters_mm`).
 void read_needles(const Node& n, int radius, MatchedKernels& k) {
-  n.only_keys({"diameter_mm", "lengths_mm", "angles_deg", "radii", "spreads", "taps"});
-  for (const char* key : {"diameter_mm", "lengths_mm", "angles_deg", "radii", "spreads", "taps"})
-    if (!n.has(key)) n.bad("expected diameter_mm, lengths_mm, angles_deg, radii, spreads and taps");
-  n.get("diameter_mm", k.needle_diameter_mm);
-  if (!(k.needle_diameter_mm >= 0.2 && k.needle_diameter_mm <= 2))
-    n.at("diameter_mm").bad("must be within 0.2..2 mm");
+  n.only_keys(
+      {"diameter_mm", "diameters_mm", "lengths_mm", "angles_deg", "radii", "spreads", "taps"});
+  for (const char* key : {"lengths_mm", "angles_deg", "radii", "spreads", "taps"})
+    if (!n.has(key))
+      n.bad(
+          "expected diameter_mm (or diameters_mm), lengths_mm, angles_deg, radii, spreads and "
+          "taps");
+  if (n.has("diameter_mm") == n.has("diameters_mm"))
+    n.bad("expected one of diameter_mm (one for all) and diameters_mm (one per kernel)");
   k.needle_lengths_mm = number_list(n.at("lengths_mm"), 0);
   const size_t m = k.needle_lengths_mm.size();
   if (m == 0) n.at("lengths_mm").bad("expected one length per kernel");
+  const char* dkey = n.has("diameter_mm") ? "diameter_mm" : "diameters_mm";
+  k.needle_diameters_mm = n.has("diameter_mm") ? std::vector<double>(m, n.at("diameter_mm").num())
+                                               : number_list(n.at("diameters_mm"), m);
+  for (double d : k.needle_diameters_mm)
+    if (!(d >= 0.2 && d <= 2)) n.at(dkey).bad("must be within 0.2..2 mm");
   k.needle_angles_deg = number_list(n.at("angles_deg"), m);
   for (double a : k.needle_angles_deg)
     if (!(a >= 0 && a < 180)) n.at("angles_deg").bad("must be within [0, 180) degrees");
@@ -646,9 +656,14 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
         if (!(d >= 1 && d <= 6))
           n->at("matched_needles_mm").bad("needle lengths must be within 1..6 mm");
     }
-    n->get("matched_needle_diameter_mm", q.matched_needle_diameter_mm);
-    if (!(q.matched_needle_diameter_mm >= 0.2 && q.matched_needle_diameter_mm <= 2))
-      n->at("matched_needle_diameter_mm").bad("must be within 0.2..2 mm");
+    if (n->has("matched_needle_diameter_mm")) {
+      const Node d = n->at("matched_needle_diameter_mm");
+      q.matched_needle_diameters_mm =
+          d.node.IsSequence() ? number_list(d, 0) : std::vector<double>{d.num()};
+      if (q.matched_needle_diameters_mm.empty()) d.bad("expected a diameter or a list of them");
+      for (double x : q.matched_needle_diameters_mm)
+        if (!(x >= 0.2 && x <= 2)) d.bad("must be within 0.2..2 mm");
+    }
     if (n->has("learned")) read_learned(n->at("learned"), q.learned);
     if (n->has("dual_energy")) {
       const std::string m = n->at("dual_energy").str();
@@ -997,7 +1012,15 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
     }
     const MatchedKernels& k = L.matched;
     if (k.has_needles()) {
-      o << "\n  needles:\n    diameter_mm: " << k.needle_diameter_mm << "\n    lengths_mm: ";
+      // One diameter for all as before a bank of widths, else one per kernel.
+      const auto& d = k.needle_diameters_mm;
+      if (std::all_of(d.begin(), d.end(), [&](double x) { return x == d.front(); })) {
+        o << "\n  needles:\n    diameter_mm: " << d.front();
+      } else {
+        o << "\n  needles:\n    diameters_mm: ";
+        list(d);
+      }
+      o << "\n    lengths_mm: ";
       list(k.needle_lengths_mm);
       o << "\n    angles_deg: ";
       list(k.needle_angles_deg);

@@ -457,7 +457,7 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
     const double a = apply_kernel_at(resid_c.data(), use.data(), img.rows, img.cols,
                                      needle ? mk.needle_taps[kk] : mk.taps[kk],
                                      needle ? mk.needle_radii[kk] : mk.radii[kk], r, c);
-    return -a * (needle ? mk.needle_diameter_mm : mk.sizes_mm[kk]);
+    return -a * (needle ? mk.needle_diameters_mm[kk] : mk.sizes_mm[kk]);
   };
   res.fragments =
       blobs(bone_w, bone_on, resid, use, img, -1, p.min_fragment_area_mm2, fit, p, matched_excess);

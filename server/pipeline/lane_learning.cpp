@@ -74,7 +74,7 @@ MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
   if (cov.fillets() == 0) return {};
   MatchedKernels k = learn_matched_kernels(cov, inspection.matched_kernels_mm, first.pitch_mm,
                                            first.step_mm, first.detector_sigma_px);
-  learn_needle_kernels(cov, inspection.matched_needles_mm, inspection.matched_needle_diameter_mm,
+  learn_needle_kernels(cov, inspection.matched_needles_mm, inspection.matched_needle_diameters_mm,
                        first.pitch_mm, first.step_mm, first.detector_sigma_px, k);
   return k;
 }

@@ -186,6 +186,29 @@ std::vector<double> piece_profile(Chord chord, double pitch_mm, double step_mm, 
   }
   return s;
 }
+
+// One diameter's kernels: each length along kNeedleDirections directions.
+void learn_needles_of(const TextureCovariance& c, const std::vector<double>& lengths_mm,
+                      double diam_mm, double pitch_mm, double step_mm, double blur_px,
+                      MatchedKernels& k) {
+  for (double len : lengths_mm) {
+    const int r = kernel_radius(len, pitch_mm, step_mm);
+    if (2 * r > c.max_lag())
+      fail("needle kernels: a ", len, " mm needle needs a window of radius ", r,
+           " px, the texture was measured to lags of ", c.max_lag(), " px");
+    for (int d = 0; d < kNeedleDirections; ++d) {
+      const double deg = 180.0 * d / kNeedleDirections;
+      k.needle_diameters_mm.push_back(diam_mm);
+      k.needle_lengths_mm.push_back(len);
+      k.needle_angles_deg.push_back(deg);
+      k.needle_radii.push_back(r);
+      k.needle_taps.push_back(whitened_kernel(
+          c, needle_profile(len, diam_mm, deg * M_PI / 180, pitch_mm, step_mm, r, blur_px), r));
+      k.needle_spreads.push_back(kernel_spread(c, k.needle_taps.back(), r));
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<double> sphere_profile(double d_mm, double pitch_mm, double step_mm, int radius,
@@ -280,24 +303,11 @@ MatchedKernels learn_matched_kernels(const TextureCovariance& c,
 }
 
 void learn_needle_kernels(const TextureCovariance& c, const std::vector<double>& lengths_mm,
-                          double diam_mm, double pitch_mm, double step_mm, double blur_px,
-                          MatchedKernels& k) {
-  if (!(diam_mm > 0)) fail("needle kernels: a needle of diameter ", diam_mm, " mm");
-  k.needle_diameter_mm = diam_mm;
-  for (double len : lengths_mm) {
-    const int r = kernel_radius(len, pitch_mm, step_mm);
-    if (2 * r > c.max_lag())
-      fail("needle kernels: a ", len, " mm needle needs a window of radius ", r,
-           " px, the texture was measured to lags of ", c.max_lag(), " px");
-    for (int d = 0; d < kNeedleDirections; ++d) {
-      const double deg = 180.0 * d / kNeedleDirections;
-      k.needle_lengths_mm.push_back(len);
-      k.needle_angles_deg.push_back(deg);
-      k.needle_radii.push_back(r);
-      k.needle_taps.push_back(whitened_kernel(
-          c, needle_profile(len, diam_mm, deg * M_PI / 180, pitch_mm, step_mm, r, blur_px), r));
-      k.needle_spreads.push_back(kernel_spread(c, k.needle_taps.back(), r));
-    }
+                          const std::vector<double>& diameters_mm, double pitch_mm, double step_mm,
+                          double blur_px, MatchedKernels& k) {
+  for (double diam_mm : diameters_mm) {
+    if (!(diam_mm > 0)) fail("needle kernels: a needle of diameter ", diam_mm, " mm");
+    learn_needles_of(c, lengths_mm, diam_mm, pitch_mm, step_mm, blur_px, k);
   }
 }
 

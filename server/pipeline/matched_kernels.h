@@ -95,8 +95,8 @@ MatchedKernels learn_matched_kernels(const TextureCovariance& c,
 // its axis and 0.5-0.7 at 22), learned from `c` into `k` beside its round ones.
 constexpr int kNeedleDirections = 8;
 void learn_needle_kernels(const TextureCovariance& c, const std::vector<double>& lengths_mm,
-                          double diam_mm, double pitch_mm, double step_mm, double blur_px,
-                          MatchedKernels& k);
+                          const std::vector<double>& diameters_mm, double pitch_mm, double step_mm,
+                          double blur_px, MatchedKernels& k);
 
 // out = sum over the window of h z, z taken as 0 off the usable pixels (where the window
 // leaves the fillet the kernel sees flat meat); NaN off them. Returns sqrt(sum h^2), the
