@@ -325,8 +325,8 @@ std::string missed_json(const DetectionEval& e, long seed) {
        << ", \"edge_mm\": " << m.edge_mm << ", \"found_at\": " << m.found_at
        << ", \"frr_at\": " << m.frr_at << ", \"margin_statistic\": \""
        << (m.margin_stat >= 0 ? statistic_name(m.margin_stat) : "every")
-       << "\", \"chance\": " << m.chance << ", \"response\": " << m.response
-       << ", \"chance_threshold\": " << m.chance_threshold << ", \"fillet_decision\": \""
+       << "\", \"chance\": " << m.chance.chance << ", \"response\": " << m.chance.response
+       << ", \"chance_threshold\": " << m.chance.threshold << ", \"fillet_decision\": \""
        << m.fillet_decision << "\"}";
   }
   return os.str();
@@ -352,14 +352,15 @@ double bone_allows(const Row& r, int& measured) {
 std::string chances_json(const DetectionEval& e, long seed, bool& first) {
   std::ostringstream os;
   for (const JudgedFragment& j : e.judged) {
-    if (j.chance < 0) continue;
+    const FragmentChance& c = j.chance;
+    if (c.chance < 0) continue;
     os << (first ? "" : ", ") << "{\"seed\": " << seed << ", \"fillet\": " << j.fillet
        << ", \"size_mm\": " << j.size_mm << ", \"volume_mm3\": " << j.volume_mm3
        << ", \"calcification\": " << j.calcification << ", \"meat_mm\": " << j.meat_mm
        << ", \"found\": " << (j.found ? "true" : "false") << ", \"statistic\": \""
-       << statistic_name(j.chance_stat) << "\", \"response\": " << j.response
-       << ", \"observed\": " << j.observed << ", \"threshold\": " << j.threshold
-       << ", \"chance\": " << j.chance << "}";
+       << statistic_name(c.stat) << "\", \"response\": " << c.response
+       << ", \"observed\": " << c.observed << ", \"threshold\": " << c.threshold
+       << ", \"chance\": " << c.chance << "}";
     first = false;
   }
   return os.str();

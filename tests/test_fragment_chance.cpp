@@ -142,20 +142,21 @@ TEST(FragmentChance, APlantsFragmentsAndMissesCarryIt) {
   m.x_mm = j.x_mm, m.b_mm = j.b_mm, m.tol_mm = kTol;
   e.missed = {m};
   measure_fragment_chances(e, 0, {f}, params());
-  EXPECT_GE(e.judged[0].chance, 0);
-  EXPECT_EQ(e.judged[1].chance, -1);
-  EXPECT_EQ(e.judged[2].chance, -1);
-  EXPECT_EQ(e.judged[3].chance, -1);
-  EXPECT_EQ(e.missed[0].chance, e.judged[0].chance);
+  EXPECT_GE(e.judged[0].chance.chance, 0);
+  EXPECT_EQ(e.judged[1].chance.chance, -1);
+  EXPECT_EQ(e.judged[2].chance.chance, -1);
+  EXPECT_EQ(e.judged[3].chance.chance, -1);
+  EXPECT_EQ(e.missed[0].chance.chance, e.judged[0].chance.chance);
+  EXPECT_EQ(e.missed[0].chance.response, e.judged[0].chance.response);
   int n = 0;
-  EXPECT_DOUBLE_EQ(expected_recall(e, n), e.judged[0].chance);
+  EXPECT_DOUBLE_EQ(expected_recall(e, n), e.judged[0].chance.chance);
   EXPECT_EQ(n, 1);
   // The miss's line says it.
   char want[160];
   std::snprintf(want, sizeof want,
                 "; one more sphere of its bone there adds %.1f to the %s statistic (its own "
                 "peak there: %.1f) against a threshold of %.1f",
-                e.missed[0].response, statistic_name(e.missed[0].chance_stat), e.missed[0].observed,
-                e.missed[0].chance_threshold);
+                e.missed[0].chance.response, statistic_name(e.missed[0].chance.stat),
+                e.missed[0].chance.observed, e.missed[0].chance.threshold);
   EXPECT_NE(missed_lines(e).find(want), std::string::npos) << missed_lines(e);
 }

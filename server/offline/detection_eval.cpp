@@ -257,13 +257,13 @@ std::string margin_text(const MissedFragment& m) {
 
 // What its bone could show (offline/fragment_chance.h).
 std::string chance_text(const MissedFragment& m) {
-  if (m.chance < 0) return "";
+  const FragmentChance& c = m.chance;
+  if (c.chance < 0) return "";
   char b[200];
   std::snprintf(b, sizeof b,
                 "; one more sphere of its bone there adds %.1f to the %s statistic (its own "
                 "peak there: %.1f) against a threshold of %.1f: a chance of %.0f %%",
-                m.response, statistic_name(m.chance_stat), m.observed, m.chance_threshold,
-                100 * m.chance);
+                c.response, statistic_name(c.stat), c.observed, c.threshold, 100 * c.chance);
   return b;
 }
 }  // namespace

@@ -23,6 +23,17 @@ struct TruthFragment {
   double excess_mu = -1, meat_mu = -1;
 };
 
+// What a fragment's bone would show were it a sphere (offline/fragment_chance.h).
+struct FragmentChance {
+  int stat = -1;          // kStatRound or kStatNeedle: the one with the better chance
+  double response = -1;   // E: the sphere's noise-free gain in that statistic
+  double threshold = -1;  // T where the response peaks
+  double chance = -1;     // Phi(E - T); -1 where it could not be measured
+  // That statistic's peak within the window as the fillet is: the fragment's own response
+  // with the texture on it (the same fragment in two plants: what the second's meat costs).
+  double observed = -1;
+};
+
 // Each bone fragment judged, of any size and shape: what the learned report's sensitivity
 // claims are held against (offline/claim_coverage.h).
 struct JudgedFragment {
@@ -32,11 +43,7 @@ struct JudgedFragment {
   double meat_mm = -1;  // the true meat over it (with an EdgeMap)
   bool found = false;
   double x_mm = 0, b_mm = 0, tol_mm = 2;  // where it lies, and the matching's tolerance
-  // The chance its bone clears the thresholds (offline/fragment_chance.h): the noise-free
-  // response and the threshold where it peaks; -1: not measured.
-  double chance = -1, response = -1, threshold = -1;
-  double observed = -1;  // that statistic's own peak there (FragmentChance::observed)
-  int chance_stat = -1;
+  FragmentChance chance;                  // calcified >= 2 mm, where measured
 };
 
 // The lane's true X-ray path thickness (truth/thickness.f32) with the geometry to find a
@@ -68,10 +75,7 @@ struct MissedFragment {
   double found_at = -1, frr_at = -1;
   int margin_stat = -1;     // the statistic whose thresholds were lowered (-1: every rejecting one)
   double margin_floor = 0;  // the lowest fraction tried
-  // Its bone's chance of clearing the thresholds (offline/fragment_chance.h); -1: not measured.
-  double chance = -1, response = -1, chance_threshold = -1;
-  int chance_stat = -1;  // the statistic it was measured in
-  double observed = -1;  // that statistic's own peak there
+  FragmentChance chance;    // its bone's, as its judged fragment's (offline/fragment_chance.h)
   // What became of the fillet that holds it: "pass" (the bone went down the line),
   // "reject" (rejected for something else found in it), "not_inspected" (rejected by the
   // fail-safe), "" (no fillet of the records holds it: not passed either).

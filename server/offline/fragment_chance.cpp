@@ -91,12 +91,9 @@ void measure_fragment_chances(DetectionEval& e, int lane,
     const FragmentChance c =
         fragment_chance(f->image, p, j.x_mm, j.b_mm, j.tol_mm, j.volume_mm3, j.excess_mu);
     if (c.chance < 0) continue;
-    j.chance = c.chance, j.response = c.response, j.threshold = c.threshold;
-    j.observed = c.observed, j.chance_stat = c.stat;
+    j.chance = c;
     for (MissedFragment& m : e.missed)
-      if (m.lane == lane && m.x_mm == j.x_mm && m.b_mm == j.b_mm)
-        m.chance = c.chance, m.response = c.response, m.chance_threshold = c.threshold,
-        m.chance_stat = c.stat, m.observed = c.observed;
+      if (m.lane == lane && m.x_mm == j.x_mm && m.b_mm == j.b_mm) m.chance = c;
   }
 }
 
@@ -104,7 +101,8 @@ double expected_recall(const DetectionEval& e, int& n) {
   double sum = 0;
   n = 0;
   for (const JudgedFragment& j : e.judged)
-    if (j.size_mm >= 2 && j.calcification >= kCalcified && j.chance >= 0) sum += j.chance, ++n;
+    if (j.size_mm >= 2 && j.calcification >= kCalcified && j.chance.chance >= 0)
+      sum += j.chance.chance, ++n;
   return n ? sum / n : -1;
 }
 

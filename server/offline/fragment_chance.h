@@ -28,16 +28,6 @@
 
 namespace rangex {
 
-struct FragmentChance {
-  int stat = -1;          // kStatRound or kStatNeedle: the one with the better chance
-  double response = -1;   // E: the bone's noise-free gain in that statistic
-  double threshold = -1;  // T where the response peaks
-  double chance = -1;     // Phi(E - T); -1 where it could not be measured
-  // That statistic's peak within the window as the fillet is: the fragment's own response
-  // with the texture on it (the same fragment in two plants: what the second's meat costs).
-  double observed = -1;
-};
-
 // For a bone of `volume_mm3` at `excess_per_mm` over the meat, at (x_mm, b_mm) (across the
 // belt at mid-depth, belt position: as detections are placed), its response looked for
 // within tol_mm, in the fillet `img` inspected with `p`. Unmeasured (chance -1) off the

@@ -16,6 +16,9 @@ InspectedFillet inspect_image(FilletImage&& img, const InspectionParams& p,
   const auto t0 = std::chrono::steady_clock::now();
   InspectedFillet f;
   f.result = inspect_fillet(img, p, opt.keep_images);
+  // The statistics' images serve the evaluation's own inspections (offline/fragment_chance.h),
+  // never a lane's results: not held while the fillet is handled and stored.
+  f.result.round_stat = {}, f.result.needle_stat = {};
   if (opt.baseline) f.baseline = inspect_fillet_xray_only(img, p, false);
   if (!opt.keep_images) {
     img.xray.clear();
