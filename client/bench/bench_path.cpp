@@ -254,13 +254,13 @@ void report(const char* title, const PathTimes& t, const Recorded& rec, int grid
 // fixed thresholds, no band extremes) and after it (band extremes; fixed and learned
 // thresholds; one spread per fillet and spread by thickness; whitened round kernels, and
 // whitened needle kernels beside them; those after the bright enclosure, and with air pockets
-// flattened too), in alternating
-// rounds; medians of the rounds, as ratios to the first.
+// flattened too, with needles of one width and a bank of two), in alternating rounds; medians of
+// the rounds, as ratios to the first.
 void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   std::vector<FilletImage> imgs;
   run_lanes(lc, rec, 0, 1, batch, [&](FilletImage&& im) { imgs.push_back(std::move(im)); });
   if (imgs.empty()) return;
-  constexpr int kVariants = 8;
+  constexpr int kVariants = 9;
   InspectionParams v[kVariants];
   const char* names[kVariants] = {"before learning (fixed, no extremes)",
                                   "fixed, band extremes",
@@ -269,7 +269,8 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
                                   "learned, whitened round kernels",
                                   "learned, whitened round and needle kernels",
                                   "learned, whitened kernels, bright enclosure",
-                                  "learned, enclosure and voids flattened"};
+                                  "learned, enclosure and voids, 0.6 mm needles",
+                                  "the same, needles of 0.6 and 1.0 mm"};
   for (int k = 0; k < kVariants; ++k) {
     v[k] = lc.inspection;
     v[k].learned = LearnedDetection{};
@@ -281,6 +282,7 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   InspectionParams kernels = lc.inspection;
   kernels.matched_enclosure = false;
   kernels.matched_void_factor = 0;
+  kernels.matched_needle_diameters_mm = {0.6};  // one width, as before the bank
   v[5].learned.matched = learn_lane_kernels(imgs, kernels);
   v[4].learned.matched = v[5].learned.matched;
   v[4].learned.matched.drop_needles();
@@ -290,8 +292,10 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
                                     ? lc.inspection.matched_void_factor
                                     : InspectionParams{}.matched_void_factor;
   v[7].learned.matched = learn_lane_kernels(imgs, kernels);
+  kernels.matched_needle_diameters_mm = {0.6, 1.0};
+  v[8].learned.matched = learn_lane_kernels(imgs, kernels);
   // Thresholds learned on these few fillets: for the timing, not for a decision.
-  for (int k : {2, 3, 4, 5, 6, 7}) {
+  for (int k : {2, 3, 4, 5, 6, 7, 8}) {
     std::vector<LearningFillet> fs;
     for (const FilletImage& im : imgs)
       fs.push_back({0, im.id, 0, inspect_fillet(im, v[k], false).extremes});
