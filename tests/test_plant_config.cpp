@@ -147,14 +147,8 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
   EXPECT_NE(error_of("lanes: [{id: 0, inspection: {matched_needle_diameter_mm: []}}]\n")
                 .find("inspection.matched_needle_diameter_mm: expected a diameter or a list"),
             std::string::npos);
-  // One diameter or a bank of widths; the default is the bank of the test piece's 0.6 mm and
-  // a 1.0 mm width.
+  // One diameter or a bank of widths.
   EXPECT_EQ(parse_plant_config("lanes: [{id: 0}]\n", "test")
-                .lane(0)
-                .inspection.matched_needle_diameters_mm,
-            (std::vector<double>{0.6, 1.0}));
-  EXPECT_EQ(parse_plant_config("lanes: [{id: 0, inspection: {matched_needle_diameter_mm: 0.6}}]\n",
-                               "test")
                 .lane(0)
                 .inspection.matched_needle_diameters_mm,
             std::vector<double>{0.6});

@@ -100,11 +100,10 @@ struct InspectionParams {
   // each of these diameters and lengths (mm) along 8 directions (`[]`: the elongated
   // Gaussians of line_sigma_*_px stay). On rough meat the 2 mm kernel has 2.4-4.2x the
   // signal-to-noise of the elongated Gaussian on a 1.5-5 mm needle along it (docs/inspection.md).
-  // The second, wider diameter matches fragments that lie flat: on rough meat it found two
-  // of three fragments the 0.6 mm kernels missed (`matched_needle_diameter_mm` takes a number
-  // or a list; docs/inspection.md, "A bank of both widths").
+  // A second, wider diameter matches fragments that lie flat (`matched_needle_diameter_mm`
+  // takes a number or a list).
   std::vector<double> matched_needles_mm = {2.0};
-  std::vector<double> matched_needle_diameters_mm = {0.6, 1.0};
+  std::vector<double> matched_needle_diameters_mm = {0.6};
   // Thresholds learned from the plant's own clean product (rangexctl learn); when active
   // they replace z_threshold and air_z_threshold.
   LearnedDetection learned;
