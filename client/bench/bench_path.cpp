@@ -282,7 +282,7 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   InspectionParams kernels = lc.inspection;
   kernels.matched_enclosure = false;
   kernels.matched_void_factor = 0;
-  kernels.matched_needle_diameters_mm = {0.6};  // one width, as before the bank
+  kernels.matched_needle_diameters_mm = {0.6};  // one width, whatever the lane sets
   v[5].learned.matched = learn_lane_kernels(imgs, kernels);
   v[4].learned.matched = v[5].learned.matched;
   v[4].learned.matched.drop_needles();
