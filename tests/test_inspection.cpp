@@ -277,6 +277,56 @@ TEST(Inspection, FailSafeCasesAreNotInspected) {
   }
 }
 
+TEST(Inspection, AFailSafeFilletIsStillSearchedWhereWhatItHasIsWhole) {
+  // Not inspected stays not inspected (a reject), but a bone in the part that has thickness
+  // is named, so the plant trims the fillet rather than sending it round again; a fillet
+  // whose thickness is wrong or whose lines are missing is not searched at all.
+  const std::vector<Bone> bone = {{5, 160, 2.5, 0.10}};
+  const FilletImage bony = synthetic_fillet(std::log(3600.0), -0.03, bone, 2);
+  const FilletImage clean = synthetic_fillet(std::log(3600.0), -0.03, {}, 2);
+  auto holes = [](FilletImage f) {
+    // Every tenth pixel of the rows far from the bone (y 160 mm) without thickness.
+    int n = 0;
+    for (int r = 0; r < f.rows / 4; ++r)
+      for (int c = 0; c < f.cols; c += 3) {
+        const size_t i = size_t(r) * f.cols + c;
+        if (f.mask[i] && std::isfinite(f.thickness[i])) f.thickness[i] = NAN, ++n;
+      }
+    f.invalid_thickness_px = n;
+    return f;
+  };
+  const InspectionParams p = params();
+  const FilletResult r = inspect_fillet(holes(bony), p, false);
+  EXPECT_EQ(r.decision, Decision::kNotInspected);
+  EXPECT_NE(r.reason.find("has no thickness; 1 bone fragment where it has thickness"),
+            std::string::npos)
+      << r.reason;
+  ASSERT_EQ(r.fragments.size(), 1u);
+  EXPECT_LE(std::hypot(r.fragments[0].x_mm - 5, r.fragments[0].y_mm - 160), 1.0);
+  EXPECT_TRUE(r.extremes.empty());  // learning and drift see passed fillets only
+
+  const FilletResult c = inspect_fillet(holes(clean), p, false);
+  EXPECT_EQ(c.decision, Decision::kNotInspected);
+  EXPECT_TRUE(c.fragments.empty());
+  EXPECT_EQ(c.reason.find("bone fragment"), std::string::npos) << c.reason;
+
+  FilletImage edge = bony;
+  edge.touches_lane_edge = true;
+  const FilletResult e = inspect_fillet(edge, p, false);
+  EXPECT_EQ(e.decision, Decision::kNotInspected);
+  EXPECT_EQ(e.fragments.size(), 1u) << e.reason;
+
+  for (auto spoil : {+[](FilletImage& f) { f.calibration_mismatch = true; },
+                     +[](FilletImage& f) { f.missing_lines = 2; }}) {
+    FilletImage f = bony;
+    spoil(f);
+    const FilletResult s = inspect_fillet(f, p, false);
+    EXPECT_EQ(s.decision, Decision::kNotInspected);
+    EXPECT_TRUE(s.fragments.empty()) << s.reason;
+    EXPECT_FALSE(s.fitted);
+  }
+}
+
 TEST(Inspection, XrayOnlyBaselineSeesThicknessAsStructure) {
   // Without thickness the dome leaves structure behind: the residual spread is far larger.
   const FilletImage f = synthetic_fillet(std::log(3600.0), -0.03, {}, 5);

@@ -56,13 +56,17 @@ FilletResult header(const FilletImage& img) {
   return r;
 }
 
-// The fail-safe checks that need no fit; empty when the fillet can be inspected.
-std::string not_inspectable(const FilletImage& img, const InspectionParams& p) {
+// The fail-safe checks that need no fit; empty when the fillet can be inspected. searchable:
+// what the fillet has is whole and true (its thickness where it has one, its lines), only not
+// all of it: a bone found there is a bone.
+std::string not_inspectable(const FilletImage& img, const InspectionParams& p, bool& searchable) {
+  searchable = false;
   if (!img.interrupted.empty()) return img.interrupted;
   if (img.calibration_mismatch) return "calibration mismatch";
   if (img.missing_lines > 0) return std::to_string(img.missing_lines) + " lines missing";
-  if (img.touches_lane_edge) return "fillet reaches the edge of the lane";
   const int px = img.mask_pixels();
+  searchable = px >= 100;
+  if (img.touches_lane_edge) return "fillet reaches the edge of the lane";
   if (px < 100) return "too few fillet pixels (" + std::to_string(px) + ")";
   const double invalid = double(img.invalid_thickness_px) / double(px + img.invalid_thickness_px);
   if (invalid > p.max_invalid_fraction) {
@@ -75,9 +79,12 @@ std::string not_inspectable(const FilletImage& img, const InspectionParams& p) {
 
 }  // namespace
 
-bool start_inspection(const FilletImage& img, const InspectionParams& p, FilletResult& res) {
+bool start_inspection(const FilletImage& img, const InspectionParams& p, FilletResult& res,
+                      bool* searchable) {
   res = header(img);
-  res.reason = not_inspectable(img, p);
+  bool s = false;
+  res.reason = not_inspectable(img, p, s);
+  if (searchable) *searchable = s && !res.reason.empty();
   return res.reason.empty();
 }
 
@@ -560,11 +567,32 @@ FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, b
   if (!raw.xray_high.empty() && raw.has_dual_energy && p.dual_energy != DualEnergyMethod::kLowLine)
     return inspect_fillet_dual_energy(raw, p, keep);
   FilletResult res;
-  if (!start_inspection(raw, p, res)) return res;
+  bool searchable = false;
+  if (!start_inspection(raw, p, res, &searchable) && !searchable) return res;
+  // A fillet the fail-safe rejects stays not inspected; where what it has is whole (too much
+  // of it without thickness, or off the lane's edge) it is still searched there, so that a
+  // bone in it is named: the plant trims it rather than sending it round again.
+  const std::string fail_safe = res.reason;
+  InspectionParams q;
+  if (searchable) {
+    q = p;
+    q.band_extremes = false;  // not a passed fillet: learning and drift never see it
+  }
+  const InspectionParams& use_p = searchable ? q : p;
   OneEnergyModel m;
-  if (!one_energy_model(raw, p, res, m)) return res;
-  detect_from_z(m.image(raw), m.use, m.z, m.closure_z, m.resid, &res.fit, p, keep, res);
+  if (!one_energy_model(raw, use_p, res, m)) {
+    if (searchable) res.reason = fail_safe;
+    return res;
+  }
+  detect_from_z(m.image(raw), m.use, m.z, m.closure_z, m.resid, &res.fit, use_p, keep, res);
   if (keep) res.pseudo = std::move(m.pred);
+  if (searchable) {
+    res.decision = Decision::kNotInspected;
+    res.reason = fail_safe;
+    if (!res.fragments.empty())
+      res.reason += "; " + std::to_string(res.fragments.size()) + " bone fragment" +
+                    (res.fragments.size() > 1 ? "s" : "") + " where it has thickness";
+  }
   return res;
 }
 

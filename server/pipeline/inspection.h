@@ -4,7 +4,8 @@
 //   smoothed z below -z_threshold -> bone fragments (reject), above +air_z_threshold -> air
 //   pockets (reported only). Fail-safe: missing lines, too much meat without thickness, a
 //   fillet on the lane edge, a fit that did not converge or a calibration mismatch give
-//   "not inspected", which is a reject.
+//   "not inspected", which is a reject (the first two still searched where the fillet has
+//   thickness, a bone found there named).
 // A dual-energy lane with its calibration inspects its bone image instead
 // (docs/dual-energy.md): inspection.dual_energy picks how.
 // The X-ray-only baseline runs the same noise model and detector with a smooth background

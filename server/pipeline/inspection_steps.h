@@ -10,8 +10,11 @@
 namespace rangex {
 
 // The result's header and the fail-safe checks that need no model: false (with the
-// result's reason) when the fillet cannot be inspected.
-bool start_inspection(const FilletImage& img, const InspectionParams& p, FilletResult& res);
+// result's reason) when the fillet cannot be inspected. searchable (when asked): it cannot,
+// but what it has is whole and true (too much of it without thickness, or off the lane's
+// edge), so it can still be searched for bone there.
+bool start_inspection(const FilletImage& img, const InspectionParams& p, FilletResult& res,
+                      bool* searchable = nullptr);
 
 // From z (per pixel: the residual over its sigma, negative where the pixel holds more than
 // the model: bone) on the usable pixels: the statistics brought to unit spread, the
