@@ -95,9 +95,12 @@ void Verifications::decided(const StoredFillet& f) {
   const auto it = running_.find(f.lane);
   if (it == running_.end()) return;
   Running& run = it->second;
-  // The piece is shown when a bone fragment lies where it was declared.
+  // The piece is shown when a bone fragment lies where it was declared, on a fillet that was
+  // inspected: one not inspected names the bone found where it had thickness, but a lane
+  // whose fillets go uninspected is not shown to inspect.
   for (const StoredFragment& g : f.fragments)
-    if (g.kind == "bone" && std::fabs(g.x_mm - run.req.x_mm) <= run.req.tolerance_mm) {
+    if (f.decision == "reject" && g.kind == "bone" &&
+        std::fabs(g.x_mm - run.req.x_mm) <= run.req.tolerance_mm) {
       const Running done = run;
       running_.erase(it);
       finish(f.lane, done, true, &f, g.x_mm);
