@@ -596,6 +596,28 @@ TEST(DualEnergyInspection, EachMethodRunsAndFailsSafe) {
   FilletImage half = d.img;
   half.xray_high.resize(10);
   EXPECT_EQ(inspect_fillet(half, p, false).decision, Decision::kNotInspected);
+  // Too much meat without thickness (far from the fragment): not inspected, but searched
+  // where it has thickness, as at one energy, and the fragment named.
+  FilletImage holed = d.img;
+  int holes = 0;
+  for (int r = 115; r < holed.rows; ++r)
+    for (int q = 0; q < holed.cols; q += 2) {
+      const size_t i = size_t(r) * holed.cols + q;
+      if (holed.mask[i]) holed.thickness[i] = std::numeric_limits<float>::quiet_NaN(), ++holes;
+    }
+  holed.invalid_thickness_px = holes;
+  ASSERT_GT(holes, 0.02 * holed.mask_pixels());
+  const FilletResult searched = inspect_fillet(holed, p, false);
+  EXPECT_TRUE(searched.dual_energy);
+  EXPECT_EQ(searched.decision, Decision::kNotInspected);
+  EXPECT_NE(searched.reason.find("no thickness; 1 bone fragment where it has thickness"),
+            std::string::npos)
+      << searched.reason;
+  ASSERT_EQ(searched.fragments.size(), 1u);
+  const Blob& g = searched.fragments[0];
+  EXPECT_NEAR(g.row0 + 0.5 * (g.row1 - g.row0), d.bone_r, 3);
+  EXPECT_NEAR(g.col0 + 0.5 * (g.col1 - g.col0), d.bone_c, 3);
+  EXPECT_TRUE(searched.extremes.empty());
 }
 
 }  // namespace

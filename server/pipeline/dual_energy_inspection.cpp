@@ -188,20 +188,21 @@ bool dual_energy_slopes(const FilletImage& img, size_t i, double lean[2], double
   return lean[0] > 0 && lean[1] > 0 && bone[0] > lean[0] && bone[1] > lean[1];
 }
 
-FilletResult inspect_fillet_dual_energy(const FilletImage& img, const InspectionParams& p,
-                                        bool keep) {
-  FilletResult res;
-  if (!start_inspection(img, p, res)) return res;
+namespace {
+
+// After the fail-safe checks: into res, or res.reason.
+void inspect_dual_energy(const FilletImage& img, const InspectionParams& p, bool keep,
+                         FilletResult& res) {
   if (img.xray_high.size() != img.size()) {
     res.reason = "dual energy: the high-energy line is missing";
-    return res;
+    return;
   }
   const auto t0 = std::chrono::steady_clock::now();
   double open_lo = 0, open_hi = 0;
   open_beam(img, &open_lo, &open_hi);
   if (!(open_lo > 0 && open_hi > 0)) {
     res.reason = "dual energy: too little bare belt beside the fillet to read the open beam";
-    return res;
+    return;
   }
   const size_t n = img.size();
   // The thickness as the detector sees it (its blur and registration, measured: pipeline/
@@ -275,14 +276,14 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
   if (count < 100 || outside > p.max_invalid_fraction * (count + outside)) {
     res.reason = "dual energy: " + std::to_string(outside) + " of the fillet's " +
                  std::to_string(count + outside) + " pixels lie outside what the wedge calibrated";
-    return res;
+    return;
   }
   if (p.dual_energy == DualEnergyMethod::kLaserAndLowLine) {
     FilletResult low;  // the low line's fit, noise model and times (the checks passed above)
     OneEnergyModel one;
     if (!one_energy_model(img, p, low, one)) {
       res.reason = "dual energy with the low line: " + low.reason;
-      return res;
+      return;
     }
     for (int s = 0; s < kStages; ++s) res.stage_seconds[s] += low.stage_seconds[s];
     add_one_energy(img, p, one, use, z);
@@ -302,7 +303,15 @@ FilletResult inspect_fillet_dual_energy(const FilletImage& img, const Inspection
       if (use[i]) res.bone_mm[i] = bone[i];
     res.fat_share = std::move(phi);
   }
-  return res;
+}
+
+}  // namespace
+
+FilletResult inspect_fillet_dual_energy(const FilletImage& img, const InspectionParams& p,
+                                        bool keep) {
+  return inspect_searchable(img, p, [&](const InspectionParams& q, FilletResult& res) {
+    inspect_dual_energy(img, q, keep, res);
+  });
 }
 
 }  // namespace rangex

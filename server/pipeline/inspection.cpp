@@ -88,6 +88,31 @@ bool start_inspection(const FilletImage& img, const InspectionParams& p, FilletR
   return res.reason.empty();
 }
 
+FilletResult inspect_searchable(
+    const FilletImage& img, const InspectionParams& p,
+    const std::function<void(const InspectionParams&, FilletResult&)>& inspect) {
+  FilletResult res;
+  bool searchable = false;
+  if (start_inspection(img, p, res, &searchable)) {
+    inspect(p, res);
+    return res;
+  }
+  if (!searchable) return res;
+  // Not inspected it stays; where what it has is whole (too much of it without thickness, or
+  // off the lane's edge) it is still searched there, so that a bone in it is named: the plant
+  // trims it rather than sending it round again.
+  const std::string fail_safe = res.reason;
+  InspectionParams q = p;
+  q.band_extremes = false;  // not a passed fillet: learning and drift never see it
+  inspect(q, res);
+  res.decision = Decision::kNotInspected;
+  res.reason = fail_safe;
+  if (!res.fragments.empty())
+    res.reason += "; " + std::to_string(res.fragments.size()) + " bone fragment" +
+                  (res.fragments.size() > 1 ? "s" : "") + " where it has thickness";
+  return res;
+}
+
 namespace {
 
 // Pixels that take part: on the fillet, with a thickness and an X-ray count.
@@ -566,34 +591,12 @@ bool one_energy_model(const FilletImage& raw, const InspectionParams& p, FilletR
 FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, bool keep) {
   if (!raw.xray_high.empty() && raw.has_dual_energy && p.dual_energy != DualEnergyMethod::kLowLine)
     return inspect_fillet_dual_energy(raw, p, keep);
-  FilletResult res;
-  bool searchable = false;
-  if (!start_inspection(raw, p, res, &searchable) && !searchable) return res;
-  // A fillet the fail-safe rejects stays not inspected; where what it has is whole (too much
-  // of it without thickness, or off the lane's edge) it is still searched there, so that a
-  // bone in it is named: the plant trims it rather than sending it round again.
-  const std::string fail_safe = res.reason;
-  InspectionParams q;
-  if (searchable) {
-    q = p;
-    q.band_extremes = false;  // not a passed fillet: learning and drift never see it
-  }
-  const InspectionParams& use_p = searchable ? q : p;
-  OneEnergyModel m;
-  if (!one_energy_model(raw, use_p, res, m)) {
-    if (searchable) res.reason = fail_safe;
-    return res;
-  }
-  detect_from_z(m.image(raw), m.use, m.z, m.closure_z, m.resid, &res.fit, use_p, keep, res);
-  if (keep) res.pseudo = std::move(m.pred);
-  if (searchable) {
-    res.decision = Decision::kNotInspected;
-    res.reason = fail_safe;
-    if (!res.fragments.empty())
-      res.reason += "; " + std::to_string(res.fragments.size()) + " bone fragment" +
-                    (res.fragments.size() > 1 ? "s" : "") + " where it has thickness";
-  }
-  return res;
+  return inspect_searchable(raw, p, [&](const InspectionParams& q, FilletResult& res) {
+    OneEnergyModel m;
+    if (!one_energy_model(raw, q, res, m)) return;
+    detect_from_z(m.image(raw), m.use, m.z, m.closure_z, m.resid, &res.fit, q, keep, res);
+    if (keep) res.pseudo = std::move(m.pred);
+  });
 }
 
 FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionParams& lane,

@@ -2,6 +2,7 @@
 // one energy with the laser's thickness, the X-ray-only baseline, dual energy): the
 // result's header, the fail-safe checks, and the detection from a z image on.
 #pragma once
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,14 @@ namespace rangex {
 // edge), so it can still be searched for bone there.
 bool start_inspection(const FilletImage& img, const InspectionParams& p, FilletResult& res,
                       bool* searchable = nullptr);
+
+// start_inspection, then inspect(params, res) (which leaves res.reason on a failure) where the
+// fillet can be inspected, and where it cannot but is searchable too: then it stays not
+// inspected with the fail-safe's reason, the bone fragments found named after it, and no band
+// extremes (learning and drift see passed fillets only).
+FilletResult inspect_searchable(
+    const FilletImage& img, const InspectionParams& p,
+    const std::function<void(const InspectionParams&, FilletResult&)>& inspect);
 
 // From z (per pixel: the residual over its sigma, negative where the pixel holds more than
 // the model: bone) on the usable pixels: the statistics brought to unit spread, the
