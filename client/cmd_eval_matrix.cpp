@@ -385,6 +385,14 @@ std::string bone_run_text(const std::vector<Row>& rows) {
                   n, n ? 100.0 * k / n : 0.0, interval(k, n).c_str(), t.clean_rejected, t.clean,
                   interval(t.clean_rejected, t.clean).c_str(),
                   t.fillets ? double(t.false_fragments) / t.fillets : 0.0);
+    os << b;
+    // What a plant's customers would find: fillets holding such bone that passed.
+    const int cf = t.calcified_fillets + r.learned.calcified_fillets,
+              cp = t.calcified_passed + r.learned.calcified_passed;
+    std::snprintf(b, sizeof b,
+                  "  fillets holding calcified >= 2 mm passed down the line (plant and bone "
+                  "run): %d of %d [%s %%]\n",
+                  cp, cf, interval(cp, cf).c_str());
     os << b << "  by shape (bone run):";
     for (const auto& [shape, fp] : t.by_shape)
       os << " " << shape << " " << fp.first << "/" << fp.second;
@@ -476,6 +484,8 @@ std::string json(const std::vector<Row>& rows) {
         int measured = 0;
         const double allows = bone_allows(r, measured);
         os << "}, \"bone_allows\": [" << allows << ", " << measured << "]";
+        os << ", \"calcified_fillets_passed\": [" << t.calcified_passed << ", "
+           << t.calcified_fillets << "]";
         os << ", \"false_rejects\": [" << t.clean_rejected << ", " << t.clean
            << "], \"false_fragments\": " << t.false_fragments << ", \"missed\": [";
         bool first = true;

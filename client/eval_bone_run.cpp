@@ -36,6 +36,8 @@ BoneRunTotals pooled(const std::vector<BonePart>& parts) {
     t.found += k, t.present += n;
     t.clean_rejected += p.eval.clean_rejected, t.clean += p.eval.clean_fillets;
     t.false_fragments += p.eval.false_fragments, t.fillets += p.eval.fillets;
+    t.calcified_fillets += p.eval.calcified_fillets;
+    t.calcified_passed += p.eval.calcified_passed;
     for (const auto& [shape, fp] : p.eval.by_shape) {
       auto it = std::find_if(t.by_shape.begin(), t.by_shape.end(),
                              [&](const auto& s) { return s.first == shape; });

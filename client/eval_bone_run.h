@@ -30,6 +30,7 @@ std::vector<BonePart> run_bone_parts(
 // of clean fillets, detections of no bone, fillets.
 struct BoneRunTotals {
   int found = 0, present = 0, clean_rejected = 0, clean = 0, false_fragments = 0, fillets = 0;
+  int calcified_fillets = 0, calcified_passed = 0;  // holding calcified >= 2 mm; passed
   std::vector<std::pair<std::string, std::pair<int, int>>> by_shape;  // calcified >= 2 mm
 };
 BoneRunTotals pooled(const std::vector<BonePart>& parts);

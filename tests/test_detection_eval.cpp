@@ -79,6 +79,9 @@ TEST(DetectionEval, AMissIsNamedWithTheBoneItHolds) {
   // What became of each missed bone's fillet: passed down the line, or rejected unlooked.
   EXPECT_EQ(e.missed[0].fillet_decision, "pass");
   EXPECT_EQ(e.missed[1].fillet_decision, "not_inspected");
+  // Of the three fillets holding calcified bone >= 2 mm, one went down the line.
+  EXPECT_EQ(e.calcified_fillets, 3);
+  EXPECT_EQ(e.calcified_passed, 1);
   const std::string line = missed_lines(e);
   EXPECT_NE(line.find("lane 0 fillet 2: 2.0 mm compact (the volume of a 1.2 mm sphere), "
                       "calcification 0.76\n"),

@@ -112,6 +112,11 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
       e.resid_pixels += f.pixels;
     }
   }
+  // The fillets holding a calcified fragment >= 2 mm.
+  std::vector<int> calcified;
+  for (const TruthFragment& t : frags)
+    if (t.kind == "bone" && size_bin(t.size_mm) >= 1 && t.calcification >= kCalcified)
+      calcified.push_back(t.fillet);
   for (const TruthFillet& t : truth_fillets) {
     const auto hits = overlapping(t.b_start, t.b_end);
     bool rejected = hits.empty(), not_inspected = hits.empty();
@@ -120,6 +125,10 @@ void add_lane(DetectionEval& e, const std::vector<TruthFragment>& frags,
       not_inspected |= f->decision == "not_inspected";
     }
     e.unmatched_truth_fillets += hits.empty();
+    if (std::find(calcified.begin(), calcified.end(), t.fillet) != calcified.end()) {
+      ++e.calcified_fillets;
+      e.calcified_passed += !rejected;
+    }
     if (t.bones == 0) {
       ++e.clean_fillets;
       e.clean_rejected += rejected;
@@ -342,6 +351,7 @@ std::string detection_table(const DetectionEval& a, const DetectionEval& b, int 
   row("fillets with bone rejected", "%.2f%%",
       a.bony_fillets ? 100.0 * a.bony_rejected / a.bony_fillets : 0,
       b.bony_fillets ? 100.0 * b.bony_rejected / b.bony_fillets : 0);
+  row("fillets with calcified >= 2 mm passed", "%.0f", a.calcified_passed, b.calcified_passed);
   row("detections matching no bone", "%.0f", a.false_fragments, b.false_fragments);
   row("fragment position error, mean (mm)", "%.3f", a.position.stats().mean_abs,
       b.position.stats().mean_abs);
@@ -368,6 +378,8 @@ std::string detection_json(const DetectionEval& a, const DetectionEval& b, int b
        << ", \"clean_fillets\": " << e.clean_fillets << ", \"clean_rejected\": " << e.clean_rejected
        << ", \"not_inspected\": " << e.not_inspected
        << ", \"false_fragments\": " << e.false_fragments
+       << ", \"calcified_fillets\": " << e.calcified_fillets
+       << ", \"calcified_fillets_passed\": " << e.calcified_passed
        << ", \"position_error_mm\": " << e.position.stats().mean_abs
        << ", \"residual_mean_dn\": " << e.resid_mean_dn
        << ", \"residual_std_dn\": " << e.resid_std_dn

@@ -102,6 +102,10 @@ struct DetectionEval {
   int fillets = 0, not_inspected = 0, unmatched_truth_fillets = 0;
   int clean_fillets = 0, clean_rejected = 0, clean_not_inspected = 0;
   int bony_fillets = 0, bony_rejected = 0;
+  // Fillets holding a calcified fragment >= 2 mm, and of them those passed down the line
+  // (what a plant's customers would find): a miss in a fillet rejected for another detection
+  // or by the fail-safe did not pass.
+  int calcified_fillets = 0, calcified_passed = 0;
   int false_fragments = 0;                     // detected bones that match no true bone
   ErrorAccumulator position{1e-3, 100.0};      // mm
   double resid_mean_dn = 0, resid_std_dn = 0;  // pooled over inspected fillets
