@@ -315,6 +315,12 @@ TEST(Inspection, AFailSafeFilletIsStillSearchedWhereWhatItHasIsWhole) {
   const FilletResult e = inspect_fillet(edge, p, false);
   EXPECT_EQ(e.decision, Decision::kNotInspected);
   EXPECT_EQ(e.fragments.size(), 1u) << e.reason;
+  // The X-ray-only baseline searches it alike, so that the two compare on the same footing.
+  const FilletResult base = inspect_fillet_xray_only(holes(bony), p, false);
+  EXPECT_EQ(base.decision, Decision::kNotInspected);
+  EXPECT_NE(base.reason.find("has no thickness"), std::string::npos) << base.reason;
+  EXPECT_TRUE(base.extremes.empty());
+  EXPECT_EQ(base.fragments.size(), 1u) << base.reason;
 
   for (auto spoil : {+[](FilletImage& f) { f.calibration_mismatch = true; },
                      +[](FilletImage& f) { f.missing_lines = 2; }}) {

@@ -603,18 +603,18 @@ FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionPa
                                       bool keep) {
   // Fixed thresholds and the round Gaussian: what a lane learns (its thresholds, its whitened
   // kernels) is learned on the laser's z, not on this background's.
+  // A fail-safe fillet is searched as rangex searches it, so that the two compare alike.
   InspectionParams p = lane;
   p.learned = {};
-  FilletResult res;
-  if (!start_inspection(img, p, res)) return res;
-  const std::vector<uint8_t> use = usable(img);
-  std::vector<float> ln(img.size(), kNaN), background;
-  for (size_t i = 0; i < use.size(); ++i)
-    if (use[i]) ln[i] = float(std::log(double(img.xray[i])));
-  masked_gaussian(ln.data(), use.data(), img.rows, img.cols, p.baseline_sigma_mm / img.pitch_mm,
-                  background);
-  detect_and_decide(img, use, background, nullptr, p, keep, res);
-  return res;
+  return inspect_searchable(img, p, [&](const InspectionParams& q, FilletResult& res) {
+    const std::vector<uint8_t> use = usable(img);
+    std::vector<float> ln(img.size(), kNaN), background;
+    for (size_t i = 0; i < use.size(); ++i)
+      if (use[i]) ln[i] = float(std::log(double(img.xray[i])));
+    masked_gaussian(ln.data(), use.data(), img.rows, img.cols, q.baseline_sigma_mm / img.pitch_mm,
+                    background);
+    detect_and_decide(img, use, background, nullptr, q, keep, res);
+  });
 }
 
 }  // namespace rangex
