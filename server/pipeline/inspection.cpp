@@ -77,6 +77,12 @@ std::string not_inspectable(const FilletImage& img, const InspectionParams& p, b
   return "";
 }
 
+// "2 bone fragments": a rejected fillet's reason.
+std::string fragments_found(const FilletResult& r) {
+  const size_t n = r.fragments.size();
+  return std::to_string(n) + " bone fragment" + (n > 1 ? "s" : "");
+}
+
 }  // namespace
 
 bool start_inspection(const FilletImage& img, const InspectionParams& p, FilletResult& res,
@@ -107,9 +113,7 @@ FilletResult inspect_searchable(
   inspect(q, res);
   res.decision = Decision::kNotInspected;
   res.reason = fail_safe;
-  if (!res.fragments.empty())
-    res.reason += "; " + std::to_string(res.fragments.size()) + " bone fragment" +
-                  (res.fragments.size() > 1 ? "s" : "") + " where it has thickness";
+  if (!res.fragments.empty()) res.reason += "; " + fragments_found(res) + " where it has thickness";
   return res;
 }
 
@@ -507,8 +511,7 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
     res.decision = Decision::kPass;
   } else {
     res.decision = Decision::kReject;
-    res.reason = std::to_string(res.fragments.size()) + " bone fragment" +
-                 (res.fragments.size() > 1 ? "s" : "");
+    res.reason = fragments_found(res);
   }
   if (keep) {
     res.residual = std::move(resid);

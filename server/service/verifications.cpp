@@ -98,9 +98,9 @@ void Verifications::decided(const StoredFillet& f) {
   // The piece is shown when a bone fragment lies where it was declared, on a fillet that was
   // inspected: one not inspected names the bone found where it had thickness, but a lane
   // whose fillets go uninspected is not shown to inspect.
+  const bool inspected = f.decision == "reject";
   for (const StoredFragment& g : f.fragments)
-    if (f.decision == "reject" && g.kind == "bone" &&
-        std::fabs(g.x_mm - run.req.x_mm) <= run.req.tolerance_mm) {
+    if (inspected && g.kind == "bone" && std::fabs(g.x_mm - run.req.x_mm) <= run.req.tolerance_mm) {
       const Running done = run;
       running_.erase(it);
       finish(f.lane, done, true, &f, g.x_mm);
