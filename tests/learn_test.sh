@@ -75,7 +75,7 @@ sed 's/^lane_defaults:$/lane_defaults:\n  inspection: {matched_kernels_mm: [1.5,
 learn --config mk_plant.yaml --out mk.yaml >mk.txt 2>&1
 check "learning with whitened kernels succeeds" test $? -eq 0
 check "the kernels travel with the learned settings, the void level learned with them" \
-  grep -qE "matched: \{radius: 4, clip: 1.5, enclosure_px: 4, void_level: [0-9.]+, sizes_mm: \[1.5, 2, 3\], radii: \[4, 4, 4\], spreads: \[" mk.yaml
+  grep -qE "matched: \{radius: 4, clip: 0.5, enclosure_px: 4, void_level: [0-9.]+, sizes_mm: \[1.5, 2, 3\], radii: \[4, 4, 4\], spreads: \[" mk.yaml
 check "and the needle kernels, 8 directions of a 2 mm needle" \
   grep -q "needles: {diameter_mm: 0.6, lengths_mm: \[2, 2, 2, 2, 2, 2, 2, 2\], angles_deg: \[0, 22.5, 45, 67.5, 90, 112.5, 135, 157.5\], radii: \[4, 4, 4, 4, 4, 4, 4, 4\], spreads: \[" mk.yaml
 learn --config mk_plant.yaml --out mk_again.yaml >/dev/null 2>&1
