@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -91,9 +92,10 @@ struct MatrixOptions {
   bool keep = false;
   int learn_fillets = 40;  // 0: no learning
   int check_fillets = 20;
-  int frr_fillets = 0;   // clean fillets inspected with the learned thresholds (0: none)
-  int frr_part = 60;     // simulated, inspected and dropped this many at a time
-  int bone_fillets = 0;  // more bony fillets inspected with the learned thresholds (0: none)
+  int frr_fillets = 0;     // clean fillets inspected with the learned thresholds (0: none)
+  int frr_part = 60;       // simulated, inspected and dropped this many at a time
+  int bone_fillets = 0;    // more bony fillets inspected with the learned thresholds (0: none)
+  std::string confidence;  // learn's --confidence ("": learn's default)
 };
 
 // Scans are large (256 kB of camera frames a line, about 130 MB a fillet): each goes as soon
@@ -149,6 +151,7 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
     std::vector<std::string> extra = {"--calibration", cal,         "--check",
                                       at("check_rec"), "--version", "matrix-" + r.name};
     if (!config.empty()) extra.insert(extra.end(), {"--config", config});
+    if (!mo.confidence.empty()) extra.insert(extra.end(), {"--confidence", mo.confidence});
     r.check = learn_as_a_plant_would(log, at("learn_rec"), at("learned.yaml"), extra);
     drop_scans(dir, {"learn_rec", "check_rec"}, mo);
     // The learned configuration in place of the plant's (run_step adds no --config here).
@@ -507,12 +510,12 @@ std::string json(const std::vector<Row>& rows) {
 int cmd_eval_matrix(int argc, char** argv) {
   const Args a(argc, argv, 2, {"keep-scans", "dual-energy"},
                {"variants", "only", "fillets", "seed", "out", "config", "learn", "check", "frr",
-                "frr-part", "bones"});
+                "frr-part", "bones", "confidence"});
   a.expect_positionals(
       0,
       "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] "
       "[--seed S] [--learn N (0: none)] [--check N] [--frr N] [--frr-part N] [--bones N] "
-      "[--keep-scans] "
+      "[--confidence C (learn's)] [--keep-scans] "
       "[--dual-energy]");
   const PlantConfig plant = load_config(a.get("config", ""));
   const fs::path vdir = a.get(
@@ -544,6 +547,14 @@ int cmd_eval_matrix(int argc, char** argv) {
   mo.frr_fillets = int(a.integer("frr", 0));
   mo.frr_part = int(a.integer("frr-part", 60));
   mo.bone_fillets = int(a.integer("bones", 0));
+  if (a.has("confidence")) {
+    // Checked here, before hours of simulation, as learn would check it.
+    mo.confidence = a.get("confidence", "");
+    char* end = nullptr;
+    const double c = std::strtod(mo.confidence.c_str(), &end);
+    if (end == mo.confidence.c_str() || *end != 0 || !(c >= 0.5 && c <= 0.999))
+      fail("--confidence must be a number within 0.5..0.999 (got '", mo.confidence, "')");
+  }
   if (mo.frr_fillets < 0 || mo.frr_part < 1) fail("--frr must be >= 0 and --frr-part >= 1");
   if (mo.bone_fillets < 0) fail("--bones must be >= 0");
   if (mo.bone_fillets > 0 && mo.learn_fillets == 0)

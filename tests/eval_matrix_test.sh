@@ -32,10 +32,11 @@ check "the scans are gone once evaluated" test ! -e m/strong_blur/rec
 # others, a clean run and a bone run inspected with what was learned (too few fillets to pass
 # the learning's gate: the matrix forces it, and says so).
 "$ctl" eval-matrix --out l --only rough_meat --fillets 4 --seed 5 --learn 12 --check 3 --frr 3 --frr-part 2 --bones 3 \
-  >learn.txt 2>&1 || { echo "FAIL eval-matrix --learn"; cat learn.txt; exit 1; }
+  --confidence 0.8 >learn.txt 2>&1 || { echo "FAIL eval-matrix --learn"; cat learn.txt; exit 1; }
 cat l/matrix.txt
 pl() { python3 -c "import json,sys; m=json.load(open('l/matrix.json')); v=m['variants'][0]; L=v['learned']; sys.exit(0 if ($1) else 1)"; }
 check "the learned run is reported" pl "L['learning_fillets'] == 12 and not L['ok']"
+check "learned at the confidence asked for" python3 -c "import json,sys; j=json.load(open('l/rough_meat/learned.report/learn.json')); sys.exit(0 if [x['confidence'] for x in j['lanes']] == [0.8] else 1)"
 check "its clean run counted over its two parts" pl "L['clean_run']['fillets'] == 3"
 check "each part inspected, its scan dropped" bash -c "test -d l/rough_meat/out_frr0 && test -d l/rough_meat/out_frr1 && test ! -e l/rough_meat/out_frr2 && test ! -e l/rough_meat/frr_rec && test ! -e l/rough_meat/learn_rec"
 check "the report's sentences checked on the check fillets" pl "0 <= L['stated_held'] <= L['stated'] and 0 <= L['stated_pieces'][0] <= L['stated_pieces'][1] and (L['stated'] == 0) == (L['stated_pieces'][1] == 0)"
@@ -55,6 +56,8 @@ check "the report's sphere claims held against the plant's and the bone run's ow
 check "the matrix says how many of them were found" grep -qE "^rough_meat: [0-9]+/[0-9]+ found of the compact fragments its sphere claims cover" l/matrix.txt
 "$ctl" eval-matrix --out x --only rough_meat --learn 0 --bones 2 >bones0.txt 2>&1
 check "a bone run without learning is refused, saying why" grep -q "bones inspects with the learned thresholds" bones0.txt
+"$ctl" eval-matrix --out x --only rough_meat --confidence 0.3 >conf.txt 2>&1
+check "a confidence learn would refuse is refused before anything runs" bash -c "grep -q \"confidence must be a number within 0.5..0.999 (got '0.3')\" conf.txt && test ! -e x/rough_meat"
 # A lane on the shipped constants is warned about; the plant's own calibration silences it.
 "$ctl" simulate --out rec --lanes 1 --fillets 1 --seed 4 >/dev/null 2>&1
 "$ctl" process rec --out p1 --images none >p1.txt 2>&1

@@ -23,7 +23,7 @@ namespace {
 
 GevModel truth_model() {
   GevModel g;
-  g.m0 = 4.0, g.m_logn = 0.45, g.m_t = 0.04, g.s0 = std::log(0.5), g.s_t = 0.02, g.xi = 0.12;
+  g.m0 = 4.0, g.k_logn = 0.9, g.m_t = 0.04, g.s0 = std::log(0.5), g.s_t = 0.02, g.xi = 0.12;
   g.log_n_ref = std::log(8000.0), g.t_ref = 12;
   return g;
 }
@@ -45,6 +45,22 @@ TEST(GevModel, QuantileInvertsCdfAndSurvivalHoldsInTheTail) {
   EXPECT_NEAR(gumbel.cdf(gumbel.quantile(0.7, 100, 3), 100, 3), 0.7, 1e-12);
 }
 
+// The power of n is max-stability: the maximum of n pixels is distributed as the maximum of
+// n_ref pixels raised to (n / n_ref)^k_logn. A model learned before (a location slope
+// m_logn, no power) moves its location by m_logn per unit of ln n, as it did.
+TEST(GevModel, ThePowerOfNIsMaxStabilityAndTheLocationSlopeStaysAsItWas) {
+  GevModel g = truth_model();
+  const double n_ref = std::exp(g.log_n_ref);
+  for (double n : {0.3 * n_ref, 2.5 * n_ref})
+    for (double x : {4.5, 6.0, 9.0})
+      EXPECT_NEAR(g.cdf(x, n, 10), std::pow(g.cdf(x, n_ref, 10), std::pow(n / n_ref, g.k_logn)),
+                  1e-12);
+  GevModel before = g;
+  before.k_logn = 0, before.m_logn = 0.45;
+  EXPECT_NEAR(before.quantile(0.99, n_ref * std::exp(1.0), 10),
+              before.quantile(0.99, n_ref, 10) + 0.45, 1e-12);
+}
+
 TEST(GevFit, RecoversKnownParametersWithCovariates) {
   const GevModel g = truth_model();
   std::mt19937_64 rng(3);
@@ -60,7 +76,8 @@ TEST(GevFit, RecoversKnownParametersWithCovariates) {
                   0.05 * g.quantile(p, 8000, tt))
           << "p " << p << " t " << tt;
   EXPECT_NEAR(f.model.xi, g.xi, 0.05);
-  EXPECT_NEAR(f.model.m_logn, g.m_logn, 0.1);
+  EXPECT_NEAR(f.model.k_logn, g.k_logn, 0.1);
+  EXPECT_EQ(f.model.m_logn, 0.0);
 }
 
 TEST(GevFit, LocationShiftIsFound) {
@@ -96,6 +113,90 @@ TEST(ComponentExtreme, EqualsTheHighestThresholdWithALargeEnoughComponent) {
       EXPECT_FALSE(exists(x)) << "trial " << trial << " min " << min_px;
     }
   }
+}
+
+// Bands of n independent pixels with a heavy (generalised Pareto) tail whose scale grows
+// with the thickness: a band's largest pixel drawn exactly, so the rate any threshold lets
+// through is known exactly, P(band passes) = F(threshold)^n. The GEV regression is the
+// model's approximation, as for real meat; this is the truth it approximates.
+struct PixelTail {
+  double xi = 0.12, b = 0.5, shift = 0;
+  double scale(double t) const { return b * std::exp(0.02 * (t - 12)); }
+  double quantile_upper(double u_upper, double t) const {  // u_upper = 1 - F
+    return shift + scale(t) * (std::pow(u_upper, -xi) - 1) / xi;
+  }
+  double log_cdf(double x, double t) const {
+    const double y = std::max(0.0, (x - shift) / scale(t));
+    return std::log1p(-std::pow(1 + xi * y, -1 / xi));
+  }
+};
+
+std::vector<LearningFillet> pixel_fillets(int count, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> n(2000, 14000), u(1e-300, 1);
+  std::uniform_int_distribution<int> top(3, 5);
+  std::vector<LearningFillet> out;
+  for (int i = 0; i < count; ++i) {
+    LearningFillet f;
+    f.id = i;
+    f.y0_mm = 300.0 * i;
+    const int bands = top(rng);
+    for (int b = 0; b < bands; ++b)
+      for (int s = 0; s < kStatistics; ++s) {
+        const PixelTail p{0.12, 0.5, 0.3 * s};
+        const double pixels = std::floor(n(rng)), t = 5.0 * b + 2.5;
+        // The largest of n uniforms is V^(1/n): 1 - U(n) = -expm1(ln V / n).
+        const double x = p.quantile_upper(-std::expm1(std::log(u(rng)) / pixels), t);
+        f.extremes.push_back({s, b, x, pixels, t});
+      }
+    out.push_back(f);
+  }
+  return out;
+}
+
+double pixel_false_reject_rate(const LearnedDetection& L,
+                               const std::vector<LearningFillet>& layout) {
+  double sum = 0;
+  for (const auto& f : layout) {
+    double log_pass = 0;
+    for (const BandExtreme& e : f.extremes) {
+      if (e.stat == kStatAir) continue;
+      const PixelTail p{0.12, 0.5, 0.3 * e.stat};
+      log_pass += e.n * p.log_cdf(L.stats[size_t(e.stat)].thresholds[size_t(e.band)], e.t);
+    }
+    sum += -std::expm1(log_pass);
+  }
+  return sum / double(layout.size());
+}
+
+// The confidence's promise where the extremes are maxima of heavy-tailed pixels: the
+// maximum of n such pixels has a scale that grows with n (n^xi), which a location slope in
+// ln n alone cannot follow; the model's max-stable power of n does (core/gev_model.h).
+// Measured 2026-12-01 on these 30 runs: with the location slope, 22 of 27 learning runs met
+// the target (median share spent 0.31); with the power of n, 23 of 26 (0.34). (On another
+// draw of the same product, 20 of 28 and 25 of 28.)
+TEST(ProductLearning, TheConfidenceHoldsForMaximaOfHeavyTailedPixels) {
+  const auto layout = pixel_fillets(4000, 77);
+  const int runs = 30;
+  int met = 0, learned = 0;
+  std::vector<double> spent;
+  for (int k = 0; k < runs; ++k) {
+    LearnOptions o;  // target 0.003, confidence 0.9
+    o.seed = 100 + uint64_t(k);
+    const ProductLearning L = learn_product(pixel_fillets(40, 2000 + uint64_t(k)), o);
+    if (!L.ok) continue;
+    ++learned;
+    const double frr = pixel_false_reject_rate(L.learned, layout);
+    met += frr <= o.target_frr;
+    spent.push_back(frr / o.target_frr);
+  }
+  ASSERT_GE(learned, int(0.8 * runs));
+  std::sort(spent.begin(), spent.end());
+  const double median = spent[spent.size() / 2];
+  std::printf("learning runs whose thresholds meet the target: %d of %d; median share spent %.3f\n",
+              met, learned, median);
+  EXPECT_GE(met, int(0.8 * learned));
+  EXPECT_GT(median, 0.1);
 }
 
 TEST(ThicknessSpread, UnitSpreadInEveryThicknessRangeDespiteHeavyTails) {
@@ -374,7 +475,17 @@ TEST(LearnedDetection, RoundTripsThroughItsYamlAndRefusesBadValues) {
     for (size_t b = 0; b < back.stats[s].thresholds.size(); ++b)
       EXPECT_NEAR(back.stats[s].thresholds[b], L.learned.stats[s].thresholds[b], 1e-9);
     EXPECT_NEAR(back.stats[s].model.xi, L.learned.stats[s].model.xi, 1e-9);
+    EXPECT_NEAR(back.stats[s].model.k_logn, L.learned.stats[s].model.k_logn, 1e-6);
+    EXPECT_NEAR(back.stats[s].model.quantile(0.999, 3000, 7),
+                L.learned.stats[s].model.quantile(0.999, 3000, 7), 1e-5);
   }
+  // A model learned before the power of n reads as it was: its location slope, no power.
+  std::string before = y;
+  const size_t k = before.find(", k_logn: ");
+  ASSERT_NE(k, std::string::npos);
+  before.erase(k, before.find('}', k) - k);
+  const GevModel old_model = parse_learned_detection(before, "t").stats[kStatRound].model;
+  EXPECT_EQ(old_model.k_logn, 0.0);
   // A statistic whose extremes reach thousands (air pockets at steep walls did) reads back
   // as it was written.
   LearnedDetection huge = L.learned;

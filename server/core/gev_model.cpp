@@ -18,13 +18,13 @@ double GevModel::scale(double t) const {
   return std::exp(s0 + s_t * (t - t_ref));
 }
 
-// The exceedance intensity -ln F = (1 + xi y)^(-1/xi), or exp(-y) for Gumbel.
+// The exceedance intensity -ln F = c (1 + xi y)^(-1/xi), or c exp(-y) for Gumbel.
 static double intensity(const GevModel& g, double x, double n, double t) {
-  const double y = (x - g.location(n, t)) / g.scale(t);
-  if (std::abs(g.xi) < kGumbel) return std::exp(-y);
+  const double y = (x - g.location(n, t)) / g.scale(t), lc = g.log_c(n);
+  if (std::abs(g.xi) < kGumbel) return std::exp(lc - y);
   const double a = 1 + g.xi * y;
   if (a <= 0) return g.xi > 0 ? kInf : 0.0;  // below the lower / above the upper end point
-  return std::pow(a, -1 / g.xi);
+  return std::exp(lc - std::log(a) / g.xi);
 }
 
 double GevModel::cdf(double x, double n, double t) const {
@@ -38,19 +38,20 @@ double GevModel::log_survival(double x, double n, double t) const {
 }
 
 double GevModel::quantile(double p, double n, double t) const {
-  const double h = -std::log(p);  // the intensity at the quantile
+  const double h = -std::log(p) * std::exp(-log_c(n));  // H at the quantile
   const double mu = location(n, t), s = scale(t);
   if (std::abs(xi) < kGumbel) return mu - s * std::log(h);
   return mu + s * (std::pow(h, -xi) - 1) / xi;
 }
 
 double GevModel::neg_log_density(double x, double n, double t) const {
-  const double s = scale(t), y = (x - location(n, t)) / s;
-  if (std::abs(xi) < kGumbel) return std::log(s) + y + std::exp(-y);
+  // -ln of c h(x) exp(-c H(x)), h = -dH/dx.
+  const double s = scale(t), y = (x - location(n, t)) / s, lc = log_c(n);
+  if (std::abs(xi) < kGumbel) return std::log(s) + y - lc + std::exp(lc - y);
   const double a = 1 + xi * y;
   if (a <= 0) return kInf;
   const double la = std::log(a);
-  return std::log(s) + (1 + 1 / xi) * la + std::exp(-la / xi);
+  return std::log(s) + (1 + 1 / xi) * la - lc + std::exp(lc - la / xi);
 }
 
 }  // namespace rangex

@@ -1,9 +1,15 @@
 // The generalised extreme-value (GEV) distribution of a per-fillet extreme, with what
 // changes it as covariates: the number of pixels n it was taken over and their thickness t.
-//   F(x) = exp(-(1 + xi y)^(-1/xi)),  y = (x - mu) / sigma   (xi = 0: exp(-exp(-y)))
+//   F(x) = exp(-c H(y)),  H(y) = (1 + xi y)^(-1/xi)  (xi = 0: exp(-y)),  y = (x - mu) / sigma
 //   mu = m0 + m_logn (ln n - ln n_ref) + m_t (t - t_ref),  sigma = exp(s0 + s_t (t - t_ref))
-// The maximum of n weakly dependent pixels moves with ln n, and thick meat is rougher.
+//   c = exp(k_logn (ln n - ln n_ref)) = (n / n_ref)^k_logn
+// The maximum of n pixels is max-stable in n: F_n = F_ref^(n / n_ref) for independent pixels
+// (k_logn 1; texture correlated over a few pixels keeps the power with an exponent of its
+// own), which moves both the location and, for a heavy tail, the scale. Thick meat is
+// rougher. Fits since 2026-12-01 use k_logn with m_logn 0; models learned before carry
+// m_logn with k_logn 0 and read as they did.
 #pragma once
+#include <cmath>
 
 namespace rangex {
 
@@ -12,9 +18,11 @@ struct GevModel {
   double s0 = 0, s_t = 0;              // log scale
   double xi = 0;                       // shape: > 0 a heavy (Frechet) tail, < 0 a bounded one
   double log_n_ref = 0, t_ref = 0;     // the covariates' centres
+  double k_logn = 0;                   // the intensity's power of n / n_ref (max-stability)
 
   double location(double n, double t) const;
   double scale(double t) const;
+  double log_c(double n) const { return k_logn * (std::log(n) - log_n_ref); }
   double cdf(double x, double n, double t) const;
   // ln(1 - F(x)), accurate far into the tail (where 1 - F underflows F's rounding).
   double log_survival(double x, double n, double t) const;

@@ -356,9 +356,11 @@ void read_learned(const Node& n, LearnedDetection& L) {
       ls.band_thickness_mm = number_list(st.at("band_thickness_mm"), bands);
     if (st.has("model")) {
       const Node m = st.at("model");
-      m.only_keys({"m0", "m_logn", "m_t", "s0", "s_t", "xi", "log_n_ref", "t_ref"});
+      m.only_keys({"m0", "m_logn", "m_t", "s0", "s_t", "xi", "log_n_ref", "t_ref", "k_logn"});
       GevModel& g = ls.model;
       m.get("m0", g.m0), m.get("m_logn", g.m_logn), m.get("m_t", g.m_t), m.get("s0", g.s0);
+      m.get("k_logn", g.k_logn);  // 0 in models learned before (core/gev_model.h)
+      if (!(std::abs(g.k_logn) <= 10)) m.at("k_logn").bad("must be within [-10, 10]");
       m.get("s_t", g.s_t), m.get("xi", g.xi), m.get("log_n_ref", g.log_n_ref);
       m.get("t_ref", g.t_ref);
       if (!(g.xi > -1 && g.xi < 1)) m.at("xi").bad("must be within (-1, 1)");
@@ -1048,7 +1050,8 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
     list(ls.band_thickness_mm);
     o << "\n  model: {m0: " << g.m0 << ", m_logn: " << g.m_logn << ", m_t: " << g.m_t
       << ", s0: " << g.s0 << ", s_t: " << g.s_t << ", xi: " << g.xi
-      << ", log_n_ref: " << g.log_n_ref << ", t_ref: " << g.t_ref << "}";
+      << ", log_n_ref: " << g.log_n_ref << ", t_ref: " << g.t_ref << ", k_logn: " << g.k_logn
+      << "}";
   }
   o << "\n";
   return o.str();

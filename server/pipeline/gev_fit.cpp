@@ -18,7 +18,9 @@ double shape(double p, const GevFitOptions& o) {
 
 GevModel from_params(const std::vector<double>& p, const GevModel& centre, const GevFitOptions& o) {
   GevModel g = centre;
-  g.m0 = p[0], g.m_logn = p[1], g.s0 = p[2], g.xi = shape(p[3], o);
+  // The pixel count through max-stability (k_logn), not a free location slope: a heavy
+  // tail's scale grows with n too (core/gev_model.h).
+  g.m0 = p[0], g.m_logn = 0, g.k_logn = p[1], g.s0 = p[2], g.xi = shape(p[3], o);
   g.m_t = p[4], g.s_t = p[5];
   return g;
 }
@@ -51,9 +53,10 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
   // Gumbel moments as the start.
   const double sigma = std::max(1e-3, std::sqrt(6 * var) / M_PI);
   // The shape starts a tenth into its range (near Gumbel for the default range).
-  const std::vector<double> x0 = {mean - 0.5772 * sigma, 0.0, std::log(sigma),
+  // k_logn starts at 1, independent pixels.
+  const std::vector<double> x0 = {mean - 0.5772 * sigma, 1.0, std::log(sigma),
                                   std::log(0.1 / 0.9),   0.0, 0.0};
-  const std::vector<double> step = {0.5 * sigma, 0.2 * sigma, 0.3, 1.0, 0.02, 0.02};
+  const std::vector<double> step = {0.5 * sigma, 0.3, 0.3, 1.0, 0.02, 0.02};
   auto objective = [&](const std::vector<double>& p) {
     return truncated_nll(from_params(p, centre, opt), s);
   };

@@ -7,8 +7,15 @@ namespace rangex {
 namespace {
 
 nlohmann::json model_json(const GevModel& g) {
-  return {{"m0", g.m0}, {"m_logn", g.m_logn},       {"m_t", g.m_t},    {"s0", g.s0}, {"s_t", g.s_t},
-          {"xi", g.xi}, {"log_n_ref", g.log_n_ref}, {"t_ref", g.t_ref}};
+  return {{"m0", g.m0},
+          {"m_logn", g.m_logn},
+          {"m_t", g.m_t},
+          {"s0", g.s0},
+          {"s_t", g.s_t},
+          {"xi", g.xi},
+          {"log_n_ref", g.log_n_ref},
+          {"t_ref", g.t_ref},
+          {"k_logn", g.k_logn}};
 }
 
 nlohmann::json cells_json(const std::vector<SensitivityCell>& cells) {
