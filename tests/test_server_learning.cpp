@@ -81,7 +81,9 @@ TEST(ServerLearning, LearnsALiveLaneAndGatesActivationByItsReport) {
       EXPECT_NE(st.error_message().find("tradeoff_targets"), std::string::npos)
           << st.error_message();
     }
-    // LearnProduct waits for the lane's next 12 inspected fillets.
+    // LearnProduct waits for the lane's next 30 inspected fillets (the fewest a learning
+    // takes by default: with 12, one clean fillet stood out enough to be named once the
+    // model took the pixel count through max-stability).
     pb::LearnProductResponse learned;
     grpc::Status status;
     std::thread learner([&] {
@@ -89,8 +91,7 @@ TEST(ServerLearning, LearnsALiveLaneAndGatesActivationByItsReport) {
       c.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(600));
       pb::LearnProductRequest q;
       q.set_lane(0);
-      q.set_fillets(12);
-      q.set_min_fillets(10);
+      q.set_fillets(30);
       q.set_id("live-1");
       q.add_tradeoff_targets(0.03);  // what a budget ten times larger would buy
       status = control->LearnProduct(&c, q, &learned);
@@ -98,7 +99,7 @@ TEST(ServerLearning, LearnsALiveLaneAndGatesActivationByItsReport) {
     std::this_thread::sleep_for(std::chrono::seconds(1));  // the run is registered first
     sim::SimulationParams sp;
     sp.lanes = 1;
-    sp.scene.fillets = 15;
+    sp.scene.fillets = 33;
     sp.seed = 41;
     sp.physics.bones.probability = 0;  // clean product
     SimulatedSource source(p, sp);
@@ -110,7 +111,7 @@ TEST(ServerLearning, LearnsALiveLaneAndGatesActivationByItsReport) {
     const pb::LearnedSettingsInfo& s = learned.settings();
     EXPECT_EQ(s.id(), "live-1");
     EXPECT_EQ(s.report_status(), "passed");
-    EXPECT_EQ(s.fillets(), 12);
+    EXPECT_EQ(s.fillets(), 30);
     EXPECT_FALSE(s.active());
     EXPECT_FALSE(s.sensitivity().empty());
     // Stored, not active: the lane still runs its fixed thresholds.

@@ -108,22 +108,22 @@ std::string learned_report_json(int lane, const ProductLearning& L, const Sensit
                       {"size_mm", c.size_mm},
                       {"bands", {c.first_band, c.last_band}},
                       {"up_to_mm", c.up_to_mm}});
-  j["sensitivity"] = {{"cells", cells},
-                      {"claims_95", claims},
-                      {"summary", s.summary},
-                      {"stated", stated},
-                      {"inspections", s.inspections},
-                      {"measured_on", "the learning fillets, with the learned thresholds"},
-                      {"rate", s.rate},
-                      {"claim_confidence", s.claim_confidence},
-                      {"material",
-                       {{"excess_ratio", s.material.excess_ratio},
-                        {"excess_per_mm", s.material.excess_per_mm}}},
-                      {"claim_rule",
-                       "found at >= rate at the size and every larger one, and the band's "
-                       "hit/miss detection curve (logit POD linear in ln size, Firth's "
-                       "penalised likelihood) has its one-sided claim_confidence lower bound "
-                       ">= rate there"}};
+  j["sensitivity"] = {
+      {"cells", cells},
+      {"claims_95", claims},
+      {"summary", s.summary},
+      {"stated", stated},
+      {"inspections", s.inspections},
+      {"measured_on", "the learning fillets, with the learned thresholds"},
+      {"rate", s.rate},
+      {"claim_confidence", s.claim_confidence},
+      {"material",
+       {{"excess_ratio", s.material.excess_ratio}, {"excess_per_mm", s.material.excess_per_mm}}},
+      {"claim_rule",
+       "found at >= rate at the size and every larger one, and the band's "
+       "hit/miss detection curve (logit POD linear in ln size, Firth's "
+       "penalised likelihood) has its one-sided claim_confidence lower bound "
+       ">= rate there"}};
   if (!tradeoff.empty()) j["tradeoff"] = tradeoff_json(tradeoff);
   return j.dump();
 }
