@@ -1,6 +1,7 @@
 #include "args.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 
 #include "core/error.h"
@@ -57,6 +58,21 @@ long Args::integer(const std::string& name, long def) const {
   } catch (const std::exception&) {
     fail("option --", name, " expects an integer (got '", it->second, "')");
   }
+}
+
+double Args::number(const std::string& name, double def, double lo, double hi) const {
+  if (!has(name)) return def;
+  const std::string v = get(name, "");
+  double x = NAN;
+  try {
+    size_t used = 0;
+    x = std::stod(v, &used);
+    if (used != v.size()) x = NAN;
+  } catch (const std::exception&) {
+  }
+  if (!(x >= lo && x <= hi))
+    fail("--", name, " must be a number within ", lo, "..", hi, " (got '", v, "')");
+  return x;
 }
 
 std::vector<int> Args::int_list(const std::string& name, std::vector<int> def, int max) const {

@@ -19,6 +19,8 @@ class Args {
   std::string get(const std::string& name, const std::string& def) const;
   std::string require(const std::string& name) const;
   long integer(const std::string& name, long def) const;
+  // A number within lo..hi (def when the option is absent); anything else fails naming it.
+  double number(const std::string& name, double def, double lo, double hi) const;
   // A comma-separated list of whole numbers from 1 to `max` (def when the option is absent).
   std::vector<int> int_list(const std::string& name, std::vector<int> def, int max) const;
   void expect_positionals(size_t n, const char* usage) const;

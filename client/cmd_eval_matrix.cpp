@@ -12,7 +12,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -547,14 +546,9 @@ int cmd_eval_matrix(int argc, char** argv) {
   mo.frr_fillets = int(a.integer("frr", 0));
   mo.frr_part = int(a.integer("frr-part", 60));
   mo.bone_fillets = int(a.integer("bones", 0));
-  if (a.has("confidence")) {
-    // Checked here, before hours of simulation, as learn would check it.
-    mo.confidence = a.get("confidence", "");
-    char* end = nullptr;
-    const double c = std::strtod(mo.confidence.c_str(), &end);
-    if (end == mo.confidence.c_str() || *end != 0 || !(c >= 0.5 && c <= 0.999))
-      fail("--confidence must be a number within 0.5..0.999 (got '", mo.confidence, "')");
-  }
+  // Checked here, before hours of simulation, as learn checks it; passed on as written.
+  a.number("confidence", 0.9, 0.5, 0.999);
+  mo.confidence = a.get("confidence", "");
   if (mo.frr_fillets < 0 || mo.frr_part < 1) fail("--frr must be >= 0 and --frr-part >= 1");
   if (mo.bone_fillets < 0) fail("--bones must be >= 0");
   if (mo.bone_fillets > 0 && mo.learn_fillets == 0)

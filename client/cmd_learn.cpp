@@ -38,21 +38,6 @@ namespace rangex::cli {
 
 namespace {
 
-double number(const Args& a, const char* name, double def, double lo, double hi) {
-  if (!a.has(name)) return def;
-  const std::string v = a.get(name, "");
-  double x = NAN;
-  try {
-    size_t used = 0;
-    x = std::stod(v, &used);
-    if (used != v.size()) x = NAN;
-  } catch (const std::exception&) {
-  }
-  if (!(x >= lo && x <= hi))
-    fail("--", name, " must be a number within ", lo, "..", hi, " (got '", v, "')");
-  return x;
-}
-
 // The plant configuration at `config` with each learned lane's inspection section replaced.
 std::string learned_plant_yaml(const std::string& config,
                                const std::vector<std::pair<int, LearnedDetection>>& learned) {
@@ -128,14 +113,14 @@ int cmd_learn(int argc, char** argv) {
       a.get("report",
             (fs::path(out).parent_path() / (fs::path(out).stem().string() + ".report")).string());
   LearnOptions lo;
-  lo.bootstrap = int(number(a, "bootstrap", 100, 20, 10000));
-  lo.min_fillets = int(number(a, "min-fillets", 30, 10, 100000));
+  lo.bootstrap = int(a.number("bootstrap", 100, 20, 10000));
+  lo.min_fillets = int(a.number("min-fillets", 30, 10, 100000));
   if (a.has("keep")) lo.checked_clean = checked_clean_fillets(a.get("keep", ""));
   const std::vector<double> tradeoff =
       a.has("tradeoff") ? tradeoff_targets(a.get("tradeoff", "")) : std::vector<double>{};
   SensitivityOptions so;
-  so.material.excess_ratio = number(a, "excess-ratio", so.material.excess_ratio, 0.05, 100);
-  so.material.excess_per_mm = number(a, "excess-per-mm", 0, 0, 10);
+  so.material.excess_ratio = a.number("excess-ratio", so.material.excess_ratio, 0.05, 100);
+  so.material.excess_per_mm = a.number("excess-per-mm", 0, 0, 10);
   const std::string version = a.get("version", learning_version_name());
   ReplayOptions opt;
   opt.keep_images = true;
@@ -190,8 +175,8 @@ int cmd_learn(int argc, char** argv) {
   bool all_ok = true;
   for (const LaneFillets& r : lanes) {
     const LaneConfig& lane = plant.lane(r.lane);
-    lo.target_frr = number(a, "target-frr", lane.inspection.false_reject_target, 1e-5, 0.2);
-    lo.confidence = number(a, "confidence", lo.confidence, 0.5, 0.999);
+    lo.target_frr = a.number("target-frr", lane.inspection.false_reject_target, 1e-5, 0.2);
+    lo.confidence = a.number("confidence", lo.confidence, 0.5, 0.999);
     lo.spread_by_thickness = lane.inspection.spread_by_thickness;
     std::printf("lane %d: %zu fillets inspected (%d not inspected, left out); fitting ...\n",
                 r.lane, r.set.size(), r.set.not_inspected);
