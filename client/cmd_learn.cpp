@@ -206,12 +206,13 @@ int cmd_learn(int argc, char** argv) {
           check_held_out(c.fillets, ll, so, [&](int d, int t) { cbar.update(d, t); });
       lane_json["held_out_check"] = nlohmann::json::parse(
           claim_checks_json(check_rec->dir(), hc.fillets, hc.checks, hc.stated, hc.cells));
-      std::printf("  held-out check on %d fillets of %s: %d of %zu claims by band held\n",
-                  hc.fillets, check_rec->dir().c_str(), hc.held(), hc.checks.size());
+      std::printf(
+          "  held-out check on %d fillets of %s: %d of %zu claims by band held, %d contradicted\n",
+          hc.fillets, check_rec->dir().c_str(), hc.held(), hc.checks.size(), hc.contradicted());
+      for (const ClaimCheck& k : hc.checks)
+        if (!k.held) std::printf("    %s\n", claim_check_text(k).c_str());
       for (const StatedCheck& k : hc.stated)
-        std::printf("    \"%s\": %d of %d found (%.1f %%): %s\n", k.claim.text.c_str(), k.found,
-                    k.injected, k.injected ? 100.0 * k.found / k.injected : 0.0,
-                    k.held ? "held" : "NOT held");
+        std::printf("    \"%s\": %s\n", k.claim.text.c_str(), claim_check_text(k).c_str());
     }
     report["lanes"].push_back(lane_json);
     write_learn_plots(report_dir, r.lane, L, sens);

@@ -40,6 +40,8 @@ check "learned at the confidence asked for" python3 -c "import json,sys; j=json.
 check "its clean run counted over its two parts" pl "L['clean_run']['fillets'] == 3"
 check "each part inspected, its scan dropped" bash -c "test -d l/rough_meat/out_frr0 && test -d l/rough_meat/out_frr1 && test ! -e l/rough_meat/out_frr2 && test ! -e l/rough_meat/frr_rec && test ! -e l/rough_meat/learn_rec"
 check "the report's sentences checked on the check fillets" pl "0 <= L['stated_held'] <= L['stated'] and 0 <= L['stated_pieces'][0] <= L['stated_pieces'][1] and (L['stated'] == 0) == (L['stated_pieces'][1] == 0)"
+check "a claim not held says whether its shortfall is evidence against it" pl "0 <= L['claims_contradicted'] <= L['claims'] - L['claims_held']"
+check "the learning's check says so claim by claim" python3 -c "import json,sys; h=json.load(open('l/rough_meat/learned.report/learn.json'))['lanes'][0]['held_out_check']; sys.exit(0 if all(0 <= k['p_at_rate'] <= 1 and k['contradicted'] == (k['p_at_rate'] < 0.05) and (k['held'] or k['injected'] == 0 or 'of checks' in k['text']) for k in h['checks']) and h['contradicted'] == sum(k['contradicted'] for k in h['checks']) else 1)"
 check "fillets the learning named are each kept (clean by the truth) or left out" pl "L['named'] == L['kept_checked_clean'] + L['left_out_bony'] and L['left_out_bony'] == 0"
 check "recall and false rejects as counts" pl "len(L['recall_calcified_ge_2mm']) == 2 and len(L['false_rejects']) == 2"
 check "the learned configuration was written and used" grep -q "learned:" l/rough_meat/learned.yaml

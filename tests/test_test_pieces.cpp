@@ -7,6 +7,7 @@
 #include <cmath>
 #include <random>
 
+#include "pipeline/binomial_tail.h"
 #include "pipeline/inspection.h"
 #include "pipeline/sensitivity.h"
 #include "pipeline/test_pieces.h"
@@ -194,6 +195,57 @@ TEST(Sensitivity, StatedClaimPoolsItsBandsAndSizeOnly) {
   EXPECT_FALSE(k[1].held);
   // Nothing of its kind measured: not held (nothing shows it).
   EXPECT_FALSE(check_stated_claims({{1, 5.0, 0, 3, 20}}, m, 0.95).at(0).held);
+  // 38 of 60 at a claimed 95 % is evidence against the claim, not chance.
+  EXPECT_TRUE(k[1].contradicted);
+  EXPECT_LT(k[1].p_at_rate, 1e-9);
+  EXPECT_FALSE(k[0].contradicted);
+}
+
+// The binomial lower tail against the sum of its terms computed another way (products of
+// the rate, in long double) and a value by hand: 14 of 15 at 95 % or fewer is 1 - 0.95^15.
+TEST(BinomialTail, MatchesItsTermsAndTheEdges) {
+  EXPECT_NEAR(binomial_at_most(14, 15, 0.95), 1 - std::pow(0.95, 15), 1e-12);
+  EXPECT_NEAR(binomial_at_most(0, 10, 0.3), std::pow(0.7, 10), 1e-12);
+  for (int n : {1, 7, 40})
+    for (double p : {0.05, 0.5, 0.95})
+      for (int k = 0; k < n; ++k) {
+        long double sum = 0, choose = 1;  // C(n, i), built up term by term
+        for (int i = 0; i <= k; ++i) {
+          if (i > 0) choose = choose * (n - i + 1) / i;
+          sum += choose * std::pow((long double)p, i) * std::pow(1 - (long double)p, n - i);
+        }
+        EXPECT_NEAR(binomial_at_most(k, n, p), double(sum), 1e-10) << n << " " << p << " " << k;
+      }
+  EXPECT_EQ(binomial_at_most(5, 5, 0.9), 1.0);
+  EXPECT_EQ(binomial_at_most(-1, 5, 0.9), 0.0);
+  // Hundreds of pieces at a rate near 1 (exact values by rational arithmetic in Python).
+  EXPECT_NEAR(binomial_at_most(565, 600, 0.95), 0.1972208871357669, 1e-10);
+  EXPECT_NEAR(binomial_at_most(560, 600, 0.95), 0.04204646458380411, 1e-10);
+  EXPECT_NEAR(binomial_at_most(540, 600, 0.95), 4.1593809974578534e-07, 1e-15);
+}
+
+// A claim short by one piece of a few dozen is not evidence against it; one found at 80 %
+// of 40 is. The text says which.
+TEST(Sensitivity, ACheckSaysWhenItsShortfallIsEvidenceAgainstTheClaim) {
+  SensitivityResult m;
+  m.band_edges_mm = {0, 5, 10, 15, 20, 1000};
+  m.cells = {{1, 3.0, 2, 15, 14}, {1, 3.0, 3, 40, 32}, {0, 2.0, 4, 30, 30}};
+  const std::vector<SensitivityClaim> claims = {
+      {1, 2, 10, 15, 3.0}, {1, 3, 15, 20, 3.0}, {0, 4, 20, 1000, 2.0}};
+  const std::vector<ClaimCheck> k = check_claims(claims, m, 0.95);
+  ASSERT_EQ(k.size(), 3u);
+  EXPECT_FALSE(k[0].held);
+  EXPECT_FALSE(k[0].contradicted);
+  EXPECT_NEAR(k[0].p_at_rate, 1 - std::pow(0.95, 15), 1e-12);
+  EXPECT_EQ(claim_check_text(k[0]),
+            "needle 3.0 mm at 10-15 mm of meat: 14 of 15 found (93.3 %): NOT held; at a true "
+            "95 % this few or fewer in 54 % of checks: no evidence against it");
+  EXPECT_FALSE(k[1].held);
+  EXPECT_TRUE(k[1].contradicted);
+  EXPECT_NE(claim_check_text(k[1]).find("evidence against the claim"), std::string::npos);
+  EXPECT_TRUE(k[2].held);
+  EXPECT_EQ(claim_check_text(k[2]),
+            "sphere 2.0 mm over 20 mm of meat: 30 of 30 found (100.0 %): held");
 }
 
 }  // namespace

@@ -135,6 +135,12 @@ int HeldOutCheck::held() const {
   return n;
 }
 
+int HeldOutCheck::contradicted() const {
+  int n = 0;
+  for (const ClaimCheck& k : checks) n += k.contradicted;
+  return n;
+}
+
 HeldOutCheck check_held_out(const std::vector<InspectedFillet>& fillets, const LaneLearning& l,
                             const SensitivityOptions& so,
                             const std::function<void(int, int)>& progress) {

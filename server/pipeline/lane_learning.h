@@ -72,6 +72,7 @@ struct HeldOutCheck {
   std::vector<StatedCheck> stated;     // the report's sentences
   std::vector<SensitivityCell> cells;  // what was found on the check fillets
   int held() const;
+  int contradicted() const;  // by band: found too few to be the claimed rate's chance
 };
 HeldOutCheck check_held_out(const std::vector<InspectedFillet>& fillets, const LaneLearning& l,
                             const SensitivityOptions& so,

@@ -133,35 +133,42 @@ std::string claim_checks_json(const std::string& recording, int fillets,
                               const std::vector<StatedCheck>& stated,
                               const std::vector<SensitivityCell>& cells) {
   nlohmann::json list = nlohmann::json::array();
-  int held = 0;
+  int held = 0, contradicted = 0;
   for (const ClaimCheck& k : checks) {
-    held += k.held;
+    held += k.held, contradicted += k.contradicted;
     list.push_back({{"shape", piece_shape_name(k.claim.shape)},
                     {"band", k.claim.band},
                     {"size_mm", k.claim.size_mm},
                     {"injected", k.injected},
                     {"found", k.found},
-                    {"held", k.held}});
+                    {"held", k.held},
+                    {"p_at_rate", k.p_at_rate},
+                    {"contradicted", k.contradicted},
+                    {"text", claim_check_text(k)}});
   }
   nlohmann::json sentences = nlohmann::json::array();
-  int stated_held = 0;
+  int stated_held = 0, stated_contradicted = 0;
   for (const StatedCheck& k : stated) {
-    stated_held += k.held;
+    stated_held += k.held, stated_contradicted += k.contradicted;
     sentences.push_back({{"sentence", k.claim.text},
                          {"shape", piece_shape_name(k.claim.shape)},
                          {"size_mm", k.claim.size_mm},
                          {"up_to_mm", k.claim.up_to_mm},
                          {"injected", k.injected},
                          {"found", k.found},
-                         {"held", k.held}});
+                         {"held", k.held},
+                         {"p_at_rate", k.p_at_rate},
+                         {"contradicted", k.contradicted}});
   }
   const nlohmann::json j = {{"recording", recording},
                             {"fillets", fillets},
                             {"claims", checks.size()},
                             {"held", held},
+                            {"contradicted", contradicted},
                             {"checks", list},
                             {"stated", stated.size()},
                             {"stated_held", stated_held},
+                            {"stated_contradicted", stated_contradicted},
                             {"stated_checks", sentences},
                             {"cells", cells_json(cells)}};
   return j.dump();

@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <random>
+#include <string>
 
+#include "pipeline/binomial_tail.h"
 #include "pipeline/detection_curve.h"
 #include "pipeline/inspection.h"
 #include "pipeline/inspection_steps.h"
@@ -243,10 +246,42 @@ Checked<Claim> pooled(const Claim& c, int first, int last, const SensitivityResu
         m.band <= last)
       k.injected += m.injected, k.found += m.found;
   k.held = k.injected > 0 && double(k.found) >= rate * k.injected;
+  k.rate = rate;
+  k.p_at_rate = binomial_at_most(k.found, k.injected, rate);
+  k.contradicted = k.injected > 0 && k.p_at_rate < kClaimContradiction;
   return k;
 }
 
+template <class Claim>
+std::string outcome_text(const Checked<Claim>& k) {
+  char b[256];
+  const int n =
+      std::snprintf(b, sizeof b, "%d of %d found (%.1f %%): %s", k.found, k.injected,
+                    k.injected ? 100.0 * k.found / k.injected : 0.0, k.held ? "held" : "NOT held");
+  if (!k.held && k.injected > 0)
+    std::snprintf(b + n, sizeof b - size_t(n),
+                  "; at a true %.0f %% this few or fewer in %.2g %% of checks: %s", 100 * k.rate,
+                  100 * k.p_at_rate,
+                  k.contradicted ? "evidence against the claim" : "no evidence against it");
+  return b;
+}
+
 }  // namespace
+
+std::string claim_check_text(const ClaimCheck& k) {
+  char b[128];
+  if (k.claim.band_hi_mm >= 1000)  // the last band is open
+    std::snprintf(b, sizeof b, "%s %.1f mm over %g mm of meat: ", piece_shape_name(k.claim.shape),
+                  k.claim.size_mm, k.claim.band_lo_mm);
+  else
+    std::snprintf(b, sizeof b, "%s %.1f mm at %g-%g mm of meat: ", piece_shape_name(k.claim.shape),
+                  k.claim.size_mm, k.claim.band_lo_mm, k.claim.band_hi_mm);
+  return b + outcome_text(k);
+}
+
+std::string claim_check_text(const StatedCheck& k) {
+  return outcome_text(k);
+}
 
 std::vector<ClaimCheck> check_claims(const std::vector<SensitivityClaim>& claims,
                                      const SensitivityResult& measured, double rate) {
