@@ -30,6 +30,7 @@
 #include "eval_claims.h"
 #include "eval_steps.h"
 #include "learning_check.h"
+#include "offline/acceptance.h"
 #include "offline/detection_eval.h"
 #include "offline/evaluation.h"
 #include "offline/fillet_records.h"
@@ -82,6 +83,7 @@ struct Row {
   // The report's sphere claims held against the plant's and the bone run's fragments.
   FragmentClaims fragment_claims;
   bool claims_measured = false;
+  int cartilage = 0;  // pieces of cartilage or tendon in the plant's fillets (its truth)
   double minutes = 0;
   std::string failed;  // why the variant stopped (its log says more); empty when it ran
 };
@@ -177,6 +179,8 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
   r.thickness = evaluate_lane(rec, lc, rows, t).thickness;
   const VariantTruth vt(rec, lc);
   const auto& frags = vt.fragments;
+  r.cartilage = int(std::count_if(frags.begin(), frags.end(),
+                                  [](const TruthFragment& f) { return f.kind == "cartilage"; }));
   const auto& truth = vt.fillets;
   const EdgeMap& edges = vt.edges;
   add_lane(r.ours, frags, truth, read_records(ld.string(), ""), &edges);
@@ -417,6 +421,43 @@ std::string bone_run_text(const std::vector<Row>& rows) {
   return os.str();
 }
 
+// The run's fillets pooled: the plant's and its clean and bone runs, with the thresholds
+// learned.
+AcceptanceCounts acceptance_counts(const Row& r) {
+  AcceptanceCounts c;
+  const DetectionEval& e = r.learned;
+  calcified_2mm(e, c.found, c.present);
+  c.clean_rejected = e.clean_rejected + r.frr_rejected, c.clean = e.clean_fillets + r.frr_fillets;
+  c.no_bone = e.false_fragments + r.frr_fragments, c.fillets = e.fillets + r.frr_fillets;
+  auto shapes = e.by_shape;
+  if (!r.bones.empty()) {
+    const BoneRunTotals t = pooled(r.bones);
+    c.found += t.found, c.present += t.present;
+    c.clean_rejected += t.clean_rejected, c.clean += t.clean;
+    c.no_bone += t.false_fragments, c.fillets += t.fillets;
+    shapes.insert(shapes.end(), t.by_shape.begin(), t.by_shape.end());
+  }
+  for (const auto& [shape, fp] : shapes) {
+    if (shape == "needle") c.needles += fp.second;
+    if (shape == "rib") c.ribs += fp.second;
+  }
+  c.cartilage = r.cartilage;
+  return c;
+}
+
+std::string acceptance_section(const std::vector<Row>& rows) {
+  std::ostringstream os;
+  for (const Row& r : rows) {
+    if (!r.learned_run || !r.failed.empty()) continue;
+    const AcceptanceCounts c = acceptance_counts(r);
+    const Acceptance a = judge_acceptance(c);
+    os << r.name << (r.held_out ? " (held out)" : "") << ": " << (a.met() ? "met" : "not met")
+       << "\n"
+       << prefixed(acceptance_text(c, a), "  ");
+  }
+  return os.str();
+}
+
 std::string json(const std::vector<Row>& rows) {
   std::ostringstream os;
   os << "{\"variants\": [";
@@ -501,6 +542,20 @@ std::string json(const std::vector<Row>& rows) {
             os << (first ? "" : ", ") << missed_json(b.eval, b.seed), first = false;
         os << "]}";
       }
+      const AcceptanceCounts c = acceptance_counts(r);
+      const Acceptance a = judge_acceptance(c);
+      os << ", \"acceptance\": {\"met\": " << (a.met() ? "true" : "false")
+         << ", \"false_rejects\": [" << c.clean_rejected << ", " << c.clean
+         << "], \"false_reject_upper\": " << a.false_reject_ci.hi
+         << ", \"false_rejects_met\": " << (a.false_rejects_met ? "true" : "false")
+         << ", \"no_bone\": [" << c.no_bone << ", " << c.fillets
+         << "], \"no_bone_met\": " << (a.no_bone_met ? "true" : "false")
+         << ", \"recall_calcified_ge_2mm\": [" << c.found << ", " << c.present
+         << "], \"recall_judged\": " << (a.recall_judged ? "true" : "false")
+         << ", \"recall_met\": " << (a.recall_met ? "true" : "false")
+         << ", \"recall_exempt\": " << nlohmann::json(a.recall_exempt).dump()
+         << ", \"needles\": " << c.needles << ", \"ribs\": " << c.ribs
+         << ", \"cartilage\": " << c.cartilage << "}";
       os << "}";
     }
     os << "}";
@@ -656,6 +711,11 @@ int cmd_eval_matrix(int argc, char** argv) {
             "test piece's); the claim says 95 %:\n";
       for (const Row& r : rows)
         if (r.claims_measured) os << claims_text(r.name, r.fragment_claims);
+      os << "\nagainst the acceptance targets, every fillet of this run pooled: the plant's, "
+            "the clean run's and the bone run's, with the learned thresholds; Wilson's 95 % "
+            "intervals. Recall is judged on plants without needles, rib plates or cartilage, "
+            "and reported on the others:\n"
+         << acceptance_section(rows);
     }
     for (const Row& r : rows)
       if (!r.failed.empty()) os << "\nfailed: " << r.name << ": " << r.failed << "\n";

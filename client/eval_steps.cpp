@@ -4,12 +4,12 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cmath>
 #include <cstdio>
 
 #include "commands.h"
 #include "core/error.h"
 #include "core/text_file.h"
+#include "offline/acceptance.h"
 #include "sim/plant_physics.h"
 
 namespace rangex::cli {
@@ -54,11 +54,9 @@ void run_step(const std::string& log, std::vector<std::string> args) {
 
 std::string interval(int k, int n) {
   if (n == 0) return "-";
-  const double z = 1.959964, p = double(k) / n, d = 1 + z * z / n;
-  const double c = (p + z * z / (2 * n)) / d,
-               h = z * std::sqrt(p * (1 - p) / n + z * z / (4.0 * n * n)) / d;
+  const Interval w = wilson95(k, n);
   char b[32];
-  std::snprintf(b, sizeof b, "%.1f-%.1f", 100 * std::max(0.0, c - h), 100 * std::min(1.0, c + h));
+  std::snprintf(b, sizeof b, "%.1f-%.1f", 100 * w.lo, 100 * w.hi);
   return b;
 }
 

@@ -56,6 +56,11 @@ check "the chances of the calcified fragments >= 2 mm, plant and bone run, summe
 C="L['claims_on_fragments']"
 check "the report's sphere claims held against the plant's and the bone run's own fragments, each weighed by its truth" pl "$C['weighed'] > 0 and $C['unknown'] == 0 and 0 <= $C['found'] <= $C['covered'] <= $C['weighed'] and 0 <= $C['dense_found'] <= $C['dense_covered'] <= $C['covered'] and len($C['missed']) == $C['covered'] - $C['found']"
 check "the matrix says how many of them were found" grep -qE "^rough_meat: [0-9]+/[0-9]+ found of the compact fragments its sphere claims cover" l/matrix.txt
+A="L['acceptance']"
+check "held against the targets with every fillet of the run pooled: the plant's, the clean run's, the bone run's" pl "$A['false_rejects'] == [L['false_rejects'][0] + L['clean_run']['rejected'] + $B['false_rejects'][0], L['false_rejects'][1] + L['clean_run']['fillets'] + $B['false_rejects'][1]] and $A['no_bone'] == [L['false_fragments'] + L['clean_run']['fragments'] + $B['false_fragments'], L['fillets'] + L['clean_run']['fillets'] + $B['fillets']] and $A['recall_calcified_ge_2mm'] == [L['recall_calcified_ge_2mm'][0] + $B['recall_calcified_ge_2mm'][0], L['recall_calcified_ge_2mm'][1] + $B['recall_calcified_ge_2mm'][1]]"
+check "a handful of clean fillets cannot show 0.5 % false rejects, so the run is not met" pl "$A['false_rejects'][1] < 253 and not $A['false_rejects_met'] and not $A['met'] and $A['false_reject_upper'] > 0.015"
+check "recall judged only on a plant without needles, rib plates or cartilage" pl "$A['recall_judged'] == ($A['recall_exempt'] == '' and $A['recall_calcified_ge_2mm'][1] > 0) and ($A['recall_exempt'] == '') == ($A['needles'] + $A['ribs'] + $A['cartilage'] == 0)"
+check "the matrix text gives the verdict and its figures" bash -c "grep -qE '^rough_meat: not met$' l/matrix.txt && grep -qE '^  clean fillets rejected [0-9]+/[0-9]+ = [0-9.]+ % \\[[0-9.]+-[0-9.]+ %\\]: not ' l/matrix.txt"
 "$ctl" eval-matrix --out x --only rough_meat --learn 0 --bones 2 >bones0.txt 2>&1
 check "a bone run without learning is refused, saying why" grep -q "bones inspects with the learned thresholds" bones0.txt
 "$ctl" eval-matrix --out x --only rough_meat --confidence 0.3 >conf.txt 2>&1
