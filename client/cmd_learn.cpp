@@ -178,6 +178,7 @@ int cmd_learn(int argc, char** argv) {
     lo.target_frr = a.number("target-frr", lane.inspection.false_reject_target, 1e-5, 0.2);
     lo.confidence = a.number("confidence", lo.confidence, 0.5, 0.999);
     lo.spread_by_thickness = lane.inspection.spread_by_thickness;
+    lo.rim_walls = lane.inspection.rim_walls;
     std::printf("lane %d: %zu fillets inspected (%d not inspected, left out); fitting ...\n",
                 r.lane, r.set.size(), r.set.not_inspected);
     std::fflush(stdout);

@@ -463,9 +463,16 @@ TEST(LearnedDetection, RoundTripsThroughItsYamlAndRefusesBadValues) {
   ProductLearning L = learn_product(clean_fillets(truth_model(), 40, 8), o);
   L.learned.version = "v \"quoted\"";
   L.learned.learned_on = "rec lane 0";
+  EXPECT_FALSE(L.learned.rim_walls);  // as the options said
+  L.learned.rim_walls = true;
   const std::string y = learned_detection_yaml(L.learned);
   const LearnedDetection back = parse_learned_detection(y, "test");
   EXPECT_EQ(back.version, L.learned.version);
+  EXPECT_TRUE(back.rim_walls);
+  // Settings learned before the outline's wall was carried read without it.
+  std::string old_rim = y;
+  old_rim.erase(old_rim.find("rim_walls: true\n"), 16);
+  EXPECT_FALSE(parse_learned_detection(old_rim, "test").rim_walls);
   EXPECT_EQ(back.band_edges_mm, L.learned.band_edges_mm);
   for (int s = 0; s < kStatistics; ++s) {
     for (size_t b = 0; b < back.stats[s].thresholds.size(); ++b)

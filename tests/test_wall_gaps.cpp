@@ -83,5 +83,48 @@ TEST(WallGaps, EveryClosureKeepsTheStepAcrossItsGap) {
   EXPECT_TRUE(closure_variance(g, straight).empty());
 }
 
+// Rows of one fillet, stacked: each row's thickness repeated on `rows` rows, on the fillet
+// where `on`; the middle row has the fillet above and below it.
+FilletImage stacked(const std::vector<float>& t, const std::vector<uint8_t>& on, int rows) {
+  FilletImage f;
+  f.rows = rows, f.cols = int(t.size());
+  for (int r = 0; r < rows; ++r) {
+    f.thickness.insert(f.thickness.end(), t.begin(), t.end());
+    f.mask.insert(f.mask.end(), on.begin(), on.end());
+  }
+  f.xray.assign(f.size(), 1000);
+  return f;
+}
+
+TEST(WallGaps, TheOutlinesPixelCarriesItsWallAgainstTheDefinition) {
+  // On the fillet from column 1 to 4: a cliff of 5 mm at its right (measured 2 there, its
+  // inner neighbour 5) and a taper at its left (1.6 and 2). Mean square error of a thickness
+  // uniform over [0, h] measured a: (a^3 + (h - a)^3) / (3 h), as step^2 / 3.
+  const FilletImage f = stacked({0, 1.6f, 2, 5, 2, 0}, {0, 1, 1, 1, 1, 0}, 3);
+  const std::vector<float> s = rim_steps(f);
+  ASSERT_EQ(s.size(), f.size());
+  auto step = [](double a, double h) {
+    return float(std::sqrt((a * a * a + std::pow(h - a, 3)) / h));
+  };
+  const size_t mid = 6;                       // row 1
+  EXPECT_FLOAT_EQ(s[mid + 4], step(2, 5));    // 2.569: the cliff
+  EXPECT_FLOAT_EQ(s[mid + 1], step(1.6, 2));  // 1.442: the taper, most of it its own height
+  for (int c : {0, 2, 3, 5}) EXPECT_EQ(s[mid + size_t(c)], 0) << c;  // inside, or off it
+  // The first and last rows are the outline along the columns: nothing beyond them.
+  EXPECT_FLOAT_EQ(s[2], 2);
+  EXPECT_FLOAT_EQ(s[12 + 3], 5);
+  // Measured at the wall's full height the error can be all of it: h.
+  EXPECT_FLOAT_EQ(rim_steps(stacked({0, 5, 5, 0}, {0, 1, 1, 0}, 3))[4 + 1], 5);
+  // closure_variance carries them with `rim`, nothing without (no gap was closed).
+  const auto straight = [](double) { return 0.03; };
+  EXPECT_TRUE(closure_variance(f, straight).empty());
+  const std::vector<float> v = closure_variance(f, straight, true);
+  ASSERT_EQ(v.size(), f.size());
+  EXPECT_FLOAT_EQ(v[mid + 4], float(std::pow(0.03 * step(2, 5), 2) / 3));
+  // ... and, like a closure's, on the rows either side: the middle row's interior takes the
+  // first and last rows' outline.
+  EXPECT_FLOAT_EQ(v[mid + 3], float(std::pow(0.03 * 5, 2) / 3));
+}
+
 }  // namespace
 }  // namespace rangex

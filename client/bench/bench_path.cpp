@@ -303,6 +303,7 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
     lo.min_fillets = 1;
     lo.bootstrap = 20;
     lo.spread_by_thickness = v[k].spread_by_thickness;
+    lo.rim_walls = v[k].rim_walls;
     try {
       const MatchedKernels kernels = v[k].learned.matched;
       v[k].learned = learn_product(fs, lo).learned;

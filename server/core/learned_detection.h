@@ -92,6 +92,9 @@ struct LearnedDetection {
   int fillets = 0;            // clean fillets it was learned from
   // The statistics' spread it was learned with (inspection.spread); inspection follows it.
   bool spread_by_thickness = false;
+  // Whether the outline's wall was carried (inspection.rim_walls) when it was learned;
+  // inspection follows it. Settings learned before 2026-12-01 carried none.
+  bool rim_walls = false;
   std::vector<double> band_edges_mm;  // bands [e0, e1), [e1, e2), ...; the last open-ended
   std::array<LearnedStatistic, kStatistics> stats;
   MatchedKernels matched;  // empty: the round statistic is the Gaussian's

@@ -315,9 +315,10 @@ void read_matched(const Node& n, MatchedKernels& k) {
 // thresholds are finite and the model's scale is a scale.
 void read_learned(const Node& n, LearnedDetection& L) {
   n.only_keys({"version", "learned_on", "target_frr", "confidence", "fillets", "band_edges_mm",
-               "round", "needle", "air", "sensitivity", "spread", "matched"});
+               "round", "needle", "air", "sensitivity", "spread", "rim_walls", "matched"});
   if (n.has("matched")) read_matched(n.at("matched"), L.matched);
   if (n.has("spread")) L.spread_by_thickness = read_spread(n.at("spread"));
+  n.get("rim_walls", L.rim_walls);
   if (n.has("sensitivity")) {
     const Node s = n.at("sensitivity");
     if (!s.node.IsSequence()) s.bad("expected a list of strings");
@@ -600,6 +601,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
                   "soft_density_sigma",
                   "encoder_horizon_lines",
                   "max_wall_gap_px",
+                  "rim_walls",
                   "line_sigma_along_px",
                   "line_sigma_across_px",
                   "attenuation_degree",
@@ -691,6 +693,7 @@ LaneConfig read_lane(const Node& lane, const Node* defaults, LaneConfig c) {
     if (!(q.line_sigma_along_px >= 0 && q.line_sigma_along_px <= 20))
       n->at("line_sigma_along_px").bad("must be within 0..20 (0: no needle kernels)");
     n->positive("line_sigma_across_px", q.line_sigma_across_px);
+    n->get("rim_walls", q.rim_walls);
     n->get("max_wall_gap_px", q.max_wall_gap_px);
     if (q.max_wall_gap_px < 0 || q.max_wall_gap_px > 20)
       n->at("max_wall_gap_px").bad("must be within 0..20 (0: never close a wall's rim)");
@@ -991,7 +994,8 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
   o << "version: " << yaml_string(L.version) << "\nlearned_on: " << yaml_string(L.learned_on)
     << "\ntarget_frr: " << L.target_frr << "\nconfidence: " << L.confidence
     << "\nfillets: " << L.fillets
-    << "\nspread: " << (L.spread_by_thickness ? "thickness" : "fillet") << "\nband_edges_mm: ";
+    << "\nspread: " << (L.spread_by_thickness ? "thickness" : "fillet")
+    << "\nrim_walls: " << (L.rim_walls ? "true" : "false") << "\nband_edges_mm: ";
   list(L.band_edges_mm);
   o << "\nsensitivity: [";
   for (size_t i = 0; i < L.sensitivity.size(); ++i)

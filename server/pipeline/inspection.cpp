@@ -586,7 +586,9 @@ bool one_energy_model(const FilletImage& raw, const InspectionParams& p, FilletR
       predicted[i] = float(res.fit.beta0 + t * (res.fit.beta1 + res.fit.beta2 * t));
     }
   const auto mu = [&](double t) { return meat_mu(&res.fit, t); };
-  one_energy_z(*img, use, predicted, closure_variance(*img, mu), res, m.z, m.resid, m.pred,
+  // Learned thresholds hold for the statistics they were learned with.
+  const bool rim = p.learned.active() ? p.learned.rim_walls : p.rim_walls;
+  one_energy_z(*img, use, predicted, closure_variance(*img, mu, rim), res, m.z, m.resid, m.pred,
                m.closure_z);
   return true;
 }

@@ -256,6 +256,7 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
   L.fillets = r.fillets;
   L.band_edges_mm = opt.band_edges_mm;
   L.spread_by_thickness = opt.spread_by_thickness;
+  L.rim_walls = opt.rim_walls;
   const bool has_needle = !samples_of(use, kStatNeedle).empty();
   std::mt19937_64 rng(opt.seed);
   for (int s = 0; s < kStatistics; ++s) {

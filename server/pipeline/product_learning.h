@@ -32,6 +32,7 @@ struct LearnOptions {
   uint64_t seed = 1;
   std::vector<double> band_edges_mm = default_band_edges_mm();
   bool spread_by_thickness = false;  // how the fillets' statistics were normalised
+  bool rim_walls = false;            // and whether they carried the outline's wall
   // A learning fillet is suspected of holding bone when its extreme is this improbable
   // under the model fitted without it, after a Bonferroni correction over every band
   // extreme tested.

@@ -57,16 +57,48 @@ int close_wall_gaps(FilletImage& img, int max_gap_px, double floor_mm) {
   return closed;
 }
 
-std::vector<float> closure_variance(const FilletImage& img,
-                                    const std::function<double(double)>& mu) {
-  if (img.closure_step_mm.size() != img.size()) return {};
+std::vector<float> rim_steps(const FilletImage& img) {
+  const int R = img.rows, C = img.cols;
+  std::vector<float> step(img.size(), 0.0f);
+  auto on = [&](int r, int c) {
+    return r >= 0 && r < R && c >= 0 && c < C && img.mask[size_t(r) * C + c] &&
+           std::isfinite(img.thickness[size_t(r) * C + c]);
+  };
+  // The rim pixel (r, c) whose outside lies at (r - dr, c - dc): its inner neighbour is
+  // (r + dr, c + dc).
+  auto rim = [&](int r, int c, int dr, int dc) -> double {
+    if (on(r - dr, c - dc)) return 0;
+    const double a = std::max(0.0f, img.thickness[size_t(r) * C + c]);
+    const double h =
+        on(r + dr, c + dc) ? std::max(a, double(img.thickness[size_t(r + dr) * C + c + dc])) : a;
+    if (!(h > 0)) return 0;
+    const double b = h - a;
+    return std::sqrt((a * a * a + b * b * b) / h);
+  };
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c < C; ++c) {
+      if (!on(r, c)) continue;
+      const double s = std::max(std::max(rim(r, c, 0, 1), rim(r, c, 0, -1)),
+                                std::max(rim(r, c, 1, 0), rim(r, c, -1, 0)));
+      step[size_t(r) * C + c] = float(s);
+    }
+  return step;
+}
+
+std::vector<float> closure_variance(const FilletImage& img, const std::function<double(double)>& mu,
+                                    bool rim) {
+  const bool closed = img.closure_step_mm.size() == img.size();
+  if (!closed && !rim) return {};
+  std::vector<float> steps = rim ? rim_steps(img) : img.closure_step_mm;
+  if (rim && closed)
+    for (size_t i = 0; i < steps.size(); ++i) steps[i] = std::max(steps[i], img.closure_step_mm[i]);
   const int R = img.rows, C = img.cols;
   std::vector<float> var(img.size(), 0.0f);
   for (int r = 0; r < R; ++r)
     for (int c = 0; c < C; ++c) {
       float step = 0;
       for (int q = std::max(0, r - 1); q <= std::min(R - 1, r + 1); ++q)
-        step = std::max(step, img.closure_step_mm[size_t(q) * C + c]);
+        step = std::max(step, steps[size_t(q) * C + c]);
       if (step <= 0) continue;
       const size_t i = size_t(r) * C + c;
       const double t = std::isfinite(img.thickness[i]) ? img.thickness[i] : 0.0;

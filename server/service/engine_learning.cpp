@@ -213,8 +213,10 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
     if (lc.inspection.learned.active()) {
       run->lo.band_edges_mm = lc.inspection.learned.band_edges_mm;
       run->lo.spread_by_thickness = lc.inspection.learned.spread_by_thickness;
+      run->lo.rim_walls = lc.inspection.learned.rim_walls;
     } else {
       run->lo.spread_by_thickness = lc.inspection.spread_by_thickness;
+      run->lo.rim_walls = lc.inspection.rim_walls;
     }
     run->set = std::move(set);
   }
