@@ -254,13 +254,13 @@ void report(const char* title, const PathTimes& t, const Recorded& rec, int grid
 // fixed thresholds, no band extremes) and after it (band extremes; fixed and learned
 // thresholds; one spread per fillet and spread by thickness; whitened round kernels, and
 // whitened needle kernels beside them; those after the bright enclosure, and with air pockets
-// flattened too, with needles of one width and a bank of two), in alternating rounds; medians of
-// the rounds, as ratios to the first.
+// flattened too, with needles of one width and a bank of two; and without the outline carried
+// as a wall), in alternating rounds; medians of the rounds, as ratios to the first.
 void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   std::vector<FilletImage> imgs;
   run_lanes(lc, rec, 0, 1, batch, [&](FilletImage&& im) { imgs.push_back(std::move(im)); });
   if (imgs.empty()) return;
-  constexpr int kVariants = 9;
+  constexpr int kVariants = 10;
   InspectionParams v[kVariants];
   const char* names[kVariants] = {"before learning (fixed, no extremes)",
                                   "fixed, band extremes",
@@ -270,7 +270,8 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
                                   "learned, whitened round and needle kernels",
                                   "learned, whitened kernels, bright enclosure",
                                   "learned, enclosure and voids, 0.6 mm needles",
-                                  "the same, needles of 0.6 and 1.0 mm"};
+                                  "the same, needles of 0.6 and 1.0 mm",
+                                  "enclosure and voids, outline not a wall"};
   for (int k = 0; k < kVariants; ++k) {
     v[k] = lc.inspection;
     v[k].learned = LearnedDetection{};
@@ -294,8 +295,11 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
   v[7].learned.matched = learn_lane_kernels(imgs, kernels);
   kernels.matched_needle_diameters_mm = {0.6, 1.0};
   v[8].learned.matched = learn_lane_kernels(imgs, kernels);
+  // Today's kernels (v[7]) with the fillet's outline not carried as a wall (rim_walls).
+  v[9].learned.matched = v[7].learned.matched;
+  v[9].rim_walls = false;
   // Thresholds learned on these few fillets: for the timing, not for a decision.
-  for (int k : {2, 3, 4, 5, 6, 7, 8}) {
+  for (int k : {2, 3, 4, 5, 6, 7, 8, 9}) {
     std::vector<LearningFillet> fs;
     for (const FilletImage& im : imgs)
       fs.push_back({0, im.id, 0, inspect_fillet(im, v[k], false).extremes});
