@@ -148,8 +148,10 @@ TEST(PlcRelease, AnUnreachablePlcReleasesNothingAndCountsWhatItCouldNot) {
   ASSERT_TRUE(wait_until(10, [&] { return !rig.release->status().connected; }));
   EXPECT_FALSE(rig.release->status().error.empty());
   rig.move(0, 1060);  // its deadline passes while the PLC is away
-  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().unreleased == 1; }));
-  EXPECT_EQ(rig.audited("release.unreleased"), 1);
+  // The count comes before its audit entry is written: wait for both.
+  ASSERT_TRUE(wait_until(10, [&] {
+    return rig.release->status().unreleased == 1 && rig.audited("release.unreleased") == 1;
+  }));
   EXPECT_EQ(rig.audited("plc.lost"), 1);
   rig.plc->start();
   ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));
