@@ -89,9 +89,15 @@ std::vector<float> closure_variance(const FilletImage& img, const std::function<
                                     bool rim) {
   const bool closed = img.closure_step_mm.size() == img.size();
   if (!closed && !rim) return {};
-  std::vector<float> steps = rim ? rim_steps(img) : img.closure_step_mm;
-  if (rim && closed)
-    for (size_t i = 0; i < steps.size(); ++i) steps[i] = std::max(steps[i], img.closure_step_mm[i]);
+  // Without the rim the closures' steps are read where they are, not copied.
+  std::vector<float> with_rim;
+  if (rim) {
+    with_rim = rim_steps(img);
+    if (closed)
+      for (size_t i = 0; i < with_rim.size(); ++i)
+        with_rim[i] = std::max(with_rim[i], img.closure_step_mm[i]);
+  }
+  const std::vector<float>& steps = rim ? with_rim : img.closure_step_mm;
   const int R = img.rows, C = img.cols;
   std::vector<float> var(img.size(), 0.0f);
   for (int r = 0; r < R; ++r)
