@@ -112,6 +112,13 @@ FilletImage folded(uint64_t seed, const std::function<int(int)>& foot) {
   return f;
 }
 
+// How many of res's fragments `on` holds.
+int count(const FilletResult& res, const std::function<bool(const Blob&)>& on) {
+  int n = 0;
+  for (const Blob& b : res.fragments) n += on(b);
+  return n;
+}
+
 // f's gaps closed as the lane's assembly does, inspected with the closures' spread and
 // without it (as before it was carried): the detections on the step (on_step) in each, and
 // the bone beyond it found in both, alone.
@@ -121,11 +128,6 @@ void step_is_not_bone(FilletImage f, const std::function<bool(const Blob&)>& on_
   ASSERT_EQ(f.closure_step_mm.size(), f.size());
   FilletImage unknown = f;
   unknown.closure_step_mm.clear();
-  auto count = [](const FilletResult& res, const std::function<bool(const Blob&)>& on) {
-    int n = 0;
-    for (const Blob& b : res.fragments) n += on(b);
-    return n;
-  };
   auto bone = [](const Blob& b) { return std::hypot(b.x_mm - 10, b.y_mm - 200) < 1.0; };
   const FilletResult without = inspect_fillet(unknown, params(), false);
   const FilletResult with = inspect_fillet(f, params(), false);
@@ -220,11 +222,6 @@ TEST(Inspection, AFlapsWallAtTheOutlineMeasuredShortIsNotTakenForBone) {
   with.rim_walls = true;
   const FilletResult a = inspect_fillet(f, without, false), b = inspect_fillet(f, with, false);
   ASSERT_TRUE(a.fitted && b.fitted) << a.reason << b.reason;
-  auto count = [](const FilletResult& res, const std::function<bool(const Blob&)>& on) {
-    int n = 0;
-    for (const Blob& d : res.fragments) n += on(d);
-    return n;
-  };
   std::printf(
       "a flap's rim 3 mm short along 7 rows: %d fragments on it without rim_walls, %d with\n",
       count(a, on_rim), count(b, on_rim));
