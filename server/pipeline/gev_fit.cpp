@@ -25,16 +25,23 @@ GevModel from_params(const std::vector<double>& p, const GevModel& centre, const
   return g;
 }
 
-double nll(const GevModel& g, const std::vector<ExtremeSample>& s) {
-  double sum = 0;
-  for (const ExtremeSample& e : s) sum += g.neg_log_density(e.x, e.n, e.t);
-  return sum;
-}
-
+// Each sample's density over the window it could be seen in, F(upper) - F(lower); one
+// below its window is left out. With a lower end the window is S(lower) - S(upper) from the
+// survival's logarithm: where the model moves far below the samples both ends lie in its
+// tail, and the difference of two CDFs next to 1 cancels to nothing.
 double truncated_nll(const GevModel& g, const std::vector<ExtremeSample>& s) {
-  double sum = nll(g, s);
-  for (const ExtremeSample& e : s)
-    if (std::isfinite(e.upper)) sum += std::log(std::max(1e-300, g.cdf(e.upper, e.n, e.t)));
+  double sum = 0;
+  for (const ExtremeSample& e : s) {
+    if (e.x < e.lower) continue;
+    sum += g.neg_log_density(e.x, e.n, e.t);
+    if (std::isfinite(e.lower)) {
+      const double lo = g.log_survival(e.lower, e.n, e.t);
+      const double hi = std::isfinite(e.upper) ? g.log_survival(e.upper, e.n, e.t) : -HUGE_VAL;
+      sum += hi < lo ? lo + std::log1p(-std::exp(hi - lo)) : std::log(1e-300);
+    } else if (std::isfinite(e.upper)) {
+      sum += std::log(std::max(1e-300, g.cdf(e.upper, e.n, e.t)));
+    }
+  }
   return sum;
 }
 
@@ -93,9 +100,16 @@ double fit_location_shift(const GevModel& model, const std::vector<ExtremeSample
     g.m0 += d;
     return truncated_nll(g, s);
   };
-  // Golden-section search over a generous bracket (in units of the model's scale).
-  const double w = 10 * model.scale(model.t_ref);
-  double a = -w, b = w;
+  // A coarse scan over a generous bracket (in units of the model's scale), then a
+  // golden-section search around its best: a likelihood truncated below is not unimodal (far
+  // below the samples it flattens out again, every one of them in the tail).
+  const double w = 10 * model.scale(model.t_ref), grid = w / 20;
+  double best = 0, f_best = HUGE_VAL;
+  for (int i = -20; i <= 20; ++i) {
+    const double f = at(i * grid);
+    if (f < f_best) best = i * grid, f_best = f;
+  }
+  double a = best - grid, b = best + grid;
   const double k = 0.5 * (std::sqrt(5.0) - 1);
   double c = b - k * (b - a), d = a + k * (b - a), fc = at(c), fd = at(d);
   for (int i = 0; i < 80; ++i) {

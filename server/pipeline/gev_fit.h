@@ -14,6 +14,11 @@ struct ExtremeSample {
   // Seen only because it stayed below this (a passed fillet's extreme under a threshold):
   // the likelihood is truncated there. Infinity: not truncated.
   double upper = HUGE_VAL;
+  // Seen only above this: the likelihood is truncated here too, and a sample below is left
+  // out. A small band's extreme far in the Gumbel's thin lower tail otherwise outweighs a
+  // hundred others, and the lower tail says nothing of false rejects. -Infinity: not
+  // truncated.
+  double lower = -HUGE_VAL;
 };
 
 struct GevFitOptions {
@@ -36,6 +41,7 @@ GevFit fit_gev(const std::vector<ExtremeSample>& samples, const GevFitOptions& o
 // parameters held: how far a product's extremes have drifted from what was learned. Samples
 // with a finite `upper` count with the truncated density f(x) / F(upper): a lane sees the
 // extremes of the fillets it passed, and a rougher product's come close to its thresholds.
+// Samples under a finite `lower` are left out, the others truncated there.
 double fit_location_shift(const GevModel& model, const std::vector<ExtremeSample>& samples);
 
 // The same model refitted to recent samples in its location, scale and shape (the

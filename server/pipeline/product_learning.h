@@ -88,10 +88,11 @@ ProductLearning learn_product(const std::vector<LearningFillet>& fillets, const 
 double implied_false_reject_rate(const LearnedDetection& learned);
 
 // Drift: each statistic's model refitted to recent passed fillets' extremes in location,
-// scale and shape (truncated at the thresholds they stayed below; the covariates' slopes
-// held), and the false-reject rate the refitted models imply at the learned thresholds.
-// `shift`: how far the median extreme moved (at the learning's reference pixels and
-// thickness).
+// scale and shape (truncated at the thresholds they stayed below, and at the learned model's
+// lowest thousandth, below which an extreme is left out; the covariates' slopes held), and
+// the false-reject rate the refitted models imply at the learned thresholds. `shift`: how
+// far the extremes moved with the learned scale and shape (the refit's own median is not
+// pinned where its lower tail is cut away; its tail is).
 struct DriftEstimate {
   int fillets = 0;
   std::array<double, kStatistics> shift{};
