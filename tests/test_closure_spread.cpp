@@ -2,9 +2,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "pipeline/closure_spread.h"
 #include "pipeline/masked_smooth.h"
+#include "pipeline/matched_kernels.h"
 
 namespace rangex {
 namespace {
@@ -71,6 +73,38 @@ TEST(ClosureSpread, AClosureAloneStaysUnderSqrt3Spreads) {
                             int(i) % C);
   });
   for (float x : zs) EXPECT_GT(x, -std::sqrt(3.0));
+}
+
+// The kernels' sums, scattered from the closed pixels, against apply_kernel_at read at each
+// pixel near them: closures on the box's edges, a row along a lost line, unusable pixels
+// among them, an asymmetric kernel.
+TEST(ClosureSpread, KernelSumsScatteredEqualTheKernelReadAtEachNearPixel) {
+  const int R = 23, C = 31, radius = 3, w = 2 * radius + 1;
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<uint8_t> use(size_t(R) * C, 1);
+  std::vector<float> e(use.size(), 0.0f);
+  for (size_t i = 0; i < use.size(); ++i) {
+    use[i] = u(rng) > 0.1;
+    if (u(rng) < 0.06) e[i] = float(u(rng));
+  }
+  for (int c = 0; c < C; ++c) e[size_t(11) * C + c] = 0.8f;  // a lost line
+  e[0] = 0.5f, e[size_t(R) * C - 1] = 0.9f, use[0] = 1, use[size_t(R) * C - 1] = 1;
+  std::vector<double> taps(size_t(w) * w);
+  for (double& h : taps) h = u(rng);
+  const ClosureReach cr = closure_reach(e, use.data(), R, C, radius);
+  ASSERT_FALSE(cr.empty());
+  std::vector<double> acc(use.size(), 0.0);
+  const std::vector<double> sums = closure_kernel_sums(cr, R, C, taps, radius, acc);
+  ASSERT_EQ(sums.size(), cr.near.size());
+  for (size_t k = 0; k < cr.near.size(); ++k) {
+    const size_t i = cr.near[k];
+    EXPECT_NEAR(
+        sums[k],
+        apply_kernel_at(cr.e.data(), use.data(), R, C, taps, radius, int(i) / C, int(i) % C), 1e-12)
+        << i;
+  }
+  for (double a : acc) ASSERT_EQ(a, 0.0);  // left zeroed for the next kernel
 }
 
 }  // namespace

@@ -17,8 +17,9 @@
 namespace rangex {
 
 struct ClosureReach {
-  std::vector<float> e;      // per pixel, z's units; 0 where nothing was closed
-  std::vector<size_t> near;  // the usable pixels within `reach` of a closed one
+  std::vector<float> e;        // per pixel, z's units; 0 where nothing was closed
+  std::vector<size_t> near;    // the usable pixels within `reach` of a closed one
+  std::vector<size_t> closed;  // the pixels with e > 0
   bool empty() const { return near.empty(); }
 };
 
@@ -29,5 +30,17 @@ ClosureReach closure_reach(std::vector<float> e, const uint8_t* use, int rows, i
 // is the kernel's sum of |h| e at pixel i and s the profile v was brought to unit spread with.
 void discount_closures(std::vector<float>& v, const ClosureReach& cr, const float* thickness,
                        const SpreadProfile& s, const std::function<double(size_t)>& sum_at);
+
+// The same with the sums given for cr.near's pixels, in its order.
+void discount_closures(std::vector<float>& v, const ClosureReach& cr, const float* thickness,
+                       const SpreadProfile& s, const std::vector<double>& sums);
+
+// A kernel's sum of `taps` times e at each of cr.near's pixels (in its order), the window
+// (2 radius + 1)^2 centred there as apply_kernel_at reads it: each closed pixel's e is
+// scattered over its window instead, since the closed pixels (a rim, a lost line) are a
+// few to the many near them. `acc`: a scratch of rows x cols zeros, left zeroed.
+std::vector<double> closure_kernel_sums(const ClosureReach& cr, int rows, int cols,
+                                        const std::vector<double>& taps, int radius,
+                                        std::vector<double>& acc);
 
 }  // namespace rangex

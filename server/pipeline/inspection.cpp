@@ -381,9 +381,9 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
     reach = std::max(reach, smooth_reach_px(p.line_sigma_along_px, p.line_sigma_across_px));
   const ClosureReach cr = closure_reach(closure_z, use.data(), img.rows, img.cols, reach);
   auto smooth_at = [&](double along, double across, int dir) {
-    return [&, along, across, dir](size_t i) {
-      return masked_smooth_at(cr.e.data(), use.data(), img.rows, img.cols, along, across, dir,
-                              int(i / size_t(img.cols)), int(i % size_t(img.cols)));
+    return [&, at = MaskedSmoothAt(along, across, dir)](size_t i) {
+      return at(cr.e.data(), use.data(), img.rows, img.cols, int(i / size_t(img.cols)),
+                int(i % size_t(img.cols)));
     };
   };
   masked_gaussian(z.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, zs);
@@ -408,7 +408,7 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   if (!mk.empty() || mk.has_needles())
     clip_bright(z.data(), use.data(), img.rows, img.cols, mk.clip, mk.enclosure_px, mk.void_level,
                 zc);
-  std::vector<double> abs_taps;
+  std::vector<double> abs_taps, closure_acc;
   auto most_bone_like = [&](const std::vector<double>& taps, int radius, double spread,
                             std::vector<float>& into, std::vector<int16_t>& which, size_t k) {
     apply_kernel(zc.data(), use.data(), img.rows, img.cols, taps, radius, zk);
@@ -417,10 +417,9 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
     if (!cr.empty()) {
       abs_taps.resize(taps.size());
       for (size_t j = 0; j < taps.size(); ++j) abs_taps[j] = std::abs(taps[j]);
-      discount_closures(zk, cr, img.thickness.data(), s, [&](size_t i) {
-        return apply_kernel_at(cr.e.data(), use.data(), img.rows, img.cols, abs_taps, radius,
-                               int(i / size_t(img.cols)), int(i % size_t(img.cols)));
-      });
+      if (closure_acc.empty()) closure_acc.assign(n, 0.0);
+      discount_closures(zk, cr, img.thickness.data(), s,
+                        closure_kernel_sums(cr, img.rows, img.cols, abs_taps, radius, closure_acc));
     }
     for (size_t i = 0; i < n; ++i)
       if (std::isfinite(zk[i]) && !(into[i] >= -zk[i])) into[i] = -zk[i], which[i] = int16_t(k);
