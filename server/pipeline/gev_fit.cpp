@@ -75,7 +75,8 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
 }
 
 GevModel refit_drifted(const GevModel& model, const std::vector<ExtremeSample>& s,
-                       const GevFitOptions& opt) {
+                       double* location_shift, const GevFitOptions& opt) {
+  if (location_shift) *location_shift = 0;
   if (s.size() < 10) return model;
   auto with = [&](const std::vector<double>& p) {
     GevModel g = model;
@@ -84,8 +85,10 @@ GevModel refit_drifted(const GevModel& model, const std::vector<ExtremeSample>& 
   };
   // The shape's start: the model's, inside the logistic's range.
   const double u = std::clamp((model.xi - opt.xi_min) / (opt.xi_max - opt.xi_min), 0.02, 0.98);
+  const double shift = fit_location_shift(model, s);
+  if (location_shift) *location_shift = shift;
   GevModel shifted = model;
-  shifted.m0 += fit_location_shift(model, s);
+  shifted.m0 += shift;
   const NelderMeadResult r =
       nelder_mead([&](const std::vector<double>& p) { return truncated_nll(with(p), s); },
                   {shifted.m0, model.s0, std::log(u / (1 - u))}, {0.3, 0.2, 1.0}, 1e-8, 6000);

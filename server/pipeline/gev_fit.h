@@ -50,7 +50,8 @@ double fit_location_shift(const GevModel& model, const std::vector<ExtremeSample
 // fit_location_shift. The location shift alone stands unless the scale and shape improve the
 // likelihood beyond chance (a likelihood-ratio test, 2 degrees of freedom, 1 %): the free refit
 // over-reads a tail that truncation hides.
+// `location_shift`, when given, receives that location shift (fit_location_shift's).
 GevModel refit_drifted(const GevModel& model, const std::vector<ExtremeSample>& samples,
-                       const GevFitOptions& opt = {});
+                       double* location_shift = nullptr, const GevFitOptions& opt = {});
 
 }  // namespace rangex

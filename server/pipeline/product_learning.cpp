@@ -370,8 +370,7 @@ DriftEstimate estimate_drift(const LearnedDetection& L,
                              ? ls.thresholds[size_t(e.band)]
                              : HUGE_VAL,
                          ls.model.quantile(kDriftLeftOutBelow, e.n, e.t)});
-    d.models[size_t(s)] = smp.size() >= 10 ? refit_drifted(ls.model, smp) : ls.model;
-    d.shift[size_t(s)] = smp.size() >= 10 ? fit_location_shift(ls.model, smp) : 0.0;
+    d.models[size_t(s)] = refit_drifted(ls.model, smp, &d.shift[size_t(s)]);
   }
   LearnedDetection drifted = L;
   for (int s = 0; s < kStatistics; ++s) drifted.stats[size_t(s)].model = d.models[size_t(s)];
