@@ -2,6 +2,7 @@
 
 #include <arv.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <mutex>
@@ -153,13 +154,22 @@ struct GigeDevice::Impl {
 
   void start() {
     GError* e = nullptr;
+    // The socket path, not Aravis's packet socket (taken where rangexd may open one, e.g. as
+    // root): that socket hears every device on the host until its filter is attached, and a
+    // device starting beside streaming ones took their frames as its own.
+    arv_camera_gv_set_stream_options(camera, ARV_GV_STREAM_OPTION_PACKET_SOCKET_DISABLED);
     ArvStream* stream = arv_camera_create_stream(camera, nullptr, nullptr, &e);
     if (!stream) fail("device ", setup.id, " gives no stream: ", take_error(e));
-    // The socket's receive buffer sized for a whole frame (docs/sensors.md: rmem_max).
-    if (ARV_IS_GV_STREAM(stream))
-      g_object_set(stream, "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_AUTO, nullptr);
     const guint payload = arv_camera_get_payload(camera, &e);
     if (e) fail("device ", setup.id, " gives no payload size: ", take_error(e));
+    // The socket's receive buffer for every receive buffer's frame, 1 MiB at least; the kernel
+    // holds it to net.core.rmem_max (docs/sensors.md). Aravis's "auto" sizes it to one frame:
+    // an X-ray line of 960 bytes then left no room for its own three packets.
+    if (ARV_IS_GV_STREAM(stream)) {
+      const size_t want = std::max<size_t>(size_t(payload) * size_t(setup.buffers), 1u << 20);
+      g_object_set(stream, "socket-buffer", ARV_GV_STREAM_SOCKET_BUFFER_FIXED, "socket-buffer-size",
+                   gint(std::min<size_t>(want, 1u << 30)), nullptr);
+    }
     for (int i = 0; i < setup.buffers; ++i)
       arv_stream_push_buffer(stream, arv_buffer_new_allocate(payload));
     session->stream = stream;

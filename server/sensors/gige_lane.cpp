@@ -120,6 +120,7 @@ void GigeLane::run_device(int index) {
       bool first_frame = true;
       int64_t offset = 0;      // the session's count to the lane's
       bool own_count = false;  // started with the lane, counting its own frames
+      uint64_t wrong_in_session = 0;
       while (!stop_) {
         const GigeDevice::Got got = dev.next(100, frame, why);
         const DeviceStreamCounts sc = dev.stream_counts();
@@ -143,6 +144,9 @@ void GigeLane::run_device(int index) {
             s.lost_frames += frame.lost_before;
           }
         });
+        // Named once a session: a device configured by another tool, or a damaged leader.
+        if (got == GigeDevice::Got::kWrongFormat && wrong_in_session++ == 0)
+          log::warn("sensor_wrong_format", "{}: {}", who, why);
         if (got != GigeDevice::Got::kFrame) continue;
         std::lock_guard<std::mutex> lk(count_mu_);
         // A device counting its own frames starts again at 1 each session (frame_counts.h).
