@@ -144,7 +144,8 @@ void GigeLane::run_device(int index) {
             s.lost_frames += frame.lost_before;
           }
         });
-        // Named once a session: a device configured by another tool, or a damaged leader.
+        // Named once a session: a device reconfigured by another tool, or packets of another
+        // device on this stream's port.
         if (got == GigeDevice::Got::kWrongFormat && wrong_in_session++ == 0)
           log::warn("sensor_wrong_format", "{}: {}", who, why);
         if (got != GigeDevice::Got::kFrame) continue;
