@@ -157,10 +157,9 @@ int packet_sockets_held() {
   std::getline(net, line);  // header: sk RefCnt Type Proto Iface R Rmem User Inode
   while (std::getline(net, line)) {
     std::istringstream in(line);
-    std::string field;
-    for (int i = 0; i < 9 && in >> field; ++i) {
-    }
-    if (!field.empty()) inodes.insert("socket:[" + field + "]");
+    std::string field, inode;
+    while (in >> field) inode = field;  // the last column
+    if (!inode.empty()) inodes.insert("socket:[" + inode + "]");
   }
   int held = 0;
   for (const auto& fd : std::filesystem::directory_iterator("/proc/self/fd")) {

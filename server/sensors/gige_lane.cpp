@@ -118,9 +118,9 @@ void GigeLane::run_device(int index) {
       std::string why;
       DeviceFrame frame;
       bool first_frame = true;
-      int64_t offset = 0;      // the session's count to the lane's
-      bool own_count = false;  // started with the lane, counting its own frames
-      uint64_t wrong_in_session = 0;
+      int64_t offset = 0;        // the session's count to the lane's
+      bool own_count = false;    // started with the lane, counting its own frames
+      bool wrong_named = false;  // this session's first wrong-format frame logged
       while (!stop_) {
         const GigeDevice::Got got = dev.next(100, frame, why);
         const DeviceStreamCounts sc = dev.stream_counts();
@@ -146,8 +146,10 @@ void GigeLane::run_device(int index) {
         });
         // Named once a session: a device reconfigured by another tool, or packets of another
         // device on this stream's port.
-        if (got == GigeDevice::Got::kWrongFormat && wrong_in_session++ == 0)
+        if (got == GigeDevice::Got::kWrongFormat && !wrong_named) {
+          wrong_named = true;
           log::warn("sensor_wrong_format", "{}: {}", who, why);
+        }
         if (got != GigeDevice::Got::kFrame) continue;
         std::lock_guard<std::mutex> lk(count_mu_);
         // A device counting its own frames starts again at 1 each session (frame_counts.h).
