@@ -13,6 +13,7 @@
 #include "pipeline/lane_processor.h"
 #include "pipeline/line_pipeline.h"
 #include "pipeline/product_learning.h"
+#include "service/heap_trim.h"
 #include "sim/plant_simulator.h"
 
 namespace rangex::cli {
@@ -250,6 +251,43 @@ void report(const char* title, const PathTimes& t, const Recorded& rec, int grid
               t.bytes_copied / double(t.lines) / (2.0 * double(rec.frame())));
 }
 
+// Today's inspection of the same fillets on a thread of its own, as rangexd's lanes inspect,
+// under heap policies (heap_trim.h) in alternating rounds: the server's before 2026-12-02
+// (blocks of 256 kB and more mapped, an arena's free top returned beyond glibc's 128 kB:
+// each fillet's buffers went back to the kernel and came back as page faults), that with the
+// top kept, and today's. The process keeps today's afterwards.
+void bench_server_heap(const std::vector<FilletImage>& imgs, const InspectionParams& p) {
+  constexpr int kPolicies = 3;
+  const size_t mapped[kPolicies] = {size_t(256) << 10, size_t(256) << 10, kMappedBlockBytes};
+  const size_t kept[kPolicies] = {size_t(128) << 10, kArenaKeptTopBytes, kArenaKeptTopBytes};
+  std::vector<double> ms[kPolicies];
+  constexpr int kRounds = 5;
+  for (int round = 0; round < kRounds; ++round)
+    for (int k = 0; k < kPolicies; ++k) {
+      set_server_heap_policy(mapped[k], kept[k]);
+      double t = 0;
+      std::thread([&] {
+        const auto t0 = clk::now();
+        for (const FilletImage& im : imgs) inspect_fillet(im, p, false);
+        t = std::chrono::duration<double>(clk::now() - t0).count();
+      }).join();
+      ms[k].push_back(1e3 * t / double(imgs.size()));
+    }
+  std::printf(
+      "\ntoday's inspection on a thread of its own under the server's heap policy, ms per "
+      "fillet (median of %d alternating rounds):\n",
+      kRounds);
+  double base = 0;
+  for (int k = 0; k < kPolicies; ++k) {
+    std::sort(ms[k].begin(), ms[k].end());
+    const double m = ms[k][ms[k].size() / 2];
+    if (k == 0) base = m;
+    std::printf("  blocks from %5.2f MB mapped, arena keeps %5.2f MB %8.2f  (%.2fx)\n",
+                double(mapped[k]) / (1 << 20), double(kept[k]) / (1 << 20), m,
+                base > 0 ? m / base : 0.0);
+  }
+}
+
 // Compensation and detection of the same fillets before product learning (one spread per fillet,
 // fixed thresholds, no band extremes) and after it (band extremes; fixed and learned
 // thresholds; one spread per fillet and spread by thickness; whitened round kernels, and
@@ -335,6 +373,7 @@ void bench_inspection(const LaneConfig& lc, const Recorded& rec, int batch) {
     if (k == 0) base = m;
     std::printf("  %-44s %8.2f  (%.2fx)\n", names[k], m, base > 0 ? m / base : 0.0);
   }
+  bench_server_heap(imgs, v[7]);
 }
 
 }  // namespace

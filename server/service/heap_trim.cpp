@@ -19,8 +19,9 @@ size_t resident_bytes() {
 }
 }  // namespace
 
-void keep_large_blocks_out_of_arenas() {
-  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
+void set_server_heap_policy(size_t mapped_block, size_t arena_kept_top) {
+  mallopt(M_MMAP_THRESHOLD, int(mapped_block));
+  mallopt(M_TRIM_THRESHOLD, int(arena_kept_top));
 }
 
 size_t return_free_heap() {

@@ -57,7 +57,7 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
   if (opt_.listen.empty()) opt_.listen = plant_.listen;
   if (opt_.data_dir.empty()) opt_.data_dir = plant_.storage;
   check_listen_security(opt_.listen, plant_.security, "gRPC");
-  if (opt_.heap_trim_s > 0) keep_large_blocks_out_of_arenas();
+  if (opt_.heap_trim_s > 0) set_server_heap_policy();
   started_ns_ = now_ns();
   store_ = std::make_unique<Store>(opt_.data_dir);
   if (!plant_.results_db.empty()) continue_moved_lanes();
