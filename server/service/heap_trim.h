@@ -2,12 +2,12 @@
 // (heaptrack: 772 MB in the first minutes, 770 MB after 20), yet resident memory stepped up
 // over an hour: glibc keeps freed pages in each thread's arena (gRPC's threads, the
 // gate's workers, the engine's) and returns them only at an arena's top. malloc_trim returns
-// every whole free page of every arena. And large blocks (frames, fillet images) are kept out
-// of the arenas: glibc raises its mmap threshold each time a mapped block is freed, after which
-// blocks of a few MB come from the arenas and stay there.
-// Between those trims an arena keeps what is freed at its top: with glibc's default (128 kB,
-// fixed once the mmap threshold is) each inspection's buffers of 100-250 kB went back to the
-// kernel as they were freed and came back as page faults in the next fillet's.
+// every whole free page of every arena. And glibc raises its mmap threshold each time a
+// mapped block is freed, after which blocks of any size come from the arenas and stay there:
+// the threshold is fixed. Fixed at 256 kB (until 2026-12-02) it mapped every fillet's
+// buffers, and with an arena returning its free top beyond glibc's 128 kB (no longer raised
+// once the threshold is fixed) each inspection's pages went back to the kernel and came
+// back as page faults in the next: a lane's inspection took 3x its time (docs/concurrency.md).
 #pragma once
 #include <cstddef>
 
