@@ -1,7 +1,5 @@
 // rangexctl: the command-line client: offline tools on recordings and simulations, and the
 // gRPC client of a running rangexd (feed, watch, calibrations, status).
-#include <malloc.h>
-
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -149,8 +147,7 @@ int main(int argc, char** argv) {
   // own, each lane's inspection buffers were mapped and faulted in anew, and the lanes'
   // threads waited on each other's page faults (`process --simulate --lanes 4`: 105-183 ms a
   // fillet against 63-88).
-  mallopt(M_MMAP_THRESHOLD, int(rangex::kMappedBlockBytes));
-  mallopt(M_TRIM_THRESHOLD, int(rangex::kArenaKeptTopBytes));
+  rangex::set_server_heap_policy();
   using namespace rangex::cli;
   const char* cmd = argv[1];
   return run_command(cmd, [&] {

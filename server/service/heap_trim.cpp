@@ -19,11 +19,6 @@ size_t resident_bytes() {
 }
 }  // namespace
 
-void set_server_heap_policy(size_t mapped_block, size_t arena_kept_top) {
-  mallopt(M_MMAP_THRESHOLD, int(mapped_block));
-  mallopt(M_TRIM_THRESHOLD, int(arena_kept_top));
-}
-
 size_t return_free_heap() {
   const size_t before = resident_bytes();
   malloc_trim(0);

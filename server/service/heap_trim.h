@@ -9,6 +9,8 @@
 // once the threshold is fixed) each inspection's pages went back to the kernel and came
 // back as page faults in the next: a lane's inspection took 3x its time (docs/concurrency.md).
 #pragma once
+#include <malloc.h>
+
 #include <cstddef>
 
 namespace rangex {
@@ -19,9 +21,13 @@ namespace rangex {
 // (0.1-2 MB) stay below the one and within the other: reused from fillet to fillet, not
 // faulted in again. Called once, before the server's threads start. (`bench --path` times an
 // inspection thread under it against the earlier 256 kB and 128 kB.)
+// Inline: rangexctl takes the same policy without linking the service.
 constexpr size_t kMappedBlockBytes = size_t(8) << 20, kArenaKeptTopBytes = size_t(32) << 20;
-void set_server_heap_policy(size_t mapped_block = kMappedBlockBytes,
-                            size_t arena_kept_top = kArenaKeptTopBytes);
+inline void set_server_heap_policy(size_t mapped_block = kMappedBlockBytes,
+                                   size_t arena_kept_top = kArenaKeptTopBytes) {
+  mallopt(M_MMAP_THRESHOLD, int(mapped_block));
+  mallopt(M_TRIM_THRESHOLD, int(arena_kept_top));
+}
 
 // Returns freed heap pages to the system; the resident bytes that went back (0 when
 // nothing did, or where it cannot be measured).
