@@ -29,6 +29,7 @@
 #include "eval_bone_run.h"
 #include "eval_claims.h"
 #include "eval_steps.h"
+#include "f32_file.h"
 #include "learning_check.h"
 #include "offline/acceptance.h"
 #include "offline/detection_eval.h"
@@ -44,14 +45,6 @@ namespace fs = std::filesystem;
 namespace rangex::cli {
 
 namespace {
-
-std::vector<float> read_f32(const fs::path& p, size_t n) {
-  std::vector<float> v(n);
-  std::ifstream in(p, std::ios::binary);
-  if (!in.read(reinterpret_cast<char*>(v.data()), std::streamsize(n * sizeof(float))))
-    fail(p.string(), ": shorter than ", n, " values");
-  return v;
-}
 
 struct Row {
   std::string name;

@@ -15,6 +15,7 @@
 #include "commands.h"
 #include "core/error.h"
 #include "core/png_io.h"
+#include "f32_file.h"
 #include "offline/detection_eval.h"
 #include "offline/evaluation.h"
 #include "offline/fillet_records.h"
@@ -37,17 +38,6 @@ void write_f32(const fs::path& p, const std::vector<float>& v) {
   std::ofstream out(p, std::ios::binary);
   out.write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * sizeof(float)));
   if (!out) fail(p.string(), ": write failed");
-}
-
-std::vector<float> read_f32(const fs::path& p, size_t expect) {
-  if (!fs::exists(p))
-    fail(p.string(), " is missing (was the output written by 'rangexctl process'?)");
-  if (fs::file_size(p) != expect * sizeof(float))
-    fail(p.string(), " holds ", fs::file_size(p), " bytes, expected ", expect * sizeof(float));
-  std::vector<float> v(expect);
-  std::ifstream in(p, std::ios::binary);
-  in.read(reinterpret_cast<char*>(v.data()), std::streamsize(expect * sizeof(float)));
-  return v;
 }
 
 }  // namespace

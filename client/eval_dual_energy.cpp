@@ -43,7 +43,7 @@ struct MethodRun {
   int frr_fillets = 0, frr_rejected = 0, frr_fragments = 0;
 };
 
-struct Row {
+struct DualEnergyRow {
   std::string name;
   bool held_out = false;
   MethodRun m[kMethods];
@@ -67,9 +67,9 @@ void write_method_config(const std::string& config, const std::string& method,
                      << e.c_str() << "\n";
 }
 
-Row run_variant(const fs::path& file, const fs::path& dir, const fs::path& configs,
-                const PlantConfig& plant, const DualEnergyMatrixOptions& mo) {
-  Row r;
+DualEnergyRow run_variant(const fs::path& file, const fs::path& dir, const fs::path& configs,
+                          const PlantConfig& plant, const DualEnergyMatrixOptions& mo) {
+  DualEnergyRow r;
   const VariantRun v(file, dir);
   r.name = v.name, r.held_out = v.held_out;
   const std::string &log = v.log, &V = v.physics, &cal = v.cal;
@@ -188,7 +188,7 @@ std::string size_line(const std::string& variant, const std::string& method,
   return out + "\n";
 }
 
-std::string report(const std::vector<Row>& rows, const DualEnergyMatrixOptions& mo) {
+std::string report(const std::vector<DualEnergyRow>& rows, const DualEnergyMatrixOptions& mo) {
   std::ostringstream os;
   os << "dual energy side by side: each variant's lane on a sandwich detector, " << mo.fillets
      << " fillets (seed " << mo.seed << "); each method learned its thresholds from the same "
@@ -204,7 +204,7 @@ std::string report(const std::vector<Row>& rows, const DualEnergyMatrixOptions& 
   for (int held = 0; held < 2; ++held) {
     if (held) os << "\nheld out (written once, never tuned on):\n";
     os << h;
-    for (const Row& r : rows) {
+    for (const DualEnergyRow& r : rows) {
       if (r.held_out != bool(held)) continue;
       for (int k = 0; k < kMethods; ++k)
         os << method_line(r.name, kMethodNames[k], r.m[k].eval, &r.m[k]);
@@ -216,7 +216,7 @@ std::string report(const std::vector<Row>& rows, const DualEnergyMatrixOptions& 
   for (int k = 0; k <= kMethods; ++k) {
     DetectionEval all;
     MethodRun run;
-    for (const Row& r : rows) {
+    for (const DualEnergyRow& r : rows) {
       const DetectionEval& e = k < kMethods ? r.m[k].eval : r.base;
       for (int s = 0; s < kSizeBins; ++s)
         for (int c = 0; c < kCalcBins; ++c)
@@ -239,12 +239,12 @@ std::string report(const std::vector<Row>& rows, const DualEnergyMatrixOptions& 
   }
   os << "\nrecall by size, found/present: calcified 1-2 2-3 3-5 5-10 mm | weakly calcified "
         "1-2 2-3 3-5 5-10 mm\n";
-  for (const Row& r : rows) {
+  for (const DualEnergyRow& r : rows) {
     for (int k = 0; k < kMethods; ++k) os << size_line(r.name, kMethodNames[k], r.m[k].eval);
     os << size_line(r.name, "X-ray only (fixed)", r.base);
   }
   os << "\nwhere dual energy with the laser missed calcified fragments >= 2 mm:\n";
-  for (const Row& r : rows)
+  for (const DualEnergyRow& r : rows)
     os << r.name << ": " << missed_summary(r.m[kLaser].eval) << "\n"
        << missed_lines(r.m[kLaser].eval);
   return os.str();
@@ -261,7 +261,7 @@ int run_dual_energy_matrix(const std::vector<fs::path>& files, const fs::path& o
   fs::create_directories(out);
   for (const char* m : kMethodKeys)
     write_method_config(config, m, out / (std::string("plant-") + m + ".yaml"));
-  std::vector<Row> rows;
+  std::vector<DualEnergyRow> rows;
   std::string text;
   for (size_t k = 0; k < files.size(); ++k) {
     std::printf("[%zu/%zu] %s: calibrating, simulating, learning and inspecting 5 ways ...\n",

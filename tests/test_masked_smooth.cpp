@@ -11,7 +11,7 @@ using namespace rangex;
 
 namespace {
 
-std::vector<double> kernel(double sigma) {  // as the definition: 3 sigma, normalised
+std::vector<double> gauss_definition(double sigma) {  // as the definition: 3 sigma, normalised
   const int r = std::max(1, int(std::ceil(3 * sigma)));
   std::vector<double> k(2 * r + 1);
   double s = 0;
@@ -63,7 +63,7 @@ TEST(MaskedSmooth, GaussianEqualsItsDefinition) {
   for (double sigma : {0.7, 1.0, 2.5}) {
     std::vector<float> out;
     masked_gaussian(im.v.data(), im.m.data(), im.rows, im.cols, sigma, out);
-    const auto k = kernel(sigma);
+    const auto k = gauss_definition(sigma);
     int checked = 0;
     for (int y = 0; y < im.rows; ++y)
       for (int x = 0; x < im.cols; ++x) {
@@ -90,7 +90,8 @@ TEST(MaskedSmooth, LineGaussianEqualsItsDefinitionInEveryDirection) {
     std::vector<float> out;
     const double gain =
         masked_line_gaussian(im.v.data(), im.m.data(), im.rows, im.cols, along, across, dir, out);
-    const auto ka = kernel(dir >= 2 ? along / std::sqrt(2.0) : along), kc = kernel(across);
+    const auto ka = gauss_definition(dir >= 2 ? along / std::sqrt(2.0) : along),
+               kc = gauss_definition(across);
     double sa = 0, sc = 0;
     for (double a : ka) sa += a * a;
     for (double c : kc) sc += c * c;

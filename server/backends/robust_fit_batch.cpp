@@ -9,8 +9,6 @@ namespace rangex {
 
 namespace {
 
-constexpr double kMadNormal = 0.6744897501960817;  // as robust_fit.cpp
-
 struct State {
   bool active = false;
   double b0 = 0, b1 = 0, scale = 0, dev_prev = 0;

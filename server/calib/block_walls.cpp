@@ -7,12 +7,11 @@
 #include "calib/open_beam.h"
 #include "calib/staircase_fit.h"
 #include "core/error.h"
+#include "core/no_value.h"
 
 namespace rangex {
 
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Run {
   int64_t a, b;  // first and last line

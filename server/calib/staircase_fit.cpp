@@ -9,12 +9,11 @@
 #include "calib/block_covariance.h"
 #include "calib/camera_pose.h"
 #include "core/error.h"
+#include "core/no_value.h"
 
 namespace rangex {
 
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct Plateau {
   int u0, u1;                                // first and last column

@@ -3,16 +3,16 @@
 namespace rangex {
 
 namespace {
-constexpr const char* kNames[] = {"none", "viewer", "operator", "engineer", "admin"};
+constexpr const char* kRoleNames[] = {"none", "viewer", "operator", "engineer", "admin"};
 }
 
 const char* role_name(Role r) {
-  return kNames[int(r)];
+  return kRoleNames[int(r)];
 }
 
 std::optional<Role> parse_role(const std::string& s) {
   for (int i = 0; i < 5; ++i)
-    if (s == kNames[i]) return Role(i);
+    if (s == kRoleNames[i]) return Role(i);
   return std::nullopt;
 }
 

@@ -8,7 +8,7 @@
 namespace rangex {
 
 namespace {
-constexpr std::array<std::pair<std::string_view, StripeMethod>, 7> kNames{{
+constexpr std::array<std::pair<std::string_view, StripeMethod>, 7> kMethodNames{{
     {"centroid", StripeMethod::kCentroid},
     {"squared", StripeMethod::kSquared},
     {"binary", StripeMethod::kBinary},
@@ -20,15 +20,15 @@ constexpr std::array<std::pair<std::string_view, StripeMethod>, 7> kNames{{
 }  // namespace
 
 StripeMethod parse_stripe_method(std::string_view name) {
-  for (const auto& [n, m] : kNames)
+  for (const auto& [n, m] : kMethodNames)
     if (n == name) return m;
   std::string all;
-  for (const auto& [n, m] : kNames) all += (all.empty() ? "" : ", ") + std::string(n);
+  for (const auto& [n, m] : kMethodNames) all += (all.empty() ? "" : ", ") + std::string(n);
   fail("unknown stripe method '", name, "' (expected one of: ", all, ")");
 }
 
 std::string_view stripe_method_name(StripeMethod m) {
-  for (const auto& [n, mm] : kNames)
+  for (const auto& [n, mm] : kMethodNames)
     if (mm == m) return n;
   return "?";
 }

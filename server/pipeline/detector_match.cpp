@@ -5,11 +5,11 @@
 #include <limits>
 #include <vector>
 
+#include "core/no_value.h"
+
 namespace rangex {
 
-namespace {
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-}  // namespace
+namespace {}  // namespace
 
 void match_detector(FilletImage& img, double mu) {
   if (!img.matches_detector() || img.rows <= 0 || img.cols <= 0) return;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/no_value.h"
 #include "pipeline/detector_match.h"
 #include "pipeline/dual_energy.h"
 #include "pipeline/fat_fraction.h"
@@ -19,7 +20,6 @@ namespace rangex {
 
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr double kBoneMgPerMm3 = 1.92;  // cortical bone (ICRU 44)
 constexpr int kMinBeltPixels = 20;
 

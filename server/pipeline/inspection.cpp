@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "core/no_value.h"
 #include "pipeline/closure_spread.h"
 #include "pipeline/component_extreme.h"
 #include "pipeline/connected_components.h"
@@ -37,8 +38,6 @@ const char* inspect_stage_name(int stage) {
 }
 
 namespace {
-
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 FilletResult header(const FilletImage& img) {
   FilletResult r;

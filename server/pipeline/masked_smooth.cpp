@@ -10,7 +10,7 @@ namespace {
 int radius(double sigma) {
   return std::max(1, int(std::ceil(3 * sigma)));
 }
-std::vector<float> kernel(double sigma) {
+std::vector<float> gauss_taps(double sigma) {
   const int r = radius(sigma);
   std::vector<float> k(2 * r + 1);
   double sum = 0;
@@ -25,7 +25,7 @@ int smooth_reach_px(double sigma_along, double sigma_across) {
 }
 
 double gaussian_noise_gain(double sigma) {
-  const auto k = kernel(sigma);
+  const auto k = gauss_taps(sigma);
   double s = 0;
   for (float a : k) s += double(a) * a;
   return s;  // separable: (sum k_i^2)(sum k_j^2) under the root
@@ -83,7 +83,7 @@ void masked_two_pass(const float* v, const uint8_t* mask, int rows, int cols,
 
 void masked_gaussian(const float* v, const uint8_t* mask, int rows, int cols, double sigma,
                      std::vector<float>& out) {
-  const auto k = kernel(sigma);
+  const auto k = gauss_taps(sigma);
   masked_two_pass(v, mask, rows, cols, k, 1, 0, k, 0, 1, out);  // along rows, then columns
 }
 
@@ -104,8 +104,8 @@ LineSteps line_steps(int direction) {
 MaskedSmoothAt::MaskedSmoothAt(double sigma_along, double sigma_across, int direction) {
   const bool round = direction < 0;
   const LineSteps st = round ? LineSteps{1, 0, 0, 1, false} : line_steps(direction);
-  ka_ = kernel(st.diagonal ? sigma_along / std::sqrt(2.0) : sigma_along);
-  kc_ = round ? ka_ : kernel(sigma_across);
+  ka_ = gauss_taps(st.diagonal ? sigma_along / std::sqrt(2.0) : sigma_along);
+  kc_ = round ? ka_ : gauss_taps(sigma_across);
   dx_ = st.dx, dy_ = st.dy, cx_ = st.cx, cy_ = st.cy;
 }
 
@@ -135,8 +135,8 @@ double masked_line_gaussian(const float* v, const uint8_t* mask, int rows, int c
                             std::vector<float>& out) {
   const LineSteps st = line_steps(direction);
   // A diagonal step is sqrt(2) pixels long; across a diagonal is along the rows.
-  const auto ka = kernel(st.diagonal ? sigma_along / std::sqrt(2.0) : sigma_along);
-  const auto kc = kernel(sigma_across);
+  const auto ka = gauss_taps(st.diagonal ? sigma_along / std::sqrt(2.0) : sigma_along);
+  const auto kc = gauss_taps(sigma_across);
   masked_two_pass(v, mask, rows, cols, ka, st.dx, st.dy, kc, st.cx, st.cy, out);
   double sa = 0, sc = 0;
   for (float a : ka) sa += double(a) * a;

@@ -5,10 +5,11 @@
 #include <limits>
 #include <vector>
 
+#include "core/no_value.h"
+
 namespace rangex {
 
 namespace {
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 // Resamples one camera's column polyline onto the grid (NaN where it has no data).
 void resample_camera(const float* x, const float* z, const uint8_t* valid, int width,

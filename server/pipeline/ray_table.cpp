@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "core/no_value.h"
 #include "core/ray_path.h"
 
 namespace rangex {
@@ -55,7 +56,6 @@ void project_line(const RayTable& t, const float* h, const uint8_t* hv, float* t
   for (int g = 0; g < n; ++g)
     if (hv[g]) top = std::max(top, h[g]);
   const double ztop = std::max<double>(top, 1e-6);
-  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   if (ztop > t.z_max_mm) {  // above the table: the walk
     const ProfileGrid grid{h, hv, n, t.x0_mm, t.pitch_mm, top};
     for (int i = 0; i < t.pixels; ++i) {

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "core/no_value.h"
 
 namespace rangex {
 
@@ -38,7 +39,6 @@ RectifyTable build_rectify_table(const CameraModel& cam, const LaserPlane& plane
 
 void rectify(const float* row, const uint8_t* valid, int count, int width, const int* slot,
              const RectifyTable* tables, float* x, float* z, uint8_t* out_valid) {
-  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   for (int f = 0; f < count; ++f) {
     const RectifyTable& t = tables[slot[f]];
     const float inv = 1.0f / float(t.step);

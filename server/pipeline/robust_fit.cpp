@@ -67,8 +67,6 @@ double median_inplace(double* v, size_t n) {
 
 namespace {
 
-constexpr double kMadNormal = 0.6744897501960817;  // Gaussian 3/4 quantile
-
 // ln I = b[0] + b[1] T (+ b[2] T^2).
 struct Poly {
   int degree = 1;

@@ -69,4 +69,8 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
 // Large inputs are bracketed by a sample and selected within the bracket.
 double median_inplace(double* v, size_t n);
 
+// The Gaussian's 3/4 quantile: a median absolute deviation / kMadNormal is the standard
+// deviation of Gaussian data.
+inline constexpr double kMadNormal = 0.6744897501960817;
+
 }  // namespace rangex

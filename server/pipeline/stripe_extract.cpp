@@ -9,6 +9,7 @@
 #include <limits>
 #include <thread>
 
+#include "core/no_value.h"
 #include "pipeline/stripe_block64.h"
 #include "pipeline/stripe_column.h"
 #include "pipeline/stripe_prefetch.h"
@@ -28,7 +29,6 @@ void StripeOutput::resize(size_t n) {
 
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr size_t kOutputBytesPerColumn = 5 * sizeof(float) + 1;  // StripeOutput's fields
 constexpr size_t kStreamOutputBytes = size_t(4) << 20;           // beyond this, stream them
 
@@ -219,7 +219,6 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
 
   // The method's row, lane by lane: stripe::method_row with the method chosen once per
   // group instead of once per column, so that each case runs vectorised.
-  constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
   float C[N], A[N], R[N];
   for (int k = 0; k < N; ++k) {
     C[k] = s1[k] / s0[k];
@@ -254,7 +253,7 @@ void column_group(const uint8_t* f, int width, int height, int c0, const uint8_t
   }
   const size_t o = o0 + c0;
   for (int k = 0; k < N; ++k) {
-    out.row[o + k] = valid[k] ? R[k] : kNaNf;
+    out.row[o + k] = valid[k] ? R[k] : kNaN;
     out.peak[o + k] = m[k];
     out.width[o + k] = float(span[k]);
     out.centroid[o + k] = valid[k] ? C[k] : 0.f;

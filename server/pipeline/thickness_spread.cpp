@@ -8,7 +8,6 @@
 namespace rangex {
 
 namespace {
-constexpr double kMadNormal = 0.6744897501960817;
 
 // Linear between bin centres, constant beyond the first and last.
 double interpolate(const std::vector<double>& x, const std::vector<double>& y, double t) {

@@ -8,7 +8,7 @@ namespace rangex {
 namespace {
 
 // A label value, escaped as the format requires (backslash, quote, newline).
-std::string quoted(const std::string& v) {
+std::string label_value(const std::string& v) {
   std::string out = "\"";
   for (char c : v) {
     if (c == '\\' || c == '"')
@@ -100,19 +100,20 @@ std::string prometheus_text(const MetricsInput& m) {
     uint64_t rest = n;
     for (const LaneState& l : m.lanes)
       if (const auto it = l.refused.find(code); it != l.refused.end()) {
-        w.sample("rangex_lines_refused_total", lane_label(l.config.id) + ",code=" + quoted(code),
-                 it->second);
+        w.sample("rangex_lines_refused_total",
+                 lane_label(l.config.id) + ",code=" + label_value(code), it->second);
         rest -= std::min(rest, it->second);
       }
-    if (rest) w.sample("rangex_lines_refused_total", "lane=\"none\",code=" + quoted(code), rest);
+    if (rest)
+      w.sample("rangex_lines_refused_total", "lane=\"none\",code=" + label_value(code), rest);
   }
 
   w.family("rangex_lines_dropped_total", "counter",
            "Lines accepted and then not processed, by lane and reason.");
   for (const LaneState& l : m.lanes)
     for (const auto& [reason, n] : l.dropped)
-      w.sample("rangex_lines_dropped_total", lane_label(l.config.id) + ",reason=" + quoted(reason),
-               n);
+      w.sample("rangex_lines_dropped_total",
+               lane_label(l.config.id) + ",reason=" + label_value(reason), n);
 
   w.family("rangex_fillets_total", "counter", "Fillets decided, by lane and decision.");
   for (const LaneState& l : m.lanes) {
@@ -131,7 +132,7 @@ std::string prometheus_text(const MetricsInput& m) {
   // Positive release to the line's PLC.
   if (s.plc) {
     const PlcStatus& p = *s.plc;
-    const std::string at = "plc=" + quoted(p.address);
+    const std::string at = "plc=" + label_value(p.address);
     w.family("rangex_plc_up", "gauge", "1 while the PLC's Modbus TCP link is up.");
     w.sample("rangex_plc_up", at, uint64_t(p.connected));
     w.family("rangex_plc_fillets_total", "counter",
@@ -153,7 +154,7 @@ std::string prometheus_text(const MetricsInput& m) {
   // Forwarding to the plant-wide database.
   if (s.forwarding) {
     const ForwarderStatus& f = *s.forwarding;
-    const std::string at = "server_id=" + quoted(f.server_id);
+    const std::string at = "server_id=" + label_value(f.server_id);
     w.family("rangex_forward_up", "gauge",
              "1 while forwarding to the plant-wide PostgreSQL works.");
     w.sample("rangex_forward_up", at, uint64_t(f.connected));
@@ -172,7 +173,7 @@ std::string prometheus_text(const MetricsInput& m) {
 
   // Lanes fed by their own GigE Vision devices.
   auto device_label = [](int lane, const SensorState& d) {
-    return lane_label(lane) + ",role=" + quoted(d.role) + ",device=" + quoted(d.device);
+    return lane_label(lane) + ",role=" + label_value(d.role) + ",device=" + label_value(d.device);
   };
   w.family("rangex_sensor_up", "gauge",
            "1 while a lane's GigE Vision device streams, 0 otherwise (connecting, lost, refused).");
@@ -215,9 +216,10 @@ std::string prometheus_text(const MetricsInput& m) {
            "fillets imply under its learned model (-1: not estimated yet), by lane and version.");
   for (const LaneState& l : m.lanes)
     if (l.config.inspection.learned.active())
-      w.sample("rangex_lane_implied_false_reject_rate",
-               lane_label(l.config.id) + ",version=" + quoted(l.config.inspection.learned.version),
-               l.implied_frr);
+      w.sample(
+          "rangex_lane_implied_false_reject_rate",
+          lane_label(l.config.id) + ",version=" + label_value(l.config.inspection.learned.version),
+          l.implied_frr);
   w.family("rangex_lane_product_drift", "gauge",
            "1 when a lane's product is rougher than learned (implied false rejects above twice "
            "the target): re-learn.");
@@ -251,7 +253,7 @@ std::string prometheus_text(const MetricsInput& m) {
     std::string stage = "inspection_" + name;
     for (char& c : stage)
       if (c == ' ') c = '_';
-    w.histogram("rangex_stage_latency_seconds", "stage=" + quoted(stage), l);
+    w.histogram("rangex_stage_latency_seconds", "stage=" + label_value(stage), l);
   }
   w.histogram("rangex_stage_latency_seconds", "stage=\"store\"", s.store);
   w.family("rangex_decision_latency_seconds", "histogram",
@@ -276,12 +278,13 @@ std::string prometheus_text(const MetricsInput& m) {
   w.sample("rangex_serving", "", uint64_t(s.health.serving ? 1 : 0));
   w.family("rangex_backend_info", "gauge", "The backend running the line stages (value 1).");
   w.sample("rangex_backend_info",
-           "backend=" + quoted(s.backend.name) + ",device=" + quoted(s.backend.device),
+           "backend=" + label_value(s.backend.name) + ",device=" + label_value(s.backend.device),
            uint64_t(1));
   w.family("rangex_lane_calibration_info", "gauge", "Each lane's active calibration (value 1).");
   for (const LaneState& l : m.lanes)
     w.sample("rangex_lane_calibration_info",
-             lane_label(l.config.id) + ",calibration=" + quoted(l.calibration_id), uint64_t(1));
+             lane_label(l.config.id) + ",calibration=" + label_value(l.calibration_id),
+             uint64_t(1));
   w.family("rangex_lane_idle_seconds", "gauge",
            "Seconds since each fed lane's last accepted line.");
   for (const LaneState& l : m.lanes)
