@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 #include "calib/block_covariance.h"
 #include "calib/camera_pose.h"

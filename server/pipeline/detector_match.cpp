@@ -2,14 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <vector>
 
 #include "core/no_value.h"
 
 namespace rangex {
-
-namespace {}  // namespace
 
 void match_detector(FilletImage& img, double mu) {
   if (!img.matches_detector() || img.rows <= 0 || img.cols <= 0) return;

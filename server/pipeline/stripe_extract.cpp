@@ -6,7 +6,6 @@
 #if defined(__AVX512BW__) || defined(__AVX2__)
 #include <immintrin.h>
 #endif
-#include <limits>
 #include <thread>
 
 #include "core/no_value.h"
