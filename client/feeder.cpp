@@ -67,6 +67,7 @@ struct Shared {
   bool query_pending = false;  // a credit query awaits its answer
   uint64_t query_sequence = 0;
   Clock::time_point progress = Clock::now();
+  uint64_t acked_on_stream = 0;  // lines the current stream got acknowledged
 };
 
 // Keeps an acknowledged line until its lane is durable past it, and forgets what is.
@@ -131,7 +132,8 @@ FeedReport Feeder::run(LineSource& source) {
   const auto t0 = Clock::now();
   int64_t next = 0;  // the next new line: n = next / lanes, lane = next % lanes
   uint64_t seq = 0;
-  auto backoff = std::chrono::milliseconds(100);
+  constexpr std::chrono::milliseconds kFirstBackoff(100);
+  auto backoff = kFirstBackoff;
   auto probe_wait = std::chrono::milliseconds(50);
   std::minstd_rand jitter(uint32_t(reinterpret_cast<uintptr_t>(&sh)));
   std::deque<InFlight> again;        // to resend on this stream, in first-sent order
@@ -167,6 +169,7 @@ FeedReport Feeder::run(LineSource& source) {
       sh.broken = false;
       sh.holding = false;
       sh.query_pending = false;
+      sh.acked_on_stream = 0;
     }
     std::thread reader([&] {
       pb::StreamLinesResponse r;
@@ -190,6 +193,7 @@ FeedReport Feeder::run(LineSource& source) {
           if (!line.acked) ++rep.accepted;
           if (line.resent && code == "DUPLICATE_LINE") ++rep.duplicates;
           line.acked = true;
+          ++sh.acked_on_stream;
           // Before the lane has a durable count nothing of it is durable: all kept.
           if (opt_.keep_until_durable)
             retain(sh.retained, std::move(line),
@@ -345,6 +349,12 @@ FeedReport Feeder::run(LineSource& source) {
       break;
     }
     ++rep.reconnects;
+    // A stream that got lines acknowledged was a working connection that ended (a server
+    // that recycles connections, a restart): the next waits the first step again, as gRPC's
+    // own connection backoff does once connected. Only streams that take nothing (a server
+    // handing lines back, or one that fails at once) wait longer each time.
+    if (sh.acked_on_stream > 0) backoff = kFirstBackoff;
+    rep.longest_backoff_ms = std::max<uint64_t>(rep.longest_backoff_ms, uint64_t(backoff.count()));
     size_t kept = 0;
     for (const auto& [lane, k] : sh.retained) kept += k.size();
     say("stream ended (" + (rep.status.ok() ? std::string("OK") : rep.status.error_message()) +

@@ -41,6 +41,7 @@ struct FeedReport {
   uint64_t sent = 0;      // distinct lines
   uint64_t accepted = 0;  // resent lines the server already had included
   uint64_t resent = 0, reconnects = 0;
+  uint64_t longest_backoff_ms = 0;          // the longest wait before a reconnect
   uint64_t duplicates = 0;                  // resent lines the server answered it already had
   std::map<std::string, uint64_t> refused;  // by code, lost (handed-back lines are not)
   uint64_t handed_back = 0;                 // refusals of lines sent again later

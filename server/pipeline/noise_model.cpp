@@ -65,7 +65,7 @@ double estimate_gradient_term(const NoiseModel& m, const float* pred, const floa
     g2 /= cnt, v /= cnt;
     const double med = median_inplace(tmp.data(), tmp.size());
     for (double& t : tmp) t = std::abs(t - med);
-    const double s = median_inplace(tmp.data(), tmp.size()) / 0.6744897501960817;
+    const double s = median_inplace(tmp.data(), tmp.size()) / kMadNormal;
     sgg += cnt * g2 * g2;
     sge += cnt * g2 * (s * s - v);
   }
@@ -96,7 +96,7 @@ NoiseModel estimate_noise_model(const float* pred, const float* resid, size_t n)
     mean_i /= double(hi - lo);
     const double med = median_inplace(tmp.data(), tmp.size());
     for (double& t : tmp) t = std::abs(t - med);
-    const double s = median_inplace(tmp.data(), tmp.size()) / 0.6744897501960817;
+    const double s = median_inplace(tmp.data(), tmp.size()) / kMadNormal;
     xs.push_back(1.0 / mean_i);
     vs.push_back(s * s);
     ws.push_back(double(hi - lo));

@@ -158,7 +158,7 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
         if (xs.size() < 5) continue;
         const double med = median_of(xs);
         for (double& x : xs) x = std::abs(x - med);
-        centre[{s, b}] = {med, std::max(0.1, median_of(xs) / 0.6744897501960817)};
+        centre[{s, b}] = {med, std::max(0.1, median_of(xs) / kMadNormal)};
       }
     }
     for (const LearningFillet* f : use) {
