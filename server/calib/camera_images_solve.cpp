@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
 
 #include "calib/report_plots.h"
 #include "calib/scan_lines.h"
@@ -46,12 +45,12 @@ CameraImagesSolve solve_camera_from_images(const std::string& dir, LaneConfig& l
   for (int j = 0; j < tb.rows; ++j)
     for (int i = 0; i < tb.cols; ++i) board.push_back({i * tb.square_mm, j * tb.square_mm, 0});
   for (const auto& p : images) {
-    const cv::Mat img = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
-    if (img.empty()) fail(p.string(), ": cannot read the image");
-    if (img.cols != lane.frame_width || img.rows != lane.frame_height)
-      fail(p.string(), ": ", img.cols, "x", img.rows, " image, the camera is ", lane.frame_width,
-           "x", lane.frame_height);
-    const auto c = find_target_corners(img.ptr<uint8_t>(), img.cols, img.rows, tb.cols, tb.rows);
+    int w = 0, h = 0;
+    const std::vector<uint8_t> img = read_png8_gray(p.string(), w, h);
+    if (w != lane.frame_width || h != lane.frame_height)
+      fail(p.string(), ": ", w, "x", h, " image, the camera is ", lane.frame_width, "x",
+           lane.frame_height);
+    const auto c = find_target_corners(img.data(), w, h, tb.cols, tb.rows);
     if (!c) {
       if (opt.skip_unfound) {
         warn(opt, p.string() + ": target not found, skipped");

@@ -82,35 +82,65 @@ std::string encode_png8(const uint8_t* pixels, int width, int height, int channe
   return out;
 }
 
-std::vector<uint16_t> read_png16(const std::string& path, int& width, int& height) {
-  FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) fail(path, ": cannot open (", std::strerror(errno), ")");
-  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-  png_infop info = png ? png_create_info_struct(png) : nullptr;
-  std::vector<uint16_t> out;
-  if (!png || !info || setjmp(png_jmpbuf(png))) {
+namespace {
+// The libpng state of one file being read, released however the reading ends.
+struct PngRead {
+  FILE* f = nullptr;
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  ~PngRead() {
     png_destroy_read_struct(&png, &info, nullptr);
-    std::fclose(f);
-    fail(path, ": not a readable PNG");
+    if (f) std::fclose(f);
   }
-  png_init_io(png, f);
-  png_read_info(png, info);
-  const int depth = png_get_bit_depth(png, info), color = png_get_color_type(png, info);
-  if (depth != 16 || color != PNG_COLOR_TYPE_GRAY) {
-    png_destroy_read_struct(&png, &info, nullptr);
-    std::fclose(f);
-    fail(path, ": expected a 16-bit grayscale PNG (depth ", depth, ", color type ", color, ")");
-  }
-  width = int(png_get_image_width(png, info));
-  height = int(png_get_image_height(png, info));
-  png_set_swap(png);  // to host order
+};
+
+// Reads the PNG at `path` into one T per pixel: `transform` checks the header (failing with
+// a message) and sets the libpng transforms that give those pixels.
+template <typename T, typename Transform>
+std::vector<T> read_png(const std::string& path, int& width, int& height, Transform transform) {
+  PngRead r;
+  r.f = std::fopen(path.c_str(), "rb");
+  if (!r.f) fail(path, ": cannot open (", std::strerror(errno), ")");
+  r.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  r.info = r.png ? png_create_info_struct(r.png) : nullptr;
+  std::vector<T> out;
+  if (!r.png || !r.info || setjmp(png_jmpbuf(r.png))) fail(path, ": not a readable PNG");
+  png_init_io(r.png, r.f);
+  png_read_info(r.png, r.info);
+  transform(r.png, r.info);
+  png_read_update_info(r.png, r.info);
+  width = int(png_get_image_width(r.png, r.info));
+  height = int(png_get_image_height(r.png, r.info));
+  if (png_get_rowbytes(r.png, r.info) != size_t(width) * sizeof(T))
+    fail(path, ": not one ", 8 * sizeof(T), "-bit sample a pixel after conversion");
   out.resize(size_t(width) * size_t(height));
   for (int y = 0; y < height; ++y)
-    png_read_row(png, reinterpret_cast<png_bytep>(&out[size_t(y) * size_t(width)]), nullptr);
-  png_read_end(png, nullptr);
-  png_destroy_read_struct(&png, &info, nullptr);
-  std::fclose(f);
+    png_read_row(r.png, reinterpret_cast<png_bytep>(&out[size_t(y) * size_t(width)]), nullptr);
+  png_read_end(r.png, nullptr);
   return out;
+}
+}  // namespace
+
+std::vector<uint16_t> read_png16(const std::string& path, int& width, int& height) {
+  return read_png<uint16_t>(path, width, height, [&](png_structp png, png_infop info) {
+    const int depth = png_get_bit_depth(png, info), color = png_get_color_type(png, info);
+    if (depth != 16 || color != PNG_COLOR_TYPE_GRAY)
+      fail(path, ": expected a 16-bit grayscale PNG (depth ", depth, ", color type ", color, ")");
+    png_set_swap(png);  // to host order
+  });
+}
+
+std::vector<uint8_t> read_png8_gray(const std::string& path, int& width, int& height) {
+  return read_png<uint8_t>(path, width, height, [](png_structp png, png_infop info) {
+    const int color = png_get_color_type(png, info);
+    if (color == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
+    if (color == PNG_COLOR_TYPE_GRAY) png_set_expand_gray_1_2_4_to_8(png);
+    png_set_scale_16(png);  // 16 bits to 8, rounded
+    png_set_strip_alpha(png);
+    // Colour to gray with the weights of ITU-R BT.601 (OpenCV's, the reader this replaces).
+    if (color & PNG_COLOR_MASK_COLOR || color == PNG_COLOR_TYPE_PALETTE)
+      png_set_rgb_to_gray(png, PNG_ERROR_ACTION_NONE, 0.299, 0.587);
+  });
 }
 
 void write_png16(const std::string& path, const uint16_t* pixels, int width, int height) {

@@ -1,0 +1,78 @@
+// PNG reading against what was written: 16-bit grayscale back exactly, and any PNG as the
+// 8-bit gray a camera's calibration images are read as (16 bits rounded to 8, colour by the
+// weights of ITU-R BT.601); files that are not PNG are refused naming the file.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "core/error.h"
+#include "core/png_io.h"
+#include "temp_dir.h"
+
+using namespace rangex;
+
+TEST(PngIo, SixteenBitGrayReadsBackExactly) {
+  test::TempDir t;
+  const int w = 5, h = 3;
+  std::vector<uint16_t> px(w * h);
+  for (int i = 0; i < w * h; ++i) px[i] = uint16_t(i * 4099 + 1);
+  write_png16(t.str("a.png"), px.data(), w, h);
+  int rw = 0, rh = 0;
+  EXPECT_EQ(read_png16(t.str("a.png"), rw, rh), px);
+  EXPECT_EQ(rw, w);
+  EXPECT_EQ(rh, h);
+}
+
+TEST(PngIo, AnyPngReadsAsEightBitGray) {
+  test::TempDir t;
+  const int w = 4, h = 2;
+  // 8-bit gray: as written.
+  const std::vector<uint8_t> g8 = {0, 1, 2, 127, 128, 200, 254, 255};
+  write_png8(t.str("g8.png"), g8.data(), w, h);
+  int rw = 0, rh = 0;
+  EXPECT_EQ(read_png8_gray(t.str("g8.png"), rw, rh), g8);
+  EXPECT_EQ(rw, w);
+  EXPECT_EQ(rh, h);
+  // 16-bit gray: v 255 / 65535, rounded.
+  const std::vector<uint16_t> g16 = {0, 128, 129, 257, 32767, 32896, 65407, 65535};
+  write_png16(t.str("g16.png"), g16.data(), w, h);
+  const std::vector<uint8_t> r16 = read_png8_gray(t.str("g16.png"), rw, rh);
+  ASSERT_EQ(r16.size(), g16.size());
+  for (size_t i = 0; i < g16.size(); ++i)
+    EXPECT_EQ(r16[i], int(std::lround(g16[i] * 255.0 / 65535))) << g16[i];
+  // Colour: 0.299 R + 0.587 G + 0.114 B (libpng's fixed point: within one level).
+  const std::vector<uint8_t> rgb = {255, 0,   0,   0,   255, 0,  0,  0,  255, 255, 255, 255,
+                                    10,  200, 100, 250, 30,  60, 90, 90, 90,  0,   0,   0};
+  write_png8(t.str("rgb.png"), rgb.data(), w, h, 3);
+  const std::vector<uint8_t> rg = read_png8_gray(t.str("rgb.png"), rw, rh);
+  ASSERT_EQ(rg.size(), size_t(w * h));
+  for (int i = 0; i < w * h; ++i) {
+    const double y = 0.299 * rgb[3 * i] + 0.587 * rgb[3 * i + 1] + 0.114 * rgb[3 * i + 2];
+    EXPECT_NEAR(rg[i], y, 1.0) << "pixel " << i;
+  }
+}
+
+TEST(PngIo, WhatIsNotAPngIsRefusedNamingTheFile) {
+  test::TempDir t;
+  std::ofstream(t.str("x.png")) << "not a png at all";
+  int w = 0, h = 0;
+  try {
+    read_png8_gray(t.str("x.png"), w, h);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("x.png: not a readable PNG"), std::string::npos)
+        << e.what();
+  }
+  try {
+    read_png8_gray(t.str("missing.png"), w, h);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("missing.png: cannot open"), std::string::npos)
+        << e.what();
+  }
+  // An 8-bit image where 16 bits are expected.
+  const std::vector<uint8_t> g8(4, 7);
+  write_png8(t.str("g8.png"), g8.data(), 2, 2);
+  EXPECT_THROW(read_png16(t.str("g8.png"), w, h), Error);
+}
