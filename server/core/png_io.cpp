@@ -83,6 +83,8 @@ std::string encode_png8(const uint8_t* pixels, int width, int height, int channe
 }
 
 namespace {
+constexpr uint64_t kMaxPixels = uint64_t(1) << 28;
+
 // The libpng state of one file being read, released however the reading ends.
 struct PngRead {
   FILE* f = nullptr;
@@ -108,14 +110,19 @@ std::vector<T> read_png(const std::string& path, int& width, int& height, Transf
   png_init_io(r.png, r.f);
   png_read_info(r.png, r.info);
   transform(r.png, r.info);
+  const int passes = png_set_interlace_handling(r.png);  // 7 for Adam7, else 1
   png_read_update_info(r.png, r.info);
   width = int(png_get_image_width(r.png, r.info));
   height = int(png_get_image_height(r.png, r.info));
   if (png_get_rowbytes(r.png, r.info) != size_t(width) * sizeof(T))
     fail(path, ": not one ", 8 * sizeof(T), "-bit sample a pixel after conversion");
+  // A header may claim any size up to libpng's limits: refused before it is allocated.
+  if (uint64_t(width) * uint64_t(height) > kMaxPixels)
+    fail(path, ": ", width, "x", height, " pixels, more than the ", kMaxPixels, " read");
   out.resize(size_t(width) * size_t(height));
-  for (int y = 0; y < height; ++y)
-    png_read_row(r.png, reinterpret_cast<png_bytep>(&out[size_t(y) * size_t(width)]), nullptr);
+  for (int pass = 0; pass < passes; ++pass)
+    for (int y = 0; y < height; ++y)
+      png_read_row(r.png, reinterpret_cast<png_bytep>(&out[size_t(y) * size_t(width)]), nullptr);
   png_read_end(r.png, nullptr);
   return out;
 }
