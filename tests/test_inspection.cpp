@@ -97,6 +97,53 @@ TEST(Inspection, ContrastInMillimetresOfMeatDropsCartilageOnlyWhenAsked) {
 
 namespace {
 
+// The highest round extreme of a result over its bands (-inf without one).
+double round_extreme(const FilletResult& r) {
+  double x = -INFINITY;
+  for (const BandExtreme& e : r.extremes)
+    if (e.stat == kStatRound) x = std::max(x, e.x);
+  return x;
+}
+
+}  // namespace
+
+// Under learned thresholds, what the plant's floor drops is no reject, and the extremes that
+// drift follows leave it out: cartilage the floor keeps out of the decisions does not read as
+// a rougher product. Without learned thresholds (what learning fits) they keep it.
+TEST(Inspection, ExtremesUnderLearnedThresholdsLeaveOutWhatTheFloorDrops) {
+  const FilletImage f = synthetic_fillet(std::log(3600.0), -0.03, {{-15, 140, 6.0, 0.02}}, 5);
+  InspectionParams p = params();
+  LearnedDetection& L = p.learned;
+  L.band_edges_mm = {0, 1000};  // one band, each threshold the fixed one
+  for (int s = 0; s < kStatistics; ++s)
+    L.stats[size_t(s)].thresholds = {s == kStatAir ? p.air_z_threshold : p.z_threshold};
+  const FilletResult all = inspect_fillet(f, p, false);
+  ASSERT_EQ(all.fragments.size(), 1u) << all.reason;  // the cartilage, under 1.5 mm of meat
+  ASSERT_LT(all.fragments[0].meat_mm, 1.5);
+  EXPECT_GT(round_extreme(all), p.z_threshold);
+
+  p.min_fragment_meat_mm = 1.5;
+  const FilletResult floored = inspect_fillet(f, p, false);
+  EXPECT_TRUE(floored.fragments.empty());
+  EXPECT_EQ(floored.decision, Decision::kPass);
+  ASSERT_EQ(floored.extremes.size(), all.extremes.size());
+  EXPECT_LE(round_extreme(floored), p.z_threshold);  // the meat around it, below the threshold
+  for (size_t k = 0; k < all.extremes.size(); ++k)
+    if (all.extremes[k].stat == kStatAir) {
+      EXPECT_EQ(floored.extremes[k].x, all.extremes[k].x);  // air is not the floor's
+    }
+  std::printf("round extreme %.2f with the cartilage, %.2f with the floor dropping it\n",
+              round_extreme(all), round_extreme(floored));
+
+  // Without learned thresholds (a learning run's inspection) the extremes keep it.
+  p.learned = {};
+  const FilletResult learning = inspect_fillet(f, p, false);
+  EXPECT_TRUE(learning.fragments.empty());
+  EXPECT_GT(round_extreme(learning), p.z_threshold);
+}
+
+namespace {
+
 // A fold's step of 6 mm (to nothing at the fillet's edge) from row foot(c) on, in column c,
 // and the bone of the synthetic fillet beyond it at (10, 200).
 FilletImage folded(uint64_t seed, const std::function<int(int)>& foot) {

@@ -151,12 +151,15 @@ double local_excess(const std::vector<float>& resid, const std::vector<uint8_t>&
 using KernelExcess = std::function<double(int r, int c)>;
 
 // Components of `on` of at least min_area_mm2; w: the statistic oriented so that larger is
-// more bone-like (sign -1) or air-like (+1).
+// more bone-like (sign -1) or air-like (+1). With a fit, those whose contrast reads less
+// than `min_meat_mm` of meat (a plant's floor; 0: none) are left out, and their pixels set
+// in `dropped` when it is given.
 std::vector<Blob> blobs(const std::vector<float>& w_map, const std::vector<uint8_t>& on,
                         const std::vector<float>& resid, const std::vector<uint8_t>& use,
                         const FilletImage& img, double sign, double min_area_mm2,
                         const RobustFit* fit, const InspectionParams& p,
-                        const KernelExcess& kernel_excess = {}) {
+                        const KernelExcess& kernel_excess = {}, double min_meat_mm = 0,
+                        std::vector<uint8_t>* dropped = nullptr) {
   const double px_area = img.pitch_mm * img.step_mm;
   std::vector<int> labels;
   const auto comps = label_components(on.data(), img.rows, img.cols, labels);
@@ -209,6 +212,17 @@ std::vector<Blob> blobs(const std::vector<float>& w_map, const std::vector<uint8
       b.meat_mm = std::max(b.meat_mm, excess / mu);
     }
     strongest.clear();
+    if (fit && min_meat_mm > 0 && b.meat_mm < min_meat_mm) {
+      if (dropped) {
+        dropped->resize(img.size(), 0);
+        for (int r = c.row0; r <= c.row1; ++r)
+          for (int k = c.col0; k <= c.col1; ++k) {
+            const size_t i = size_t(r) * img.cols + k;
+            if (labels[i] == c.label) (*dropped)[i] = 1;
+          }
+      }
+      continue;
+    }
     // The detector sees the fragment magnified by the fan beam; put it back at mid-depth of
     // the meat above it (the path thickness there is close to the vertical thickness).
     const double x_det = img.x0_mm + img.pitch_mm * (wx / wsum);
@@ -241,9 +255,11 @@ class StageLap {
 
 // Each statistic's extreme per thickness band (component_extreme.h): what product learning
 // fits and drift tracking follows.
+// floored: pixels of fragments the plant's floor dropped (or empty), left out of the bone
+// statistics' extremes.
 void band_extremes(const FilletImage& img, const std::vector<uint8_t>& use,
                    const std::vector<float> (&stat)[kStatistics], const InspectionParams& p,
-                   FilletResult& res) {
+                   const std::vector<uint8_t>& floored, FilletResult& res) {
   const size_t n = img.size();
   const std::vector<double>& edges =
       p.learned.active() ? p.learned.band_edges_mm : default_band_edges_mm();
@@ -267,6 +283,8 @@ void band_extremes(const FilletImage& img, const std::vector<uint8_t>& use,
       const double area = s == kStatAir ? p.min_air_area_mm2 : p.min_fragment_area_mm2;
       const int min_px = std::max(1, int(std::ceil(area / px_area - 1e-9)));
       px = in;
+      if (s != kStatAir && !floored.empty())
+        std::erase_if(px, [&](size_t i) { return floored[i] != 0; });
       const double x = component_extreme(stat[s].data(), px, img.rows, img.cols, min_px);
       if (std::isfinite(x)) res.extremes.push_back({s, band, x, double(count), t_mid});
     }
@@ -492,16 +510,17 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
                                      needle ? mk.needle_radii[kk] : mk.radii[kk], r, c);
     return -a * (needle ? mk.needle_diameters_mm[kk] : mk.sizes_mm[kk]);
   };
-  res.fragments =
-      blobs(bone_w, bone_on, resid, use, img, -1, p.min_fragment_area_mm2, fit, p, matched_excess);
-  if (fit && p.min_fragment_meat_mm > 0)
-    std::erase_if(res.fragments, [&](const Blob& b) { return b.meat_mm < p.min_fragment_meat_mm; });
+  // What the plant's floor drops is no reject, so under learned thresholds its pixels are no
+  // part of the extremes that drift follows either (learning fits those taken without them).
+  std::vector<uint8_t> floored;
+  res.fragments = blobs(bone_w, bone_on, resid, use, img, -1, p.min_fragment_area_mm2, fit, p,
+                        matched_excess, p.min_fragment_meat_mm, L.active() ? &floored : nullptr);
   res.air_pockets = blobs(stat[kStatAir], air_on, resid, use, img, +1, p.min_air_area_mm2, fit, p);
   lap(kStageComponents);
   // Each statistic's extreme per thickness band: what product learning fits and drift
   // tracking follows.
   if (p.band_extremes) {
-    band_extremes(img, use, stat, p, res);
+    band_extremes(img, use, stat, p, floored, res);
     lap(kStageExtremes);
   }
   if (res.fragments.empty()) {
