@@ -44,7 +44,7 @@ check "a password on the command line is refused" grep -q "\-\-db holds a passwo
 # Each feeder's file holds its server's lanes only.
 base="${RANGEX_CONFIG:-$(dirname "$0")/../config/plant.yaml}"
 plant_file() {  # plant_file OUT SERVER-OF-LANE-2
-  sed -e "s|^  storage: .*|  storage: $work/data\n  results_db: \"$db\"|" \
+  sed -e "s|^  storage: .*|  storage: $work/data\n  results_db: \"$db\"\n  results_db_retry_max_s: 2|" \
       -e 's|^  - id: \([01]\)$|  - {id: \1, server: srv-a}|' \
       -e "s|^  - id: 2$|  - {id: 2, server: $2}|" \
       -e 's|^  - id: 3$|  - {id: 3, server: srv-b}|' "$base" >"$1"

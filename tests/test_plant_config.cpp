@@ -178,6 +178,19 @@ TEST(PlantConfig, ThePlantWideDatabaseTakesNoPasswordInTheFile) {
             std::string::npos);
 }
 
+TEST(PlantConfig, TheForwardersLongestWaitBetweenRetriesIsThePlants) {
+  EXPECT_EQ(parse_plant_config("lanes: [{id: 0}]\n", "test").results_db_retry_max_s, 30);
+  EXPECT_EQ(parse_plant_config("plant: {results_db_retry_max_s: 300}\nlanes: [{id: 0}]\n", "test")
+                .results_db_retry_max_s,
+            300);
+  for (const char* bad : {"0.5", "0", "-1", "7200", ".nan"})
+    EXPECT_NE(
+        error_of(std::string("plant: {results_db_retry_max_s: ") + bad + "}\nlanes: [{id: 0}]\n")
+            .find("plant.results_db_retry_max_s: must be"),  // within 1..3600 s; finite
+        std::string::npos)
+        << bad;
+}
+
 TEST(PlantConfig, OnePlantFileAssignsEachServerItsLanes) {
   const PlantConfig p = parse_plant_config(
       "lanes: [{id: 0, server: line-1}, {id: 1, server: line-1}, {id: 5, server: line-2.b}]\n",

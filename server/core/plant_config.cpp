@@ -825,7 +825,7 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
   if (top.has("plant")) {
     const Node n = top.at("plant");
     n.only_keys({"name", "calibration_id", "backend", "device", "listen", "http", "storage",
-                 "results_db", "server_id"});
+                 "results_db", "server_id", "results_db_retry_max_s"});
     n.get("name", p.name);
     n.get("calibration_id", p.calibration_id);
     n.get("backend", p.backend);
@@ -853,6 +853,9 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
     for (char c : p.server_id)
       if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.'))
         n.at("server_id").bad("'" + p.server_id + "': letters, digits, '-', '_' and '.' only");
+    n.get("results_db_retry_max_s", p.results_db_retry_max_s);
+    if (!(p.results_db_retry_max_s >= 1 && p.results_db_retry_max_s <= 3600))
+      n.at("results_db_retry_max_s").bad("must be within 1..3600 s (the first retry waits 1 s)");
   }
   if (top.has("server")) read_engine(top.at("server"), p.engine);
   if (top.has("security")) read_security(top.at("security"), p.security);

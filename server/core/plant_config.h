@@ -34,6 +34,8 @@ struct PlantConfig {
   // there ("" : the host name). docs/plant-wide.md.
   std::string results_db;
   std::string server_id;
+  // After a failure to reach it, the forwarder retries after 1 s, doubling up to this.
+  double results_db_retry_max_s = 30;
   EngineSettings engine;    // the `server:` section
   SecurityConfig security;  // the `security:` section
   RetentionSettings retention;

@@ -79,6 +79,7 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
     fo.conninfo = plant_.results_db;
     fo.server_id = plant_.server_id.empty() ? host_name() : plant_.server_id;
     fo.host = host_name();
+    fo.retry_max_s = plant_.results_db_retry_max_s;
     forwarder_ = std::make_unique<Forwarder>(*store_, fo);
     engine_->set_forward_status([this] { return forwarder_->status(); });
     forwarder_->start();
