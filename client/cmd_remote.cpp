@@ -447,7 +447,7 @@ std::string learn_live(pb::ControlService::Stub& stub, const pb::LearnProductReq
       for (const auto& t : report["tradeoff"]) {
         appendf(out, "    %5.2f %% (implied %.3f %%):", 100 * t.value("target_frr", 0.0),
                 100 * t.value("implied_frr", 0.0));
-        for (const auto& line : t["summary"]) out += " " + line.get<std::string>();
+        for (const auto& line : t["summary"]) out.append(" ").append(line.get<std::string>());
         out += "\n";
       }
     }
@@ -631,7 +631,7 @@ namespace {
 
 void print_recording(const pb::RecordingStatus& r) {
   std::string lanes;
-  for (int l : r.lanes()) lanes += (lanes.empty() ? "" : ",") + std::to_string(l);
+  for (int l : r.lanes()) lanes.append(lanes.empty() ? "" : ",").append(std::to_string(l));
   std::printf(
       "recording %s (lanes %s, %.1f minutes) %s: %llu lines, %llu MB of %llu MB, %llu "
       "left out%s%s\n  %s\n",

@@ -193,7 +193,7 @@ std::string spheres_by_band(const SensitivityResult& s) {
     for (const SensitivityClaim& c : s.claims)
       if (c.shape == TestPiece::kSphere && c.band == b)
         std::snprintf(v, sizeof v, "%.1f", c.size_mm);
-    out += (b ? " " : "") + std::string(v);
+    out.append(b ? " " : "").append(v);
   }
   return out;
 }

@@ -43,7 +43,7 @@ struct JudgedFragment {
   double meat_mm = -1;  // the true meat over it (with an EdgeMap)
   bool found = false;
   double x_mm = 0, b_mm = 0, tol_mm = 2;  // where it lies, and the matching's tolerance
-  FragmentChance chance;                  // calcified >= 2 mm, where measured
+  FragmentChance chance{};                // calcified >= 2 mm, where measured
 };
 
 // The lane's true X-ray path thickness (truth/thickness.f32) with the geometry to find a
@@ -75,7 +75,7 @@ struct MissedFragment {
   double found_at = -1, frr_at = -1;
   int margin_stat = -1;     // the statistic whose thresholds were lowered (-1: every rejecting one)
   double margin_floor = 0;  // the lowest fraction tried
-  FragmentChance chance;    // its bone's, as its judged fragment's (offline/fragment_chance.h)
+  FragmentChance chance{};  // its bone's, as its judged fragment's (offline/fragment_chance.h)
   // What became of the fillet that holds it: "pass" (the bone went down the line),
   // "reject" (rejected for something else found in it), "not_inspected" (rejected by the
   // fail-safe), "" (no fillet of the records holds it: not passed either).

@@ -51,7 +51,7 @@ std::string pg_where(const std::string& conninfo) {
   for (PQconninfoOption* o = opts; o->keyword; ++o)
     for (const char* k : {"host", "hostaddr", "port", "dbname", "user"})
       if (std::strcmp(o->keyword, k) == 0 && o->val && *o->val)
-        out += (out.empty() ? "" : " ") + std::string(k) + "=" + o->val;
+        out.append(out.empty() ? "" : " ").append(k).append("=").append(o->val);
   PQconninfoFree(opts);
   return out.empty() ? "the default PostgreSQL server" : out;
 }
