@@ -184,21 +184,14 @@ int cmd_learn(int argc, char** argv) {
     std::fflush(stdout);
     // The sensitivity the thresholds buy is measured on the same fillets (the report says
     // so; a held-out check is --check, on fillets it did not learn from).
-    ProgressBar sbar("sensitivity");
-    const LaneLearning ll = learn_lane(r.set, lane.inspection, lo, so, version,
-                                       source + " lane " + std::to_string(r.lane),
-                                       [&](int d, int t) { sbar.update(d, t); });
+    // With what other false-reject targets would buy on the same fillets and test pieces.
+    ProgressBar sbar(tradeoff.empty() ? "sensitivity" : "sensitivity, every target");
+    const LaneLearning ll = learn_lane(
+        r.set, lane.inspection, lo, so, version, source + " lane " + std::to_string(r.lane),
+        [&](int d, int t) { sbar.update(d, t); }, tradeoff);
     const ProductLearning& L = ll.learning;
     const SensitivityResult& sens = ll.sensitivity;
-    // What other false-reject targets would buy on the same fillets and test pieces.
-    std::vector<TradeoffPoint> points;
-    for (double t : tradeoff) {
-      char what[64];
-      std::snprintf(what, sizeof what, "sensitivity at %.2f %%", 100 * t);
-      ProgressBar tbar(what);
-      points.push_back(
-          learn_tradeoff(r.set, ll, lo, so, t, [&](int d, int n) { tbar.update(d, n); }));
-    }
+    const std::vector<TradeoffPoint>& points = ll.tradeoff;
     nlohmann::json lane_json = nlohmann::json::parse(learned_report_json(r.lane, L, sens, points));
     for (const LaneReplay& c : check) {
       if (c.lane != r.lane) continue;

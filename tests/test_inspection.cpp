@@ -315,6 +315,109 @@ TEST(Inspection, ABonesContrastIsReadUnderTheWhitenedKernelThatFoundIt) {
   EXPECT_TRUE(inspect_fillet(f, p, false).fragments.empty());
 }
 
+namespace {
+
+// f with every third pixel of the first quarter of its rows (y 100-130 mm) without thickness:
+// about 8 % of the meat, beyond max_invalid_fraction.
+FilletImage holes(FilletImage f) {
+  int n = 0;
+  for (int r = 0; r < f.rows / 4; ++r)
+    for (int c = 0; c < f.cols; c += 3) {
+      const size_t i = size_t(r) * f.cols + c;
+      if (f.mask[i] && std::isfinite(f.thickness[i])) f.thickness[i] = NAN, ++n;
+    }
+  f.invalid_thickness_px = n;
+  return f;
+}
+
+// Every field of a decision that the thresholds can change, equal (timings aside).
+void expect_same_decision(const FilletResult& a, const FilletResult& b, const char* what) {
+  SCOPED_TRACE(what);
+  EXPECT_EQ(a.decision, b.decision);
+  EXPECT_EQ(a.reason, b.reason);
+  EXPECT_EQ(a.fitted, b.fitted);
+  EXPECT_EQ(a.z_spread, b.z_spread);
+  ASSERT_EQ(a.fragments.size(), b.fragments.size());
+  for (size_t k = 0; k < a.fragments.size(); ++k) {
+    const Blob &x = a.fragments[k], &y = b.fragments[k];
+    EXPECT_EQ(x.x_mm, y.x_mm);
+    EXPECT_EQ(x.y_mm, y.y_mm);
+    EXPECT_EQ(x.peak_z, y.peak_z);
+    EXPECT_EQ(x.meat_mm, y.meat_mm);
+    EXPECT_EQ(x.attenuation_mm2, y.attenuation_mm2);
+    EXPECT_EQ(x.pixels, y.pixels);
+  }
+  EXPECT_EQ(a.air_pockets.size(), b.air_pockets.size());
+  ASSERT_EQ(a.extremes.size(), b.extremes.size());
+  for (size_t k = 0; k < a.extremes.size(); ++k) {
+    EXPECT_EQ(a.extremes[k].stat, b.extremes[k].stat);
+    EXPECT_EQ(a.extremes[k].band, b.extremes[k].band);
+    EXPECT_EQ(a.extremes[k].x, b.extremes[k].x);
+    EXPECT_EQ(a.extremes[k].n, b.extremes[k].n);
+  }
+}
+
+}  // namespace
+
+// Learning's trade-off decides each injected fillet under several targets' thresholds on one
+// model and one set of statistics: each decision must be the one its own inspection makes.
+TEST(Inspection, EachSetOfThresholdsDecidesAsItsOwnInspectionWould) {
+  // Bones from clear to faint, so that thresholds of 4, 7 and 12 find different ones.
+  const std::vector<Bone> bones = {
+      {-20, 130, 1.5, 0.15}, {5, 160, 1.2, 0.05}, {15, 200, 1.0, 0.035}, {-5, 230, 1.0, 0.025}};
+  const FilletImage f = synthetic_fillet(std::log(3600.0), -0.03, bones, 3);
+  InspectionParams p = params();
+  p.band_extremes = true;
+  TextureCovariance white(8);
+  std::mt19937_64 rng(9);
+  std::normal_distribution<float> g;
+  std::vector<float> z(120 * 120);
+  std::vector<uint8_t> all(z.size(), 1);
+  for (int k = 0; k < 4; ++k) {
+    for (float& x : z) x = g(rng);
+    white.add(z.data(), all.data(), 120, 120);
+  }
+  std::vector<LearnedDetection> sets(3);
+  const double level[3] = {4, 7, 12};
+  for (int k = 0; k < 3; ++k) {
+    LearnedDetection& L = sets[size_t(k)];
+    L.band_edges_mm = {0, 10, 1000};  // the thick band's thresholds 1.5 higher
+    L.spread_by_thickness = true;
+    L.rim_walls = true;
+    L.matched = learn_matched_kernels(white, {1.5, 2}, 0.4, 0.4, 0);
+    for (int s = 0; s < kStatistics; ++s)
+      L.stats[size_t(s)].thresholds = {level[k], level[k] + 1.5};
+  }
+  auto one_by_one = [&](const FilletImage& img, const std::vector<LearnedDetection>& ls) {
+    std::vector<FilletResult> out;
+    for (const LearnedDetection& L : ls) {
+      InspectionParams q = p;
+      q.learned = L;
+      out.push_back(inspect_fillet(img, q, false));
+    }
+    return out;
+  };
+  const std::vector<FilletResult> each = inspect_fillet_each(f, p, sets);
+  const std::vector<FilletResult> own = one_by_one(f, sets);
+  ASSERT_EQ(each.size(), 3u);
+  for (size_t k = 0; k < 3; ++k) expect_same_decision(each[k], own[k], "shared statistics");
+  std::printf("fragments found under thresholds 4, 7, 12: %zu, %zu, %zu\n", own[0].fragments.size(),
+              own[1].fragments.size(), own[2].fragments.size());
+  EXPECT_GT(own[0].fragments.size(), own[2].fragments.size());  // the sets decide apart
+  EXPECT_FALSE(own[2].fragments.empty());
+
+  // Sets that read other statistics (no rim carried) are inspected one by one, and a fillet
+  // the fail-safe keeps but searches (too much of it without thickness) alike.
+  sets[1].rim_walls = false;
+  const FilletImage holed = holes(f);
+  for (const FilletImage* img : {&f, &holed}) {
+    const std::vector<FilletResult> e = inspect_fillet_each(*img, p, sets);
+    const std::vector<FilletResult> o = one_by_one(*img, sets);
+    for (size_t k = 0; k < 3; ++k) expect_same_decision(e[k], o[k], "one by one, fail-safe");
+  }
+  EXPECT_EQ(inspect_fillet_each(holed, p, sets)[0].decision, Decision::kNotInspected);
+}
+
 TEST(Inspection, PlantedFragmentsFoundWithinOneMillimetre) {
   const std::vector<Bone> bones = {
       {-20, 130, 1.2, 0.15}, {5, 160, 2.0, 0.10}, {15, 200, 3.5, 0.08}};
@@ -391,18 +494,6 @@ TEST(Inspection, AFailSafeFilletIsStillSearchedWhereWhatItHasIsWhole) {
   const std::vector<Bone> bone = {{5, 160, 2.5, 0.10}};
   const FilletImage bony = synthetic_fillet(std::log(3600.0), -0.03, bone, 2);
   const FilletImage clean = synthetic_fillet(std::log(3600.0), -0.03, {}, 2);
-  auto holes = [](FilletImage f) {
-    // Every third pixel of the first quarter of the rows, far from the bone (y 160 mm),
-    // without thickness: about 8 % of the meat, beyond max_invalid_fraction.
-    int n = 0;
-    for (int r = 0; r < f.rows / 4; ++r)
-      for (int c = 0; c < f.cols; c += 3) {
-        const size_t i = size_t(r) * f.cols + c;
-        if (f.mask[i] && std::isfinite(f.thickness[i])) f.thickness[i] = NAN, ++n;
-      }
-    f.invalid_thickness_px = n;
-    return f;
-  };
   const InspectionParams p = params();
   const FilletResult r = inspect_fillet(holes(bony), p, false);
   EXPECT_EQ(r.decision, Decision::kNotInspected);

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <random>
+#include <tuple>
 
 #include "pipeline/binomial_tail.h"
 #include "pipeline/inspection.h"
@@ -99,13 +100,21 @@ FilletImage noisy_dome(uint64_t seed) {
   return img;
 }
 
+// The domes of seeds first..last, as the sensitivity's fillets (the meat's attenuation 0.03).
+struct Domes {
+  std::vector<FilletImage> images;
+  std::vector<SensitivityFillet> fillets;
+  Domes(uint64_t first, uint64_t last) {
+    for (uint64_t seed = first; seed <= last; ++seed) images.push_back(noisy_dome(seed));
+    for (const FilletImage& i : images) fillets.push_back({&i, -0.03, 0});
+  }
+};
+
 TEST(Sensitivity, FindsLargePiecesAndNotPiecesWithoutContrast) {
   // Enough pieces of one size in one band for a claim at 95 % with 95 % confidence: 48 of
   // 48 found bound the rate at 0.946, 60 of 60 at 0.957 (detection_curve.h).
-  std::vector<FilletImage> imgs;
-  for (uint64_t seed = 1; seed <= 8; ++seed) imgs.push_back(noisy_dome(seed));
-  std::vector<SensitivityFillet> fs;
-  for (const auto& i : imgs) fs.push_back({&i, -0.03, 0});
+  const Domes domes(1, 8);
+  const std::vector<SensitivityFillet>& fs = domes.fillets;
   InspectionParams p;
   SensitivityOptions o;
   o.sizes_mm = {4};
@@ -134,6 +143,43 @@ TEST(Sensitivity, FindsLargePiecesAndNotPiecesWithoutContrast) {
     EXPECT_EQ(k.found, 0);
     EXPECT_GT(k.injected, 0);
   }
+}
+
+// The same pieces measured under several thresholds at once (learning's trade-off) find what
+// each set's own measurement finds, piece for piece.
+TEST(Sensitivity, EachSetOfThresholdsFindsWhatItsOwnMeasurementFinds) {
+  const Domes domes(11, 13);
+  const std::vector<SensitivityFillet>& fs = domes.fillets;
+  SensitivityOptions o;
+  o.sizes_mm = {1, 1.5, 2};
+  o.pieces_per_fillet = 6;
+  std::vector<LearnedDetection> sets(3);
+  const double level[3] = {3, 6, 12};
+  for (size_t k = 0; k < sets.size(); ++k) {
+    sets[k].band_edges_mm = {0, 10, 1000};
+    for (auto& st : sets[k].stats) st.thresholds = {level[k], level[k]};
+  }
+  InspectionParams p;
+  const std::vector<SensitivityResult> each = measure_sensitivity_each(fs, p, sets, o);
+  ASSERT_EQ(each.size(), sets.size());
+  std::vector<int> found;
+  for (size_t k = 0; k < sets.size(); ++k) {
+    p.learned = sets[k];
+    const SensitivityResult own = measure_sensitivity(fs, p, o);
+    ASSERT_EQ(each[k].cells.size(), own.cells.size());
+    int n = 0;
+    for (size_t c = 0; c < own.cells.size(); ++c) {
+      const SensitivityCell &a = each[k].cells[c], &b = own.cells[c];
+      EXPECT_EQ(std::tie(a.shape, a.size_mm, a.band, a.injected, a.found),
+                std::tie(b.shape, b.size_mm, b.band, b.injected, b.found));
+      n += b.found;
+    }
+    EXPECT_EQ(each[k].summary, own.summary);
+    EXPECT_EQ(each[k].inspections, own.inspections);
+    found.push_back(n);
+  }
+  std::printf("pieces found under thresholds 3, 6, 12: %d, %d, %d\n", found[0], found[1], found[2]);
+  EXPECT_GT(found[0], found[2]);  // the sets find apart
 }
 
 // Spheres seen in bands 0-4 (edges 0, 5, ... 25 mm); `claimed[b]`: the size claimed there

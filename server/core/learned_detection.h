@@ -64,6 +64,7 @@ struct MatchedKernels {
   std::vector<double> needle_spreads;
   bool empty() const { return taps.empty(); }
   bool has_needles() const { return !needle_taps.empty(); }
+  bool operator==(const MatchedKernels&) const = default;
   // The round kernels alone: the needle statistic back to the elongated Gaussians.
   void drop_needles() {
     needle_diameters_mm.clear(), needle_lengths_mm.clear(), needle_angles_deg.clear(),

@@ -370,10 +370,9 @@ void detect_and_decide(const FilletImage& img, const std::vector<uint8_t>& use,
 
 }  // namespace
 
-void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
-                   const std::vector<float>& z, const std::vector<float>& closure_z,
-                   std::vector<float>& resid, const RobustFit* fit, const InspectionParams& p,
-                   bool keep, FilletResult& res) {
+void statistics_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
+                       const std::vector<float>& z, const std::vector<float>& closure_z,
+                       const InspectionParams& p, FilletResult& res, DetectionStatistics& ds) {
   StageLap lap(res);
   const size_t n = img.size();
   std::vector<float> zs;
@@ -410,7 +409,7 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   res.z_spread =
       round_spread.scale.empty() ? 0.0 : round_spread.scale[round_spread.scale.size() / 2];
   // The statistics, oriented so that larger is more bone-like (round, needle) or air-like.
-  std::vector<float> stat[kStatistics];
+  std::vector<float>(&stat)[kStatistics] = ds.stat;
   stat[kStatRound].assign(n, kNaN);
   stat[kStatNeedle].assign(n, kNaN);
   stat[kStatAir] = zs;
@@ -419,8 +418,11 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   // bone-like kernel.
   // which[i]: the kernel whose statistic pixel i's is (a fragment's contrast is measured
   // under it).
-  std::vector<float> zc, zk;
-  std::vector<int16_t> round_k(mk.empty() ? 0 : n, -1), needle_k(mk.has_needles() ? n : 0, -1);
+  std::vector<float>& zc = ds.zc;
+  std::vector<float> zk;
+  std::vector<int16_t>&round_k = ds.round_k, &needle_k = ds.needle_k;
+  round_k.assign(mk.empty() ? 0 : n, -1);
+  needle_k.assign(mk.has_needles() ? n : 0, -1);
   if (!mk.empty() || mk.has_needles())
     clip_bright(z.data(), use.data(), img.rows, img.cols, mk.clip, mk.enclosure_px, mk.void_level,
                 zc);
@@ -470,6 +472,18 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
     }
   }
   lap(kStageSmooth);
+}
+
+void decide_from_statistics(const FilletImage& img, const std::vector<uint8_t>& use,
+                            const std::vector<float>& z, std::vector<float>& resid,
+                            const RobustFit* fit, DetectionStatistics& ds,
+                            const InspectionParams& p, bool keep, FilletResult& res) {
+  StageLap lap(res);
+  const size_t n = img.size();
+  const MatchedKernels& mk = p.learned.matched;
+  std::vector<float>(&stat)[kStatistics] = ds.stat;
+  const std::vector<float>& zc = ds.zc;
+  const std::vector<int16_t>&round_k = ds.round_k, &needle_k = ds.needle_k;
   // Thresholds: learned from the plant's own product per thickness band, else the fixed ones.
   const LearnedDetection& L = p.learned;
   auto threshold = [&](int s, size_t i) {
@@ -535,6 +549,15 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
     res.round_stat = std::move(stat[kStatRound]);
     res.needle_stat = std::move(stat[kStatNeedle]);
   }
+}
+
+void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
+                   const std::vector<float>& z, const std::vector<float>& closure_z,
+                   std::vector<float>& resid, const RobustFit* fit, const InspectionParams& p,
+                   bool keep, FilletResult& res) {
+  DetectionStatistics ds;
+  statistics_from_z(img, use, z, closure_z, p, res, ds);
+  decide_from_statistics(img, use, z, resid, fit, ds, p, keep, res);
 }
 
 bool one_energy_model(const FilletImage& raw, const InspectionParams& p, FilletResult& res,

@@ -99,6 +99,12 @@ struct FilletResult {
 
 // keep_images: fill pseudo / residual / zs (and round_stat / needle_stat where computed).
 FilletResult inspect_fillet(const FilletImage& img, const InspectionParams& p, bool keep_images);
+// inspect_fillet (no images kept) under each of several learned thresholds that share their
+// statistics (kernels, spread, rim): the fillet's model and statistics are made once and each
+// set decides on them, so result k equals inspect_fillet with p.learned = learned[k]. Sets
+// that do not share them, and dual-energy fillets, are inspected one by one.
+std::vector<FilletResult> inspect_fillet_each(const FilletImage& img, const InspectionParams& p,
+                                              const std::vector<LearnedDetection>& learned);
 FilletResult inspect_fillet_xray_only(const FilletImage& img, const InspectionParams& p,
                                       bool keep_images);
 

@@ -37,6 +37,24 @@ void detect_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
                    std::vector<float>& resid, const RobustFit* fit, const InspectionParams& p,
                    bool keep, FilletResult& res);
 
+// detect_from_z in its two steps. The statistics at unit spread come first: they depend on
+// the lane's kernels, spread and smoothing, not on its thresholds, so that one fillet's can
+// be decided under several sets of thresholds (inspect_fillet_each).
+struct DetectionStatistics {
+  std::vector<float> stat[kStatistics];    // larger: more bone-like (round, needle), air-like
+  std::vector<float> zc;                   // z as the whitened kernels saw it (bright clipped)
+  std::vector<int16_t> round_k, needle_k;  // the kernel each pixel's statistic is (-1: none)
+};
+void statistics_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
+                       const std::vector<float>& z, const std::vector<float>& closure_z,
+                       const InspectionParams& p, FilletResult& res, DetectionStatistics& ds);
+// Then the thresholds, fragments and air pockets, band extremes and the decision; with keep,
+// the statistics move into the result.
+void decide_from_statistics(const FilletImage& img, const std::vector<uint8_t>& use,
+                            const std::vector<float>& z, std::vector<float>& resid,
+                            const RobustFit* fit, DetectionStatistics& ds,
+                            const InspectionParams& p, bool keep, FilletResult& res);
+
 // One energy's model of a fillet: the fit of ln I against the thickness (as the detector
 // sees it, where the lane's detector is measured), the noise model, and z on the usable
 // pixels.

@@ -82,7 +82,10 @@ MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
 LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspection,
                         const LearnOptions& lo, const SensitivityOptions& so,
                         const std::string& version, const std::string& learned_on,
-                        const std::function<void(int, int)>& progress) {
+                        const std::function<void(int, int)>& progress,
+                        const std::vector<double>& tradeoff_targets) {
+  for (double t : tradeoff_targets)
+    if (!(t > 0 && t < 0.5)) fail("a false-reject target must be in (0, 0.5) (got ", t, ")");
   LaneLearning out;
   // Round kernels whitened by this product's texture, when the lane asks for them: learned
   // from the same fillets' z, which are then inspected again with them for the extremes the
@@ -104,29 +107,29 @@ LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspecti
   out.learning.learned.learned_on = learned_on;
   out.inspection = inspection;
   out.inspection.learned = out.learning.learned;
-  out.sensitivity = measure_sensitivity(set.sensitivity_fillets(), out.inspection, so, progress);
+  // Each other target's thresholds from the same fillets' models, with the same kernels.
+  std::vector<LearnedDetection> sets = {out.learning.learned};
+  for (double target : tradeoff_targets) {
+    TradeoffPoint t;
+    t.target_frr = target;
+    LearnOptions at = lo;
+    at.target_frr = target;
+    t.learned = learn_product(out.fillets, at).learned;
+    t.learned.matched = kernels;
+    t.learned.version = version, t.learned.learned_on = learned_on;
+    t.implied_frr = implied_false_reject_rate(t.learned);
+    sets.push_back(t.learned);
+    out.tradeoff.push_back(std::move(t));
+  }
+  std::vector<SensitivityResult> sens =
+      measure_sensitivity_each(set.sensitivity_fillets(), out.inspection, sets, so, progress);
+  out.sensitivity = std::move(sens[0]);
   out.learning.learned.sensitivity = out.sensitivity.summary;
+  for (size_t k = 0; k < out.tradeoff.size(); ++k) {
+    out.tradeoff[k].sensitivity = std::move(sens[k + 1]);
+    out.tradeoff[k].learned.sensitivity = out.tradeoff[k].sensitivity.summary;
+  }
   return out;
-}
-
-TradeoffPoint learn_tradeoff(const LearningSet& set, const LaneLearning& l, LearnOptions lo,
-                             const SensitivityOptions& so, double target_frr,
-                             const std::function<void(int, int)>& progress) {
-  if (!(target_frr > 0 && target_frr < 0.5))
-    fail("a false-reject target must be in (0, 0.5) (got ", target_frr, ")");
-  TradeoffPoint t;
-  t.target_frr = target_frr;
-  lo.target_frr = target_frr;
-  t.learned = learn_product(l.fillets, lo).learned;
-  const LearnedDetection& was = l.learning.learned;
-  t.learned.matched = was.matched;
-  t.learned.version = was.version, t.learned.learned_on = was.learned_on;
-  t.implied_frr = implied_false_reject_rate(t.learned);
-  InspectionParams ip = l.inspection;
-  ip.learned = t.learned;
-  t.sensitivity = measure_sensitivity(set.sensitivity_fillets(), ip, so, progress);
-  t.learned.sensitivity = t.sensitivity.summary;
-  return t;
 }
 
 int HeldOutCheck::held() const {

@@ -30,26 +30,6 @@ struct LearningSet {
   std::vector<SensitivityFillet> sensitivity_fillets() const;
 };
 
-struct LaneLearning {
-  ProductLearning learning;       // its thresholds carry `version` and `learned_on`
-  InspectionParams inspection;    // the lane's inspection with those thresholds
-  SensitivityResult sensitivity;  // what they buy on the learning fillets
-  // The learning fillets' extremes the thresholds were fitted to (with the lane's kernels).
-  std::vector<LearningFillet> fillets;
-};
-
-// The lane's bank of kernels whitened by its product's texture (matched_kernels.h), learned
-// from the clean fillets' z (one energy: a dual-energy lane's bone image keeps the
-// Gaussian); empty when inspection.matched_kernels_mm is.
-MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
-                                  const InspectionParams& inspection);
-
-// `inspection`: the lane's settings the fillets were inspected with.
-LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspection,
-                        const LearnOptions& lo, const SensitivityOptions& so,
-                        const std::string& version, const std::string& learned_on,
-                        const std::function<void(int, int)>& progress = {});
-
 // What another false-reject target would buy on the same product: the thresholds the same
 // fillets' models give for `target_frr` (the same confidence, kernels and bands), and the
 // sensitivity measured with them on the same fillets and test pieces. A plant chooses its
@@ -60,9 +40,31 @@ struct TradeoffPoint {
   LearnedDetection learned;
   SensitivityResult sensitivity;
 };
-TradeoffPoint learn_tradeoff(const LearningSet& set, const LaneLearning& l, LearnOptions lo,
-                             const SensitivityOptions& so, double target_frr,
-                             const std::function<void(int, int)>& progress = {});
+
+struct LaneLearning {
+  ProductLearning learning;       // its thresholds carry `version` and `learned_on`
+  InspectionParams inspection;    // the lane's inspection with those thresholds
+  SensitivityResult sensitivity;  // what they buy on the learning fillets
+  // The learning fillets' extremes the thresholds were fitted to (with the lane's kernels).
+  std::vector<LearningFillet> fillets;
+  std::vector<TradeoffPoint> tradeoff;  // one per target asked, in its order
+};
+
+// The lane's bank of kernels whitened by its product's texture (matched_kernels.h), learned
+// from the clean fillets' z (one energy: a dual-energy lane's bone image keeps the
+// Gaussian); empty when inspection.matched_kernels_mm is.
+MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
+                                  const InspectionParams& inspection);
+
+// `inspection`: the lane's settings the fillets were inspected with. tradeoff_targets: other
+// false-reject targets, each in (0, 0.5) (Error naming one that is not), whose thresholds
+// and sensitivity are learned beside the lane's own; the test pieces of all of them are
+// inspected once (measure_sensitivity_each).
+LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspection,
+                        const LearnOptions& lo, const SensitivityOptions& so,
+                        const std::string& version, const std::string& learned_on,
+                        const std::function<void(int, int)>& progress = {},
+                        const std::vector<double>& tradeoff_targets = {});
 
 // The learning's sensitivity claims checked on fillets it did not learn from (another
 // recording of the same product): the pieces are injected into those that teach.

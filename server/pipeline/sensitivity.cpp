@@ -110,11 +110,20 @@ void state_claims(SensitivityResult& res, const SensitivityOptions& opt) {
 SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fillets,
                                       const InspectionParams& p, const SensitivityOptions& opt,
                                       const std::function<void(int, int)>& progress) {
-  SensitivityResult res;
-  res.band_edges_mm = !opt.band_edges_mm.empty() ? opt.band_edges_mm
-                      : p.learned.active()       ? p.learned.band_edges_mm
-                                                 : default_band_edges_mm();
-  std::map<std::tuple<int, double, int>, SensitivityCell> cells;
+  return measure_sensitivity_each(fillets, p, {p.learned}, opt, progress).front();
+}
+
+std::vector<SensitivityResult> measure_sensitivity_each(
+    const std::vector<SensitivityFillet>& fillets, const InspectionParams& p,
+    const std::vector<LearnedDetection>& learned, const SensitivityOptions& opt,
+    const std::function<void(int, int)>& progress) {
+  const size_t sets = learned.size();
+  std::vector<SensitivityResult> out(sets);
+  for (size_t k = 0; k < sets; ++k)
+    out[k].band_edges_mm = !opt.band_edges_mm.empty() ? opt.band_edges_mm
+                           : learned[k].active()      ? learned[k].band_edges_mm
+                                                      : default_band_edges_mm();
+  std::vector<std::map<std::tuple<int, double, int>, SensitivityCell>> cells(sets);
   std::mt19937_64 rng(opt.seed);
   const int total = int(fillets.size() * 2 * opt.sizes_mm.size());
   int done = 0;
@@ -170,33 +179,38 @@ SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fill
           const double calcified = opt.material.excess(lean[0]) / (bone[0] - lean[0]);
           inject_test_piece(img, q, lean[0], opt.material, calcified * (bone[1] - lean[1]));
         }
-        const FilletResult r = inspect_fillet(img, p, false);
-        ++res.inspections;
-        for (const TestPiece& q : placed) {
-          const double t = base.thickness[size_t(q.row) * base.cols + q.col];
-          const int band = band_index(res.band_edges_mm, t);
-          SensitivityCell& cell = cells[{shape, size, band}];
-          cell.shape = shape, cell.size_mm = size, cell.band = band;
-          ++cell.injected;
-          // Found: a fragment's box, grown by the evaluation's distance, holds its centre.
-          const double tol = std::max(2.0, 0.5 * size + 1);
-          const int gr = int(std::ceil(tol / base.step_mm)),
-                    gc = int(std::ceil(tol / base.pitch_mm));
-          for (const Blob& b : r.fragments)
-            if (q.row >= b.row0 - gr && q.row <= b.row1 + gr && q.col >= b.col0 - gc &&
-                q.col <= b.col1 + gc) {
-              ++cell.found;
-              break;
-            }
+        const std::vector<FilletResult> rs = inspect_fillet_each(img, p, learned);
+        for (size_t k = 0; k < sets; ++k) {
+          ++out[k].inspections;
+          for (const TestPiece& q : placed) {
+            const double t = base.thickness[size_t(q.row) * base.cols + q.col];
+            const int band = band_index(out[k].band_edges_mm, t);
+            SensitivityCell& cell = cells[k][{shape, size, band}];
+            cell.shape = shape, cell.size_mm = size, cell.band = band;
+            ++cell.injected;
+            // Found: a fragment's box, grown by the evaluation's distance, holds its centre.
+            const double tol = std::max(2.0, 0.5 * size + 1);
+            const int gr = int(std::ceil(tol / base.step_mm)),
+                      gc = int(std::ceil(tol / base.pitch_mm));
+            for (const Blob& b : rs[k].fragments)
+              if (q.row >= b.row0 - gr && q.row <= b.row1 + gr && q.col >= b.col0 - gc &&
+                  q.col <= b.col1 + gc) {
+                ++cell.found;
+                break;
+              }
+          }
         }
       }
   }
-  for (auto& [k, c] : cells) res.cells.push_back(c);
-  res.claims = claim_sizes(res.cells, res.band_edges_mm, opt);
-  res.rate = opt.rate, res.claim_confidence = opt.claim_confidence;
-  res.material = opt.material;
-  state_claims(res, opt);
-  return res;
+  for (size_t k = 0; k < sets; ++k) {
+    SensitivityResult& res = out[k];
+    for (auto& [key, c] : cells[k]) res.cells.push_back(c);
+    res.claims = claim_sizes(res.cells, res.band_edges_mm, opt);
+    res.rate = opt.rate, res.claim_confidence = opt.claim_confidence;
+    res.material = opt.material;
+    state_claims(res, opt);
+  }
+  return out;
 }
 
 std::vector<SensitivityClaim> claim_sizes(const std::vector<SensitivityCell>& cells,

@@ -91,6 +91,13 @@ std::vector<SensitivityClaim> claim_sizes(const std::vector<SensitivityCell>& ce
 SensitivityResult measure_sensitivity(const std::vector<SensitivityFillet>& fillets,
                                       const InspectionParams& p, const SensitivityOptions& opt,
                                       const std::function<void(int, int)>& progress = {});
+// The same pieces, placed once, found under each of several learned thresholds (p.learned
+// replaced by each; result k is measure_sensitivity's with learned[k]): a fillet's model and
+// statistics are made once for all of them where they share them (inspect_fillet_each).
+std::vector<SensitivityResult> measure_sensitivity_each(
+    const std::vector<SensitivityFillet>& fillets, const InspectionParams& p,
+    const std::vector<LearnedDetection>& learned, const SensitivityOptions& opt,
+    const std::function<void(int, int)>& progress = {});
 
 // A claim checked on other fillets: the pieces of its shape and size found there; held when
 // at least the claimed rate of them were. A few dozen pieces fall one or two short of the

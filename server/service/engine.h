@@ -203,7 +203,7 @@ class Engine {
     std::string id;           // the version's name ("" : learn-<time>)
     double timeout_s = 3600;  // give up when the fillets have not come by then
     // Other false-reject targets whose thresholds and sensitivity the report gives beside
-    // the learned one's (learn_tradeoff), each in (0, 0.5), at most 8.
+    // the learned one's (learn_lane), each in (0, 0.5), at most 8.
     std::vector<double> tradeoff;
     // Learn again from the fillets of the lane's last live learning, stored as this version,
     // with the settings that run had (no waiting; `fillets` and `timeout_s` do not apply).

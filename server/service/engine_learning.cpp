@@ -230,14 +230,11 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
                    " not inspected left out)";
   if (relearn) on += ", learned again from '" + req.relearn_from + "'";
   if (!req.keep.empty()) on += ", fillets " + id_list(req.keep) + " checked clean";
+  // With what other false-reject targets would buy, on the same fillets and test pieces.
   const LaneLearning learned =
-      learn_lane(run->set, run->inspection, lo, SensitivityOptions{}, vid, on);
+      learn_lane(run->set, run->inspection, lo, SensitivityOptions{}, vid, on, {}, req.tradeoff);
   const ProductLearning& L = learned.learning;
-  // What other false-reject targets would buy, on the same fillets and test pieces.
-  std::vector<TradeoffPoint> tradeoff;
-  for (double t : req.tradeoff)
-    tradeoff.push_back(learn_tradeoff(run->set, learned, lo, SensitivityOptions{}, t));
-  const std::string report = learned_report_json(id, L, learned.sensitivity, tradeoff);
+  const std::string report = learned_report_json(id, L, learned.sensitivity, learned.tradeoff);
   StoredSetting s{id, vid, learned_detection_yaml(L.learned), now_ns(), false, report};
   // What is stored must read back, as an upload must: a version that does not would only
   // fail at its activation.
