@@ -182,9 +182,9 @@ int cmd_learn(int argc, char** argv) {
     std::printf("lane %d: %zu fillets inspected (%d not inspected, left out); fitting ...\n",
                 r.lane, r.set.size(), r.set.not_inspected);
     std::fflush(stdout);
-    // The sensitivity the thresholds buy is measured on the same fillets (the report says
-    // so; a held-out check is --check, on fillets it did not learn from).
-    // With what other false-reject targets would buy on the same fillets and test pieces.
+    // The sensitivity the thresholds buy, and what other false-reject targets would buy, is
+    // measured on the same fillets and test pieces (the report says so; a held-out check is
+    // --check, on fillets it did not learn from).
     ProgressBar sbar(tradeoff.empty() ? "sensitivity" : "sensitivity, every target");
     const LaneLearning ll = learn_lane(
         r.set, lane.inspection, lo, so, version, source + " lane " + std::to_string(r.lane),

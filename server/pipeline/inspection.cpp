@@ -632,9 +632,13 @@ bool one_energy_model(const FilletImage& raw, const InspectionParams& p, FilletR
   return true;
 }
 
+bool inspected_in_dual_energy(const FilletImage& img, const InspectionParams& p) {
+  return !img.xray_high.empty() && img.has_dual_energy &&
+         p.dual_energy != DualEnergyMethod::kLowLine;
+}
+
 FilletResult inspect_fillet(const FilletImage& raw, const InspectionParams& p, bool keep) {
-  if (!raw.xray_high.empty() && raw.has_dual_energy && p.dual_energy != DualEnergyMethod::kLowLine)
-    return inspect_fillet_dual_energy(raw, p, keep);
+  if (inspected_in_dual_energy(raw, p)) return inspect_fillet_dual_energy(raw, p, keep);
   return inspect_searchable(raw, p, [&](const InspectionParams& q, FilletResult& res) {
     OneEnergyModel m;
     if (!one_energy_model(raw, q, res, m)) return;

@@ -26,11 +26,10 @@ std::vector<FilletResult> inspect_fillet_each(const FilletImage& raw, const Insp
   std::vector<FilletResult> out;
   out.reserve(learned.size());
   InspectionParams q = p;
-  const bool dual =
-      !raw.xray_high.empty() && raw.has_dual_energy && p.dual_energy != DualEnergyMethod::kLowLine;
-  const bool shared = !dual && std::all_of(learned.begin(), learned.end(), [&](const auto& l) {
-    return same_statistics(l, learned.front());
-  });
+  const bool shared = !inspected_in_dual_energy(raw, p) &&
+                      std::all_of(learned.begin(), learned.end(), [&](const auto& l) {
+                        return same_statistics(l, learned.front());
+                      });
   if (!shared) {
     for (const LearnedDetection& l : learned) {
       q.learned = l;

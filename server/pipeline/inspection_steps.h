@@ -71,6 +71,10 @@ struct OneEnergyModel {
 bool one_energy_model(const FilletImage& raw, const InspectionParams& p, FilletResult& res,
                       OneEnergyModel& m);
 
+// Whether inspect_fillet takes img in dual energy (both lines there, and the lane not set to
+// its low line alone).
+bool inspected_in_dual_energy(const FilletImage& img, const InspectionParams& p);
+
 // Dual energy (pipeline/dual_energy_inspection.cpp).
 FilletResult inspect_fillet_dual_energy(const FilletImage& img, const InspectionParams& p,
                                         bool keep);
