@@ -69,8 +69,16 @@ void CameraRenderer::render(const Scene& scene, double s, Rng& rng, uint8_t* fra
   // Only fillets within reach of the lines of sight can hide the stripe.
   const float near_top = scene.max_height(b_laser - 100, b_laser + 100);
   const bool fillets_near = near_top > 0;
-  std::vector<Hit> hits(width_);
-  std::vector<uint8_t> has(width_, 0);
+  // The points of the surface that project onto a column, in the order the segments give
+  // them; which of them the camera sees is decided for all at once (below), then the first
+  // visible highest one of each column is kept as before.
+  struct Candidate {
+    int c, k;
+    Vec3 P;
+    Vec2 q;
+  };
+  std::vector<Candidate> cand;
+  cand.reserve(size_t(width_) + 64);
   for (int k = 0; k + 1 < kN; ++k) {
     const double ua = px[k].x, ub = px[k + 1].x;
     if (ua == ub) continue;
@@ -95,37 +103,66 @@ void CameraRenderer::render(const Scene& scene, double s, Rng& rng, uint8_t* fra
       const Vec3 P = A + (B - A) * t;
       const Vec2 q = cam_.project(P);
       if (q.y < -0.5 || q.y > height_ - 0.5) continue;
-      // Occlusion: walk from the point toward the camera over the scene's surface.
-      bool visible = true;
-      if (fillets_near) {
-        const Vec3 d = (cc - P).normalized();
-        // March toward the camera; the step grows with the clearance above the surface
-        // (fillet slopes stay well below 3, so half the clearance cannot skip a crest).
-        for (double dist = 0.3;;) {
-          const Vec3 Q = P + d * dist;
-          if (Q.z > near_top + 0.1) break;
+      cand.push_back({c, k, P, q});
+    }
+  }
+
+  // Occlusion: walk from each point toward the camera over the scene's surface. The step
+  // grows with the clearance above the surface (fillet slopes stay well below 3, so half the
+  // clearance cannot skip a crest). Each walk is a chain of dependent height lookups; a
+  // group of walks advanced together overlaps their latencies (each walk's own steps are
+  // unchanged).
+  std::vector<uint8_t> visible(cand.size(), 1);
+  if (fillets_near) {
+    constexpr size_t kGroup = 8;
+    for (size_t g = 0; g < cand.size(); g += kGroup) {
+      const size_t n = std::min(kGroup, cand.size() - g);
+      Vec3 d[kGroup];
+      double dist[kGroup];
+      bool walking[kGroup];
+      for (size_t i = 0; i < n; ++i) {
+        d[i] = (cc - cand[g + i].P).normalized();
+        dist[i] = 0.3;
+        walking[i] = true;
+      }
+      for (size_t left = n; left > 0;) {
+        for (size_t i = 0; i < n; ++i) {
+          if (!walking[i]) continue;
+          const Vec3 Q = cand[g + i].P + d[i] * dist[i];
+          if (Q.z > near_top + 0.1) {
+            walking[i] = false;
+            --left;
+            continue;
+          }
           const double clearance = Q.z - scene.height(Q.x, s - Q.y);
           if (clearance < -1e-3) {
-            visible = false;
-            break;
+            visible[g + i] = 0;
+            walking[i] = false;
+            --left;
+            continue;
           }
-          dist += std::max(0.3, 0.5 * clearance);
+          dist[i] += std::max(0.3, 0.5 * clearance);
         }
       }
-      if (!visible) continue;
-      if (has[c] && hits[c].p.z >= P.z) continue;
-      const double slope = (double(h[k + 1]) - h[k]) / kRasterPitchMm;
-      // Along-belt slope from the neighbouring slices sets how the surface faces the camera.
-      const double dhdb =
-          (scene.height(P.x, b_laser + 0.4) - scene.height(P.x, b_laser - 0.4)) / 0.8;
-      Hit hit;
-      hit.v = q.y;
-      hit.p = P;
-      hit.normal = Vec3{-slope, dhdb, 1.0}.normalized();  // world y = s - b flips d/db
-      hit.meat = scene.is_meat(P);
-      hits[c] = hit;
-      has[c] = 1;
     }
+  }
+
+  std::vector<Hit> hits(width_);
+  std::vector<uint8_t> has(width_, 0);
+  for (size_t j = 0; j < cand.size(); ++j) {
+    if (!visible[j]) continue;
+    const auto& [c, k, P, q] = cand[j];
+    if (has[c] && hits[c].p.z >= P.z) continue;
+    const double slope = (double(h[k + 1]) - h[k]) / kRasterPitchMm;
+    // Along-belt slope from the neighbouring slices sets how the surface faces the camera.
+    const double dhdb = (scene.height(P.x, b_laser + 0.4) - scene.height(P.x, b_laser - 0.4)) / 0.8;
+    Hit hit;
+    hit.v = q.y;
+    hit.p = P;
+    hit.normal = Vec3{-slope, dhdb, 1.0}.normalized();  // world y = s - b flips d/db
+    hit.meat = scene.is_meat(P);
+    hits[c] = hit;
+    has[c] = 1;
   }
 
   for (int c = 0; c < width_; ++c) {

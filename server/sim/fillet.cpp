@@ -26,6 +26,9 @@ struct Shape {
   // over s > fold_s, whose edge is a step.
   double flap_h = 0, flap_s = 0, flap_half = 0, flap_len = 0, flap_side = 1;
   double fold_h = 0, fold_s = 0;
+  double r_reach = 0;  // above 1 + sum(harm_a) by more than the sum's rounding (set_reach)
+
+  void set_reach() { r_reach = (1 + harm_a[0] + harm_a[1] + harm_a[2] + harm_a[3]) * (1 + 1e-9); }
 
   double flap(double s, double t, double half_w) const {
     if (flap_h <= 0) return 0;
@@ -39,6 +42,9 @@ struct Shape {
     const double half_w = 0.5 * W * (1 + taper * sn);
     const double tn = t / half_w;
     const double r = std::sqrt(sn * sn + tn * tn);
+    // Beyond the largest radius the harmonics can reach, rho >= 1 whatever they sum to:
+    // the same answer without the trigonometry (most of the raster's box is outside).
+    if (r > r_reach) return flap(s, t, half_w);
     const double phi = std::atan2(tn, sn);
     double R = 1;
     for (int k = 0; k < 4; ++k) R += harm_a[k] * std::cos((k + 2) * phi + harm_p[k]);
@@ -101,6 +107,7 @@ Fillet make_fillet(Rng& rng, Rng& phys, int id, double b_start, double x_center,
     sh.irr_kt[k] = 2 * kPi / rng.uniform(20, 60) * (rng.chance(0.5) ? 1 : -1);
     sh.irr_p[k] = rng.uniform(0, 2 * kPi);
   }
+  sh.set_reach();
   // Steep walls: the profile rises most of its height within a pixel of the outline.
   if (prm.steep_fraction > 0 && phys.chance(prm.steep_fraction)) sh.p = phys.uniform(0.1, 0.22);
   if (prm.flap_probability > 0 && phys.chance(prm.flap_probability)) {

@@ -36,7 +36,7 @@ class Rng {
   bool chance(double p) { return uniform() < p; }
   // A normal deviate from a 4096-entry inverse-CDF table: coarse in the far tails, fast;
   // for noise texture (speckle), not for statistics.
-  double fast_normal() {
+  [[gnu::always_inline]] double fast_normal() {
     struct Table {
       double v[4096];
       Table() {

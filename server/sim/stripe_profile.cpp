@@ -17,7 +17,7 @@ double emg(double x, double sigma, double lambda) {
 }  // namespace
 
 namespace {
-constexpr double kTableStep = 1.0 / 512;  // px
+constexpr double kTableStep = StripeKernel::kStep;
 double exact_core(double dy, double sigma) {
   return 0.5 * (std::erf((dy + 0.5) / (kSqrt2 * sigma)) - std::erf((dy - 0.5) / (kSqrt2 * sigma)));
 }
@@ -32,20 +32,37 @@ StripeKernel::StripeKernel(double sigma, double tail_px) : sigma_(sigma), tail_p
     tail_.push_back(emg(x, sigma, tail_px));
 }
 
-double StripeKernel::lookup(const std::vector<double>& t, double x0, double x) {
-  const double f = (x - x0) / kTableStep;
-  if (f < 0 || f >= double(t.size() - 1)) return 0.0;
-  const size_t i = size_t(f);
-  const double u = f - double(i);
-  return t[i] + u * (t[i + 1] - t[i]);
-}
-
 double StripeKernel::core(double dy) const {
-  return lookup(core_, core_x0_, dy);
+  return core_table().at(dy);
 }
 double StripeKernel::tail(double x) const {
-  return lookup(tail_, tail_x0_, x);
+  return tail_table().at(x);
 }
+
+namespace {
+// add_stripe's rows with a kernel's tables: the same arithmetic, with everything the loop
+// reads held in locals (a store through the uint8_t column may alias any memory, so fields
+// read through a pointer or reference would be loaded again for every row).
+void add_rows(uint8_t* column, int stride, int y0, int y1, const StripeShape& s, double energy,
+              double keep, double fresh, double e, Rng& rng, const StripeKernel& kernel) {
+  const StripeKernel::Table core_t = kernel.core_table(), tail_t = kernel.tail_table();
+  const double center = s.center, tail_w = s.tail, speckle = s.speckle;
+  const int sign = s.tail_sign;
+  Rng r = rng;
+  for (int y = y0; y <= y1; ++y) {
+    const double dy = y - center;
+    const double core = core_t.at(dy);
+    const double tail = tail_w > 0 ? tail_w * tail_t.at(sign * dy) : 0.0;
+    double n = 0;
+    if (speckle > 0) n = keep > 0 ? (e = keep * e + fresh * r.fast_normal()) : r.fast_normal();
+    double v = energy * (core + tail) * (speckle > 0 ? 1 + speckle * n : 1.0);
+    uint8_t& px = column[size_t(y) * stride];
+    v += px;
+    px = uint8_t(std::clamp(v + 0.5, 0.0, 255.0));
+  }
+  rng = r;
+}
+}  // namespace
 
 void add_stripe(uint8_t* column, int height, int stride, const StripeShape& s, Rng& rng,
                 const StripeKernel* kernel) {
@@ -58,12 +75,11 @@ void add_stripe(uint8_t* column, int height, int stride, const StripeShape& s, R
   // Correlated speckle: an AR(1) sequence down the column with unit variance.
   const double keep = s.speckle_rho, fresh = std::sqrt(1 - keep * keep);
   double e = keep > 0 ? rng.fast_normal() : 0.0;
+  if (kernel) return add_rows(column, stride, y0, y1, s, energy, keep, fresh, e, rng, *kernel);
   for (int y = y0; y <= y1; ++y) {
     const double dy = y - s.center;
-    const double core = kernel ? kernel->core(dy) : exact_core(dy, s.sigma);
-    const double tail = s.tail > 0 ? s.tail * (kernel ? kernel->tail(s.tail_sign * dy)
-                                                      : emg(s.tail_sign * dy, s.sigma, s.tail_px))
-                                   : 0.0;
+    const double core = exact_core(dy, s.sigma);
+    const double tail = s.tail > 0 ? s.tail * emg(s.tail_sign * dy, s.sigma, s.tail_px) : 0.0;
     double n = 0;
     if (s.speckle > 0)
       n = keep > 0 ? (e = keep * e + fresh * rng.fast_normal()) : rng.fast_normal();

@@ -2,6 +2,7 @@
 // pixel-integrated Gaussian core plus a one-sided exponential scattering tail (convolved with the
 // core), with multiplicative speckle. Adds onto the pixels already in the column.
 #pragma once
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -24,14 +25,30 @@ struct StripeShape {
 // columns fast (linear interpolation; relative error below 1e-5).
 class StripeKernel {
  public:
+  // One tabulated profile: values at x0 + i * kStep.
+  struct Table {
+    const double* v;
+    size_t n;
+    double x0;
+    double at(double x) const {
+      const double f = (x - x0) / kStep;
+      if (f < 0 || f >= double(n - 1)) return 0.0;
+      const size_t i = size_t(f);
+      const double u = f - double(i);
+      return v[i] + u * (v[i + 1] - v[i]);
+    }
+  };
+  static constexpr double kStep = 1.0 / 512;  // px
+
   StripeKernel(double sigma, double tail_px);
   double sigma() const { return sigma_; }
   double tail_px() const { return tail_px_; }
   double core(double dy) const;  // pixel-integrated Gaussian of unit area
   double tail(double x) const;   // exponentially modified Gaussian density, tail toward +x
+  Table core_table() const { return {core_.data(), core_.size(), core_x0_}; }
+  Table tail_table() const { return {tail_.data(), tail_.size(), tail_x0_}; }
 
  private:
-  static double lookup(const std::vector<double>& t, double x0, double x);
   double sigma_, tail_px_;
   double core_x0_, tail_x0_;
   std::vector<double> core_, tail_;
