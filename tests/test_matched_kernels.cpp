@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -550,6 +551,48 @@ TEST(MatchedKernels, AKernelSeesFlatMeatOffTheFilletAndGivesNothingThere) {
       EXPECT_NEAR(out[size_t(r) * cols + c], ref, 1e-4) << r << "," << c;
       EXPECT_NEAR(apply_kernel_at(z.data(), use.data(), rows, cols, taps, radius, r, c), ref, 1e-9)
           << r << "," << c;
+    }
+}
+
+// A fillet wider than the blocks apply_kernel sums at once (75 columns: two blocks and a
+// part), a row with no usable pixel, a block with none, and holes: every usable pixel's sum
+// is the direct sum over its window, every other pixel NaN.
+TEST(MatchedKernels, BlockedSumsEqualTheDirectSumAcrossBlocksAndHoles) {
+  const int rows = 23, cols = 75, radius = 4, w = 2 * radius + 1;
+  std::mt19937 rng(5);
+  std::normal_distribution<float> g;
+  std::vector<float> z(size_t(rows) * cols);
+  for (float& x : z) x = g(rng);
+  std::vector<uint8_t> use(z.size(), 1);
+  for (int c = 0; c < cols; ++c) use[size_t(6) * cols + c] = 0;  // a row off the fillet
+  for (int r = 10; r < 14; ++r)
+    for (int c = 32; c < 64; ++c) use[size_t(r) * cols + c] = 0;  // the second block of 4 rows
+  for (size_t i = 0; i < z.size(); i += 13) use[i] = 0;           // holes
+  z[size_t(2) * cols + 3] = std::numeric_limits<float>::quiet_NaN();
+  std::vector<double> taps(size_t(w) * w);
+  std::normal_distribution<double> h;
+  for (double& t : taps) t = h(rng);
+  std::vector<float> out;
+  apply_kernel(z.data(), use.data(), rows, cols, taps, radius, out);
+  ASSERT_EQ(out.size(), z.size());
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      const size_t i = size_t(r) * cols + c;
+      if (!use[i]) {
+        EXPECT_TRUE(std::isnan(out[i])) << r << "," << c;
+        continue;
+      }
+      double ref = 0, mag = 0;
+      for (int a = -radius; a <= radius; ++a)
+        for (int b = -radius; b <= radius; ++b) {
+          const int rr = r + a, cc = c + b;
+          if (rr < 0 || rr >= rows || cc < 0 || cc >= cols) continue;
+          const size_t k = size_t(rr) * cols + cc;
+          if (!use[k] || !std::isfinite(z[k])) continue;
+          ref += taps[size_t(a + radius) * w + size_t(b + radius)] * z[k];
+          mag += std::abs(taps[size_t(a + radius) * w + size_t(b + radius)] * z[k]);
+        }
+      EXPECT_NEAR(out[i], ref, 1e-6 * (1 + mag)) << r << "," << c;
     }
 }
 

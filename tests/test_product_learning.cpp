@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <random>
 
 #include "core/error.h"
@@ -142,6 +143,45 @@ TEST(ThicknessSpread, UnitSpreadInEveryThicknessRangeDespiteHeavyTails) {
     EXPECT_NEAR(in[in.size() / 2] / 0.6745, 1.0, 0.08) << "thickness " << lo;
     EXPECT_NEAR(med, 0.0, 0.08) << "thickness " << lo;
   }
+}
+
+// Thickness in steps of 0.5 mm (runs of ties across the bins' edges), unusable and unmeasured
+// pixels: every usable measured pixel in one bin, equal counts, the bins in thickness order,
+// each centre its middle pixel's thickness.
+TEST(ThicknessSpread, BinsHoldEveryPixelOnceInThicknessOrderWithTies) {
+  std::mt19937_64 rng(3);
+  std::uniform_int_distribution<int> step(2, 50);
+  const size_t n = 40001;
+  std::vector<float> t(n);
+  std::vector<uint8_t> use(n, 1);
+  for (size_t i = 0; i < n; ++i) {
+    t[i] = 0.5f * float(step(rng));
+    if (i % 17 == 0) use[i] = 0;
+    if (i % 29 == 0) t[i] = std::numeric_limits<float>::quiet_NaN();
+  }
+  const ThicknessBins bins = thickness_bins(t.data(), use.data(), n);
+  ASSERT_EQ(bins.members.size(), 8u);
+  std::vector<int> seen(n, 0);
+  size_t usable = 0;
+  for (size_t i = 0; i < n; ++i) usable += use[i] && std::isfinite(t[i]);
+  float last = -1;
+  for (size_t k = 0; k < bins.members.size(); ++k) {
+    const std::vector<size_t>& m = bins.members[k];
+    EXPECT_LE(m.size(), usable / 8 + 1);
+    EXPECT_GE(m.size(), usable / 8);
+    std::vector<float> ts;
+    for (size_t i : m) {
+      ASSERT_LT(i, n);
+      EXPECT_TRUE(use[i] && std::isfinite(t[i]));
+      ++seen[i];
+      ts.push_back(t[i]);
+    }
+    EXPECT_TRUE(std::is_sorted(ts.begin(), ts.end())) << "bin " << k;
+    EXPECT_GE(ts.front(), last) << "bin " << k;
+    last = ts.back();
+    EXPECT_EQ(bins.centre_mm[k], double(ts[ts.size() / 2])) << "bin " << k;
+  }
+  for (size_t i = 0; i < n; ++i) EXPECT_EQ(seen[i], use[i] && std::isfinite(t[i]) ? 1 : 0) << i;
 }
 
 // Statistic s's extremes in the fillets below: g moved up by 0.3 s.

@@ -247,7 +247,34 @@ TEST(Median, EqualsTheSortedMiddle) {
       std::vector<double> sorted = v;
       std::sort(sorted.begin(), sorted.end());
       const double want = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+      // The same values as floats: the float overload against the double one on them.
+      std::vector<float> f(v.begin(), v.end());
+      std::vector<double> fd(f.begin(), f.end());
+      const double want_f = median_inplace(fd.data(), n);
       EXPECT_EQ(median_inplace(v.data(), n), want) << "n " << n << " kind " << kind;
+      EXPECT_EQ(median_inplace(f.data(), n), want_f) << "floats, n " << n << " kind " << kind;
+    }
+  }
+}
+
+// Values sorted or reversed (a strided sample still brackets them) and the middle in a long
+// run of ties: as a full sort's middle, in doubles and in floats.
+TEST(Median, SortedAndTiedInputs) {
+  for (size_t n : {4096ul, 9999ul, 12000ul}) {
+    std::vector<double> up(n), down(n), steps(n);
+    for (size_t i = 0; i < n; ++i) {
+      up[i] = double(i), down[i] = double(n - i);
+      steps[i] = double(i / (n / 3));  // three runs of ties; the median inside the middle one
+    }
+    auto middle = [&](std::vector<double> v) {
+      std::sort(v.begin(), v.end());
+      return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+    };
+    for (std::vector<double>* v : {&up, &down, &steps}) {
+      const double want = middle(*v);
+      std::vector<float> f(v->begin(), v->end());
+      EXPECT_EQ(median_inplace(v->data(), n), want) << "n " << n;
+      EXPECT_EQ(median_inplace(f.data(), n), want) << "floats, n " << n;
     }
   }
 }

@@ -66,8 +66,10 @@ RobustFit fit_tukey_poly(const double* x, const double* y, size_t n, int degree,
                          const RobustFitOptions& o = {});
 
 // Median as numpy computes it (mean of the two middle values for even n); may reorder `v`.
-// Large inputs are bracketed by a sample and selected within the bracket.
+// Large inputs are bracketed by a sample and selected within the bracket. Floats give the
+// median their doubles would, with half the memory to move.
 double median_inplace(double* v, size_t n);
+double median_inplace(float* v, size_t n);
 
 // The Gaussian's 3/4 quantile: a median absolute deviation / kMadNormal is the standard
 // deviation of Gaussian data.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "pipeline/robust_fit.h"
 
@@ -21,10 +22,26 @@ double interpolate(const std::vector<double>& x, const std::vector<double>& y, d
 
 ThicknessBins thickness_bins(const float* thickness, const uint8_t* use, size_t n, int max_bins,
                              size_t min_per_bin) {
+  // Sorted as (thickness, index) pairs by thickness alone: the same comparisons, so the same
+  // order, ties included, as sorting the indices through the image, without a scattered read
+  // per comparison. Indices in 32 bits where they fit (every fillet): half the memory moved.
   std::vector<size_t> px;
-  for (size_t i = 0; i < n; ++i)
-    if (use[i] && std::isfinite(thickness[i])) px.push_back(i);
-  std::sort(px.begin(), px.end(), [&](size_t a, size_t b) { return thickness[a] < thickness[b]; });
+  auto sort_by = [&]<class Index>(Index) {
+    struct At {
+      float t;
+      Index i;
+    };
+    std::vector<At> by_t;
+    for (size_t i = 0; i < n; ++i)
+      if (use[i] && std::isfinite(thickness[i])) by_t.push_back({thickness[i], Index(i)});
+    std::sort(by_t.begin(), by_t.end(), [](const At& a, const At& b) { return a.t < b.t; });
+    px.resize(by_t.size());
+    for (size_t k = 0; k < by_t.size(); ++k) px[k] = by_t[k].i;
+  };
+  if (n <= std::numeric_limits<uint32_t>::max())
+    sort_by(uint32_t{});
+  else
+    sort_by(size_t{});
   ThicknessBins b;
   if (px.empty()) return b;
   const size_t bins = std::clamp<size_t>(px.size() / std::max<size_t>(1, min_per_bin), 1,
@@ -46,14 +63,17 @@ double SpreadProfile::scale_at(double t) const {
 
 SpreadProfile spread_profile(const std::vector<float>& v, const ThicknessBins& bins, double floor) {
   SpreadProfile s;
+  // The median over the floats themselves, the deviations from it in double (exact).
+  std::vector<float> vals;
   std::vector<double> tmp;
   for (size_t k = 0; k < bins.members.size(); ++k) {
-    tmp.clear();
+    vals.clear();
     for (size_t i : bins.members[k])
-      if (std::isfinite(v[i])) tmp.push_back(v[i]);
-    if (tmp.empty()) continue;
-    const double med = median_inplace(tmp.data(), tmp.size());
-    for (double& x : tmp) x = std::abs(x - med);
+      if (std::isfinite(v[i])) vals.push_back(v[i]);
+    if (vals.empty()) continue;
+    const double med = median_inplace(vals.data(), vals.size());
+    tmp.resize(vals.size());
+    for (size_t j = 0; j < vals.size(); ++j) tmp[j] = std::abs(double(vals[j]) - med);
     const double sd = median_inplace(tmp.data(), tmp.size()) / kMadNormal;
     s.centre_mm.push_back(bins.centre_mm[k]);
     s.median.push_back(med);
