@@ -10,8 +10,8 @@ constexpr double kGumbel = 1e-6;  // |xi| below this is the Gumbel limit
 constexpr double kInf = std::numeric_limits<double>::infinity();
 }  // namespace
 
-double GevModel::location(double n, double t) const {
-  return m0 + m_logn * (std::log(n) - log_n_ref) + m_t * (t - t_ref);
+double GevModel::location_ln(double ln_n, double t) const {
+  return m0 + m_logn * (ln_n - log_n_ref) + m_t * (t - t_ref);
 }
 
 double GevModel::scale(double t) const {
@@ -19,20 +19,20 @@ double GevModel::scale(double t) const {
 }
 
 // The exceedance intensity -ln F = c (1 + xi y)^(-1/xi), or c exp(-y) for Gumbel.
-static double intensity(const GevModel& g, double x, double n, double t) {
-  const double y = (x - g.location(n, t)) / g.scale(t), lc = g.log_c(n);
+static double intensity(const GevModel& g, double x, double ln_n, double t) {
+  const double y = (x - g.location_ln(ln_n, t)) / g.scale(t), lc = g.log_c_ln(ln_n);
   if (std::abs(g.xi) < kGumbel) return std::exp(lc - y);
   const double a = 1 + g.xi * y;
   if (a <= 0) return g.xi > 0 ? kInf : 0.0;  // below the lower / above the upper end point
   return std::exp(lc - std::log(a) / g.xi);
 }
 
-double GevModel::cdf(double x, double n, double t) const {
-  return std::exp(-intensity(*this, x, n, t));
+double GevModel::cdf_ln(double x, double ln_n, double t) const {
+  return std::exp(-intensity(*this, x, ln_n, t));
 }
 
-double GevModel::log_survival(double x, double n, double t) const {
-  const double h = intensity(*this, x, n, t);
+double GevModel::log_survival_ln(double x, double ln_n, double t) const {
+  const double h = intensity(*this, x, ln_n, t);
   // 1 - exp(-h) = -expm1(-h): exact for the small h of a far tail.
   return h == kInf ? 0.0 : std::log(-std::expm1(-h));
 }
@@ -44,9 +44,9 @@ double GevModel::quantile(double p, double n, double t) const {
   return mu + s * (std::pow(h, -xi) - 1) / xi;
 }
 
-double GevModel::neg_log_density(double x, double n, double t) const {
+double GevModel::neg_log_density_ln(double x, double ln_n, double t) const {
   // -ln of c h(x) exp(-c H(x)), h = -dH/dx.
-  const double s = scale(t), y = (x - location(n, t)) / s, lc = log_c(n);
+  const double s = scale(t), y = (x - location_ln(ln_n, t)) / s, lc = log_c_ln(ln_n);
   if (std::abs(xi) < kGumbel) return std::log(s) + y - lc + std::exp(lc - y);
   const double a = 1 + xi * y;
   if (a <= 0) return kInf;

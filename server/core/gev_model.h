@@ -20,15 +20,27 @@ struct GevModel {
   double log_n_ref = 0, t_ref = 0;     // the covariates' centres
   double k_logn = 0;                   // the intensity's power of n / n_ref (max-stability)
 
-  double location(double n, double t) const;
+  double location(double n, double t) const { return location_ln(std::log(n), t); }
   double scale(double t) const;
-  double log_c(double n) const { return k_logn * (std::log(n) - log_n_ref); }
-  double cdf(double x, double n, double t) const;
+  double log_c(double n) const { return log_c_ln(std::log(n)); }
+  double cdf(double x, double n, double t) const { return cdf_ln(x, std::log(n), t); }
   // ln(1 - F(x)), accurate far into the tail (where 1 - F underflows F's rounding).
-  double log_survival(double x, double n, double t) const;
+  double log_survival(double x, double n, double t) const {
+    return log_survival_ln(x, std::log(n), t);
+  }
   double quantile(double p, double n, double t) const;  // p in (0, 1)
   // -ln of the density at x; +inf outside the support.
-  double neg_log_density(double x, double n, double t) const;
+  double neg_log_density(double x, double n, double t) const {
+    return neg_log_density_ln(x, std::log(n), t);
+  }
+
+  // The same with ln n given: a fit evaluates each sample thousands of times, and its
+  // logarithm was most of the time it took. The same values as the forms above.
+  double location_ln(double ln_n, double t) const;
+  double log_c_ln(double ln_n) const { return k_logn * (ln_n - log_n_ref); }
+  double cdf_ln(double x, double ln_n, double t) const;
+  double log_survival_ln(double x, double ln_n, double t) const;
+  double neg_log_density_ln(double x, double ln_n, double t) const;
 };
 
 }  // namespace rangex

@@ -29,20 +29,30 @@ GevModel from_params(const std::vector<double>& p, const GevModel& centre, const
 // below its window is left out. With a lower end the window is S(lower) - S(upper) from the
 // survival's logarithm: where the model moves far below the samples both ends lie in its
 // tail, and the difference of two CDFs next to 1 cancels to nothing.
-double truncated_nll(const GevModel& g, const std::vector<ExtremeSample>& s) {
+double truncated_nll(const GevModel& g, const std::vector<ExtremeSample>& s,
+                     const std::vector<double>& ln_n) {
   double sum = 0;
-  for (const ExtremeSample& e : s) {
+  for (size_t i = 0; i < s.size(); ++i) {
+    const ExtremeSample& e = s[i];
     if (e.x < e.lower) continue;
-    sum += g.neg_log_density(e.x, e.n, e.t);
+    sum += g.neg_log_density_ln(e.x, ln_n[i], e.t);
     if (std::isfinite(e.lower)) {
-      const double lo = g.log_survival(e.lower, e.n, e.t);
-      const double hi = std::isfinite(e.upper) ? g.log_survival(e.upper, e.n, e.t) : -HUGE_VAL;
+      const double lo = g.log_survival_ln(e.lower, ln_n[i], e.t);
+      const double hi =
+          std::isfinite(e.upper) ? g.log_survival_ln(e.upper, ln_n[i], e.t) : -HUGE_VAL;
       sum += hi < lo ? lo + std::log1p(-std::exp(hi - lo)) : std::log(1e-300);
     } else if (std::isfinite(e.upper)) {
-      sum += std::log(std::max(1e-300, g.cdf(e.upper, e.n, e.t)));
+      sum += std::log(std::max(1e-300, g.cdf_ln(e.upper, ln_n[i], e.t)));
     }
   }
   return sum;
+}
+
+// Each sample's ln n, once for every evaluation of a fit.
+std::vector<double> log_pixels(const std::vector<ExtremeSample>& s) {
+  std::vector<double> v(s.size());
+  for (size_t i = 0; i < s.size(); ++i) v[i] = std::log(s[i].n);
+  return v;
 }
 
 }  // namespace
@@ -64,8 +74,9 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
   const std::vector<double> x0 = {mean - 0.5772 * sigma, 1.0, std::log(sigma),
                                   std::log(0.1 / 0.9),   0.0, 0.0};
   const std::vector<double> step = {0.5 * sigma, 0.3, 0.3, 1.0, 0.02, 0.02};
+  const std::vector<double> ln_n = log_pixels(s);
   auto objective = [&](const std::vector<double>& p) {
-    return truncated_nll(from_params(p, centre, opt), s);
+    return truncated_nll(from_params(p, centre, opt), s, ln_n);
   };
   const NelderMeadResult r = nelder_mead(objective, x0, step, 1e-8, 40000);
   GevFit f;
@@ -89,19 +100,21 @@ GevModel refit_drifted(const GevModel& model, const std::vector<ExtremeSample>& 
   if (location_shift) *location_shift = shift;
   GevModel shifted = model;
   shifted.m0 += shift;
+  const std::vector<double> ln_n = log_pixels(s);
   const NelderMeadResult r =
-      nelder_mead([&](const std::vector<double>& p) { return truncated_nll(with(p), s); },
+      nelder_mead([&](const std::vector<double>& p) { return truncated_nll(with(p), s, ln_n); },
                   {shifted.m0, model.s0, std::log(u / (1 - u))}, {0.3, 0.2, 1.0}, 1e-8, 6000);
   constexpr double kChi2_2dof_99 = 9.21;
-  return 2 * (truncated_nll(shifted, s) - r.value) > kChi2_2dof_99 ? with(r.x) : shifted;
+  return 2 * (truncated_nll(shifted, s, ln_n) - r.value) > kChi2_2dof_99 ? with(r.x) : shifted;
 }
 
 double fit_location_shift(const GevModel& model, const std::vector<ExtremeSample>& s) {
   if (s.empty()) return 0;
+  const std::vector<double> ln_n = log_pixels(s);
   auto at = [&](double d) {
     GevModel g = model;
     g.m0 += d;
-    return truncated_nll(g, s);
+    return truncated_nll(g, s, ln_n);
   };
   // A coarse scan over a generous bracket (in units of the model's scale), then a
   // golden-section search around its best: a likelihood truncated below is not unimodal (far
