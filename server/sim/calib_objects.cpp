@@ -36,7 +36,7 @@ float CalibScene::max_height(double b_lo, double b_hi) const {
 double CalibScene::end_b() const {
   double e = 0;
   for (const CalibBox& k : boxes)
-    e = std::max(e, k.b1 + std::abs(std::sin(k.yaw_rad)) * (k.x1 - k.x0));
+    e = std::max(e, k.b1 + std::abs(std::sin(k.yaw_rad())) * (k.x1 - k.x0));
   for (const CalibPin& p : pins) e = std::max(e, p.b1);
   return e;
 }

@@ -11,12 +11,24 @@
 namespace rangex::sim {
 
 struct CalibBox {
+  // yaw: turned about the vertical through its centre (a block set askew). Its cosine and sine
+  // are taken once here: every ray and surface sample of a scan turns into the box's frame.
+  CalibBox(double x0, double x1, double b0, double b1, double z0, double z1, double yaw = 0)
+      : x0(x0),
+        x1(x1),
+        b0(b0),
+        b1(b1),
+        z0(z0),
+        z1(z1),
+        yaw_rad_(yaw),
+        cos_yaw_(std::cos(yaw)),
+        sin_yaw_(std::sin(yaw)) {}
   double x0, x1, b0, b1, z0, z1;  // mm, in the box's own frame
-  double yaw_rad = 0;  // turned about the vertical through its centre (a block set askew)
+  double yaw_rad() const { return yaw_rad_; }
   // Object point (x, b) in the box's own frame.
   void local(double x, double b, double& lx, double& lb) const {
     const double cx = 0.5 * (x0 + x1), cb = 0.5 * (b0 + b1);
-    const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
+    const double c = cos_yaw_, s = sin_yaw_;
     lx = cx + c * (x - cx) + s * (b - cb);
     lb = cb - s * (x - cx) + c * (b - cb);
   }
@@ -26,6 +38,9 @@ struct CalibBox {
     return lx >= x0 && lx < x1 && lb >= b0 && lb < b1;
   }
   double mu_per_mm = 0.02;  // POM-like plastic at the X-ray's energy, per mm of path
+
+ private:
+  double yaw_rad_, cos_yaw_, sin_yaw_;
 };
 
 // A steel pin running along the belt: its cross-section is a circle in the fan's plane.

@@ -56,13 +56,17 @@ double pin_path(const CalibPin& p, const Vec3& a, const Vec3& c) {
 }  // namespace
 
 CalibXrayRenderer::CalibXrayRenderer(const LaneConfig& lane, XrayOptics optics, XrayRenderParams p)
-    : fb_(lane.xray), o_(optics), p_(p) {
+    : fb_(lane.xray),
+      o_(optics),
+      p_(p),
+      tan_alpha_(std::tan(optics.alpha_rad)),
+      tan_beta_(std::tan(optics.beta_rad)) {
   if (std::isnan(o_.plane_y_mm))
     o_.plane_y_mm = lane.laser.offset_mm + lane.xray.delay_lines * lane.encoder_step_mm;
 }
 
 double CalibXrayRenderer::plane_y(double x, double z) const {
-  return o_.plane_y_mm + x * std::tan(o_.alpha_rad) + z * std::tan(o_.beta_rad);
+  return o_.plane_y_mm + x * tan_alpha_ + z * tan_beta_;
 }
 
 void CalibXrayRenderer::render(const CalibScene& scene, double s, Rng& rng, uint16_t* line) const {
@@ -79,21 +83,46 @@ void CalibXrayRenderer::render(const CalibScene& scene, double s, Rng& rng, uint
   // line-spread function, then averaged.
   constexpr int kSub = 4;
   const int n = fb_.pixels, nf = n * kSub;
-  std::vector<double> I(nf);
+  // Object coordinates: b = belt offset - y. The sub-sources and the detector's sub-samples
+  // are the ends of every ray of this line.
+  Vec3 S[kSpots];
+  for (int k = 0; k < kSpots; ++k) {
+    const double xs = fb_.source_x_mm + off[k], zs = fb_.source_z_mm;
+    S[k] = Vec3{xs, s - plane_y(xs, zs), zs};
+  }
+  std::vector<Vec3> D(nf);
   for (int f = 0; f < nf; ++f) {
     const double u = (f + 0.5) / kSub - 0.5;
     const double xd = fb_.first_pixel_x_mm + fb_.pitch_x() * u,
                  zd = fb_.detector_z_mm + fb_.pitch_z() * u;
-    // Object coordinates: b = belt offset - y.
-    const Vec3 D{xd, s - plane_y(xd, zd), zd};
+    D[f] = Vec3{xd, s - plane_y(xd, zd), zd};
+  }
+  // Only objects whose stretch of belt the line's rays reach can attenuate them: a ray whose
+  // ends both lie beyond an object along the belt misses it (its path is exactly 0, so
+  // leaving it out changes no sum). A box's stretch is bounded through its yaw, with 1 mm to
+  // spare for rounding.
+  double lo = HUGE_VAL, hi = -HUGE_VAL;
+  for (int k = 0; k < kSpots; ++k)
+    if (w[k] != 0) lo = std::min(lo, S[k].y), hi = std::max(hi, S[k].y);
+  for (const Vec3& d : D) lo = std::min(lo, d.y), hi = std::max(hi, d.y);
+  std::vector<const CalibBox*> boxes;
+  for (const CalibBox& b : scene.boxes) {
+    const double cb = 0.5 * (b.b0 + b.b1);
+    const double reach = std::abs(std::sin(b.yaw_rad())) * 0.5 * (b.x1 - b.x0) +
+                         std::abs(std::cos(b.yaw_rad())) * 0.5 * (b.b1 - b.b0) + 1;
+    if (cb + reach >= lo && cb - reach <= hi) boxes.push_back(&b);
+  }
+  std::vector<const CalibPin*> pins;
+  for (const CalibPin& p : scene.pins)
+    if (p.b1 >= lo && p.b0 <= hi) pins.push_back(&p);
+  std::vector<double> I(nf);
+  for (int f = 0; f < nf; ++f) {
     double sum = 0;
     for (int k = 0; k < kSpots; ++k) {
       if (w[k] == 0) continue;
-      const double xs = fb_.source_x_mm + off[k], zs = fb_.source_z_mm;
-      const Vec3 S{xs, s - plane_y(xs, zs), zs};
       double att = 0;
-      for (const CalibBox& b : scene.boxes) att += b.mu_per_mm * box_path(b, D, S);
-      for (const CalibPin& p : scene.pins) att += p.mu_per_mm * pin_path(p, D, S);
+      for (const CalibBox* b : boxes) att += b->mu_per_mm * box_path(*b, D[f], S[k]);
+      for (const CalibPin* p : pins) att += p->mu_per_mm * pin_path(*p, D[f], S[k]);
       sum += w[k] * std::exp(-att);
     }
     I[f] = p_.open_beam_dn * sum / wsum;

@@ -32,6 +32,7 @@ class CalibXrayRenderer {
   FanBeam fb_;
   XrayOptics o_;
   XrayRenderParams p_;
+  double tan_alpha_, tan_beta_;  // the plane's tilts, taken once (plane_y runs for every ray)
 };
 
 }  // namespace rangex::sim

@@ -91,10 +91,47 @@ void TargetRenderer::render(const TargetPose& pose, Rng& rng, uint8_t* frame,
   const Mat3 Rt = pose.R.transposed();
   const double s = board_.square_mm;
   std::vector<float> img(size_t(W) * H);
+  const double edge = 0.5 - 0.5 / S;  // the outermost sub-samples' offset from the centre
+  // Squares -1 .. cols-1 by -1 .. rows-1 carry the pattern; one more square of white around
+  // them; the rest is background.
+  auto square_value = [&](double i, double j) {
+    if (!(i >= -2 && i <= board_.cols && j >= -2 && j <= board_.rows)) return p_.background;
+    const bool pattern = i >= -1 && i < board_.cols && j >= -1 && j < board_.rows;
+    return pattern && (int64_t(i + j) & 1) == 0 ? p_.black : p_.white;
+  };
   for (int v = 0; v < H; ++v)
     for (int u = 0; u < W; ++u) {
       const auto& r = rays_[size_t(v) * W + u];
+      // The board plane's image of the pixel is convex (the ray is affine in the offsets, and
+      // the denominator keeps its sign across it). When its four outermost sub-samples lie
+      // well inside one square, every sub-sample does, and each sees that square's value.
+      double ci = 0, cj = 0;
+      bool one_square = true, ahead = true;
+      for (int c = 0; c < 4 && one_square; ++c) {
+        const double du = c & 1 ? edge : -edge, dv = c & 2 ? edge : -edge;
+        const Vec3 ray{r[0] + r[2] * du + r[4] * dv, r[1] + r[3] * du + r[5] * dv, 1};
+        const double den = n.dot(ray);
+        if (std::abs(den) < 1e-6 || (c > 0 && (den > 0) != ahead)) {
+          one_square = false;
+          break;
+        }
+        ahead = den > 0;
+        const Vec3 b = Rt * (ray * (d / den) - pose.t);
+        const double fx = b.x / s, fy = b.y / s;
+        const double i = std::floor(fx), j = std::floor(fy);
+        constexpr double kMargin = 1e-6;  // of a square: far beyond rounding
+        if (fx - i < kMargin || fx - i > 1 - kMargin || fy - j < kMargin || fy - j > 1 - kMargin ||
+            (c > 0 && (i != ci || j != cj)))
+          one_square = false;
+        ci = i, cj = j;
+      }
       double sum = 0;
+      if (one_square) {
+        const double g = square_value(ci, cj);
+        for (int k = 0; k < S * S; ++k) sum += g;  // the same additions as below
+        img[size_t(v) * W + u] = float(sum / (S * S));
+        continue;
+      }
       for (int sy = 0; sy < S; ++sy)
         for (int sx = 0; sx < S; ++sx) {
           const double du = (sx + 0.5) / S - 0.5, dv = (sy + 0.5) / S - 0.5;
@@ -103,13 +140,7 @@ void TargetRenderer::render(const TargetPose& pose, Rng& rng, uint8_t* frame,
           double g = p_.background;
           if (std::abs(den) > 1e-12) {
             const Vec3 b = Rt * (ray * (d / den) - pose.t);
-            const double i = std::floor(b.x / s), j = std::floor(b.y / s);
-            // Squares -1 .. cols-1 by -1 .. rows-1 carry the pattern; one more square of
-            // white around them; the rest is background.
-            if (i >= -2 && i <= board_.cols && j >= -2 && j <= board_.rows) {
-              const bool pattern = i >= -1 && i < board_.cols && j >= -1 && j < board_.rows;
-              g = pattern && (int64_t(i + j) & 1) == 0 ? p_.black : p_.white;
-            }
+            g = square_value(std::floor(b.x / s), std::floor(b.y / s));
           }
           sum += g;
         }
