@@ -16,20 +16,39 @@ struct Slice {
   std::vector<float> h = std::vector<float>(kSlice);
   float top = 0;
   std::vector<const Fillet*> here;  // fillets cut by it, for mu and inclusions
+  std::vector<int> raised = std::vector<int>(kSlice + 1);  // samples above the belt before each
 };
 
 void cut(const LaneScene& scene, double b, Slice& s) {
   scene.slice(b, s.h.data(), kSlice);
   s.top = 0;
   for (float v : s.h) s.top = std::max(s.top, v);
+  for (int k = 0; k < kSlice; ++k) s.raised[size_t(k) + 1] = s.raised[size_t(k)] + (s.h[k] != 0);
   s.here.clear();
   for (const Fillet& f : scene.fillets())
     if (b >= f.b_min - 10 && b <= (f.ib0 + f.nb) * kRasterPitchMm + 10) s.here.push_back(&f);
 }
 
+// Whether a ray meets only samples on the belt (height 0) on its way up to the slice's top.
+// ray_path_length then sums nothing but zeros: its length is exactly 0 without the walk. The
+// cells it would visit lie between its feet at the belt and at the top, 3 cells to spare.
+bool over_belt_only(const Slice& s, double xd, double zd, double xs, double zs) {
+  const double slope = (xs - xd) / (zs - zd);
+  const double top = std::max<double>(s.top, 1e-6);
+  const double c0 = (xd + slope * (0 - zd) - kLaneX0Mm) / kRasterPitchMm,
+               c1 = (xd + slope * (top - zd) - kLaneX0Mm) / kRasterPitchMm;
+  const double lo = std::clamp(std::floor(std::min(c0, c1)) - 3, 0.0, double(kSlice)),
+               hi = std::clamp(std::floor(std::max(c0, c1)) + 4, 0.0, double(kSlice));
+  return s.raised[size_t(hi)] == s.raised[size_t(lo)];
+}
+
 // ln(I0 / I) of one ray through a slice, and the meat's path length.
 double slice_attenuation(const Slice& s, double b, double xd, double zd, double xs, double zs,
                          double* path) {
+  if (over_belt_only(s, xd, zd, xs, zs)) {
+    *path = 0;
+    return 0;
+  }
   const ProfileGrid grid{s.h.data(), nullptr, kSlice, kLaneX0Mm, kRasterPitchMm, s.top};
   const PathResult r = ray_path_length(grid, xd, zd, xs, zs);
   *path = r.length_mm;
@@ -231,6 +250,9 @@ void XrayRenderer::render(const LaneScene& scene, double s, Rng& rng, uint16_t* 
   // spot's image, which grows with the height of what casts the shadow (taken at half the
   // path's length above the belt).
   const double mag_den = fb_.source_z_mm;
+  std::vector<double> weights;  // the blur's weight at each offset, for the sigma below
+  double weights_sigma = -1;
+  int R = 0;
   for (int i = 0; i < n; ++i) {
     double path = 0;
     for (int k = 0; k < kSub; ++k) path += path_f[i * kSub + k] / kSub;
@@ -239,6 +261,13 @@ void XrayRenderer::render(const LaneScene& scene, double s, Rng& rng, uint16_t* 
     const double focal_px =
         ph_.focal_spot_sigma_mm * (z - fb_.detector_z_mm) / (mag_den - z) / fb_.pitch_mm;
     const double sigma = std::hypot(ph_.detector_sigma_px, focal_px) * kSub;
+    if (sigma >= 0.05 && sigma != weights_sigma) {  // most pixels share the belt's sigma
+      R = int(std::ceil(4 * sigma));
+      weights.resize(size_t(2 * R + 1));
+      for (int j = -R; j <= R; ++j)
+        weights[size_t(j + R)] = std::exp(-0.5 * j * j / (sigma * sigma));
+      weights_sigma = sigma;
+    }
     // The pixel's mean of each fine-grid array (the blur's weights, else its aperture).
     auto pixel_mean = [&](const std::vector<double>& v) {
       double mean = 0;
@@ -246,12 +275,11 @@ void XrayRenderer::render(const LaneScene& scene, double s, Rng& rng, uint16_t* 
         for (int k = 0; k < kSub; ++k) mean += v[size_t(i * kSub + k)] / kSub;
         return mean;
       }
-      const int R = int(std::ceil(4 * sigma));
       double wsum = 0;
       for (int k = 0; k < kSub; ++k)
         for (int j = -R; j <= R; ++j) {
           const int f = std::clamp(i * kSub + k + j, 0, nf - 1);
-          const double w = std::exp(-0.5 * j * j / (sigma * sigma));
+          const double w = weights[size_t(j + R)];
           mean += w * v[size_t(f)], wsum += w;
         }
       return mean / wsum;

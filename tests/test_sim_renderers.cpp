@@ -1,7 +1,9 @@
-// The calibration scenes' renderers against plain references: a target image equals every
-// sub-sample of every pixel taken one by one (the renderer takes a pixel that lies inside one
-// square whole), and an X-ray line sees every object its plane crosses and none it does not
-// (the renderer leaves out objects beyond the line's rays).
+// The simulator's renderers against plain references: a target image equals every sub-sample
+// of every pixel taken one by one (the renderer takes a pixel that lies inside one square
+// whole); a calibration scan's X-ray line sees every object its plane crosses and none it
+// does not (the renderer leaves out objects beyond the line's rays); a fillet's X-ray line
+// gives each pixel the path of the walk through the scene's slice (the renderer skips the
+// walk for rays over the bare belt).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,8 +11,11 @@
 #include <vector>
 
 #include "core/lane_config.h"
+#include "core/ray_path.h"
 #include "sim/calib_xray_renderer.h"
+#include "sim/lane_scene.h"
 #include "sim/target_scene.h"
+#include "sim/xray_renderer.h"
 
 namespace rangex {
 namespace {
@@ -128,6 +133,37 @@ TEST(CalibRenderers, AnXrayLineSeesWhatItsPlaneCrossesAndNothingElse) {
   EXPECT_LT(darkest(pin, 600.05), 0.95 * open);
   EXPECT_LT(darkest(pin, 639.95), 0.95 * open);
   EXPECT_EQ(darkest(pin, 640.5), open);
+}
+
+TEST(SimRenderers, AFilletsXrayLineHoldsTheWalksPathAtEveryPixel) {
+  const LaneConfig lane = default_lane_config(0);
+  sim::SceneParams sp;
+  sp.fillets = 2;
+  const sim::LaneScene scene(21, 0, sp);
+  const sim::XrayRenderer xr(lane);
+  const FanBeam& fb = lane.xray;
+  constexpr int kSlice = 1101;  // the renderer's slice: kLaneX0Mm .. +220 mm
+  std::vector<uint16_t> line(size_t(fb.pixels));
+  std::vector<float> thickness(size_t(fb.pixels)), h(kSlice);
+  size_t meat = 0, belt = 0, differ = 0;
+  for (double at = 0; at < scene.end_b(); at += 3.1) {
+    const double s = at + xr.plane_y(0, 0), b = s - xr.plane_y(0, 0);  // as the renderer cuts
+    sim::Rng rng(3, uint64_t(at * 10));
+    xr.render(scene, s, rng, line.data(), thickness.data());
+    scene.slice(b, h.data(), kSlice);
+    const float top = *std::max_element(h.begin(), h.end());
+    const ProfileGrid grid{h.data(), nullptr, kSlice, sim::kLaneX0Mm, sim::kRasterPitchMm, top};
+    for (int i = 0; i < fb.pixels; ++i) {
+      const float want =
+          float(ray_path_length(grid, fb.pixel_x(i), fb.pixel_z(i), fb.source_x_mm, fb.source_z_mm)
+                    .length_mm);
+      differ += thickness[size_t(i)] != want;
+      (want > 0 ? meat : belt) += 1;
+    }
+  }
+  EXPECT_EQ(differ, 0u);
+  EXPECT_GT(meat, 10000u);
+  EXPECT_GT(belt, 10000u);
 }
 
 }  // namespace
