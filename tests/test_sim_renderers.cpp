@@ -166,5 +166,33 @@ TEST(SimRenderers, AFilletsXrayLineHoldsTheWalksPathAtEveryPixel) {
   EXPECT_GT(belt, 10000u);
 }
 
+// The camera's occlusion walks skip a walk whose steps all land where LaneScene::bare says the
+// belt is bare: it must never say so where a fillet stands.
+TEST(SimRenderers, BareBeltIsBareWhereverItIsSaidToBe) {
+  sim::SceneParams sp;
+  sp.fillets = 3;
+  const sim::LaneScene scene(7, 0, sp);
+  sim::Rng rng(7, 1);
+  int bare = 0, not_bare = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const double x = rng.uniform(-110, 110), b = rng.uniform(-20, scene.end_b() + 20);
+    const double w = rng.uniform(0, 30), l = rng.uniform(0, 30);
+    if (!scene.bare(x, x + w, b, b + l)) {
+      ++not_bare;
+      continue;
+    }
+    ++bare;
+    for (double u = x; u <= x + w; u += 0.1)
+      for (double v = b; v <= b + l; v += 0.1) ASSERT_EQ(scene.height(u, v), 0.f) << u << " " << v;
+  }
+  EXPECT_GT(bare, 100);
+  EXPECT_GT(not_bare, 100);
+  // Where there is meat, it is not bare.
+  const sim::Fillet& f = scene.fillets().front();
+  const double cx = 0.5 * (f.x_min + f.x_max), cb = 0.5 * (f.b_min + f.b_max);
+  ASSERT_GT(scene.height(cx, cb), 0.f);
+  EXPECT_FALSE(scene.bare(cx - 0.01, cx + 0.01, cb - 0.01, cb + 0.01));
+}
+
 }  // namespace
 }  // namespace rangex

@@ -57,6 +57,8 @@ class CalibScene {
   float height(double x, double b) const;         // highest box top at (x, b), 0 on the belt
   void slice(double b, float* out, int n) const;  // as LaneScene::slice, box-filtered
   float max_height(double b_lo, double b_hi) const;
+  // Not known for turned boxes: a camera's occlusion walks take every step.
+  bool bare(double, double, double, double) const { return false; }
   bool is_meat(const Vec3&) const { return false; }  // machined metal barely scatters
   double scatter_scale(const Vec3&, double) const { return 1; }
   double end_b() const;

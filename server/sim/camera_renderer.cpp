@@ -120,12 +120,23 @@ void CameraRenderer::render(const Scene& scene, double s, Rng& rng, uint8_t* fra
       Vec3 d[kGroup];
       double dist[kGroup];
       bool walking[kGroup];
+      size_t left = n;
       for (size_t i = 0; i < n; ++i) {
-        d[i] = (cc - cand[g + i].P).normalized();
+        const Vec3& P = cand[g + i].P;
+        d[i] = (cc - P).normalized();
         dist[i] = 0.3;
         walking[i] = true;
+        // A walk whose every step would land over bare belt finds the point visible (its
+        // clearance is its own height): it need not be taken. Its steps stay on the segment
+        // up to the height where it stops.
+        if (d[i].z > 0) {
+          const Vec3 E = P + d[i] * ((near_top + 0.1 - P.z) / d[i].z);
+          if (scene.bare(std::min(P.x, E.x), std::max(P.x, E.x), s - std::max(P.y, E.y),
+                         s - std::min(P.y, E.y)))
+            walking[i] = false, --left;
+        }
       }
-      for (size_t left = n; left > 0;) {
+      while (left > 0) {
         for (size_t i = 0; i < n; ++i) {
           if (!walking[i]) continue;
           const Vec3 Q = cand[g + i].P + d[i] * dist[i];

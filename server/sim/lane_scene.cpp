@@ -93,6 +93,19 @@ void LaneScene::slice(double b, float* out, int n) const {
   });
 }
 
+bool LaneScene::bare(double x_lo, double x_hi, double b_lo, double b_hi) const {
+  // height_at is 0 outside a fillet's raster nodes; 1 mm to spare for its rounding.
+  constexpr double kSpare = 1;
+  bool bare = true;
+  for_fillets(b_lo - kSpare, b_hi + kSpare, [&](const Fillet& f) {
+    const double x0 = kLaneX0Mm + f.ix0 * kRasterPitchMm, x1 = x0 + f.nx * kRasterPitchMm,
+                 b0 = f.ib0 * kRasterPitchMm, b1 = b0 + f.nb * kRasterPitchMm;
+    if (x_hi >= x0 - kSpare && x_lo <= x1 + kSpare && b_hi >= b0 - kSpare && b_lo <= b1 + kSpare)
+      bare = false;
+  });
+  return bare;
+}
+
 float LaneScene::max_height(double b_lo, double b_hi) const {
   float h = 0;
   for_fillets(b_lo, b_hi,

@@ -32,6 +32,8 @@ class LaneScene {
   const std::vector<Fillet>& fillets() const { return fillets_; }
   // Highest fillet surface among the fillets that overlap [b_lo, b_hi] (0 if none).
   float max_height(double b_lo, double b_hi) const;
+  // Whether height is 0 everywhere in [x_lo, x_hi] x [b_lo, b_hi]: no fillet's raster reaches it.
+  bool bare(double x_lo, double x_hi, double b_lo, double b_hi) const;
   bool is_meat(const Vec3& p) const { return p.z > 0.05; }  // above the belt: a fillet
   // How strongly the meat at world point p (belt offset s) scatters, against the plant's
   // usual (fat, skin side up or down): the fillet's own factor.
