@@ -12,6 +12,7 @@
 
 #include "core/lane_config.h"
 #include "core/ray_path.h"
+#include "sim/calib_objects.h"
 #include "sim/calib_xray_renderer.h"
 #include "sim/lane_scene.h"
 #include "sim/target_scene.h"
@@ -61,7 +62,7 @@ std::vector<uint8_t> target_by_sub_samples(const CameraModel& cam, const sim::Ta
   return out;
 }
 
-TEST(CalibRenderers, TargetImageEqualsEverySubSampleTakenApart) {
+TEST(SimRenderers, TargetImageEqualsEverySubSampleTakenApart) {
   const LaneConfig lane = default_lane_config(0);
   const CameraModel& cam = lane.cameras[1].model;
   const sim::TargetBoard board;
@@ -97,7 +98,7 @@ std::vector<uint16_t> xray_line(const LaneConfig& lane, const sim::CalibScene& s
   return line;
 }
 
-TEST(CalibRenderers, AnXrayLineSeesWhatItsPlaneCrossesAndNothingElse) {
+TEST(SimRenderers, AnXrayLineSeesWhatItsPlaneCrossesAndNothingElse) {
   const LaneConfig lane = default_lane_config(0);
   const sim::CalibXrayRenderer probe(lane, sim::XrayOptics{});
   const double plane = probe.plane_y(0, 0);  // a plane parallel to the laser's: one b a line
@@ -192,6 +193,29 @@ TEST(SimRenderers, BareBeltIsBareWhereverItIsSaidToBe) {
   const double cx = 0.5 * (f.x_min + f.x_max), cb = 0.5 * (f.b_min + f.b_max);
   ASSERT_GT(scene.height(cx, cb), 0.f);
   EXPECT_FALSE(scene.bare(cx - 0.01, cx + 0.01, cb - 0.01, cb + 0.01));
+}
+
+// The same for the calibration scenes' turned blocks.
+TEST(SimRenderers, BareAroundTurnedBlocksIsBareWhereverItIsSaidToBe) {
+  sim::CalibScene scene;
+  scene.boxes.push_back({-20, 20, 100, 130, 0, 20, 8 * M_PI / 180});
+  scene.boxes.push_back({30, 60, 200, 215, 0, 10, -0.15});
+  sim::Rng rng(8, 1);
+  int bare = 0, not_bare = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const double x = rng.uniform(-80, 80), b = rng.uniform(60, 260);
+    const double w = rng.uniform(0, 20), l = rng.uniform(0, 20);
+    if (!scene.bare(x, x + w, b, b + l)) {
+      ++not_bare;
+      continue;
+    }
+    ++bare;
+    for (double u = x; u <= x + w; u += 0.1)
+      for (double v = b; v <= b + l; v += 0.1) ASSERT_EQ(scene.height(u, v), 0.f) << u << " " << v;
+  }
+  EXPECT_GT(bare, 100);
+  EXPECT_GT(not_bare, 100);
+  EXPECT_FALSE(scene.bare(-0.01, 0.01, 114.99, 115.01));  // the first block's centre
 }
 
 }  // namespace

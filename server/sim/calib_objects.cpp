@@ -26,6 +26,12 @@ void CalibScene::slice(double b, float* out, int n) const {
   }
 }
 
+bool CalibScene::bare(double x_lo, double x_hi, double b_lo, double b_hi) const {
+  for (const CalibBox& k : boxes)
+    if (k.may_reach(x_lo, x_hi, b_lo, b_hi)) return false;
+  return true;
+}
+
 float CalibScene::max_height(double b_lo, double b_hi) const {
   double h = 0;
   for (const CalibBox& k : boxes)
@@ -35,8 +41,7 @@ float CalibScene::max_height(double b_lo, double b_hi) const {
 
 double CalibScene::end_b() const {
   double e = 0;
-  for (const CalibBox& k : boxes)
-    e = std::max(e, k.b1 + std::abs(std::sin(k.yaw_rad())) * (k.x1 - k.x0));
+  for (const CalibBox& k : boxes) e = std::max(e, k.b1 + std::abs(k.sin_yaw()) * (k.x1 - k.x0));
   for (const CalibPin& p : pins) e = std::max(e, p.b1);
   return e;
 }

@@ -20,11 +20,10 @@ struct CalibBox {
         b1(b1),
         z0(z0),
         z1(z1),
-        yaw_rad_(yaw),
         cos_yaw_(std::cos(yaw)),
         sin_yaw_(std::sin(yaw)) {}
   double x0, x1, b0, b1, z0, z1;  // mm, in the box's own frame
-  double yaw_rad() const { return yaw_rad_; }
+  double sin_yaw() const { return sin_yaw_; }
   // Object point (x, b) in the box's own frame.
   void local(double x, double b, double& lx, double& lb) const {
     const double cx = 0.5 * (x0 + x1), cb = 0.5 * (b0 + b1);
@@ -37,10 +36,19 @@ struct CalibBox {
     local(x, b, lx, lb);
     return lx >= x0 && lx < x1 && lb >= b0 && lb < b1;
   }
+  // Whether the turned footprint may reach into [x_lo, x_hi] x [b_lo, b_hi] (object
+  // coordinates): its bounding rectangle, 1 mm to spare for rounding, does. false: it cannot.
+  bool may_reach(double x_lo, double x_hi, double b_lo, double b_hi) const {
+    const double hx = 0.5 * (x1 - x0), hb = 0.5 * (b1 - b0);
+    const double c = std::abs(cos_yaw_), s = std::abs(sin_yaw_);
+    const double rx = c * hx + s * hb + 1, rb = s * hx + c * hb + 1;
+    const double cx = 0.5 * (x0 + x1), cb = 0.5 * (b0 + b1);
+    return cx + rx >= x_lo && cx - rx <= x_hi && cb + rb >= b_lo && cb - rb <= b_hi;
+  }
   double mu_per_mm = 0.02;  // POM-like plastic at the X-ray's energy, per mm of path
 
  private:
-  double yaw_rad_, cos_yaw_, sin_yaw_;
+  double cos_yaw_, sin_yaw_;
 };
 
 // A steel pin running along the belt: its cross-section is a circle in the fan's plane.
@@ -57,8 +65,8 @@ class CalibScene {
   float height(double x, double b) const;         // highest box top at (x, b), 0 on the belt
   void slice(double b, float* out, int n) const;  // as LaneScene::slice, box-filtered
   float max_height(double b_lo, double b_hi) const;
-  // Not known for turned boxes: a camera's occlusion walks take every step.
-  bool bare(double, double, double, double) const { return false; }
+  // Whether height is 0 everywhere in [x_lo, x_hi] x [b_lo, b_hi]: no box reaches it.
+  bool bare(double x_lo, double x_hi, double b_lo, double b_hi) const;
   bool is_meat(const Vec3&) const { return false; }  // machined metal barely scatters
   double scatter_scale(const Vec3&, double) const { return 1; }
   double end_b() const;

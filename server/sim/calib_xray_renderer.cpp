@@ -99,19 +99,14 @@ void CalibXrayRenderer::render(const CalibScene& scene, double s, Rng& rng, uint
   }
   // Only objects whose stretch of belt the line's rays reach can attenuate them: a ray whose
   // ends both lie beyond an object along the belt misses it (its path is exactly 0, so
-  // leaving it out changes no sum). A box's stretch is bounded through its yaw, with 1 mm to
-  // spare for rounding.
+  // leaving it out changes no sum).
   double lo = HUGE_VAL, hi = -HUGE_VAL;
   for (int k = 0; k < kSpots; ++k)
     if (w[k] != 0) lo = std::min(lo, S[k].y), hi = std::max(hi, S[k].y);
   for (const Vec3& d : D) lo = std::min(lo, d.y), hi = std::max(hi, d.y);
   std::vector<const CalibBox*> boxes;
-  for (const CalibBox& b : scene.boxes) {
-    const double cb = 0.5 * (b.b0 + b.b1);
-    const double reach = std::abs(std::sin(b.yaw_rad())) * 0.5 * (b.x1 - b.x0) +
-                         std::abs(std::cos(b.yaw_rad())) * 0.5 * (b.b1 - b.b0) + 1;
-    if (cb + reach >= lo && cb - reach <= hi) boxes.push_back(&b);
-  }
+  for (const CalibBox& b : scene.boxes)
+    if (b.may_reach(-HUGE_VAL, HUGE_VAL, lo, hi)) boxes.push_back(&b);
   std::vector<const CalibPin*> pins;
   for (const CalibPin& p : scene.pins)
     if (p.b1 >= lo && p.b0 <= hi) pins.push_back(&p);
