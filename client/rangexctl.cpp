@@ -3,11 +3,13 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <string>
 
 #include "commands.h"
 #include "core/error.h"
 #include "run_command.h"
 #include "service/heap_trim.h"
+#include "usage_entries.h"
 
 namespace {
 constexpr const char* kUsage = R"(usage: rangexctl <command> [options]
@@ -33,10 +35,12 @@ commands:
   learn RECORDING --out PLANT.yaml [--target-frr 0.003] [--confidence 0.9] [--lanes L,..]
         [--calibration F] [--report DIR] [--version NAME] [--excess-ratio 2] [--check REC] [--force]
         [--keep LANE:FILLET,...] [--tradeoff 0.001,0.01]
+  learn --simulate --out PLANT.yaml [--lanes N] [--fillets 40] [--seed S] [--physics F] [...]
       learn each lane's detection thresholds from a recording of clean product: an
       extreme-value model per thickness band, the sensitivity it buys (test pieces), a
       report (JSON, PNG); writes a copy of the plant configuration that uses them;
-      --tradeoff: what other false-reject targets would buy on the same fillets
+      --tradeoff: what other false-reject targets would buy on the same fillets;
+      --simulate: from clean product simulated in memory instead of a recording
   fit FILE.csv [--c C] [--degree 1|2] [--json]
       robust fit ln I = b0 + b1 T (Tukey biweight) of a two-column CSV with a header
       (--degree 2: + b2 T^2, the parabola of a hardened beam)
@@ -55,6 +59,8 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
   calib registration SCAN  delay and plane angles from blocks (SCAN/blocks.yaml)
   calib validate SCAN --calibration FILE
       measure a known object (staircase, blocks) with a candidate calibration
+
+benchmarks (each beside its baseline, measured in the same run):
   bench [--frames N]
       stripe extraction and inspection throughput beside their baselines
   bench --path [--lanes 1,4,16] [--lines N] [--batch B] [--threads T]
@@ -84,6 +90,7 @@ plant's lane), writes the updated calibration to --out FILE and its report to FI
       rangexd fed a simulated plant at a fixed rate with a subscriber and queries: per minute
       lines, decisions, fail-safe rejects, decision p50/p99 and resident memory; lines lost
 
+records, the plant-wide database and access:
   audit verify [--data DIR]   the store's hash chain over every decision and audit entry:
                               verified with its head, or the first broken link and why
   audit export [--data DIR] [--from-ns T] [--to-ns T] --out FILE.jsonl
@@ -143,6 +150,17 @@ int main(int argc, char** argv) {
     std::fputs(kUsage, argc < 2 ? stderr : stdout);
     return argc < 2 ? 2 : 0;
   }
+  // `rangexctl CMD ... --help`: that command's entries of the usage.
+  for (int i = 2; i < argc; ++i)
+    if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) {
+      const std::string entries = rangex::cli::usage_of(kUsage, argv[1]);
+      if (entries.empty()) {
+        std::fprintf(stderr, "rangexctl: unknown command '%s'\n\n%s", argv[1], kUsage);
+        return 2;
+      }
+      std::printf("usage: rangexctl %s ...\n\n%s", argv[1], entries.c_str());
+      return 0;
+    }
   // rangexd's heap policy (service/heap_trim.h), without its periodic trim: under glibc's
   // own, each lane's inspection buffers were mapped and faulted in anew, and the lanes'
   // threads waited on each other's page faults (`process --simulate --lanes 4`: 105-183 ms a

@@ -150,5 +150,25 @@ expect_error "unknown option" "unknown option --fillet" "$ctl" simulate --fillet
 truncate -s -1000 "$work/rec/lane0/xray.u16"
 expect_error "truncated recording" "xray.u16 is truncated" "$ctl" process "$work/rec" --out "$work/o5"
 
+# `rangexctl CMD --help`: that command's entries of the usage, under their section's heading.
+has() { grep -qE -- "$1" <<<"$help"; }
+lacks() { ! has "$1"; }
+help=$("$ctl" learn --help); rc=$?
+check "learn --help exits 0" test $rc -eq 0
+check "and shows learn's entry" has "^  learn RECORDING --out PLANT.yaml"
+check "and no other command's" lacks "^  (simulate|process|eval|calib) "
+help=$("$ctl" eval --help)
+check "eval --help shows eval" has "^  eval DIR OUT"
+check "and not eval-matrix" lacks "eval-matrix"
+help=$("$ctl" feed --recording x -h)
+check "a server command's help shows it" has "^  feed \\(--recording"
+check "and how to reach the server" has "--server HOST:PORT"
+check "and its TLS options" has "--ca CA.pem"
+help=$("$ctl" bench --help)
+check "bench --help sits under the benchmarks" has "^benchmarks"
+check "not under the calibration" lacks "calibration of a lane"
+"$ctl" nosuch --help >/dev/null 2>&1
+check "an unknown command's --help is refused (exit 2)" test $? -eq 2
+
 [ $fails -eq 0 ] && echo "cli: all checks passed" || echo "cli: $fails checks failed"
 exit $((fails > 0))
