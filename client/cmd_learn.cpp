@@ -121,6 +121,9 @@ int cmd_learn(int argc, char** argv) {
   SensitivityOptions so;
   so.material.excess_ratio = a.number("excess-ratio", so.material.excess_ratio, 0.05, 100);
   so.material.excess_per_mm = a.number("excess-per-mm", 0, 0, 10);
+  // Without --force a failed learning writes no configuration: it is refused without the
+  // test pieces, most of a learning's time (the report says the sensitivity was not measured).
+  so.when_learning_failed = a.flag("force");
   const std::string version = a.get("version", learning_version_name());
   ReplayOptions opt;
   opt.keep_images = true;
@@ -194,7 +197,7 @@ int cmd_learn(int argc, char** argv) {
     const std::vector<TradeoffPoint>& points = ll.tradeoff;
     nlohmann::json lane_json = nlohmann::json::parse(learned_report_json(r.lane, L, sens, points));
     for (const LaneReplay& c : check) {
-      if (c.lane != r.lane) continue;
+      if (c.lane != r.lane || sens.inspections == 0) continue;
       ProgressBar cbar("sensitivity (check)");
       const HeldOutCheck hc =
           check_held_out(c.fillets, ll, so, [&](int d, int t) { cbar.update(d, t); });
@@ -222,7 +225,8 @@ int cmd_learn(int argc, char** argv) {
       report_dir.c_str());
   if (!all_ok && !a.flag("force")) {
     std::fprintf(stderr,
-                 "learning failed (see the problems above): %s not written (--force writes it)\n",
+                 "learning failed (see the problems above): %s not written (--force writes it, "
+                 "with the sensitivity its thresholds buy)\n",
                  out.c_str());
     return 2;
   }

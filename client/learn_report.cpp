@@ -45,7 +45,8 @@ void write_learn_plots(const std::filesystem::path& dir, int lane, const Product
     for (double dx = -1; dx <= 1; dx += 0.25)
       se[size_t(c.shape)].x.push_back(band_mid(e, size_t(c.band)) + dx),
           se[size_t(c.shape)].y.push_back(c.size_mm);
-  plot_points(stem + "_sensitivity.png", se, 0, band_mid(e, e.size() - 2) + 5, 0, 6, 5, 1);
+  if (s.inspections > 0)  // not measured: no plot that reads as "found nothing"
+    plot_points(stem + "_sensitivity.png", se, 0, band_mid(e, e.size() - 2) + 5, 0, 6, 5, 1);
   // QQ: observed against expected Gumbel variates; the diagonal in grey.
   std::vector<Series> qq;
   Series diag;

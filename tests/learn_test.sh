@@ -89,6 +89,12 @@ cat boned.txt
 check "a learning run with bone fails (exit 2)" test $rc -eq 2
 check "it names the fillets" grep -q "fillet [0-9]* (belt [0-9]* mm) holds something like bone" boned.txt
 check "and writes no configuration" test ! -e boned.yaml
+check "refused without the test pieces: its report says the sensitivity was not measured" python3 -c "
+import json, sys
+s = json.load(open('boned.report/learn.json'))['lanes'][0]['sensitivity']
+sys.exit(0 if s['measured_on'] == 'not measured' and not s['cells'] and s['summary'] == ['not measured: the learning failed'] else 1)"
+check "and draws no sensitivity plot" test ! -e boned.report/lane0_sensitivity.png
+check "and says --force would measure it" grep -q "with the sensitivity its thresholds buy" boned.txt
 # The fillets it named, checked by an operator and kept in (--keep lane:fillet): the
 # learning holds them as product and says so.
 keep=$(grep -o "lane [0-9]* fillet [0-9]* (belt" boned.txt | awk '{printf "%s%s:%s", (NR > 1 ? "," : ""), $2, $4}')

@@ -121,6 +121,10 @@ LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspecti
     sets.push_back(t.learned);
     out.tradeoff.push_back(std::move(t));
   }
+  if (!out.learning.ok && !so.when_learning_failed) {
+    out.sensitivity.summary = {kSensitivityNotMeasured};
+    return out;
+  }
   std::vector<SensitivityResult> sens =
       measure_sensitivity_each(set.sensitivity_fillets(), out.inspection, sets, so, progress);
   out.sensitivity = std::move(sens[0]);

@@ -30,6 +30,10 @@ struct SensitivityOptions {
   // A claim stands where the detection curve's lower bound at this one-sided confidence
   // reaches `rate` (detection_curve.h), as well as the rate seen at that size.
   double claim_confidence = 0.95;
+  // learn_lane: measured for a learning that failed too. Its report then says what the
+  // thresholds would buy (a forced activation needs it); a command that writes nothing for a
+  // failed learning refuses sooner without (the test pieces are most of a learning's time).
+  bool when_learning_failed = true;
 };
 
 struct SensitivityCell {
