@@ -122,7 +122,7 @@ LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspecti
     out.tradeoff.push_back(std::move(t));
   }
   if (!out.learning.ok && !so.when_learning_failed) {
-    out.sensitivity.summary = {kSensitivityNotMeasured};
+    out.sensitivity.summary = {"not measured: the learning failed"};  // inspections: 0
     return out;
   }
   std::vector<SensitivityResult> sens =

@@ -60,9 +60,6 @@ MatchedKernels learn_lane_kernels(const std::vector<FilletImage>& images,
 // false-reject targets, each in (0, 0.5) (Error naming one that is not), whose thresholds
 // and sensitivity are learned beside the lane's own; the test pieces of all of them are
 // inspected once (measure_sensitivity_each).
-// The sensitivity's summary when it was not measured (SensitivityOptions::when_learning_failed).
-inline constexpr const char* kSensitivityNotMeasured = "not measured: the learning failed";
-
 LaneLearning learn_lane(const LearningSet& set, const InspectionParams& inspection,
                         const LearnOptions& lo, const SensitivityOptions& so,
                         const std::string& version, const std::string& learned_on,
