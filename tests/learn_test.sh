@@ -55,11 +55,11 @@ check "a trade-off target beyond range is refused naming it" bash -c "[ $rc -eq 
 "$ctl" process clean --config learned.yaml --out out --images none >process.txt 2>&1
 check "process uses the learned configuration as is" test $? -eq 0
 check "it says what the lane's drift monitor would (too few fillets to say here)" \
-  grep -qE "lane 0: drift monitor: [0-9]+ passed fillets, fewer than the 50 it needs to say" process.txt
+  grep -qE "lane 0: drift monitor: [0-9]+ passed fillets, fewer than the 200 it needs to say" process.txt
 check "and writes it to the summary" python3 -c "
 import json, sys
 d = json.load(open('out/summary.json'))['lanes'][0]['drift']
-sys.exit(0 if 0 < d['passed'] < 50 and not d['drifting'] and d['first_flagged'] == -1 and 0 < d['learned_frr'] <= 0.003 else 1)"
+sys.exit(0 if 0 < d['passed'] < 200 and not d['drifting'] and d['first_flagged'] == -1 and 0 < d['learned_frr'] <= 0.003 else 1)"
 check "every passed fillet's band extremes beside the records" python3 -c "
 import csv, sys
 f = list(csv.DictReader(open('out/lane0/fillets.csv')))

@@ -71,18 +71,21 @@ TEST(ProductDrift, QuietOnTheLearnedProductAndRaisedWhenTheTextureStepsUp) {
   p.learned = L.learned;
   DriftTracker tracker;
   int passed = 0, rejected = 0;
-  for (int i = 0; i < 200; ++i) {
+  // Enough to fill the window: the monitor says nothing before.
+  for (int i = 0; i < 220; ++i) {
     const FilletResult r = inspect_fillet(textured_fillet(1000 + i, 0.01), p, false);
     if (r.decision != Decision::kPass) {
       ++rejected;
       continue;
     }
     ++passed;
-    tracker.add(p.learned, r.extremes);
+    // No estimate, and no refit, before the window holds its 200 fillets.
+    EXPECT_EQ(tracker.add(p.learned, r.extremes), passed >= 200 && passed % 10 == 0) << passed;
+    if (passed < 200) ASSERT_EQ(tracker.estimate().fillets, 0) << passed;
   }
   // The same product: few false rejects and no drift.
   EXPECT_LE(rejected, 2);
-  EXPECT_GE(tracker.estimate().fillets, 190);
+  EXPECT_EQ(tracker.estimate().fillets, 200);
   EXPECT_FALSE(tracker.drifting(p.learned)) << tracker.estimate().implied_frr;
   EXPECT_LT(std::abs(tracker.estimate().shift[kStatRound]), 0.1);
   // The product turns rough mid-run: specks of connective tissue in every fillet.

@@ -122,7 +122,7 @@ TEST(RecordedDrift, TooFewPassedFilletsSayNothingAndNoLearningIsAnError) {
   const RecordedDrift d = recorded_drift(L, {inspected_run(rng, L, 30, 1.0, 0)}, 0);
   EXPECT_FALSE(d.drifting);
   EXPECT_EQ(d.first_flagged, -1);
-  EXPECT_NE(drift_sentence(0, d).find("fewer than the 50 it needs"), std::string::npos);
+  EXPECT_NE(drift_sentence(0, d).find("fewer than the 200 it needs"), std::string::npos);
   EXPECT_THROW(recorded_drift(LearnedDetection{}, {}, 0), Error);
 }
 

@@ -14,7 +14,9 @@ bool DriftTracker::add(const LearnedDetection& L, const std::vector<BandExtreme>
   }
   recent_.push_back(extremes);
   while (int(recent_.size()) > window_) recent_.pop_front();
-  if (++since_ < every_) return false;
+  // No estimate before the window holds its minimum: a number shown is one the monitor
+  // would stand by (ListLanes' implied rate stays -1, not estimated yet).
+  if (++since_ < every_ || int(recent_.size()) < min_) return false;
   refresh(L);
   return true;
 }
