@@ -123,6 +123,8 @@ TEST(RecordedDrift, TooFewPassedFilletsSayNothingAndNoLearningIsAnError) {
   EXPECT_FALSE(d.drifting);
   EXPECT_EQ(d.first_flagged, -1);
   EXPECT_NE(drift_sentence(0, d).find("fewer than the 200 it needs"), std::string::npos);
+  EXPECT_EQ(d.last.implied_frr, -1);  // not estimated, as a live lane shows it
+  EXPECT_NE(drift_json(d).find("\"implied_frr\": -1,"), std::string::npos) << drift_json(d);
   EXPECT_THROW(recorded_drift(LearnedDetection{}, {}, 0), Error);
 }
 

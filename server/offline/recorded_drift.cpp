@@ -35,6 +35,11 @@ RecordedDrift recorded_drift(const LearnedDetection& learned, const std::vector<
       if (tracker.add(learned, it == of.end() ? std::vector<BandExtreme>{} : it->second)) note();
     }
   }
+  // Fewer passed fillets than the tracker judges: no estimate, as a live lane shows none.
+  if (d.passed < d.min_fillets) {
+    d.last.implied_frr = -1;
+    return d;
+  }
   tracker.refresh(learned);
   note();
   d.last = tracker.estimate();

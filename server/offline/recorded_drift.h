@@ -15,7 +15,7 @@ namespace rangex {
 
 struct RecordedDrift {
   int passed = 0;          // passed fillets followed
-  DriftEstimate last;      // over the last window at the end
+  DriftEstimate last;      // over the last window at the end (implied_frr -1: too few)
   bool drifting = false;   // the last window says so
   int first_flagged = -1;  // the passed fillet (counted from 1) at which it first said so
   double highest_frr = 0;  // the highest rate any window of enough fillets implied
@@ -25,8 +25,8 @@ struct RecordedDrift {
 };
 
 // Lane `lane`'s passed fillets of `runs`, in order, through a DriftTracker with the
-// server's window (200 fillets, refreshed every 10, said from 50). Throws Error when
-// `learned` is not active.
+// server's window (200 fillets, refreshed every 10 once it holds them; fewer say nothing,
+// `last.implied_frr` -1). Throws Error when `learned` is not active.
 RecordedDrift recorded_drift(const LearnedDetection& learned, const std::vector<RecordSet>& runs,
                              int lane);
 
