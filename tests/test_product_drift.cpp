@@ -107,12 +107,21 @@ TEST(ProductDrift, QuietOnTheLearnedProductAndRaisedWhenTheTextureStepsUp) {
   // Its extremes moved up, the learned scale and shape held (0.17 here; the same product's
   // within 0.1 of none).
   EXPECT_GT(tracker.estimate().shift[kStatRound], 0.1);
-  // A new learned version starts afresh.
+  const DriftShown warned = tracker.shown(p.learned);
+  EXPECT_TRUE(warned.drifting);
+  EXPECT_EQ(warned.fillets, 200);
+  EXPECT_EQ(warned.implied_frr, tracker.estimate().implied_frr);
+  // A new learned version starts afresh, and the lane shows nothing of the last one's.
   LearnedDetection relearned = p.learned;
   relearned.version = "rough";
   tracker.add(relearned, {});
   EXPECT_EQ(tracker.estimate().fillets, 0);
   EXPECT_FALSE(tracker.drifting(relearned));
+  const DriftShown fresh = tracker.shown(relearned);
+  EXPECT_EQ(fresh.implied_frr, -1);
+  EXPECT_EQ(fresh.fillets, 0);
+  EXPECT_FALSE(fresh.drifting);
+  EXPECT_EQ(tracker.shown(LearnedDetection{}).implied_frr, -1);  // no learned thresholds
 }
 
 }  // namespace

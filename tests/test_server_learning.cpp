@@ -135,6 +135,26 @@ TEST(ServerLearning, LearnsALiveLaneAndGatesActivationByItsReport) {
     EXPECT_EQ(l.learned_version(), "live-1");
     EXPECT_FALSE(l.learned_sensitivity().empty());
     EXPECT_DOUBLE_EQ(l.false_reject_target(), 0.003);
+    // Under it the lane shows no drift estimate before 200 passed fillets: a rate refitted
+    // from fewer is not one the monitor would stand by (it showed one from the 10th before).
+    {
+      auto passed = [&] {
+        const LaneState s = server.engine().lane_state(0);
+        return int64_t(s.fillets) - int64_t(s.rejects) - int64_t(s.not_inspected);
+      };
+      const int64_t before = passed();
+      sp.scene.fillets = 16;
+      sp.seed = 42;
+      SimulatedSource more(p, sp);
+      const FeedReport again = Feeder(ch, fo).run(more);
+      ASSERT_TRUE(again.status.ok()) << again.status.error_message();
+      ASSERT_GE(passed() - before, 10);  // enough for the refit that used to show
+      const LaneState s = server.engine().lane_state(0);
+      EXPECT_EQ(s.implied_frr, -1);
+      EXPECT_EQ(s.drift_fillets, 0);
+      EXPECT_FALSE(s.product_drift);
+      EXPECT_EQ(lane0(*control).implied_false_reject_rate(), -1);
+    }
 
     // A version whose learning failed: refused, then forced (admin on loopback), audited.
     {

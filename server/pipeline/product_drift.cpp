@@ -26,6 +26,11 @@ void DriftTracker::refresh(const LearnedDetection& L) {
   est_ = estimate_drift(L, std::vector<std::vector<BandExtreme>>(recent_.begin(), recent_.end()));
 }
 
+DriftShown DriftTracker::shown(const LearnedDetection& L) const {
+  if (!L.active() || L.version != version_ || est_.fillets < min_) return {};
+  return {est_.implied_frr, est_.fillets, drifting(L)};
+}
+
 std::string product_drift_warning(int lane, int fillets, double implied_frr) {
   char b[200];
   std::snprintf(b, sizeof b,

@@ -12,6 +12,14 @@
 
 namespace rangex {
 
+// What a lane shows of it: the rate implied (-1: not estimated yet), over how many passed
+// fillets, and whether that is more than twice the target.
+struct DriftShown {
+  double implied_frr = -1;
+  int fillets = 0;
+  bool drifting = false;
+};
+
 // It says nothing until the window is full: the last 200 passed fillets, as the monitor
 // promises. A refit of 50 fillets' extremes read a tail shape of 0.26 where the learned one
 // is 0.12 and said re-learn on a product that had not changed (cartilage_heavy's clean run:
@@ -33,6 +41,10 @@ class DriftTracker {
   bool drifting(const LearnedDetection& learned) const {
     return est_.fillets >= min_ && est_.implied_frr > 2 * learned.target_frr;
   }
+  // What the lane shows under `learned` after each fillet: nothing for a version the window
+  // was not filled under (a newly activated one restarts it; the last one's rate and warning
+  // must not stay on show for its first 200 fillets), nor without learned thresholds.
+  DriftShown shown(const LearnedDetection& learned) const;
 
  private:
   int window_, every_, min_;

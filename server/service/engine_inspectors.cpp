@@ -83,15 +83,16 @@ void Engine::on_fillet(const InspectJob& job, InspectedFillet&& f) {
 
 void Engine::track_drift(Lane& l, const LearnedDetection& learned,
                          const std::vector<BandExtreme>& extremes) {
-  // The inspector holds the lane, so the tracker is this thread's.
-  if (!learned.active() || !l.drift.add(learned, extremes)) return;
-  const DriftEstimate& d = l.drift.estimate();
-  l.implied_frr = d.implied_frr;
-  l.drift_fillets = d.fillets;
-  const bool was = l.product_drift.exchange(l.drift.drifting(learned));
-  if (l.product_drift && !was)
+  // The inspector holds the lane, so the tracker is this thread's. The lane shows what the
+  // tracker holds after each fillet, not only at a refresh (DriftTracker::shown).
+  if (learned.active()) l.drift.add(learned, extremes);
+  const DriftShown s = l.drift.shown(learned);
+  l.implied_frr = s.implied_frr;
+  l.drift_fillets = s.fillets;
+  const bool was = l.product_drift.exchange(s.drifting);
+  if (s.drifting && !was)
     log::warn("product_drift", "{} against a target of {:.2f} %",
-              product_drift_warning(l.id, d.fillets, d.implied_frr), 100 * learned.target_frr);
+              product_drift_warning(l.id, s.fillets, s.implied_frr), 100 * learned.target_frr);
 }
 
 }  // namespace rangex
