@@ -18,9 +18,9 @@ RecordedDrift recorded_drift(const LearnedDetection& learned, const std::vector<
   d.learned_frr = implied_false_reject_rate(learned);
   d.target_frr = learned.target_frr;
   d.min_fillets = tracker.min_fillets();
-  // Each estimate of enough fillets: the highest rate, and where it first drifted.
+  // Each estimate (the tracker makes none of fewer than its minimum): the highest rate, and
+  // where it first drifted.
   auto note = [&] {
-    if (tracker.estimate().fillets < d.min_fillets) return;
     d.highest_frr = std::max(d.highest_frr, tracker.estimate().implied_frr);
     if (d.first_flagged < 0 && tracker.drifting(learned)) d.first_flagged = d.passed;
   };
