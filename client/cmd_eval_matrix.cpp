@@ -91,6 +91,7 @@ struct MatrixOptions {
   int frr_part = 60;       // simulated, inspected and dropped this many at a time
   int bone_fillets = 0;    // more bony fillets inspected with the learned thresholds (0: none)
   std::string confidence;  // learn's --confidence ("": learn's default)
+  std::string tail_from;   // learn's --tail-from ("": learn's default)
 };
 
 // Scans are large (256 kB of camera frames a line, about 130 MB a fillet): each goes as soon
@@ -147,6 +148,7 @@ Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& pl
                                       at("check_rec"), "--version", "matrix-" + r.name};
     if (!config.empty()) extra.insert(extra.end(), {"--config", config});
     if (!mo.confidence.empty()) extra.insert(extra.end(), {"--confidence", mo.confidence});
+    if (!mo.tail_from.empty()) extra.insert(extra.end(), {"--tail-from", mo.tail_from});
     r.check = learn_as_a_plant_would(log, at("learn_rec"), at("learned.yaml"), extra);
     drop_scans(dir, {"learn_rec", "check_rec"}, mo);
     // The learned configuration in place of the plant's (run_step adds no --config here).
@@ -562,12 +564,12 @@ std::string json(const std::vector<Row>& rows) {
 int cmd_eval_matrix(int argc, char** argv) {
   const Args a(argc, argv, 2, {"keep-scans", "dual-energy"},
                {"variants", "only", "fillets", "seed", "out", "config", "learn", "check", "frr",
-                "frr-part", "bones", "confidence"});
+                "frr-part", "bones", "confidence", "tail-from"});
   a.expect_positionals(
       0,
       "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] "
       "[--seed S] [--learn N (0: none)] [--check N] [--frr N] [--frr-part N] [--bones N] "
-      "[--confidence C (learn's)] [--keep-scans] "
+      "[--confidence C] [--tail-from P (learn's)] [--keep-scans] "
       "[--dual-energy]");
   const PlantConfig plant = load_config(a.get("config", ""));
   const fs::path vdir = a.get(
@@ -602,6 +604,8 @@ int cmd_eval_matrix(int argc, char** argv) {
   // Checked here, before hours of simulation, as learn checks it; passed on as written.
   a.number("confidence", 0.9, 0.5, 0.999);
   mo.confidence = a.get("confidence", "");
+  a.number("tail-from", 0.5, 0, 0.95);
+  mo.tail_from = a.get("tail-from", "");
   if (mo.frr_fillets < 0 || mo.frr_part < 1) fail("--frr must be >= 0 and --frr-part >= 1");
   if (mo.bone_fillets < 0) fail("--bones must be >= 0");
   if (mo.bone_fillets > 0 && mo.learn_fillets == 0)

@@ -89,13 +89,14 @@ std::vector<LaneFillets> from_replay(const std::vector<LaneReplay>& lanes) {
 
 int cmd_learn(int argc, char** argv) {
   const Args a(argc, argv, 2, {"force", "simulate"},
-               {"out",           "config",      "target-frr", "confidence", "lanes",
-                "calibration",   "report",      "version",    "bootstrap",  "excess-ratio",
-                "excess-per-mm", "min-fillets", "backend",    "device",     "check",
-                "fillets",       "seed",        "physics",    "keep",       "tradeoff"});
+               {"out",     "config",   "target-frr", "confidence",   "lanes",         "calibration",
+                "report",  "version",  "bootstrap",  "excess-ratio", "excess-per-mm", "min-fillets",
+                "backend", "device",   "check",      "fillets",      "seed",          "physics",
+                "keep",    "tradeoff", "tail-from"});
   const char* usage =
       "learn RECORDING --out PLANT.yaml [--config plant.yaml] [--target-frr 0.003] "
-      "[--confidence 0.9] [--lanes 0,1] [--calibration F] [--report DIR] [--version NAME] "
+      "[--confidence 0.9] [--tail-from 0.5] [--lanes 0,1] [--calibration F] [--report DIR] "
+      "[--version NAME] "
       "[--excess-ratio 2] [--check RECORDING] [--keep LANE:FILLET,...] [--tradeoff 0.001,0.01] "
       "[--force]\n"
       "   or: learn --simulate --out PLANT.yaml [--lanes N] [--fillets M] [--seed S] "
@@ -180,6 +181,7 @@ int cmd_learn(int argc, char** argv) {
     const LaneConfig& lane = plant.lane(r.lane);
     lo.target_frr = a.number("target-frr", lane.inspection.false_reject_target, 1e-5, 0.2);
     lo.confidence = a.number("confidence", lo.confidence, 0.5, 0.999);
+    lo.tail_from = a.number("tail-from", lo.tail_from, 0, 0.95);
     lo.spread_by_thickness = lane.inspection.spread_by_thickness;
     lo.rim_walls = lane.inspection.rim_walls;
     std::printf("lane %d: %zu fillets inspected (%d not inspected, left out); fitting ...\n",

@@ -101,6 +101,13 @@ std::string learn_summary_text(int lane, const ProductLearning& L, const Sensiti
     std::snprintf(b, sizeof b, "   (xi %.2f, implied %.3f %% of fillets, KS p %.2f)\n",
                   st.fit.model.xi, 100 * st.implied_frr, st.ks_p);
     o << b;
+    if (st.fit.tail_from > 0) {
+      std::snprintf(b, sizeof b,
+                    "         its top: %d of %d extremes above the whole fit's 99 %% (%.1f "
+                    "expected, chance %.3f): fitted to the tail above the whole fit's %.0f %%\n",
+                    st.top_above, st.samples, 0.01 * st.samples, st.top_p, 100 * st.fit.tail_from);
+      o << b;
+    }
   }
   // What the confidence costs: the thresholds spend only part of the budget by the fitted
   // models, and a longer learning run (a narrower margin) spends more of it.

@@ -34,12 +34,14 @@ commands:
       --frr N and --bones N: more clean and more bony fillets with the learned thresholds
   learn RECORDING --out PLANT.yaml [--target-frr 0.003] [--confidence 0.9] [--lanes L,..]
         [--calibration F] [--report DIR] [--version NAME] [--excess-ratio 2] [--check REC] [--force]
-        [--keep LANE:FILLET,...] [--tradeoff 0.001,0.01]
+        [--keep LANE:FILLET,...] [--tradeoff 0.001,0.01] [--tail-from 0.5]
   learn --simulate --out PLANT.yaml [--lanes N] [--fillets 40] [--seed S] [--physics F] [...]
       learn each lane's detection thresholds from a recording of clean product: an
       extreme-value model per thickness band, the sensitivity it buys (test pieces), a
       report (JSON, PNG); writes a copy of the plant configuration that uses them;
       --tradeoff: what other false-reject targets would buy on the same fillets;
+      --tail-from: a statistic whose top its whole fit does not hold is fitted above that
+      quantile of it (0: never);
       --simulate: from clean product simulated in memory instead of a recording
   fit FILE.csv [--c C] [--degree 1|2] [--json]
       robust fit ln I = b0 + b1 T (Tukey biweight) of a two-column CSV with a header

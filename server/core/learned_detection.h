@@ -23,6 +23,11 @@ const std::vector<double>& default_band_edges_mm();
 
 struct LearnedStatistic {
   GevModel model;
+  // A model fitted to the tail (pipeline/gev_fit.h): tail_from > 0, and each extreme at or
+  // below whole_model's tail_from quantile counted only as lying there. The drift monitor
+  // censors a lane's extremes at the same level. 0 in settings learned before: every extreme.
+  double tail_from = 0;
+  GevModel whole_model;
   std::vector<double> thresholds;         // per band: the statistic above it is a detection
   std::vector<double> band_fraction;      // of the learning fillets that held the band
   std::vector<double> band_pixels;        // their median pixel count in the band

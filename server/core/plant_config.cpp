@@ -342,7 +342,8 @@ void read_learned(const Node& n, LearnedDetection& L) {
     const char* name = statistic_name(s);
     if (!n.has(name)) n.bad(std::string("missing key '") + name + "'");
     const Node st = n.at(name);
-    st.only_keys({"thresholds", "band_fraction", "band_pixels", "band_thickness_mm", "model"});
+    st.only_keys({"thresholds", "band_fraction", "band_pixels", "band_thickness_mm", "model",
+                  "tail_from", "whole_model"});
     LearnedStatistic& ls = L.stats[size_t(s)];
     if (!st.has("thresholds")) st.bad("missing key 'thresholds'");
     ls.thresholds = number_list(st.at("thresholds"), bands);
@@ -355,10 +356,8 @@ void read_learned(const Node& n, LearnedDetection& L) {
     if (st.has("band_pixels")) ls.band_pixels = number_list(st.at("band_pixels"), bands);
     if (st.has("band_thickness_mm"))
       ls.band_thickness_mm = number_list(st.at("band_thickness_mm"), bands);
-    if (st.has("model")) {
-      const Node m = st.at("model");
+    auto read_model = [](const Node& m, GevModel& g) {
       m.only_keys({"m0", "m_logn", "m_t", "s0", "s_t", "xi", "log_n_ref", "t_ref", "k_logn"});
-      GevModel& g = ls.model;
       m.get("m0", g.m0), m.get("m_logn", g.m_logn), m.get("m_t", g.m_t), m.get("s0", g.s0);
       m.get("k_logn", g.k_logn);  // 0 in models learned before (core/gev_model.h)
       if (!(std::abs(g.k_logn) <= 10)) m.at("k_logn").bad("must be within [-10, 10]");
@@ -366,7 +365,15 @@ void read_learned(const Node& n, LearnedDetection& L) {
       m.get("t_ref", g.t_ref);
       if (!(g.xi > -1 && g.xi < 1)) m.at("xi").bad("must be within (-1, 1)");
       if (!(std::abs(g.s0) < 20)) m.at("s0").bad("must be within (-20, 20) (a log scale)");
+    };
+    if (st.has("model")) read_model(st.at("model"), ls.model);
+    if (st.has("tail_from")) {
+      st.get("tail_from", ls.tail_from);
+      if (!(ls.tail_from >= 0 && ls.tail_from < 1)) st.at("tail_from").bad("must be within [0, 1)");
+      if (ls.tail_from > 0 && !st.has("whole_model"))
+        st.bad("a tail fit (tail_from > 0) needs 'whole_model', the fit that censored it");
     }
+    if (st.has("whole_model")) read_model(st.at("whole_model"), ls.whole_model);
   }
 }
 
@@ -1046,7 +1053,6 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
   }
   for (int s = 0; s < kStatistics; ++s) {
     const LearnedStatistic& ls = L.stats[size_t(s)];
-    const GevModel& g = ls.model;
     o << "\n" << statistic_name(s) << ":\n  thresholds: ";
     list(ls.thresholds);
     o << "\n  band_fraction: ";
@@ -1055,10 +1061,17 @@ std::string learned_detection_yaml(const LearnedDetection& L) {
     list(ls.band_pixels);
     o << "\n  band_thickness_mm: ";
     list(ls.band_thickness_mm);
-    o << "\n  model: {m0: " << g.m0 << ", m_logn: " << g.m_logn << ", m_t: " << g.m_t
-      << ", s0: " << g.s0 << ", s_t: " << g.s_t << ", xi: " << g.xi
-      << ", log_n_ref: " << g.log_n_ref << ", t_ref: " << g.t_ref << ", k_logn: " << g.k_logn
-      << "}";
+    auto model = [&o](const char* key, const GevModel& g) {
+      o << "\n  " << key << ": {m0: " << g.m0 << ", m_logn: " << g.m_logn << ", m_t: " << g.m_t
+        << ", s0: " << g.s0 << ", s_t: " << g.s_t << ", xi: " << g.xi
+        << ", log_n_ref: " << g.log_n_ref << ", t_ref: " << g.t_ref << ", k_logn: " << g.k_logn
+        << "}";
+    };
+    model("model", ls.model);
+    if (ls.tail_from > 0) {
+      o << "\n  tail_from: " << ls.tail_from;
+      model("whole_model", ls.whole_model);
+    }
   }
   o << "\n";
   return o.str();

@@ -35,7 +35,11 @@ double truncated_nll(const GevModel& g, const std::vector<ExtremeSample>& s,
   for (size_t i = 0; i < s.size(); ++i) {
     const ExtremeSample& e = s[i];
     if (e.x < e.lower) continue;
-    sum += g.neg_log_density_ln(e.x, ln_n[i], e.t);
+    if (e.x <= e.censor) {  // only that it lay in [lower, censor]
+      const double lo = std::isfinite(e.lower) ? g.cdf_ln(e.lower, ln_n[i], e.t) : 0.0;
+      sum -= std::log(std::max(1e-300, g.cdf_ln(e.censor, ln_n[i], e.t) - lo));
+    } else
+      sum += g.neg_log_density_ln(e.x, ln_n[i], e.t);
     if (std::isfinite(e.lower)) {
       const double lo = g.log_survival_ln(e.lower, ln_n[i], e.t);
       const double hi =
@@ -78,10 +82,22 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
   auto objective = [&](const std::vector<double>& p) {
     return truncated_nll(from_params(p, centre, opt), s, ln_n);
   };
-  const NelderMeadResult r = nelder_mead(objective, x0, step, 1e-8, 40000);
+  NelderMeadResult r = nelder_mead(objective, x0, step, 1e-8, 40000);
   GevFit f;
   f.model = from_params(r.x, centre, opt);
   f.converged = r.converged && std::isfinite(r.value);
+  if (!(opt.tail_from > 0) || !f.converged) return f;
+  // The tail: each extreme at or below the whole fit's `tail_from` quantile at its own
+  // covariates counts only as lying there; the fit starts from the whole fit.
+  std::vector<ExtremeSample> c = s;
+  for (auto& e : c) e.censor = f.model.quantile(opt.tail_from, e.n, e.t);
+  auto tail = [&](const std::vector<double>& p) {
+    return truncated_nll(from_params(p, centre, opt), c, ln_n);
+  };
+  const NelderMeadResult rt = nelder_mead(tail, r.x, step, 1e-8, 40000);
+  if (!rt.converged || !std::isfinite(rt.value)) return f;
+  f.whole = f.model, f.tail_from = opt.tail_from;
+  f.model = from_params(rt.x, centre, opt);
   return f;
 }
 

@@ -19,6 +19,10 @@ struct ExtremeSample {
   // hundred others, and the lower tail says nothing of false rejects. -Infinity: not
   // truncated.
   double lower = -HUGE_VAL;
+  // At or below this only that it lay there counts (F(censor), left-censored): a fit to the
+  // upper tail, which the false rejects live in, that the bulk cannot bend. -Infinity: not
+  // censored.
+  double censor = -HUGE_VAL;
 };
 
 struct GevFitOptions {
@@ -26,11 +30,18 @@ struct GevFitOptions {
   // tail fitted to a few dozen maxima claims that nothing lies beyond its end point, and
   // a false reject there would be "impossible"; Gumbel or heavier errs on the safe side.
   double xi_min = 0, xi_max = 0.6;
+  // > 0: fitted to the upper tail, each extreme at or below the whole fit's quantile at this
+  // probability (at its own pixels and thickness) left-censored there (ExtremeSample::censor).
+  double tail_from = 0;
 };
 
 struct GevFit {
   GevModel model;
   bool converged = false;
+  // A tail fit (GevFitOptions::tail_from > 0): the fit to every extreme, whose tail_from
+  // quantile censored them, and that probability; tail_from 0 otherwise.
+  GevModel whole;
+  double tail_from = 0;
 };
 
 // Throws Error with fewer than 10 samples. Samples with a finite `upper` count truncated

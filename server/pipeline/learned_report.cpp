@@ -98,6 +98,10 @@ std::string learned_report_json(int lane, const ProductLearning& L, const Sensit
                                           {"converged", st.fit.converged},
                                           {"ks_d", st.ks_d},
                                           {"ks_p", st.ks_p},
+                                          {"ks_samples", st.ks_samples},
+                                          {"tail_from", st.fit.tail_from},
+                                          {"top_above", st.top_above},
+                                          {"top_p", st.top_p},
                                           {"qq_gumbel", qq}};
   }
   const nlohmann::json cells = cells_json(s.cells);

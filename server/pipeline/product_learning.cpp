@@ -5,6 +5,7 @@
 #include <map>
 #include <random>
 
+#include "pipeline/binomial_tail.h"
 #include "pipeline/robust_fit.h"
 
 namespace rangex {
@@ -90,9 +91,22 @@ double ks_pvalue(double d, size_t n) {
   return std::clamp(p, 0.0, 1.0);
 }
 
-void qq_and_ks(const GevModel& g, const std::vector<ExtremeSample>& s, StatisticLearning& out) {
+// The extremes the model was fitted to against it: every one, or for a tail fit those above
+// the level that censored them, each as (F(x) - F(c)) / (1 - F(c)), uniform above c under
+// the model.
+void qq_and_ks(const GevFit& fit, const std::vector<ExtremeSample>& s, StatisticLearning& out) {
+  const GevModel& g = fit.model;
   std::vector<double> u;
-  for (const auto& e : s) u.push_back(std::clamp(g.cdf(e.x, e.n, e.t), 1e-300, 1 - 1e-16));
+  for (const auto& e : s) {
+    double lo = 0;
+    if (fit.tail_from > 0) {
+      const double c = fit.whole.quantile(fit.tail_from, e.n, e.t);
+      if (e.x <= c) continue;
+      lo = g.cdf(c, e.n, e.t);
+    }
+    const double p = (g.cdf(e.x, e.n, e.t) - lo) / std::max(1e-300, 1 - lo);
+    u.push_back(std::clamp(p, 1e-300, 1 - 1e-16));
+  }
   std::sort(u.begin(), u.end());
   const size_t n = u.size();
   double d = 0;
@@ -102,7 +116,19 @@ void qq_and_ks(const GevModel& g, const std::vector<ExtremeSample>& s, Statistic
     out.qq.push_back({-std::log(-std::log(p)), -std::log(-std::log(u[i]))});
   }
   out.ks_d = d;
-  out.ks_p = ks_pvalue(d, n);
+  out.ks_p = n ? ks_pvalue(d, n) : 1;
+  out.ks_samples = int(n);
+}
+
+// How many of the extremes lie above the model's 99 % quantile at their own covariates, and
+// the chance of that many or more if the model holds: a bulk fitted well says nothing of a
+// tail that a second population makes (the Kolmogorov-Smirnov test hardly sees the top).
+void top_check(const GevModel& g, const std::vector<ExtremeSample>& s, StatisticLearning& out) {
+  constexpr double kTop = 0.01;
+  int above = 0;
+  for (const auto& e : s) above += g.log_survival(e.x, e.n, e.t) < std::log(kTop);
+  out.top_above = above;
+  out.top_p = above == 0 ? 1.0 : 1 - binomial_at_most(above - 1, int(s.size()), kTop);
 }
 
 // The most improbable extreme of the rejecting statistics of fillet `f` under models fitted
@@ -277,12 +303,21 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
       ls.thresholds.assign(size_t(bands), 5.0);
       continue;
     }
-    st.fit = fit_gev(smp);
+    GevFitOptions fo;
+    st.fit = fit_gev(smp, fo);
+    if (rejecting(s) && opt.tail_from > 0 && st.fit.converged) {
+      top_check(st.fit.model, smp, st);
+      if (st.top_p < opt.tail_alpha) {
+        fo.tail_from = opt.tail_from;
+        st.fit = fit_gev(smp, fo);
+      }
+    }
     // Air pockets are reported, never rejected: their fit is information, not a gate.
     if (!st.fit.converged && rejecting(s))
       r.problems.push_back(std::string(statistic_name(s)) +
                            ": the extreme-value fit did not converge");
     ls.model = st.fit.model;
+    ls.tail_from = st.fit.tail_from, ls.whole_model = st.fit.whole;
     st.point_thresholds = thresholds_for(st.fit.model, u, st.budget);
     // The bootstrap over fillets: each resample's model and thresholds; the thresholds used
     // are each band's `confidence` quantile of them.
@@ -293,7 +328,7 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
       for (size_t i = 0; i < use.size(); ++i) re.push_back(use[pick(rng)]);
       const auto rs = samples_of(re, s);
       if (rs.size() < 10) continue;
-      const GevFit f = fit_gev(rs);
+      const GevFit f = fit_gev(rs, fo);
       if (!f.converged) continue;
       const auto t = thresholds_for(f.model, band_use(re, s, bands), st.budget);
       for (int b = 0; b < bands; ++b) boot[size_t(b)].push_back(t[size_t(b)]);
@@ -326,7 +361,7 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
     }
     ls.thresholds = st.thresholds;
     st.implied_frr = implied(st.fit.model, u, st.thresholds);
-    qq_and_ks(st.fit.model, smp, st);
+    qq_and_ks(st.fit, smp, st);
   }
   r.ok = r.problems.empty();
   return r;
@@ -365,11 +400,13 @@ DriftEstimate estimate_drift(const LearnedDetection& L,
     for (const auto& f : recent)
       for (const BandExtreme& e : f)
         if (e.stat == s)
-          smp.push_back({e.x, e.n, e.t,
-                         rejecting(s) && size_t(e.band) < ls.thresholds.size()
-                             ? ls.thresholds[size_t(e.band)]
-                             : HUGE_VAL,
-                         ls.model.quantile(kDriftLeftOutBelow, e.n, e.t)});
+          smp.push_back(
+              {e.x, e.n, e.t,
+               rejecting(s) && size_t(e.band) < ls.thresholds.size() ? ls.thresholds[size_t(e.band)]
+                                                                     : HUGE_VAL,
+               ls.model.quantile(kDriftLeftOutBelow, e.n, e.t),
+               // A tail fit is followed where it was fitted: above the same level.
+               ls.tail_from > 0 ? ls.whole_model.quantile(ls.tail_from, e.n, e.t) : -HUGE_VAL});
     d.models[size_t(s)] = refit_drifted(ls.model, smp, &d.shift[size_t(s)]);
   }
   LearnedDetection drifted = L;

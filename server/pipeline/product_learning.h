@@ -28,6 +28,16 @@ struct LearnOptions {
   double target_frr = 0.003;  // per fillet, for the rejecting statistics together
   double confidence = 0.9;    // of the bootstrap: the thresholds meet the budget this sure
   int bootstrap = 100;
+  // A rejecting statistic whose own top extremes the fit to all of them does not hold (more
+  // of them above its 99 % quantile than chance gives at `tail_alpha`) is fitted again to its
+  // upper tail: the extremes at or below the whole fit's `tail_from` quantile (at their own
+  // pixels and thickness) counted only as lying there (GevFitOptions::tail_from). False
+  // rejects live in the tail, and a product with a second population in it (cartilage in
+  // some fillets) has a bulk that does not say where its tail goes. Where the whole fit
+  // holds its top it stays: on a product without one, the tail fit's thresholds met the
+  // target in fewer learning runs. tail_from 0: never, as learned before 2026-12-04.
+  double tail_from = 0.5;
+  double tail_alpha = 0.05;
   int min_fillets = 30;
   uint64_t seed = 1;
   std::vector<double> band_edges_mm = default_band_edges_mm();
@@ -69,6 +79,11 @@ struct StatisticLearning {
   double implied_frr = 0;                // at `thresholds` under the point model
   std::vector<QQPoint> qq;               // the learning extremes against the fitted model
   double ks_d = 0, ks_p = 1;             // Kolmogorov-Smirnov of the probability transforms
+  int ks_samples = 0;                    // of the extremes fitted (a tail fit: above the bulk)
+  // The whole fit against the learning's own top: extremes above its 99 % quantile, and how
+  // likely that many or more are by chance (a rejecting statistic's; -1: not checked).
+  int top_above = -1;
+  double top_p = 1;
 };
 
 struct ProductLearning {
