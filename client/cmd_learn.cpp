@@ -96,9 +96,8 @@ int cmd_learn(int argc, char** argv) {
   const char* usage =
       "learn RECORDING --out PLANT.yaml [--config plant.yaml] [--target-frr 0.003] "
       "[--confidence 0.9] [--tail-from 0.5] [--lanes 0,1] [--calibration F] [--report DIR] "
-      "[--version NAME] "
-      "[--excess-ratio 2] [--check RECORDING] [--keep LANE:FILLET,...] [--tradeoff 0.001,0.01] "
-      "[--force]\n"
+      "[--version NAME] [--excess-ratio 2] [--check RECORDING] [--keep LANE:FILLET,...] "
+      "[--tradeoff 0.001,0.01] [--force]\n"
       "   or: learn --simulate --out PLANT.yaml [--lanes N] [--fillets M] [--seed S] "
       "[--physics F] (a clean simulated plant, in memory)";
   const bool simulate = a.flag("simulate");

@@ -105,7 +105,8 @@ std::string learn_summary_text(int lane, const ProductLearning& L, const Sensiti
       std::snprintf(b, sizeof b,
                     "         its top: %d of %d extremes above the whole fit's 99 %% (%.1f "
                     "expected, chance %.3f): fitted to the tail above the whole fit's %.0f %%\n",
-                    st.top_above, st.samples, 0.01 * st.samples, st.top_p, 100 * st.fit.tail_from);
+                    st.top_above, st.samples, kTopShare * st.samples, st.top_p,
+                    100 * st.fit.tail_from);
       o << b;
     }
   }

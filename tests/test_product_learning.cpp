@@ -607,11 +607,6 @@ TEST(ProductLearning, DriftOfARougherProductIsSeenAndTheSameProductIsNot) {
   EXPECT_GT(drift.implied_frr, 2 * o.target_frr);
 }
 
-// A few small bands (150 pixels) whose extremes lie deep in the learned model's lower tail,
-// as the thin ends of fillets put them (a recorded plant's 6 of 1,224): the same product,
-// and the monitor says so. Counted with their density, they widened the refit's scale and
-// implied 3.6 times the false rejects of the same fillets without them (on the recorded
-// plant, five times what it had learned).
 // A statistic fitted to its tail is followed where it was fitted: the drift monitor counts a
 // passed fillet's extreme at or below the whole fit's median as lying there. The same lumpy
 // product stays quiet; moved up by 4.5 (a rougher product, which really rejects 2.0 %), it is
@@ -648,6 +643,11 @@ TEST(ProductLearning, DriftFollowsATailFitAboveItsLevel) {
   EXPECT_NEAR(rough.shift[kStatRound], 4.5, 0.4);
 }
 
+// A few small bands (150 pixels) whose extremes lie deep in the learned model's lower tail,
+// as the thin ends of fillets put them (a recorded plant's 6 of 1,224): the same product,
+// and the monitor says so. Counted with their density, they widened the refit's scale and
+// implied 3.6 times the false rejects of the same fillets without them (on the recorded
+// plant, five times what it had learned).
 TEST(ProductLearning, DriftIsNotRaisedBySmallBandsDeepInTheLowerTail) {
   GevModel g = truth_model();
   g.xi = 0;  // a Gumbel tail, as the plant's: its refit can only widen

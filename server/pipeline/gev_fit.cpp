@@ -82,7 +82,7 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
   auto objective = [&](const std::vector<double>& p) {
     return truncated_nll(from_params(p, centre, opt), s, ln_n);
   };
-  NelderMeadResult r = nelder_mead(objective, x0, step, 1e-8, 40000);
+  const NelderMeadResult r = nelder_mead(objective, x0, step, 1e-8, 40000);
   GevFit f;
   f.model = from_params(r.x, centre, opt);
   f.converged = r.converged && std::isfinite(r.value);

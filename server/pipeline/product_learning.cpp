@@ -120,15 +120,15 @@ void qq_and_ks(const GevFit& fit, const std::vector<ExtremeSample>& s, Statistic
   out.ks_samples = int(n);
 }
 
-// How many of the extremes lie above the model's 99 % quantile at their own covariates, and
-// the chance of that many or more if the model holds: a bulk fitted well says nothing of a
-// tail that a second population makes (the Kolmogorov-Smirnov test hardly sees the top).
+// How many of the extremes lie above the model's 1 - kTopShare (99 %) quantile at their own
+// covariates, and the chance of that many or more if the model holds: a bulk fitted well says
+// nothing of a tail that a second population makes (the Kolmogorov-Smirnov test hardly sees the
+// top).
 void top_check(const GevModel& g, const std::vector<ExtremeSample>& s, StatisticLearning& out) {
-  constexpr double kTop = 0.01;
   int above = 0;
-  for (const auto& e : s) above += g.log_survival(e.x, e.n, e.t) < std::log(kTop);
+  for (const auto& e : s) above += g.log_survival(e.x, e.n, e.t) < std::log(kTopShare);
   out.top_above = above;
-  out.top_p = above == 0 ? 1.0 : 1 - binomial_at_most(above - 1, int(s.size()), kTop);
+  out.top_p = above == 0 ? 1.0 : 1 - binomial_at_most(above - 1, int(s.size()), kTopShare);
 }
 
 // The most improbable extreme of the rejecting statistics of fillet `f` under models fitted
@@ -310,6 +310,7 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
       if (st.top_p < opt.tail_alpha) {
         fo.tail_from = opt.tail_from;
         st.fit = fit_gev(smp, fo);
+        fo.tail_from = st.fit.tail_from;  // 0 if the tail fit did not converge: the bootstrap too
       }
     }
     // Air pockets are reported, never rejected: their fit is information, not a gate.

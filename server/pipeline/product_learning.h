@@ -24,6 +24,10 @@ struct LearningFillet {
   std::vector<BandExtreme> extremes;
 };
 
+// The top a whole fit is checked against: the share of extremes expected above its quantile
+// (LearnOptions::tail_alpha).
+constexpr double kTopShare = 0.01;
+
 struct LearnOptions {
   double target_frr = 0.003;  // per fillet, for the rejecting statistics together
   double confidence = 0.9;    // of the bootstrap: the thresholds meet the budget this sure
