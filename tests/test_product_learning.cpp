@@ -475,7 +475,7 @@ TEST(ProductLearning, AStatisticWhoseTopTheWholeFitDoesNotHoldIsFittedToItsTail)
     tails += tail;
     EXPECT_EQ(lumpy.learned.stats[size_t(s)].tail_from, tail ? 0.5 : 0.0) << statistic_name(s);
     if (tail) {
-      EXPECT_GT(l.top_above, 2 * 0.01 * l.samples);
+      EXPECT_GT(l.top_above, 2 * kTopShare * l.samples);
       for (size_t b = 0; b < t.size(); ++b) EXPECT_GT(t[b], w[b]) << statistic_name(s) << b;
     } else {
       EXPECT_EQ(t, w);

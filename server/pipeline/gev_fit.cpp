@@ -90,7 +90,7 @@ GevFit fit_gev(const std::vector<ExtremeSample>& s, const GevFitOptions& opt) {
   // The tail: each extreme at or below the whole fit's `tail_from` quantile at its own
   // covariates counts only as lying there; the fit starts from the whole fit.
   std::vector<ExtremeSample> c = s;
-  for (auto& e : c) e.censor = f.model.quantile(opt.tail_from, e.n, e.t);
+  for (auto& e : c) e.censor = tail_level(f.model, opt.tail_from, e.n, e.t);
   auto tail = [&](const std::vector<double>& p) {
     return truncated_nll(from_params(p, centre, opt), c, ln_n);
   };

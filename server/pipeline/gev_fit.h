@@ -44,6 +44,13 @@ struct GevFit {
   double tail_from = 0;
 };
 
+// Where a tail fit censors an extreme: the whole fit's `tail_from` quantile at the extreme's
+// own pixels and thickness; -Infinity without a tail fit (tail_from 0). Learning, its QQ and
+// KS, and the drift monitor all censor there.
+inline double tail_level(const GevModel& whole, double tail_from, double n, double t) {
+  return tail_from > 0 ? whole.quantile(tail_from, n, t) : -HUGE_VAL;
+}
+
 // Throws Error with fewer than 10 samples. Samples with a finite `upper` count truncated
 // there (a fit to the extremes below a level, robust to what lies above it).
 GevFit fit_gev(const std::vector<ExtremeSample>& samples, const GevFitOptions& opt = {});

@@ -100,7 +100,7 @@ void qq_and_ks(const GevFit& fit, const std::vector<ExtremeSample>& s, Statistic
   for (const auto& e : s) {
     double lo = 0;
     if (fit.tail_from > 0) {
-      const double c = fit.whole.quantile(fit.tail_from, e.n, e.t);
+      const double c = tail_level(fit.whole, fit.tail_from, e.n, e.t);
       if (e.x <= c) continue;
       lo = g.cdf(c, e.n, e.t);
     }
@@ -401,13 +401,13 @@ DriftEstimate estimate_drift(const LearnedDetection& L,
     for (const auto& f : recent)
       for (const BandExtreme& e : f)
         if (e.stat == s)
-          smp.push_back(
-              {e.x, e.n, e.t,
-               rejecting(s) && size_t(e.band) < ls.thresholds.size() ? ls.thresholds[size_t(e.band)]
-                                                                     : HUGE_VAL,
-               ls.model.quantile(kDriftLeftOutBelow, e.n, e.t),
-               // A tail fit is followed where it was fitted: above the same level.
-               ls.tail_from > 0 ? ls.whole_model.quantile(ls.tail_from, e.n, e.t) : -HUGE_VAL});
+          smp.push_back({e.x, e.n, e.t,
+                         rejecting(s) && size_t(e.band) < ls.thresholds.size()
+                             ? ls.thresholds[size_t(e.band)]
+                             : HUGE_VAL,
+                         ls.model.quantile(kDriftLeftOutBelow, e.n, e.t),
+                         // A tail fit is followed where it was fitted: above the same level.
+                         tail_level(ls.whole_model, ls.tail_from, e.n, e.t)});
     d.models[size_t(s)] = refit_drifted(ls.model, smp, &d.shift[size_t(s)]);
   }
   LearnedDetection drifted = L;
