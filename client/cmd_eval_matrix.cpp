@@ -615,10 +615,10 @@ int cmd_eval_matrix(int argc, char** argv) {
   const long seed = mo.seed;
   const fs::path out = a.require("out");
   if (a.flag("dual-energy")) {
-    if (mo.bone_fillets > 0) fail("--bones is not a part of --dual-energy's matrix");
     DualEnergyMatrixOptions d;
     d.fillets = mo.fillets, d.seed = mo.seed, d.learn_fillets = mo.learn_fillets;
     d.check_fillets = mo.check_fillets, d.frr_fillets = mo.frr_fillets, d.keep = mo.keep;
+    d.bone_fillets = mo.bone_fillets, d.part = mo.frr_part;
     return run_dual_energy_matrix(files, out, config_path(a.get("config", "")), plant, d);
   }
   fs::create_directories(out);

@@ -99,8 +99,9 @@ void run_in_parts(
     if (!o.config.empty()) sim.insert(sim.end(), {"--config", o.config});
     run_step(o.log, std::move(sim));
     // The learned configuration in place of the plant's.
-    run_step(o.log, {"process", rec, "--out", out, "--images", "none", "--calibration", o.cal,
-                     "--config", o.learned});
+    if (!o.learned.empty())
+      run_step(o.log, {"process", rec, "--out", out, "--images", "none", "--calibration", o.cal,
+                       "--config", o.learned});
     if (judged) judged(part, seed, rec, out);
     if (!o.keep) std::filesystem::remove_all(rec);
     done += n;

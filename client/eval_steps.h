@@ -53,8 +53,9 @@ std::string prefixed(const std::string& text, const std::string& prefix);
 
 // More fillets of a variant inspected with its learned thresholds, in parts: part k simulates
 // min(part, what is left) fillets of seed + 100 k (no bone when `clean`) into dir/rec, and
-// `process`es them with `learned` and `cal` into dir/out + k. Each scan goes once `judged`
-// (may be empty) has seen it, unless `keep`: a scan is about 130 MB a fillet.
+// `process`es them with `learned` and `cal` into dir/out + k (when `learned` is empty,
+// `judged` processes them itself). Each scan goes once `judged` (may be empty) has seen it,
+// unless `keep`: a scan is about 130 MB a fillet.
 struct PartRun {
   std::filesystem::path dir;
   std::string log, physics, cal, learned;
@@ -72,6 +73,7 @@ struct DualEnergyMatrixOptions {
   int fillets = 60;
   long seed = 11;
   int learn_fillets = 40, check_fillets = 20, frr_fillets = 0;
+  int bone_fillets = 0, part = 60;  // the bone run: more bony fillets, each method's thresholds
   bool keep = false;
 };
 
