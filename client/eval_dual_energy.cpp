@@ -144,6 +144,10 @@ DualEnergyRow run_variant(const fs::path& file, const fs::path& dir, const fs::p
       for (const auto& f : clean.fragments) m.frr_fragments += f.kind == "bone";
     }
   }
+  // The scans are judged and learned from: dropped before the bone run's (130 MB a fillet).
+  if (!mo.keep)
+    for (const char* d : {"rec", "pins", "blocks", "wedge", "learn_rec", "check_rec", "frr_rec"})
+      fs::remove_all(dir / d);
   // The bone run: more bony fillets (seeds seed + 10000, + 100 a part, as the one-energy
   // matrix's), each part simulated once and inspected by every method with the thresholds
   // it learned, so that the methods' recall is compared on the same fragments.
@@ -171,10 +175,6 @@ DualEnergyRow run_variant(const fs::path& file, const fs::path& dir, const fs::p
       }
     });
   }
-  if (!mo.keep)
-    for (const char* d :
-         {"rec", "pins", "blocks", "wedge", "learn_rec", "check_rec", "frr_rec", "bone_rec"})
-      fs::remove_all(dir / d);
   return r;
 }
 
