@@ -226,14 +226,12 @@ std::string bone_line(const std::string& variant, const std::string& method,
   int k = 0, n = 0;
   calcified_2mm(plant, k, n);
   const BoneRunTotals t = pooled(bones);
-  std::string needle = "-";
-  for (const auto& [shape, fp] : t.by_shape)
-    if (shape == "needle") needle = std::to_string(fp.first) + "/" + std::to_string(fp.second);
   char b[512];
   std::snprintf(b, sizeof b, "%-14s %-24s | %-8s | %-26s | %-24s | %6.3f | %7s\n", variant.c_str(),
                 method.c_str(), (std::to_string(k) + "/" + std::to_string(n)).c_str(),
                 pct(k + t.found, n + t.present).c_str(), pct(t.clean_rejected, t.clean).c_str(),
-                t.fillets ? double(t.false_fragments) / t.fillets : 0.0, needle.c_str());
+                t.fillets ? double(t.false_fragments) / t.fillets : 0.0,
+                shape_recall(t.by_shape, "needle").c_str());
   return b;
 }
 

@@ -65,10 +65,15 @@ void calcified_2mm(const DetectionEval& e, int& found, int& total) {
   for (int s = 1; s < kSizeBins; ++s) found += e.found[s][1], total += e.total[s][1];
 }
 
-std::string shape_recall(const DetectionEval& e, const char* shape) {
-  for (const auto& [name, fb] : e.by_shape)
+std::string shape_recall(const std::vector<std::pair<std::string, std::pair<int, int>>>& by_shape,
+                         const char* shape) {
+  for (const auto& [name, fb] : by_shape)
     if (name == shape) return std::to_string(fb.first) + "/" + std::to_string(fb.second);
   return "-";
+}
+
+std::string shape_recall(const DetectionEval& e, const char* shape) {
+  return shape_recall(e.by_shape, shape);
 }
 
 std::string prefixed(const std::string& text, const std::string& prefix) {

@@ -24,7 +24,10 @@ std::string interval(int k, int n);
 // Calcified fragments >= 2 mm: found and present.
 void calcified_2mm(const DetectionEval& e, int& found, int& total);
 
-// "found/present" of calcified fragments >= 2 mm of one shape, "-" when none.
+// "found/present" of calcified fragments >= 2 mm of one shape, "-" when none; of an
+// evaluation, or of shapes pooled (a bone run's).
+std::string shape_recall(const std::vector<std::pair<std::string, std::pair<int, int>>>& by_shape,
+                         const char* shape);
 std::string shape_recall(const DetectionEval& e, const char* shape);
 
 // A simulated recording's truth of its first lane: its fragments and fillets, and the true
