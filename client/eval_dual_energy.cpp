@@ -256,10 +256,12 @@ std::string bone_run_text(const std::vector<DualEnergyRow>& rows,
     os << bone_line(r.name, "X-ray only (fixed)", r.base, r.base_bones);
   }
   for (const DualEnergyRow& r : rows)
-    for (int k : {0, kLaser})
+    for (int k : {0, kLaser}) {
+      const std::string missed = bone_run_missed_lines(r.m[k].bones);
       os << "\n"
-         << r.name << ", the bone run's misses, " << kMethodNames[k] << ":\n"
-         << bone_run_missed_lines(r.m[k].bones);
+         << r.name << ", the bone run's misses, " << kMethodNames[k] << ":"
+         << (missed.empty() ? " none\n" : "\n" + missed);
+    }
   return os.str();
 }
 
