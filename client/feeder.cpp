@@ -342,7 +342,12 @@ FeedReport Feeder::run(LineSource& source) {
              (settled_all || opt_.settle_for_s <= 0 ||
               Clock::now() - settle_start > std::chrono::duration<double>(opt_.settle_for_s));
     }
-    if (done && (rep.status.ok() || settled_all)) break;
+    if (done && (rep.status.ok() || settled_all)) {
+      // Every outcome is stored: a cut of the last stream after that (a server recycling
+      // its connections) is not the feed's failure.
+      if (settled_all) rep.status = grpc::Status::OK;
+      break;
+    }
     if (!retryable(rep.status) && !rep.status.ok()) break;
     if (Clock::now() - sh.progress > std::chrono::duration<double>(opt_.reconnect_for_s)) {
       say("no progress for " + std::to_string(int(opt_.reconnect_for_s)) + " s; giving up");

@@ -765,8 +765,10 @@ TEST(IngestConcurrency, FeederReconnectsResendsAndNoLineIsDecidedTwice) {
   fo.window = 32;
   fo.rate = 400;  // lines/s per lane: the feed outlives several connections
   fo.reconnect_for_s = 30;
+  std::string told;  // what the feeder said, shown if it fails
+  fo.log = [&told](const std::string& m) { told += m + "\n"; };
   const FeedReport r = Feeder(connect(server), fo).run(src);
-  EXPECT_TRUE(r.status.ok()) << r.status.error_message();
+  EXPECT_TRUE(r.status.ok()) << r.status.error_message() << "\n" << told;
   EXPECT_GE(r.reconnects, 1u);
   // Every connection took lines before the server cut it: each reconnect waits the first
   // backoff step (0.1 s), not one doubled per cut (0.1, 0.2, ... 1.6, 2 s).
