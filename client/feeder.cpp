@@ -345,7 +345,11 @@ FeedReport Feeder::run(LineSource& source) {
     if (done && (rep.status.ok() || settled_all)) {
       // Every outcome is stored: a cut of the last stream after that (a server recycling
       // its connections) is not the feed's failure.
-      if (settled_all) rep.status = grpc::Status::OK;
+      if (settled_all && !rep.status.ok()) {
+        say("the last stream ended (" + rep.status.error_message() +
+            ") after every outcome was stored");
+        rep.status = grpc::Status::OK;
+      }
       break;
     }
     if (!retryable(rep.status) && !rep.status.ok()) break;
