@@ -67,7 +67,8 @@ struct Shared {
   bool query_pending = false;  // a credit query awaits its answer
   uint64_t query_sequence = 0;
   Clock::time_point progress = Clock::now();
-  uint64_t acked_on_stream = 0;  // lines the current stream got acknowledged
+  uint64_t acked_on_stream = 0;     // lines the current stream got acknowledged
+  uint64_t answered_on_stream = 0;  // credit queries the current stream got answered
 };
 
 // Keeps an acknowledged line until its lane is durable past it, and forgets what is.
@@ -170,6 +171,7 @@ FeedReport Feeder::run(LineSource& source) {
       sh.holding = false;
       sh.query_pending = false;
       sh.acked_on_stream = 0;
+      sh.answered_on_stream = 0;
     }
     std::thread reader([&] {
       pb::StreamLinesResponse r;
@@ -180,6 +182,7 @@ FeedReport Feeder::run(LineSource& source) {
         sh.progress = Clock::now();
         if (sh.query_pending && r.sequence() == sh.query_sequence) {
           sh.query_pending = false;
+          ++sh.answered_on_stream;
           for (const pb::LaneProgress& p : r.lanes())
             if (p.has_settled_encoder()) sh.settled[p.lane()] = p.settled_encoder();
           sh.cv.notify_all();
@@ -362,7 +365,10 @@ FeedReport Feeder::run(LineSource& source) {
     // that recycles connections, a restart): the next waits the first step again, as gRPC's
     // own connection backoff does once connected. Only streams that take nothing (a server
     // handing lines back, or one that fails at once) wait longer each time.
-    if (sh.acked_on_stream > 0) backoff = kFirstBackoff;
+    // Waiting to be settled sends no lines: a stream that answered its queries and handed
+    // nothing back worked too.
+    if (sh.acked_on_stream > 0 || (sh.answered_on_stream > 0 && !sh.holding))
+      backoff = kFirstBackoff;
     rep.longest_backoff_ms = std::max<uint64_t>(rep.longest_backoff_ms, uint64_t(backoff.count()));
     size_t kept = 0;
     for (const auto& [lane, k] : sh.retained) kept += k.size();

@@ -770,9 +770,10 @@ TEST(IngestConcurrency, FeederReconnectsResendsAndNoLineIsDecidedTwice) {
   const FeedReport r = Feeder(connect(server), fo).run(src);
   EXPECT_TRUE(r.status.ok()) << r.status.error_message() << "\n" << told;
   EXPECT_GE(r.reconnects, 1u);
-  // Every connection took lines before the server cut it: each reconnect waits the first
-  // backoff step (0.1 s), not one doubled per cut (0.1, 0.2, ... 1.6, 2 s).
-  EXPECT_LT(r.longest_backoff_ms, 1600u) << r.reconnects << " reconnects";
+  // Every connection took lines, or answered the wait to be settled, before the server cut
+  // it: each reconnect waits the first backoff step (0.1 s), not one doubled per cut (0.1,
+  // 0.2, ... 1.6, 2 s), however many cuts fall while the last fillets are being decided.
+  EXPECT_LT(r.longest_backoff_ms, 1600u) << r.reconnects << " reconnects\n" << told;
   EXPECT_EQ(r.sent, uint64_t(2 * lines.count()));
   EXPECT_EQ(r.accepted, r.sent);
   EXPECT_EQ(r.refused_total(), 0u);
