@@ -93,13 +93,15 @@ bool wait_settled_on(Stream& stream, Shared& sh, uint64_t& seq,
   if (start == Clock::time_point::max()) start = Clock::now();
   std::unique_lock<std::mutex> lock(sh.mu);
   sh.cv.wait(lock, [&] { return sh.broken || sh.holding || sh.unacked.empty(); });
-  while (!sh.broken && !sh.holding) {
+  while (true) {
+    // An answer that said so counts though the stream ended right after it.
     bool all = true;
     for (const auto& [lane, last] : last_sent) {
       const auto it = sh.settled.find(lane);
       all = all && it != sh.settled.end() && it->second >= last;
     }
     if (all) return true;
+    if (sh.broken || sh.holding) return false;
     if (Clock::now() - start > std::chrono::duration<double>(settle_for_s)) return false;
     pb::StreamLinesRequest query;
     query.set_sequence(seq++);
@@ -115,7 +117,6 @@ bool wait_settled_on(Stream& stream, Shared& sh, uint64_t& seq,
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
     lock.lock();
   }
-  return false;
 }
 
 }  // namespace
