@@ -362,12 +362,11 @@ FeedReport Feeder::run(LineSource& source) {
       break;
     }
     ++rep.reconnects;
-    // A stream that got lines acknowledged was a working connection that ended (a server
-    // that recycles connections, a restart): the next waits the first step again, as gRPC's
-    // own connection backoff does once connected. Only streams that take nothing (a server
-    // handing lines back, or one that fails at once) wait longer each time.
-    // Waiting to be settled sends no lines: a stream that answered its queries and handed
-    // nothing back worked too.
+    // A stream that got lines acknowledged, or (waiting to be settled, with no lines to
+    // send) its queries answered and nothing handed back, was a working connection that
+    // ended (a server that recycles connections, a restart): the next waits the first step
+    // again, as gRPC's own connection backoff does once connected. Only streams that take
+    // nothing (a server handing lines back, or one that fails at once) wait longer each time.
     if (sh.acked_on_stream > 0 || (sh.answered_on_stream > 0 && !sh.holding))
       backoff = kFirstBackoff;
     rep.longest_backoff_ms = std::max<uint64_t>(rep.longest_backoff_ms, uint64_t(backoff.count()));
