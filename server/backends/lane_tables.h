@@ -6,9 +6,9 @@
 #pragma once
 #include <vector>
 
-#include "shared/lane_tables.h"
 #include "core/lane_config.h"
 #include "pipeline/rectify_table.h"
+#include "shared/lane_tables.h"
 
 namespace rangex {
 
