@@ -42,19 +42,21 @@ void pass(const std::vector<float>& k, int dx, int dy, int rows, int cols,
   onum.assign(num.size(), 0.f);
   oden.assign(num.size(), 0.f);
   for (int y = 0; y < rows; ++y) {
-    float* a = &onum[size_t(y) * cols];
-    float* b = &oden[size_t(y) * cols];
+    float* a = onum.data() + size_t(y) * cols;
+    float* b = oden.data() + size_t(y) * cols;
     for (int d = -r; d <= r; ++d) {
       const int yy = y + d * dy;
       if (yy < 0 || yy >= rows) continue;
       const int shift = d * dx;
       const int x0 = std::max(0, -shift), x1 = std::min(cols, cols - shift);
       const float kd = k[d + r];
-      const float* pn = &num[size_t(yy) * cols + shift];
-      const float* pd = &den[size_t(yy) * cols + shift];
+      // Row starts, indexed at x + shift inside [0, cols): a pointer shifted off the row
+      // beforehand could point outside the image, which C++ leaves undefined.
+      const float* pn = num.data() + size_t(yy) * cols;
+      const float* pd = den.data() + size_t(yy) * cols;
       for (int x = x0; x < x1; ++x) {
-        a[x] += kd * pn[x];
-        b[x] += kd * pd[x];
+        a[x] += kd * pn[x + shift];
+        b[x] += kd * pd[x + shift];
       }
     }
   }
