@@ -1,4 +1,4 @@
-// audit verify | audit export: the store's tamper-evident record (service/record_chain.h),
+// audit verify | audit export: the store's tamper-evident record (store/record_chain.h),
 // read from the store's directory (rangexd may be running: the store is opened read-only).
 #include <cstdio>
 #include <fstream>
@@ -9,7 +9,7 @@
 #include "plantdb/chain_check.h"
 #include "plantdb/pg_connection.h"
 #include "plantdb/plant_db_schema.h"
-#include "service/store.h"
+#include "store/store.h"
 
 namespace rangex::cli {
 

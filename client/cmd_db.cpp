@@ -10,7 +10,7 @@
 #include "plantdb/pg_connection.h"
 #include "plantdb/plant_db_prune.h"
 #include "plantdb/plant_db_schema.h"
-#include "service/store.h"
+#include "store/store.h"
 
 namespace rangex::cli {
 

@@ -7,7 +7,7 @@
 #include "commands.h"
 #include "core/error.h"
 #include "core/security_config.h"
-#include "service/sha256_hex.h"
+#include "store/sha256_hex.h"
 
 namespace rangex::cli {
 

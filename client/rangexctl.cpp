@@ -7,8 +7,8 @@
 
 #include "commands.h"
 #include "core/error.h"
+#include "core/heap_trim.h"
 #include "run_command.h"
-#include "service/heap_trim.h"
 #include "usage_entries.h"
 
 namespace {
@@ -161,7 +161,7 @@ int main(int argc, char** argv) {
       std::printf("usage: rangexctl %s ...\n\n%s", argv[1], entries.c_str());
       return 0;
     }
-  // rangexd's heap policy (service/heap_trim.h), without its periodic trim: under glibc's
+  // rangexd's heap policy (core/heap_trim.h), without its periodic trim: under glibc's
   // own, each lane's inspection buffers were mapped and faulted in anew, and the lanes'
   // threads waited on each other's page faults (`process --simulate --lanes 4`: 105-183 ms a
   // fillet against 63-88).

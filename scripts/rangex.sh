@@ -46,7 +46,7 @@ plc_port=50552
 plc=$!
 "$ctl" fake-lane "$demo/gige-recording" --addresses 127.0.0.2,127.0.0.3,127.0.0.4 &
 lane=$!
-build/server/service/rangexd --config "$demo/plant.yaml" --listen "$addr" --data "$demo/data" &
+build/server/daemon/rangexd --config "$demo/plant.yaml" --listen "$addr" --data "$demo/data" &
 server=$!
 watcher=""
 trap 'kill $server $watcher $lane $plc 2>/dev/null || true' EXIT

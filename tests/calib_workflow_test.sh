@@ -89,7 +89,7 @@ check "calibrated false rejects no more than the nominal rig's" \
 
 # The solved set with its reports goes to a running rangexd and is activated: the reports
 # passed, so no --force is needed; a hand-made set without reports is refused.
-srv="$(dirname "$ctl")/../server/service/rangexd"
+srv="$(dirname "$ctl")/../server/daemon/rangexd"
 "$srv" --listen 127.0.0.1:0 --http 127.0.0.1:0 --data "$work/data" >rangexd.log 2>&1 &
 pid=$!
 for _ in $(seq 100); do grep -q "listening on" rangexd.log && break; sleep 0.1; done

@@ -60,7 +60,7 @@ printf 'T,lnI\n1,2\n3,x\n' >"$work/bad.csv"
 expect_error "bad csv" "bad.csv:3: column 2 ('lnI') is not a finite number" "$ctl" fit "$work/bad.csv"
 
 # The server: rangexd on a free loopback port, fed over gRPC, queried, stopped gracefully.
-srv="$(dirname "$ctl")/../server/service/rangexd"
+srv="$(dirname "$ctl")/../server/daemon/rangexd"
 "$srv" --listen 127.0.0.1:0 --http 127.0.0.1:0 --data "$work/data" >"$work/rangexd.log" 2>&1 &
 pid=$!
 for _ in $(seq 100); do grep -q "listening on" "$work/rangexd.log" && break; sleep 0.1; done

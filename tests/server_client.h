@@ -11,7 +11,7 @@
 #include "core/recording.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "service/server.h"
-#include "service/store.h"
+#include "store/store.h"
 
 namespace rangex::test {
 

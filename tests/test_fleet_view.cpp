@@ -15,8 +15,8 @@
 #include "plantdb/forwarder.h"
 #include "plantdb/pg_connection.h"
 #include "plantdb/plant_db_schema.h"
-#include "service/sha256_hex.h"
-#include "service/store.h"
+#include "store/sha256_hex.h"
+#include "store/store.h"
 #include "temp_dir.h"
 #include "test_ca.h"
 

@@ -14,8 +14,8 @@
 #include "plantdb/pg_records.h"
 #include "plantdb/plant_db_prune.h"
 #include "plantdb/plant_db_schema.h"
-#include "service/record_chain.h"
-#include "service/store.h"
+#include "store/record_chain.h"
+#include "store/store.h"
 #include "temp_dir.h"
 #include "wait_until.h"
 

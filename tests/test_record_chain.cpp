@@ -7,8 +7,8 @@
 
 #include <cstdio>
 
-#include "service/record_chain.h"
-#include "service/store.h"
+#include "store/record_chain.h"
+#include "store/store.h"
 #include "store_tamper.h"
 #include "temp_dir.h"
 

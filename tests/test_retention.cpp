@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "service/store.h"
+#include "store/store.h"
 #include "store_tamper.h"
 #include "temp_dir.h"
 

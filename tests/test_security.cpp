@@ -20,7 +20,7 @@
 #include "service/access_control.h"
 #include "service/http_server.h"
 #include "service/server.h"
-#include "service/sha256_hex.h"
+#include "store/sha256_hex.h"
 #include "temp_dir.h"
 #include "test_ca.h"
 

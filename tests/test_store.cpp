@@ -7,7 +7,7 @@
 #include <fstream>
 
 #include "core/error.h"
-#include "service/store.h"
+#include "store/store.h"
 #include "temp_dir.h"
 
 using namespace rangex;

@@ -4,8 +4,8 @@
 #include <gtest/gtest.h>
 
 #include "core/plant_config.h"
-#include "service/store.h"
 #include "service/verifications.h"
+#include "store/store.h"
 #include "temp_dir.h"
 
 using namespace rangex;

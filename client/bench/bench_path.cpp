@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/heap_trim.h"
 #include "pipeline/lane_learning.h"
 #include "pipeline/lane_processor.h"
 #include "pipeline/line_pipeline.h"
 #include "pipeline/product_learning.h"
-#include "service/heap_trim.h"
 #include "sim/plant_simulator.h"
 
 namespace rangex::cli {

@@ -17,7 +17,7 @@
 #include "plantdb/forwarder.h"
 #include "plantdb/pg_connection.h"
 #include "plantdb/plant_db_schema.h"
-#include "service/store.h"
+#include "store/store.h"
 
 namespace fs = std::filesystem;
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "service/store.h"
+#include "store/store.h"
 
 namespace rangex {
 

@@ -2,7 +2,7 @@
 
 #include "plantdb/pg_connection.h"
 #include "plantdb/pg_records.h"
-#include "service/record_chain.h"
+#include "store/record_chain.h"
 
 namespace rangex {
 

@@ -1,5 +1,5 @@
 // Every server's record chain verified in the plant-wide database: each link's hash
-// recomputed from PostgreSQL's own rows (service/record_chain.h), so that a row changed
+// recomputed from PostgreSQL's own rows (store/record_chain.h), so that a row changed
 // behind rangex's back, a link removed or one inserted, names the first link that no longer
 // holds, server by server.
 #pragma once

@@ -12,7 +12,7 @@
 #include "plantdb/pg_array.h"
 #include "plantdb/pg_connection.h"
 #include "plantdb/plant_db_schema.h"
-#include "service/store.h"
+#include "store/store.h"
 
 namespace rangex {
 

@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "plantdb/forward_status.h"
-#include "service/forward_batch.h"
+#include "store/forward_batch.h"
 
 namespace rangex {
 

@@ -3,7 +3,7 @@
 #include <openssl/crypto.h>
 #include <strings.h>
 
-#include "service/sha256_hex.h"
+#include "store/sha256_hex.h"
 
 namespace rangex {
 

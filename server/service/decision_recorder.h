@@ -17,7 +17,7 @@
 #include "pipeline/lane_processor.h"
 #include "service/latency_stats.h"
 #include "service/results_hub.h"
-#include "service/store.h"
+#include "store/store.h"
 
 namespace rangex {
 

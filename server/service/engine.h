@@ -50,8 +50,8 @@
 #include "service/line_codes.h"
 #include "service/results_hub.h"
 #include "service/shift_recorder.h"
-#include "service/store.h"
 #include "service/verifications.h"
+#include "store/store.h"
 
 namespace rangex {
 

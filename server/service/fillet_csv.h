@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "service/store.h"
+#include "store/store.h"
 
 namespace rangex {
 

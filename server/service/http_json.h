@@ -8,7 +8,7 @@
 
 #include "service/engine.h"
 #include "service/plant_history.h"
-#include "service/store.h"
+#include "store/store.h"
 
 namespace rangex {
 

@@ -8,8 +8,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "service/store.h"
 #include "service/verifications.h"
+#include "store/store.h"
 
 namespace rangex {
 

@@ -5,7 +5,7 @@
 #include "rangex/v1/message_json.h"
 #include "rangex/v1/rangex.pb.h"
 #include "service/engine.h"
-#include "service/store.h"
+#include "store/store.h"
 
 namespace rangex {
 

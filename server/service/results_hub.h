@@ -14,7 +14,7 @@
 #include <set>
 #include <vector>
 
-#include "service/store.h"
+#include "store/store.h"
 
 namespace rangex {
 

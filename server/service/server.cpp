@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/heap_trim.h"
 #include "core/log.h"
 #include "plantdb/forwarder.h"
 #include "plantdb/lane_handover.h"
@@ -17,7 +18,6 @@
 #include "rangex/v1/decision_names.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "service/access_control.h"
-#include "service/heap_trim.h"
 #include "service/rpc_services.h"
 #include "service/streams.h"
 

@@ -12,7 +12,7 @@
 #include <string>
 
 #include "core/plant_config.h"
-#include "service/store.h"
+#include "store/store.h"
 
 namespace rangex {
 

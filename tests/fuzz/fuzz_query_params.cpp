@@ -15,7 +15,7 @@
 #include "core/error.h"
 #include "service/http_params.h"
 #include "service/request_end.h"
-#include "service/store.h"
+#include "store/store.h"
 
 using namespace rangex;
 namespace fs = std::filesystem;

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "service/forward_batch.h"
-#include "service/stored_records.h"
+#include "store/forward_batch.h"
+#include "store/stored_records.h"
 
 struct sqlite3;
 

@@ -21,7 +21,7 @@ namespace rangex {
 // (0.1-2 MB) stay below the one and within the other: reused from fillet to fillet, not
 // faulted in again. Called once, before the server's threads start. (`bench --path` times an
 // inspection thread under it against the earlier 256 kB and 128 kB.)
-// Inline: rangexctl takes the same policy without linking the service.
+// Inline: every program of the house (rangexd, rangexctl, the benches) can take it.
 constexpr size_t kMappedBlockBytes = size_t(8) << 20, kArenaKeptTopBytes = size_t(32) << 20;
 inline void set_server_heap_policy(size_t mapped_block = kMappedBlockBytes,
                                    size_t arena_kept_top = kArenaKeptTopBytes) {

@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "service/stored_records.h"
+#include "store/stored_records.h"
 
 namespace rangex {
 

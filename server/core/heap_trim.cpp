@@ -1,4 +1,4 @@
-#include "service/heap_trim.h"
+#include "core/heap_trim.h"
 
 #include <malloc.h>
 #include <unistd.h>

@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "service/record_chain.h"
-#include "service/sqlite_stmt.h"
-#include "service/store.h"
+#include "store/record_chain.h"
+#include "store/sqlite_stmt.h"
+#include "store/store.h"
 
 namespace fs = std::filesystem;
 

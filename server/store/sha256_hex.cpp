@@ -1,4 +1,4 @@
-#include "service/sha256_hex.h"
+#include "store/sha256_hex.h"
 
 #include <openssl/evp.h>
 

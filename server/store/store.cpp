@@ -1,4 +1,4 @@
-#include "service/store.h"
+#include "store/store.h"
 
 #include <sqlite3.h>
 
@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "core/error.h"
-#include "service/record_chain.h"
-#include "service/sqlite_stmt.h"
+#include "store/record_chain.h"
+#include "store/sqlite_stmt.h"
 
 namespace fs = std::filesystem;
 
@@ -149,7 +149,7 @@ Store::Store(const std::string& dir) : dir_(dir) {
   exec(
       "CREATE TABLE IF NOT EXISTS forward_state (id INTEGER PRIMARY KEY CHECK (id = 1), seq "
       "INTEGER, image_seq INTEGER, calibration_row INTEGER, learned_row INTEGER)");
-  // The hash chain over fillets and audit entries (service/record_chain.h).
+  // The hash chain over fillets and audit entries (store/record_chain.h).
   exec(
       "CREATE TABLE IF NOT EXISTS ledger (seq INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT, "
       "ref INTEGER, ts_ns INTEGER, prev TEXT, hash TEXT)");

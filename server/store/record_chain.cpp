@@ -1,9 +1,9 @@
-#include "service/record_chain.h"
+#include "store/record_chain.h"
 
 #include <cstdio>
 
 #include "core/error.h"
-#include "service/sha256_hex.h"
+#include "store/sha256_hex.h"
 
 namespace rangex {
 

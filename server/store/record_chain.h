@@ -6,7 +6,7 @@
 #pragma once
 #include <string>
 
-#include "service/stored_records.h"
+#include "store/stored_records.h"
 
 namespace rangex {
 

@@ -7,9 +7,9 @@
 #include <set>
 
 #include "core/error.h"
-#include "service/record_chain.h"
-#include "service/sqlite_stmt.h"
-#include "service/store.h"
+#include "store/record_chain.h"
+#include "store/sqlite_stmt.h"
+#include "store/store.h"
 
 namespace fs = std::filesystem;
 

@@ -3,8 +3,8 @@
 #include <sqlite3.h>
 
 #include "core/error.h"
-#include "service/sqlite_stmt.h"
-#include "service/store.h"
+#include "store/sqlite_stmt.h"
+#include "store/store.h"
 
 namespace rangex {
 
