@@ -79,6 +79,10 @@ check "the recorded shift replays" grep -q "^lane 0: .* 1 fillets" "$work/shift.
 check "status shows latencies" grep -q "latency last_line_to_decision" "$work/status.txt"
 "$ctl" lanes --server "$addr" >"$work/lanes.txt" || fails=$((fails + 1))
 check "lanes listed" grep -q "^lane 3:" "$work/lanes.txt"
+check "an empty list says so" grep -q "^no calibrations uploaded for lane 2" \
+  <<<"$("$ctl" calib list --server "$addr" --lane 2)"
+check "no learned settings yet" grep -q "^no learned settings" \
+  <<<"$("$ctl" learned list --server "$addr")"
 printf 'laser_plane: {normal: [0, 1, 0], offset_mm: 0.02}\n' >"$work/cal.yaml"
 "$ctl" calib upload --server "$addr" --lane 1 --id cal-7 --file "$work/cal.yaml" >/dev/null || fails=$((fails + 1))
 expect_error "activation without a report is refused" "has no report" \
