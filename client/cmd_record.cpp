@@ -2,13 +2,13 @@
 // copied into a bounded recording.
 #include <grpcpp/grpcpp.h>
 
-#include <algorithm>
 #include <cstdio>
 #include <string>
 
 #include "args.h"
 #include "commands.h"
 #include "core/error.h"
+#include "learn_report.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "remote_call.h"
 
@@ -43,17 +43,7 @@ int cmd_record(int argc, char** argv) {
   if (verb == "start") {
     pb::StartRecordingRequest req;
     // Lane ids from 0 (the server names one it does not have).
-    const std::string list = a.get("lanes", "");
-    for (size_t i = 0; i < list.size();) {
-      const size_t j = std::min(list.find(',', i), list.size());
-      const std::string item = list.substr(i, j - i);
-      char* end = nullptr;
-      const long n = std::strtol(item.c_str(), &end, 10);
-      if (item.empty() || *end || n < 0 || n > 1000000)
-        fail("--lanes takes lane ids separated by commas (got '", list, "')");
-      req.add_lanes(int(n));
-      i = j + 1;
-    }
+    for (int lane : lane_list(a.get("lanes", ""))) req.add_lanes(lane);
     req.set_minutes(std::stod(a.require("minutes")));
     req.set_name(a.get("name", ""));
     pb::StartRecordingResponse resp;

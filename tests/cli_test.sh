@@ -72,6 +72,8 @@ check "feed accepted every line" grep -q ", 0 refused" "$work/feed.txt"
 "$ctl" record stop --server "$addr" >"$work/record.txt" || fails=$((fails + 1))
 check "the shift recorded lane 0's lines" grep -qE "ended: [1-9][0-9]* lines" "$work/record.txt"
 expect_error "a second stop" "no recording is running" "$ctl" record stop --server "$addr"
+expect_error "a bad lane list" "--lanes must be lane ids separated by commas (got '0,x')" \
+  "$ctl" record start --server "$addr" --lanes 0,x --minutes 1
 "$ctl" process "$work/data/recordings/cli-shift/lane0" --out "$work/shift-out" --images none \
   >"$work/shift.txt" 2>&1 || fails=$((fails + 1))
 check "the recorded shift replays" grep -q "^lane 0: .* 1 fillets" "$work/shift.txt"
