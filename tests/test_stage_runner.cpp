@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include "backend_cases.h"
+#include "backends/cpu/cpu_backend.h"
 #include "backends/stage_runner.h"
 
 using namespace rangex;
@@ -214,6 +215,61 @@ TEST(StageRunner, LanesOfDifferentShapesRunInSeparateGroups) {
   // Each group's lines in their order; lane 4's group first.
   EXPECT_EQ(order, (std::vector<int64_t>{0, 2, 1, 3}));
   EXPECT_EQ(items, size_t(2 * lanes[0].xray.pixels + 2 * lanes[1].xray.pixels));
+}
+
+// The CPU backend's two staging slots, each computed by its own worker: two batches in
+// flight come back with the reference's results whichever is collected first, a third is
+// refused, a slot collected twice is refused, and a backend dropped with a batch in flight
+// waits for it.
+TEST(CpuBackend, TwoBatchesInFlightComputeAsTheReferenceAndMisuseIsRefused) {
+  const std::vector<LaneConfig> lanes = three_lanes();
+  const SimLines a(lanes, 2, 100), b(lanes, 1, 300);
+  const LinePipeline ref(lanes, 1);
+  LineResults want_a, want_b;
+  ref.run(a.frames.data(), a.lines, a.lane_slot.data(), want_a);
+  ref.run(b.frames.data(), b.lines, b.lane_slot.data(), want_b);
+  auto fill = [](LineBatchSlot& slot, const SimLines& s) {
+    std::memcpy(slot.frames(), s.frames.data(), s.frames.size());
+    std::copy(s.lane_slot.begin(), s.lane_slot.end(), slot.lane_slot());
+  };
+  CpuBackend cpu;
+  cpu.set_lanes(lanes);
+  for (int round = 0; round < 3; ++round) {  // the same workers, batch after batch
+    LineBatchSlot& sa = cpu.acquire(a.lines);
+    fill(sa, a);
+    cpu.submit(sa);
+    LineBatchSlot& sb = cpu.acquire(b.lines);
+    fill(sb, b);
+    cpu.submit(sb);
+    try {
+      cpu.acquire(1);
+      ADD_FAILURE() << "a third slot was handed out";
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find("both staging slots are in flight"), std::string::npos)
+          << e.what();
+    }
+    LineResults got_a, got_b;
+    cpu.collect(round % 2 ? sa : sb, round % 2 ? got_a : got_b);
+    cpu.collect(round % 2 ? sb : sa, round % 2 ? got_b : got_a);
+    EXPECT_EQ(got_a.thickness, want_a.thickness) << "round " << round;
+    EXPECT_EQ(got_a.thickness_valid, want_a.thickness_valid) << "round " << round;
+    EXPECT_EQ(got_b.thickness, want_b.thickness) << "round " << round;
+    EXPECT_EQ(got_b.profile, want_b.profile) << "round " << round;
+    try {
+      LineResults again;
+      cpu.collect(sa, again);
+      ADD_FAILURE() << "a batch was collected twice";
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find("not submitted"), std::string::npos) << e.what();
+    }
+  }
+  // Dropped in flight: the slot's worker finishes into memory that is still there.
+  auto dropped = std::make_unique<CpuBackend>();
+  dropped->set_lanes(lanes);
+  LineBatchSlot& s = dropped->acquire(a.lines);
+  fill(s, a);
+  dropped->submit(s);
+  dropped.reset();
 }
 
 }  // namespace
