@@ -46,7 +46,6 @@ class CpuBackend::Slot final : public LineBatchSlot {
     {
       std::lock_guard<std::mutex> lock(mu_);
       pipe_ = &p;
-      error_ = nullptr;
       state_ = State::queued;
     }
     cv_.notify_all();
@@ -64,13 +63,12 @@ class CpuBackend::Slot final : public LineBatchSlot {
   LineResults results;
 
  private:
-  enum class State { idle, queued, running, done };
+  enum class State { idle, queued, done };  // queued until the worker has computed it
   void work() {
     std::unique_lock<std::mutex> lock(mu_);
     for (;;) {
       cv_.wait(lock, [&] { return stop_ || state_ == State::queued; });
       if (state_ != State::queued) return;  // stopped with nothing left to compute
-      state_ = State::running;
       const LinePipeline& p = *pipe_;
       lock.unlock();
       std::exception_ptr error;
