@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <sstream>
 
 #include "core/error.h"
 
@@ -88,6 +89,20 @@ std::vector<int> Args::int_list(const std::string& name, std::vector<int> def, i
       fail("--", name, " takes numbers from 1 to ", max, " separated by commas (got '", v, "')");
     out.push_back(int(n));
     i = j + 1;
+  }
+  return out;
+}
+
+std::vector<int> Args::lane_ids(const std::string& name) const {
+  const std::string v = get(name, "");
+  std::vector<int> out;
+  std::stringstream ss(v);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (item.empty() || item.find_first_not_of("0123456789") != std::string::npos ||
+        item.size() > 6)
+      fail("--", name, " must be lane ids separated by commas (got '", v, "')");
+    out.push_back(std::stoi(item));
   }
   return out;
 }

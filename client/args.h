@@ -23,6 +23,8 @@ class Args {
   double number(const std::string& name, double def, double lo, double hi) const;
   // A comma-separated list of whole numbers from 1 to `max` (def when the option is absent).
   std::vector<int> int_list(const std::string& name, std::vector<int> def, int max) const;
+  // --lanes 0,2: lane ids separated by commas (none when the option is absent).
+  std::vector<int> lane_ids(const std::string& name) const;
   void expect_positionals(size_t n, const char* usage) const;
 
  private:

@@ -130,7 +130,7 @@ int cmd_learn(int argc, char** argv) {
   opt.baseline = false;
   opt.recalibrated = a.has("calibration");
   opt.backend = backend_request(a, plant.backend);
-  if (a.has("lanes") && !simulate) opt.lanes = lane_list(a.get("lanes", ""));
+  if (a.has("lanes") && !simulate) opt.lanes = a.lane_ids("lanes");
   // Learned afresh: the extremes are taken in the default bands, whatever was learned before.
   for (auto& l : plant.lanes) l.inspection.learned = LearnedDetection{};
   std::vector<LaneFillets> lanes;

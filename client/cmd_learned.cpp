@@ -196,7 +196,7 @@ int cmd_learned(int argc, char** argv) {
     std::vector<int> lanes;
     if (a.has("lanes")) {
       if (a.has("lane")) fail("give --lane L or --lanes L,L,..., not both");
-      for (int l : lane_list(a.get("lanes", ""))) {
+      for (int l : a.lane_ids("lanes")) {
         if (std::find(lanes.begin(), lanes.end(), l) != lanes.end())
           fail("--lanes: lane ", l, " is listed twice");
         lanes.push_back(l);

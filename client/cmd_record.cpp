@@ -8,7 +8,6 @@
 #include "args.h"
 #include "commands.h"
 #include "core/error.h"
-#include "learn_report.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "remote_call.h"
 
@@ -43,7 +42,7 @@ int cmd_record(int argc, char** argv) {
   if (verb == "start") {
     pb::StartRecordingRequest req;
     // Lane ids from 0 (the server names one it does not have).
-    for (int lane : lane_list(a.get("lanes", ""))) req.add_lanes(lane);
+    for (int lane : a.lane_ids("lanes")) req.add_lanes(lane);
     req.set_minutes(std::stod(a.require("minutes")));
     req.set_name(a.get("name", ""));
     pb::StartRecordingResponse resp;

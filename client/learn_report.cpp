@@ -128,20 +128,6 @@ std::string learn_summary_text(int lane, const ProductLearning& L, const Sensiti
   return o.str();
 }
 
-// --lanes 0,2: lane ids separated by commas.
-std::vector<int> lane_list(const std::string& v) {
-  std::vector<int> out;
-  std::stringstream ss(v);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (item.empty() || item.find_first_not_of("0123456789") != std::string::npos ||
-        item.size() > 6)
-      fail("--lanes must be lane ids separated by commas (got '", v, "')");
-    out.push_back(std::stoi(item));
-  }
-  return out;
-}
-
 // --keep 0:25,1:3: fillets a failed learning named that an operator checked and found
 // clean (lane:fillet, as the learning names them).
 std::vector<std::pair<int, int64_t>> checked_clean_fillets(const std::string& v) {

@@ -20,8 +20,6 @@ void write_learn_plots(const std::filesystem::path& dir, int lane, const Product
 std::string learn_summary_text(int lane, const ProductLearning& learning,
                                const SensitivityResult& sensitivity);
 
-// --lanes 0,2: lane ids separated by commas.
-std::vector<int> lane_list(const std::string& list);
 // --keep 0:25,1:3: fillets a failed learning named that an operator checked and found
 // clean (lane:fillet, as the learning names them).
 std::vector<std::pair<int, int64_t>> checked_clean_fillets(const std::string& list);
