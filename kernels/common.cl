@@ -3,7 +3,6 @@
 // float results round as the CPU reference's do.
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL FP_CONTRACT OFF
-#include "shared/lane_tables.h"
 #include "shared/fillet_tables.h"
+#include "shared/lane_tables.h"
 #include "shared/stripe_methods.h"
-

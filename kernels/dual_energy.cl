@@ -12,8 +12,8 @@ void de_powers(double x, double* p) {
 }
 
 // The value and both partial derivatives of polynomial c at the powers pu, pv.
-void de_evaluate(global const double* c, const double* pu, const double* pv, double* f,
-                 double* du, double* dv) {
+void de_evaluate(global const double* c, const double* pu, const double* pv, double* f, double* du,
+                 double* dv) {
   double s = 0, gu = 0, gv = 0;
   int k = 0;
   for (int d = 0; d <= DE_DEGREE; ++d)
@@ -107,8 +107,7 @@ kernel void dual_energy_bone(global const float* basis, global const float* thic
   const double ra = in[0] - sa * T, rb = in[1] - sb * T;
   const double ea = (L[2] - L[0]) * T, eb = (L[3] - L[1]) * T, vp = phi_var[p];
   const double vt = k->var_t + density_var * T * T;
-  const double caa = in[2] + sa * sa * vt + ea * ea * vp,
-               cab = in[3] + sa * sb * vt + ea * eb * vp,
+  const double caa = in[2] + sa * sa * vt + ea * ea * vp, cab = in[3] + sa * sb * vt + ea * eb * vp,
                cbb = in[4] + sb * sb * vt + eb * eb * vp;
   const double det = caa * cbb - cab * cab;
   const double ia = (cbb * da - cab * db) / det, ib = (caa * db - cab * da) / det;

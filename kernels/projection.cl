@@ -47,12 +47,16 @@ kernel void project(global const float* profile, global const int* profile_valid
     if (zexit - z > MIN_SEGMENT_MM) {  // a segment of no length has no meat to sample
       double h0 = 0, h1 = 0;
       if (cell >= 0 && cell < grid_n) {
-        if (!hv[cell]) ok = false;
-        else h0 = h[cell];
+        if (!hv[cell])
+          ok = false;
+        else
+          h0 = h[cell];
       }
       if (cell + 1 >= 0 && cell + 1 < grid_n) {
-        if (!hv[cell + 1]) ok = false;
-        else h1 = h[cell + 1];
+        if (!hv[cell + 1])
+          ok = false;
+        else
+          h1 = h[cell + 1];
       }
       const double xc = gp.grid_x0_mm + cell * gp.grid_pitch_mm;
       const double ta = (xd + slope * (z - zd) - xc) / gp.grid_pitch_mm;

@@ -12,8 +12,7 @@ kernel void pseudo_xray(global const float* thickness, global const ushort* xray
   const int f = (int)get_group_id(0);
   const struct FilletModelK m = models[f];
   const bool noise = m.noise_a > 0 || m.noise_b > 0;
-  for (int i = offsets[f] + (int)get_local_id(0); i < offsets[f + 1];
-       i += (int)get_local_size(0)) {
+  for (int i = offsets[f] + (int)get_local_id(0); i < offsets[f + 1]; i += (int)get_local_size(0)) {
     if (!use[i]) {
       ln_p[i] = p[i] = residual[i] = z[i] = NAN;
       continue;

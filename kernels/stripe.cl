@@ -74,9 +74,10 @@ kernel void stripe(global const uchar* frames, int count, int width, int height,
     const float left = l > 0 ? (float)(l - 1) + (th - px(f, width, l - 1, c)) /
                                                     (px(f, width, l, c) - px(f, width, l - 1, c))
                              : (float)l - 0.5f;
-    const float right = h < height - 1 ? (float)h + (px(f, width, h, c) - th) /
-                                                        (px(f, width, h, c) - px(f, width, h + 1, c))
-                                       : (float)h + 0.5f;
+    const float right =
+        h < height - 1
+            ? (float)h + (px(f, width, h, c) - th) / (px(f, width, h, c) - px(f, width, h + 1, c))
+            : (float)h + 0.5f;
     binary = 0.5f * (left + right);
   }
   // The method's row (method_row).
@@ -84,13 +85,27 @@ kernel void stripe(global const uchar* frames, int count, int width, int height,
   const float asym = (2 * below - s0) / s0;
   float r;
   switch (sl.method) {
-    case METHOD_CENTROID: r = centroid; break;
-    case METHOD_SQUARED: r = q1 / q0; break;
-    case METHOD_BINARY: r = binary; break;
-    case METHOD_GAUSSIAN3: r = gauss; break;
-    case METHOD_PARABOLA: r = parab; break;
-    case METHOD_SHIFTED: r = centroid + sl.k1; break;
-    default: r = centroid + sl.k2_offset + sl.k2 * asym; break;
+    case METHOD_CENTROID:
+      r = centroid;
+      break;
+    case METHOD_SQUARED:
+      r = q1 / q0;
+      break;
+    case METHOD_BINARY:
+      r = binary;
+      break;
+    case METHOD_GAUSSIAN3:
+      r = gauss;
+      break;
+    case METHOD_PARABOLA:
+      r = parab;
+      break;
+    case METHOD_SHIFTED:
+      r = centroid + sl.k1;
+      break;
+    default:
+      r = centroid + sl.k2_offset + sl.k2 * asym;
+      break;
   }
   row[gid] = r;
   centroid_out[gid] = centroid;

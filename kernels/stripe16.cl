@@ -24,13 +24,12 @@ inline float half_max_column(global const uchar* f, int width, int height, int c
   while (l > 0 && (float)f[(size_t)(l - 1) * width + c] > th) --l;
   while (h < height - 1 && (float)f[(size_t)(h + 1) * width + c] > th) ++h;
   const float gl = f[(size_t)l * width + c], gh = f[(size_t)h * width + c];
-  const float left =
-      l > 0 ? (float)(l - 1) + (th - (float)f[(size_t)(l - 1) * width + c]) /
-                                   (gl - (float)f[(size_t)(l - 1) * width + c])
-            : (float)l - 0.5f;
-  const float right =
-      h < height - 1 ? (float)h + (gh - th) / (gh - (float)f[(size_t)(h + 1) * width + c])
-                     : (float)h + 0.5f;
+  const float left = l > 0 ? (float)(l - 1) + (th - (float)f[(size_t)(l - 1) * width + c]) /
+                                                  (gl - (float)f[(size_t)(l - 1) * width + c])
+                           : (float)l - 0.5f;
+  const float right = h < height - 1
+                          ? (float)h + (gh - th) / (gh - (float)f[(size_t)(h + 1) * width + c])
+                          : (float)h + 0.5f;
   return 0.5f * (left + right);
 }
 
@@ -79,7 +78,7 @@ kernel void stripe16(global const uchar* frames, int count, int width, int heigh
     const uchar16 above = p - (uchar16)(1);
     for (int r = pmax - 1; r >= 0 && any(live); --r) {
       const uchar16 G = vload16(0, f + (size_t)r * width), R = (uchar16)((uchar)r);
-      const char16 beyond = R < p, in = G > Tb;
+      const char16 beyond = R<p, in = G> Tb;
       lo = select(lo, R, live & beyond & in);
       a3 = select(a3, G, R == above);
       live = live & (~beyond | in);
@@ -87,8 +86,8 @@ kernel void stripe16(global const uchar* frames, int count, int width, int heigh
   }
   // Windows wider than max_width are glare.
   const int max_span = clamp(sl.max_width - 1, -1, 255);
-  const char16 ok = max_span < 0 ? (char16)(0)
-                                 : has_peak & ((uchar16)(hi - lo) <= (uchar16)((uchar)max_span));
+  const char16 ok =
+      max_span < 0 ? (char16)(0) : has_peak & ((uchar16)(hi - lo) <= (uchar16)((uchar)max_span));
 
   // 3-point peaks; a flat top peaks at the middle of its plateau.
   uchar a8[16], m8[16], c8[16], p8[16], lo8[16], hi8[16];
@@ -162,15 +161,27 @@ kernel void stripe16(global const uchar* frames, int count, int width, int heigh
     const float asym = (2 * bl8[k] - s08[k]) / s08[k];
     float r;
     switch (sl.method) {
-      case METHOD_CENTROID: r = centroid; break;
-      case METHOD_SQUARED: r = q18[k] / q08[k]; break;
+      case METHOD_CENTROID:
+        r = centroid;
+        break;
+      case METHOD_SQUARED:
+        r = q18[k] / q08[k];
+        break;
       case METHOD_BINARY:
         r = half_max_column(frame, width, height, c0 + k, m8[k], p8[k]);
         break;
-      case METHOD_GAUSSIAN3: r = g8[k]; break;
-      case METHOD_PARABOLA: r = q8[k]; break;
-      case METHOD_SHIFTED: r = centroid + sl.k1; break;
-      default: r = centroid + sl.k2_offset + sl.k2 * asym; break;
+      case METHOD_GAUSSIAN3:
+        r = g8[k];
+        break;
+      case METHOD_PARABOLA:
+        r = q8[k];
+        break;
+      case METHOD_SHIFTED:
+        r = centroid + sl.k1;
+        break;
+      default:
+        r = centroid + sl.k2_offset + sl.k2 * asym;
+        break;
     }
     row[o] = r;
     centroid_out[o] = centroid;

@@ -8,7 +8,7 @@ packages=(
   libyaml-cpp-dev libpng-dev libsqlite3-dev libeigen3-dev libceres-dev libopencv-dev
   libcpp-httplib-dev nlohmann-json3-dev libssl-dev openssl libspdlog-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  clang libclang-rt-14-dev
+  clang libclang-rt-14-dev clang-format
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   glslang-tools libvulkan-dev mesa-vulkan-drivers
   ocl-icd-opencl-dev opencl-headers pocl-opencl-icd

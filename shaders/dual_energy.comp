@@ -7,6 +7,8 @@
 #include "shared/dual_energy.h"
 
 layout(local_size_x = 64) in;
+// Its buffer blocks one a line (clang-format takes them for classes).
+// clang-format off
 layout(std430, binding = 0) readonly buffer Low { uint low_words[]; };
 layout(std430, binding = 1) readonly buffer High { uint high_words[]; };
 layout(std430, binding = 2) readonly buffer OpenLow { float open_low[]; };
@@ -18,10 +20,17 @@ layout(std430, binding = 7) writeonly buffer Basis { float basis[]; };
 layout(std430, binding = 8) writeonly buffer Lengths { float lengths[]; };
 layout(std430, binding = 9) writeonly buffer Sigma { float sigma[]; };
 layout(push_constant) uniform Push { DualEnergyPush pc; };
+// clang-format on
 
-uint low_at(int i) { return (low_words[i >> 1] >> (16 * (i & 1))) & 0xffffu; }
-uint high_at(int i) { return (high_words[i >> 1] >> (16 * (i & 1))) & 0xffffu; }
-bool use_at(int i) { return ((use_words[i >> 2] >> (8 * (i & 3))) & 0xffu) != 0u; }
+uint low_at(int i) {
+  return (low_words[i >> 1] >> (16 * (i & 1))) & 0xffffu;
+}
+uint high_at(int i) {
+  return (high_words[i >> 1] >> (16 * (i & 1))) & 0xffffu;
+}
+bool use_at(int i) {
+  return ((use_words[i >> 2] >> (8 * (i & 3))) & 0xffu) != 0u;
+}
 
 // ln x for x > 0: x = m 2^e with m in [sqrt(1/2), sqrt(2)), ln m = 2 atanh(s), s = (m - 1) /
 // (m + 1), |s| < 0.172, by its series to s^25 (the next term is below 1e-18).
@@ -93,8 +102,8 @@ void main() {
     }
     precise const double j0 = DE_A_MM * h.z / det, j1 = -DE_A_MM * l.z / det;
     precise const double j2 = -DE_B_MM * h.y / det, j3 = DE_B_MM * l.y / det;
-    const bool ok = !isnan(u) && !isinf(u) && !isnan(v) && !isinf(v) && abs(l.x) < 1e-6lf &&
-                    abs(h.x) < 1e-6lf;
+    const bool ok =
+        !isnan(u) && !isinf(u) && !isnan(v) && !isinf(v) && abs(l.x) < 1e-6lf && abs(h.x) < 1e-6lf;
     if (ok) {
       // The counts through the inverse's Jacobian, plus the calibration's own error.
       precise const double vx = (k.gain_low * lo + k.var_e_low) / (lo * lo);

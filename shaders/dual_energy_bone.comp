@@ -6,6 +6,8 @@
 #include "shared/dual_energy.h"
 
 layout(local_size_x = 64) in;
+// Its buffer blocks one a line (clang-format takes them for classes).
+// clang-format off
 layout(std430, binding = 0) readonly buffer Basis { float basis[]; };
 layout(std430, binding = 1) readonly buffer Thickness { float thickness[]; };
 layout(std430, binding = 2) readonly buffer Phi { float phi[]; };
@@ -14,6 +16,7 @@ layout(std430, binding = 4) readonly buffer Params { DualEnergyK k; };
 layout(std430, binding = 5) writeonly buffer Bone { float bone[]; };
 layout(std430, binding = 6) writeonly buffer BoneSigma { float bone_sigma[]; };
 layout(push_constant) uniform Push { DualEnergyPush pc; };
+// clang-format on
 
 void main() {
   const int p = int(gl_GlobalInvocationID.x);

@@ -5,6 +5,8 @@
 #include "common.glsl"
 
 layout(local_size_x = 64) in;
+// Its buffer blocks one a line (clang-format takes them for classes).
+// clang-format off
 layout(std430, binding = 0) readonly buffer Cam { float cam[]; };
 layout(std430, binding = 1) readonly buffer LaneSlot { int lane_slot[]; };
 layout(std430, binding = 2) readonly buffer Geom { LaneGeomK geom[]; };
@@ -13,6 +15,7 @@ layout(std430, binding = 4) buffer ProfileValid { int profile_valid[]; };
 layout(std430, binding = 5) writeonly buffer Counts { FusionCountK counts[]; };
 layout(std430, binding = 6) writeonly buffer Top { float top[]; };
 layout(push_constant) uniform Push { FusePush pc; };
+// clang-format on
 
 void main() {
   const int l = int(gl_GlobalInvocationID.x);
@@ -62,8 +65,10 @@ void main() {
   }
   float hmax = 0.0;
   for (int g = 0; g < grid_n; ++g) {
-    if (profile_valid[o + g] == 0) ++missing;
-    else hmax = max(hmax, profile[o + g]);
+    if (profile_valid[o + g] == 0)
+      ++missing;
+    else
+      hmax = max(hmax, profile[o + g]);
   }
   counts[l] = FusionCountK(both, single_cam, conflict, filled, missing, 0);
   top[l] = hmax;

@@ -5,6 +5,8 @@
 #include "common.glsl"
 
 layout(local_size_x = 64) in;
+// Its buffer blocks one a line (clang-format takes them for classes).
+// clang-format off
 layout(std430, binding = 0) readonly buffer X { float x[]; };
 layout(std430, binding = 1) readonly buffer Z { float z[]; };
 layout(std430, binding = 2) readonly buffer Valid { int valid[]; };
@@ -12,6 +14,7 @@ layout(std430, binding = 3) readonly buffer LaneSlot { int lane_slot[]; };
 layout(std430, binding = 4) readonly buffer Geom { LaneGeomK geom[]; };
 layout(std430, binding = 5) buffer Cam { float cam[]; };
 layout(push_constant) uniform Push { FusePush pc; };
+// clang-format on
 
 void main() {
   const int id = int(gl_GlobalInvocationID.x);

@@ -6,6 +6,8 @@
 #include "common.glsl"
 
 layout(local_size_x = 256) in;
+// Its buffer blocks one a line (clang-format takes them for classes).
+// clang-format off
 layout(std430, binding = 0) readonly buffer Thickness { float thickness[]; };
 layout(std430, binding = 1) readonly buffer Xray { uint xray_words[]; };
 layout(std430, binding = 2) readonly buffer Use { uint use_words[]; };
@@ -15,11 +17,16 @@ layout(std430, binding = 5) readonly buffer LnTable { double ln_table[]; };
 layout(std430, binding = 6) writeonly buffer R { double r[]; };
 layout(std430, binding = 7) writeonly buffer Sums { double sums[]; };
 layout(push_constant) uniform Push { FilletPush pc; };
+// clang-format on
 
 shared double part[256 * IRLS_SUMS];
 
-uint xray_at(int i) { return (xray_words[i >> 1] >> (16 * (i & 1))) & 0xffffu; }
-bool use_at(int i) { return ((use_words[i >> 2] >> (8 * (i & 3))) & 0xffu) != 0u; }
+uint xray_at(int i) {
+  return (xray_words[i >> 1] >> (16 * (i & 1))) & 0xffffu;
+}
+bool use_at(int i) {
+  return ((use_words[i >> 2] >> (8 * (i & 3))) & 0xffu) != 0u;
+}
 
 void main() {
   const int f = int(gl_WorkGroupID.x), lid = int(gl_LocalInvocationID.x);

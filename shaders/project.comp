@@ -5,6 +5,8 @@
 #include "common.glsl"
 
 layout(local_size_x = 64) in;
+// Its buffer blocks one a line (clang-format takes them for classes).
+// clang-format off
 layout(std430, binding = 0) readonly buffer Profile { float profile[]; };
 layout(std430, binding = 1) readonly buffer ProfileValid { int profile_valid[]; };
 layout(std430, binding = 2) readonly buffer Top { float top[]; };
@@ -13,6 +15,7 @@ layout(std430, binding = 4) readonly buffer Geom { LaneGeomK geom[]; };
 layout(std430, binding = 5) writeonly buffer Thickness { float thickness[]; };
 layout(std430, binding = 6) writeonly buffer ThicknessValid { int thickness_valid[]; };
 layout(push_constant) uniform Push { ProjectPush pc; };
+// clang-format on
 
 const double kMinSegmentMm = 1e-6lf;  // as ray_path.cpp
 
@@ -55,12 +58,16 @@ void main() {
     if (zexit - z > kMinSegmentMm) {  // a segment of no length has no meat to sample
       double h0 = 0.0lf, h1 = 0.0lf;
       if (cell >= 0 && cell < grid_n) {
-        if (profile_valid[h + cell] == 0) ok = false;
-        else h0 = double(profile[h + cell]);
+        if (profile_valid[h + cell] == 0)
+          ok = false;
+        else
+          h0 = double(profile[h + cell]);
       }
       if (cell + 1 >= 0 && cell + 1 < grid_n) {
-        if (profile_valid[h + cell + 1] == 0) ok = false;
-        else h1 = double(profile[h + cell + 1]);
+        if (profile_valid[h + cell + 1] == 0)
+          ok = false;
+        else
+          h1 = double(profile[h + cell + 1]);
       }
       precise const double xc = gp.grid_x0_mm + double(cell) * gp.grid_pitch_mm;
       precise const double ta = (xd + slope * (z - zd) - xc) / gp.grid_pitch_mm;

@@ -6,6 +6,8 @@
 #include "common.glsl"
 
 layout(local_size_x = 256) in;
+// Its buffer blocks one a line (clang-format takes them for classes).
+// clang-format off
 layout(std430, binding = 0) readonly buffer Thickness { float thickness[]; };
 layout(std430, binding = 1) readonly buffer Xray { uint xray_words[]; };
 layout(std430, binding = 2) readonly buffer Use { uint use_words[]; };
@@ -17,9 +19,14 @@ layout(std430, binding = 7) writeonly buffer P { float p[]; };
 layout(std430, binding = 8) writeonly buffer Residual { float residual[]; };
 layout(std430, binding = 9) writeonly buffer Z { float z[]; };
 layout(push_constant) uniform Push { FilletPush pc; };
+// clang-format on
 
-uint xray_at(int i) { return (xray_words[i >> 1] >> (16 * (i & 1))) & 0xffffu; }
-bool use_at(int i) { return ((use_words[i >> 2] >> (8 * (i & 3))) & 0xffu) != 0u; }
+uint xray_at(int i) {
+  return (xray_words[i >> 1] >> (16 * (i & 1))) & 0xffffu;
+}
+bool use_at(int i) {
+  return ((use_words[i >> 2] >> (8 * (i & 3))) & 0xffu) != 0u;
+}
 
 void main() {
   const int f = int(gl_WorkGroupID.x);

@@ -5,6 +5,8 @@
 #include "common.glsl"
 
 layout(local_size_x = 64) in;
+// Its buffer blocks one a line (clang-format takes them for classes).
+// clang-format off
 layout(std430, binding = 0) readonly buffer Frames { uint frames[]; };
 layout(std430, binding = 1) readonly buffer FrameSlot { int frame_slot[]; };
 layout(std430, binding = 2) readonly buffer Slots { StripeSlotK slots[]; };
@@ -16,6 +18,7 @@ layout(std430, binding = 7) writeonly buffer Asym { float asym_out[]; };
 layout(std430, binding = 8) writeonly buffer Centroid { float centroid_out[]; };
 layout(std430, binding = 9) writeonly buffer Valid { int valid[]; };
 layout(push_constant) uniform Push { StripePush pc; };
+// clang-format on
 
 uint frame_base;  // byte offset of this invocation's frame
 
@@ -23,7 +26,9 @@ int pxi(int y, int c) {
   const uint i = frame_base + uint(y) * uint(pc.width) + uint(c);
   return int((frames[i >> 2] >> ((i & 3u) * 8u)) & 0xFFu);
 }
-float px(int y, int c) { return float(pxi(y, c)); }
+float px(int y, int c) {
+  return float(pxi(y, c));
+}
 
 void main() {
   const uint gid = gl_GlobalInvocationID.x;
@@ -87,11 +92,10 @@ void main() {
     int l = p, h = p;
     while (l > 0 && px(l - 1, c) > th) --l;
     while (h < height - 1 && px(h + 1, c) > th) ++h;
-    precise const float left = l > 0 ? float(l - 1) + (th - px(l - 1, c)) / (px(l, c) - px(l - 1, c))
-                                     : float(l) - 0.5;
-    precise const float right = h < height - 1
-                                    ? float(h) + (px(h, c) - th) / (px(h, c) - px(h + 1, c))
-                                    : float(h) + 0.5;
+    precise const float left =
+        l > 0 ? float(l - 1) + (th - px(l - 1, c)) / (px(l, c) - px(l - 1, c)) : float(l) - 0.5;
+    precise const float right =
+        h < height - 1 ? float(h) + (px(h, c) - th) / (px(h, c) - px(h + 1, c)) : float(h) + 0.5;
     binary = 0.5 * (left + right);
   }
   // The method's row.
@@ -99,13 +103,27 @@ void main() {
   precise const float asym = (2.0 * below - s0) / s0;
   precise float r;
   switch (sl.method) {
-    case METHOD_CENTROID: r = cen; break;
-    case METHOD_SQUARED: r = q1 / q0; break;
-    case METHOD_BINARY: r = binary; break;
-    case METHOD_GAUSSIAN3: r = gauss; break;
-    case METHOD_PARABOLA: r = parab; break;
-    case METHOD_SHIFTED: r = cen + sl.k1; break;
-    default: r = cen + sl.k2_offset + sl.k2 * asym; break;
+    case METHOD_CENTROID:
+      r = cen;
+      break;
+    case METHOD_SQUARED:
+      r = q1 / q0;
+      break;
+    case METHOD_BINARY:
+      r = binary;
+      break;
+    case METHOD_GAUSSIAN3:
+      r = gauss;
+      break;
+    case METHOD_PARABOLA:
+      r = parab;
+      break;
+    case METHOD_SHIFTED:
+      r = cen + sl.k1;
+      break;
+    default:
+      r = cen + sl.k2_offset + sl.k2 * asym;
+      break;
   }
   row[gid] = r;
   centroid_out[gid] = cen;
