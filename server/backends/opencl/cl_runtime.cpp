@@ -324,4 +324,37 @@ double event_seconds(cl_event e) {
   return double(b - a) * 1e-9;
 }
 
+void launch(cl_command_queue q, cl_kernel k, size_t n, std::vector<cl_event>& ev, size_t local) {
+  if (n == 0) return;
+  cl_event e;
+  check(clEnqueueNDRangeKernel(q, k, 1, nullptr, &n, local ? &local : nullptr, 0, nullptr, &e),
+        "clEnqueueNDRangeKernel");
+  ev.push_back(e);
+}
+
+void write(cl_command_queue q, cl_mem m, const void* src, size_t bytes, std::vector<cl_event>& ev) {
+  if (bytes == 0) return;
+  cl_event e;
+  check(clEnqueueWriteBuffer(q, m, CL_FALSE, 0, bytes, src, 0, nullptr, &e),
+        "clEnqueueWriteBuffer");
+  ev.push_back(e);
+}
+
+void read(cl_command_queue q, cl_mem m, void* dst, size_t bytes, std::vector<cl_event>& ev) {
+  if (bytes == 0) return;
+  cl_event e;
+  check(clEnqueueReadBuffer(q, m, CL_FALSE, 0, bytes, dst, 0, nullptr, &e), "clEnqueueReadBuffer");
+  ev.push_back(e);
+}
+
+double seconds(std::vector<cl_event>& ev) {
+  double s = 0;
+  for (cl_event e : ev) {
+    s += event_seconds(e);
+    clReleaseEvent(e);
+  }
+  ev.clear();
+  return s;
+}
+
 }  // namespace rangex::cl

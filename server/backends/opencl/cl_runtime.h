@@ -81,4 +81,23 @@ class Context {
 // Seconds a profiled event spent between start and end.
 double event_seconds(cl_event e);
 
+// Enqueueing, every call checked: each call that enqueues work appends its event to `ev`.
+// Kernel arguments in order: buffers as cl_mem, numbers by value.
+template <typename T>
+void arg(cl_kernel k, cl_uint i, const T& v) {
+  check(clSetKernelArg(k, i, sizeof v, &v), "clSetKernelArg");
+}
+template <typename... A>
+void args(cl_kernel k, const A&... a) {
+  cl_uint i = 0;
+  (arg(k, i++, a), ...);
+}
+// n work-items in groups of `local` (0: the driver's choice); nothing for n = 0.
+void launch(cl_command_queue q, cl_kernel k, size_t n, std::vector<cl_event>& ev, size_t local = 0);
+// Non-blocking copies host -> device and device -> host; nothing for 0 bytes.
+void write(cl_command_queue q, cl_mem m, const void* src, size_t bytes, std::vector<cl_event>& ev);
+void read(cl_command_queue q, cl_mem m, void* dst, size_t bytes, std::vector<cl_event>& ev);
+// The seconds the events of `ev` spent, summed; they are released and `ev` left empty.
+double seconds(std::vector<cl_event>& ev);
+
 }  // namespace rangex::cl
