@@ -1,5 +1,6 @@
 // The opencl backend's single stages (the stage tests and benchmarks): inputs uploaded, one
 // stage run, outputs read back, on queue 0.
+#include <algorithm>
 #include <cstring>
 #include <vector>
 
