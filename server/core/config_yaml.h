@@ -126,6 +126,12 @@ bool read_spread(const ConfigNode& n);
 // inspection.learned, as rangexctl learn writes it (learned_detection_yaml.cpp).
 void read_learned(const ConfigNode& n, LearnedDetection& L);
 
+// A lane's `xray` section over `x` (xray_yaml.cpp).
+void read_xray(const ConfigNode& n, FanBeam& x);
+
+// A lane's `inspection` section over `q` (inspection_yaml.cpp).
+void read_inspection(const ConfigNode& n, InspectionParams& q);
+
 // One lane from its own node over `c`, falling back section by section to lane_defaults
 // (lane_config_yaml.cpp).
 LaneConfig read_lane(const ConfigNode& lane, const ConfigNode* defaults, LaneConfig c);

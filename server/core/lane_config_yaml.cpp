@@ -1,10 +1,10 @@
 // A lane's YAML: its sections read over a base lane (the plant's lanes, a lane's calibration
-// file), its sensors, and its calibration written back at full precision.
+// file; the xray and inspection sections in xray_yaml.cpp and inspection_yaml.cpp), its
+// sensors, and its calibration written back at full precision.
 #include <algorithm>
 #include <cmath>
 #include <optional>
 #include <sstream>
-#include <tuple>
 
 #include "core/config_yaml.h"
 
@@ -79,32 +79,43 @@ void read_camera(const ConfigNode& n, LaneCamera& cam, int w, int h) {
   cam.model = CameraModel(k, d, R, (R * c) * -1.0, w, h);
 }
 
-// xray.dual_energy (rangexctl calib dual-energy writes it): the wedge's fit as the kernels
-// read it (kernels/shared/dual_energy.h).
-void read_dual_energy(const ConfigNode& n, FanBeam& x) {
-  n.only_keys({"low", "high", "minv", "basis", "var_a", "var_b", "gain_low", "gain_high",
-               "var_e_low", "var_e_high", "var_t", "fitted_on"});
-  kernel::DualEnergyK& k = x.dual_energy;
-  auto copy = [&](const char* key, double* out, size_t count) {
-    const std::vector<double> v = number_list(n.at(key), count);
-    std::copy(v.begin(), v.end(), out);
-  };
-  copy("low", k.low, DE_TERMS);
-  copy("high", k.high, DE_TERMS);
-  copy("minv", k.minv, 9);
-  copy("basis", k.basis, 6);
-  for (auto [key, out, positive] :
-       {std::tuple{"var_a", &k.var_a, false}, std::tuple{"var_b", &k.var_b, false},
-        std::tuple{"gain_low", &k.gain_low, true}, std::tuple{"gain_high", &k.gain_high, true},
-        std::tuple{"var_e_low", &k.var_e_low, false},
-        std::tuple{"var_e_high", &k.var_e_high, false}, std::tuple{"var_t", &k.var_t, false}}) {
-    if (!n.has(key)) n.bad(std::string("missing '") + key + "'");
-    n.get(key, *out);
-    if (!(positive ? *out > 0 : *out >= 0) || !std::isfinite(*out))
-      n.at(key).bad(positive ? "must be > 0" : "must be >= 0");
+void read_laser_plane(const ConfigNode& n, LaserPlane& L) {
+  n.only_keys({"normal", "offset_mm"});
+  if (n.has("normal")) {
+    const auto v = n.at("normal").numbers(3);
+    const Vec3 nv{v[0], v[1], v[2]};
+    if (nv.norm() < 1e-9) n.at("normal").bad("must not be the zero vector");
+    L.normal = nv.normalized();
   }
-  n.get("fitted_on", x.dual_energy_fitted_on);
-  x.has_dual_energy = true;
+  n.get("offset_mm", L.offset_mm);
+}
+
+void read_stripe(const ConfigNode& n, StripeParams& p) {
+  n.only_keys({"method", "min_peak", "threshold_rel", "max_width"});
+  if (n.has("method")) {
+    try {
+      p.method = parse_stripe_method(n.at("method").str());
+    } catch (const Error& e) {
+      n.at("method").bad(e.what());
+    }
+  }
+  n.positive("min_peak", p.min_peak);
+  if (p.min_peak > 255) n.at("min_peak").bad("must be <= 255 for Mono8 frames");
+  n.get("threshold_rel", p.threshold_rel);
+  if (!(p.threshold_rel > 0 && p.threshold_rel < 1)) n.at("threshold_rel").bad("must be in (0, 1)");
+  n.positive("max_width", p.max_width);
+}
+
+void read_fusion(const ConfigNode& n, FusionParams& f) {
+  n.only_keys({"grid_pitch_mm", "grid_x0_mm", "grid_samples", "agree_tol_mm", "max_gap_mm",
+               "max_column_step_mm"});
+  n.positive("grid_pitch_mm", f.grid_pitch_mm);
+  n.get("grid_x0_mm", f.grid_x0_mm);
+  n.positive("grid_samples", f.grid_samples);
+  n.positive("agree_tol_mm", f.agree_tol_mm);
+  n.get("max_gap_mm", f.max_gap_mm);
+  if (f.max_gap_mm < 0) n.at("max_gap_mm").bad("must be >= 0");
+  n.positive("max_column_step_mm", f.max_column_step_mm);
 }
 
 }  // namespace
@@ -136,231 +147,16 @@ LaneConfig read_lane(const ConfigNode& lane, const ConfigNode* defaults, LaneCon
     for (size_t i = 0; i < 2; ++i)
       read_camera(n->item(i), c.cameras[i], c.frame_width, c.frame_height);
   }
-  if (auto n = section("laser_plane")) {
-    n->only_keys({"normal", "offset_mm"});
-    if (n->has("normal")) {
-      const auto v = n->at("normal").numbers(3);
-      const Vec3 nv{v[0], v[1], v[2]};
-      if (nv.norm() < 1e-9) n->at("normal").bad("must not be the zero vector");
-      c.laser.normal = nv.normalized();
-    }
-    n->get("offset_mm", c.laser.offset_mm);
-  }
-  if (auto n = section("xray")) {
-    n->only_keys({"pixels", "pitch_mm", "first_pixel_x_mm", "detector_z_mm", "source_mm",
-                  "tilt_deg", "delay_lines", "bits", "detector_sigma_px", "focal_spot_sigma_mm",
-                  "measured_delay_lines", "plane_alpha_deg", "plane_beta_deg", "energies",
-                  "sandwich", "dual_energy"});
-    n->positive("pixels", c.xray.pixels);
-    n->positive("pitch_mm", c.xray.pitch_mm);
-    n->get("first_pixel_x_mm", c.xray.first_pixel_x_mm);
-    n->get("detector_z_mm", c.xray.detector_z_mm);
-    if (c.xray.detector_z_mm > 0)
-      n->at("detector_z_mm").bad("the detector must be below the belt (z <= 0)");
-    if (n->has("source_mm")) {
-      const auto v = n->at("source_mm").numbers(2);
-      c.xray.source_x_mm = v[0];
-      c.xray.source_z_mm = v[1];
-    }
-    if (c.xray.source_z_mm < 100)
-      n->at("source_mm").bad("the source must be at least 100 mm above the belt");
-    n->get("tilt_deg", c.xray.tilt_deg);
-    n->get("detector_sigma_px", c.xray.detector_sigma_px);
-    n->get("focal_spot_sigma_mm", c.xray.focal_spot_sigma_mm);
-    if (!(c.xray.detector_sigma_px >= 0 && c.xray.detector_sigma_px < 20))
-      n->at("detector_sigma_px").bad("must be within 0..20 px");
-    if (!(c.xray.focal_spot_sigma_mm >= 0 && c.xray.focal_spot_sigma_mm < 10))
-      n->at("focal_spot_sigma_mm").bad("must be within 0..10 mm");
-    if (!(std::abs(c.xray.tilt_deg) <= 10))
-      n->at("tilt_deg").bad("must be within +-10 degrees (a detector line, not a second plane)");
-    n->get("delay_lines", c.xray.delay_lines);
-    if (c.xray.delay_lines < 0) n->at("delay_lines").bad("must be >= 0");
-    n->get("measured_delay_lines", c.xray.measured_delay_lines);
-    if (c.xray.measured_delay_lines != 0 &&
-        !(std::abs(c.xray.measured_delay_lines - c.xray.delay_lines) <= 1))
-      n->at("measured_delay_lines").bad("must be within one line of delay_lines");
-    n->get("plane_alpha_deg", c.xray.plane_alpha_deg);
-    n->get("plane_beta_deg", c.xray.plane_beta_deg);
-    for (const auto& [key, deg] : {std::pair{"plane_alpha_deg", c.xray.plane_alpha_deg},
-                                   std::pair{"plane_beta_deg", c.xray.plane_beta_deg}})
-      if (!(std::abs(deg) <= 5))
-        n->at(key).bad("must be within +-5 degrees (the planes are near parallel)");
-    n->get("bits", c.xray.bits);
-    if (c.xray.bits < 8 || c.xray.bits > 16) n->at("bits").bad("must be 8..16");
-    n->get("energies", c.xray.energies);
-    if (c.xray.energies != 1 && c.xray.energies != 2)
-      n->at("energies").bad("must be 1 or 2 (2: a sandwich detector's low and high lines)");
-    if (n->has("sandwich")) {
-      if (c.xray.energies != 2) n->at("sandwich").bad("is for energies: 2");
-      const ConfigNode d = n->at("sandwich");
-      d.only_keys({"kvp", "tube_filter_al_mm", "front_csi_mm", "filter_cu_mm", "back_csi_mm",
-                   "low_photons"});
-      SandwichDetector& sd = c.xray.sandwich;
-      d.get("kvp", sd.kvp);
-      d.get("tube_filter_al_mm", sd.tube_filter_al_mm);
-      d.get("front_csi_mm", sd.front_csi_mm);
-      d.get("filter_cu_mm", sd.filter_cu_mm);
-      d.get("back_csi_mm", sd.back_csi_mm);
-      d.positive("low_photons", sd.low_photons);
-      try {
-        layer_spectra(sd);
-      } catch (const Error& e) {
-        d.bad(e.what());
-      }
-    }
-    if (n->has("dual_energy")) {
-      if (c.xray.energies != 2) n->at("dual_energy").bad("is for energies: 2");
-      read_dual_energy(n->at("dual_energy"), c.xray);
-    }
-  }
-  if (auto n = section("stripe")) {
-    n->only_keys({"method", "min_peak", "threshold_rel", "max_width"});
-    if (n->has("method")) {
-      try {
-        c.stripe.method = parse_stripe_method(n->at("method").str());
-      } catch (const Error& e) {
-        n->at("method").bad(e.what());
-      }
-    }
-    n->positive("min_peak", c.stripe.min_peak);
-    if (c.stripe.min_peak > 255) n->at("min_peak").bad("must be <= 255 for Mono8 frames");
-    n->get("threshold_rel", c.stripe.threshold_rel);
-    if (!(c.stripe.threshold_rel > 0 && c.stripe.threshold_rel < 1))
-      n->at("threshold_rel").bad("must be in (0, 1)");
-    n->positive("max_width", c.stripe.max_width);
-  }
+  if (auto n = section("laser_plane")) read_laser_plane(*n, c.laser);
+  if (auto n = section("xray")) read_xray(*n, c.xray);
+  if (auto n = section("stripe")) read_stripe(*n, c.stripe);
   if (auto n = section("rectify")) {
     n->only_keys({"lut_step_px"});
     n->positive("lut_step_px", c.lut_step_px);
     if (c.lut_step_px > 64) n->at("lut_step_px").bad("must be <= 64");
   }
-  if (auto n = section("fusion")) {
-    n->only_keys({"grid_pitch_mm", "grid_x0_mm", "grid_samples", "agree_tol_mm", "max_gap_mm",
-                  "max_column_step_mm"});
-    n->positive("grid_pitch_mm", c.fusion.grid_pitch_mm);
-    n->get("grid_x0_mm", c.fusion.grid_x0_mm);
-    n->positive("grid_samples", c.fusion.grid_samples);
-    n->positive("agree_tol_mm", c.fusion.agree_tol_mm);
-    n->get("max_gap_mm", c.fusion.max_gap_mm);
-    if (c.fusion.max_gap_mm < 0) n->at("max_gap_mm").bad("must be >= 0");
-    n->positive("max_column_step_mm", c.fusion.max_column_step_mm);
-  }
-  if (auto n = section("inspection")) {
-    InspectionParams& q = c.inspection;
-    n->only_keys({"floor_mm",
-                  "min_fillet_area_mm2",
-                  "gap_lines",
-                  "max_segment_lines",
-                  "max_invalid_fraction",
-                  "tukey_c",
-                  "max_iter",
-                  "tol",
-                  "smooth_sigma_px",
-                  "z_threshold",
-                  "min_fragment_area_mm2",
-                  "air_z_threshold",
-                  "min_air_area_mm2",
-                  "baseline_sigma_mm",
-                  "soft_density_sigma",
-                  "encoder_horizon_lines",
-                  "max_wall_gap_px",
-                  "rim_walls",
-                  "line_sigma_along_px",
-                  "line_sigma_across_px",
-                  "attenuation_degree",
-                  "min_fragment_meat_mm",
-                  "false_reject_target",
-                  "matched_kernels_mm",
-                  "matched_clip",
-                  "matched_enclosure",
-                  "matched_void_factor",
-                  "matched_needles_mm",
-                  "matched_needle_diameter_mm",
-                  "learned",
-                  "spread",
-                  "dual_energy"});
-    n->positive("floor_mm", q.floor_mm);
-    n->positive("min_fillet_area_mm2", q.min_fillet_area_mm2);
-    n->positive("gap_lines", q.gap_lines);
-    n->positive("max_segment_lines", q.max_segment_lines);
-    n->get("max_invalid_fraction", q.max_invalid_fraction);
-    if (q.max_invalid_fraction < 0 || q.max_invalid_fraction > 1)
-      n->at("max_invalid_fraction").bad("must be in [0, 1]");
-    n->get("attenuation_degree", q.attenuation_degree);
-    if (q.attenuation_degree != 1 && q.attenuation_degree != 2)
-      n->at("attenuation_degree").bad("must be 1 (a line) or 2 (a parabola, for beam hardening)");
-    n->positive("tukey_c", q.tukey_c);
-    n->positive("max_iter", q.max_iter);
-    n->positive("tol", q.tol);
-    n->positive("smooth_sigma_px", q.smooth_sigma_px);
-    n->positive("z_threshold", q.z_threshold);
-    n->positive("min_fragment_area_mm2", q.min_fragment_area_mm2);
-    n->get("min_fragment_meat_mm", q.min_fragment_meat_mm);
-    if (!(q.min_fragment_meat_mm >= 0 && q.min_fragment_meat_mm <= 20))
-      n->at("min_fragment_meat_mm").bad("must be within 0..20 mm (0: off)");
-    n->positive("air_z_threshold", q.air_z_threshold);
-    if (n->has("spread")) q.spread_by_thickness = read_spread(n->at("spread"));
-    n->get("false_reject_target", q.false_reject_target);
-    if (!(q.false_reject_target > 0 && q.false_reject_target < 0.5))
-      n->at("false_reject_target").bad("must be in (0, 0.5), a fraction of fillets");
-    if (n->has("matched_kernels_mm")) {
-      q.matched_kernels_mm = number_list(n->at("matched_kernels_mm"), 0);
-      for (double d : q.matched_kernels_mm)
-        if (!(d >= 0.5 && d <= 6))
-          n->at("matched_kernels_mm").bad("sphere sizes must be within 0.5..6 mm");
-    }
-    n->get("matched_clip", q.matched_clip);
-    if (!(q.matched_clip >= 0.5 && q.matched_clip <= 100))
-      n->at("matched_clip").bad("must be within 0.5..100 robust spreads");
-    n->get("matched_enclosure", q.matched_enclosure);
-    n->get("matched_void_factor", q.matched_void_factor);
-    if (!(q.matched_void_factor == 0 ||
-          (q.matched_void_factor >= 1 && q.matched_void_factor <= 100)))
-      n->at("matched_void_factor").bad("must be 0 (no voids) or within 1..100");
-    if (n->has("matched_needles_mm")) {
-      q.matched_needles_mm = number_list(n->at("matched_needles_mm"), 0);
-      for (double d : q.matched_needles_mm)
-        if (!(d >= 1 && d <= 6))
-          n->at("matched_needles_mm").bad("needle lengths must be within 1..6 mm");
-    }
-    if (n->has("matched_needle_diameter_mm")) {
-      const ConfigNode d = n->at("matched_needle_diameter_mm");
-      q.matched_needle_diameters_mm =
-          d.node.IsSequence() ? number_list(d, 0) : std::vector<double>{d.num()};
-      if (q.matched_needle_diameters_mm.empty()) d.bad("expected a diameter or a list of them");
-      for (double x : q.matched_needle_diameters_mm)
-        if (!(x >= 0.2 && x <= 2)) d.bad("must be within 0.2..2 mm");
-    }
-    if (n->has("learned")) read_learned(n->at("learned"), q.learned);
-    if (n->has("dual_energy")) {
-      const std::string m = n->at("dual_energy").str();
-      if (m == "laser")
-        q.dual_energy = DualEnergyMethod::kLaser;
-      else if (m == "no_laser")
-        q.dual_energy = DualEnergyMethod::kNoLaser;
-      else if (m == "low_line")
-        q.dual_energy = DualEnergyMethod::kLowLine;
-      else if (m == "laser_and_low_line")
-        q.dual_energy = DualEnergyMethod::kLaserAndLowLine;
-      else
-        n->at("dual_energy")
-            .bad("'" + m + "': expected laser, no_laser, low_line or laser_and_low_line");
-    }
-    n->positive("min_air_area_mm2", q.min_air_area_mm2);
-    n->positive("baseline_sigma_mm", q.baseline_sigma_mm);
-    n->get("soft_density_sigma", q.soft_density_sigma);
-    if (!(q.soft_density_sigma >= 0 && q.soft_density_sigma <= 0.5))
-      n->at("soft_density_sigma").bad("must be within 0..0.5 (a relative sigma)");
-    n->positive("encoder_horizon_lines", q.encoder_horizon_lines);
-    n->get("line_sigma_along_px", q.line_sigma_along_px);
-    if (!(q.line_sigma_along_px >= 0 && q.line_sigma_along_px <= 20))
-      n->at("line_sigma_along_px").bad("must be within 0..20 (0: no needle kernels)");
-    n->positive("line_sigma_across_px", q.line_sigma_across_px);
-    n->get("rim_walls", q.rim_walls);
-    n->get("max_wall_gap_px", q.max_wall_gap_px);
-    if (q.max_wall_gap_px < 0 || q.max_wall_gap_px > 20)
-      n->at("max_wall_gap_px").bad("must be within 0..20 (0: never close a wall's rim)");
-  }
+  if (auto n = section("fusion")) read_fusion(*n, c.fusion);
+  if (auto n = section("inspection")) read_inspection(*n, c.inspection);
   return c;
 }
 
