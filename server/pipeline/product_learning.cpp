@@ -144,11 +144,12 @@ FlaggedFillet worst_of(const LearningFillet& f, const std::array<GevModel, kStat
   return w;
 }
 
-}  // namespace
-
-ProductLearning learn_product(const std::vector<LearningFillet>& all, const LearnOptions& opt) {
-  ProductLearning r;
-  const int bands = int(opt.band_edges_mm.size()) - 1;
+// The learning run's fillets that are fit to learn from: those with extremes, less those
+// that hold something like bone (in r.flagged; a fillet checked clean stays, in r.kept when
+// the model would have named it); what is wrong goes to r.problems.
+std::vector<const LearningFillet*> clean_fillets(const std::vector<LearningFillet>& all,
+                                                 const LearnOptions& opt, int bands,
+                                                 ProductLearning& r) {
   std::vector<const LearningFillet*> use;
   for (const auto& f : all)
     if (!f.extremes.empty()) use.push_back(&f);
@@ -256,6 +257,99 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
       if (w.log10_survival < limit) r.kept.push_back(w);
     }
   }
+  return use;
+}
+
+// One statistic's learning over the clean fillets `use`: its extreme-value model (with a tail
+// of its own when the bulk's model leaves too many extremes above its top), the thresholds
+// that spend its share of the false-reject budget, the bootstrap's `confidence` over them, and
+// the checks of the model against the extremes it was fitted to (QQ, Kolmogorov-Smirnov).
+void learn_statistic(int s, const std::vector<const LearningFillet*>& use, int bands,
+                     bool has_needle, const LearnOptions& opt, std::mt19937_64& rng,
+                     StatisticLearning& st, LearnedStatistic& ls,
+                     std::vector<std::string>& problems) {
+  st.budget = !rejecting(s) ? opt.target_frr : has_needle ? opt.target_frr / 2 : opt.target_frr;
+  const auto smp = samples_of(use, s);
+  st.samples = int(smp.size());
+  const BandUse u = band_use(use, s, bands);
+  ls.band_fraction = u.fraction, ls.band_pixels = u.pixels, ls.band_thickness_mm = u.thickness;
+  if (smp.size() < 10) {
+    if (s == kStatNeedle && !has_needle) {
+      ls.thresholds.assign(size_t(bands), 5.0);  // needle kernels off
+      return;
+    }
+    problems.push_back(std::string(statistic_name(s)) + ": only " + std::to_string(smp.size()) +
+                       " band extremes to fit");
+    ls.thresholds.assign(size_t(bands), 5.0);
+    return;
+  }
+  GevFitOptions fo;
+  st.fit = fit_gev(smp, fo);
+  if (rejecting(s) && opt.tail_from > 0 && st.fit.converged) {
+    top_check(st.fit.model, smp, st);
+    if (st.top_p < opt.tail_alpha) {
+      fo.tail_from = opt.tail_from;
+      st.fit = fit_gev(smp, fo);
+      fo.tail_from = st.fit.tail_from;  // 0 if the tail fit did not converge: the bootstrap too
+    }
+  }
+  // Air pockets are reported, never rejected: their fit is information, not a gate.
+  if (!st.fit.converged && rejecting(s))
+    problems.push_back(std::string(statistic_name(s)) + ": the extreme-value fit did not converge");
+  ls.model = st.fit.model;
+  ls.tail_from = st.fit.tail_from, ls.whole_model = st.fit.whole;
+  st.point_thresholds = thresholds_for(st.fit.model, u, st.budget);
+  // The bootstrap over fillets: each resample's model and thresholds; the thresholds used
+  // are each band's `confidence` quantile of them.
+  std::vector<std::vector<double>> boot(static_cast<size_t>(bands));
+  std::uniform_int_distribution<size_t> pick(0, use.size() - 1);
+  for (int k = 0; k < opt.bootstrap; ++k) {
+    std::vector<const LearningFillet*> re;
+    for (size_t i = 0; i < use.size(); ++i) re.push_back(use[pick(rng)]);
+    const auto rs = samples_of(re, s);
+    if (rs.size() < 10) continue;
+    const GevFit f = fit_gev(rs, fo);
+    if (!f.converged) continue;
+    const auto t = thresholds_for(f.model, band_use(re, s, bands), st.budget);
+    for (int b = 0; b < bands; ++b) boot[size_t(b)].push_back(t[size_t(b)]);
+  }
+  st.thresholds = st.point_thresholds;
+  for (int b = 0; b < bands; ++b) {
+    auto& v = boot[size_t(b)];
+    if (v.size() < 10 || u.fraction[size_t(b)] <= 0) continue;
+    std::sort(v.begin(), v.end());
+    const double q = v[std::min(v.size() - 1, size_t(opt.confidence * double(v.size())))];
+    st.thresholds[size_t(b)] = std::max(st.point_thresholds[size_t(b)], q);
+  }
+  // A tail too heavy for the extremes it was fitted to (a handful of fillets, xi at its
+  // bound) puts thresholds beyond any statistic, and beyond what plant.yaml reads back.
+  std::string beyond;
+  for (int b = 0; b < bands; ++b) {
+    double& t = st.thresholds[size_t(b)];
+    if (std::isfinite(t) && t < kMaxLearnedThreshold * 0.999) continue;
+    beyond += (beyond.empty() ? "" : ", ") + std::to_string(b);
+    t = kMaxLearnedThreshold * 0.999;
+  }
+  if (!beyond.empty() && rejecting(s)) {
+    char m[256];
+    std::snprintf(m, sizeof m,
+                  "%s: the fitted tail (xi %.2f, from %d extremes) sets no usable threshold in "
+                  "band%s %s: learn from more fillets",
+                  statistic_name(s), st.fit.model.xi, st.samples,
+                  beyond.find(',') == std::string::npos ? "" : "s", beyond.c_str());
+    problems.push_back(m);
+  }
+  ls.thresholds = st.thresholds;
+  st.implied_frr = implied(st.fit.model, u, st.thresholds);
+  qq_and_ks(st.fit, smp, st);
+}
+
+}  // namespace
+
+ProductLearning learn_product(const std::vector<LearningFillet>& all, const LearnOptions& opt) {
+  ProductLearning r;
+  const int bands = int(opt.band_edges_mm.size()) - 1;
+  const std::vector<const LearningFillet*> use = clean_fillets(all, opt, bands, r);
   r.fillets = int(use.size());
   if (r.fillets < opt.min_fillets)
     r.problems.push_back("too few clean fillets: " + std::to_string(r.fillets) + " of the " +
@@ -285,85 +379,9 @@ ProductLearning learn_product(const std::vector<LearningFillet>& all, const Lear
   L.rim_walls = opt.rim_walls;
   const bool has_needle = !samples_of(use, kStatNeedle).empty();
   std::mt19937_64 rng(opt.seed);
-  for (int s = 0; s < kStatistics; ++s) {
-    StatisticLearning& st = r.stats[size_t(s)];
-    LearnedStatistic& ls = L.stats[size_t(s)];
-    st.budget = !rejecting(s) ? opt.target_frr : has_needle ? opt.target_frr / 2 : opt.target_frr;
-    const auto smp = samples_of(use, s);
-    st.samples = int(smp.size());
-    const BandUse u = band_use(use, s, bands);
-    ls.band_fraction = u.fraction, ls.band_pixels = u.pixels, ls.band_thickness_mm = u.thickness;
-    if (smp.size() < 10) {
-      if (s == kStatNeedle && !has_needle) {
-        ls.thresholds.assign(size_t(bands), 5.0);  // needle kernels off
-        continue;
-      }
-      r.problems.push_back(std::string(statistic_name(s)) + ": only " + std::to_string(smp.size()) +
-                           " band extremes to fit");
-      ls.thresholds.assign(size_t(bands), 5.0);
-      continue;
-    }
-    GevFitOptions fo;
-    st.fit = fit_gev(smp, fo);
-    if (rejecting(s) && opt.tail_from > 0 && st.fit.converged) {
-      top_check(st.fit.model, smp, st);
-      if (st.top_p < opt.tail_alpha) {
-        fo.tail_from = opt.tail_from;
-        st.fit = fit_gev(smp, fo);
-        fo.tail_from = st.fit.tail_from;  // 0 if the tail fit did not converge: the bootstrap too
-      }
-    }
-    // Air pockets are reported, never rejected: their fit is information, not a gate.
-    if (!st.fit.converged && rejecting(s))
-      r.problems.push_back(std::string(statistic_name(s)) +
-                           ": the extreme-value fit did not converge");
-    ls.model = st.fit.model;
-    ls.tail_from = st.fit.tail_from, ls.whole_model = st.fit.whole;
-    st.point_thresholds = thresholds_for(st.fit.model, u, st.budget);
-    // The bootstrap over fillets: each resample's model and thresholds; the thresholds used
-    // are each band's `confidence` quantile of them.
-    std::vector<std::vector<double>> boot(static_cast<size_t>(bands));
-    std::uniform_int_distribution<size_t> pick(0, use.size() - 1);
-    for (int k = 0; k < opt.bootstrap; ++k) {
-      std::vector<const LearningFillet*> re;
-      for (size_t i = 0; i < use.size(); ++i) re.push_back(use[pick(rng)]);
-      const auto rs = samples_of(re, s);
-      if (rs.size() < 10) continue;
-      const GevFit f = fit_gev(rs, fo);
-      if (!f.converged) continue;
-      const auto t = thresholds_for(f.model, band_use(re, s, bands), st.budget);
-      for (int b = 0; b < bands; ++b) boot[size_t(b)].push_back(t[size_t(b)]);
-    }
-    st.thresholds = st.point_thresholds;
-    for (int b = 0; b < bands; ++b) {
-      auto& v = boot[size_t(b)];
-      if (v.size() < 10 || u.fraction[size_t(b)] <= 0) continue;
-      std::sort(v.begin(), v.end());
-      const double q = v[std::min(v.size() - 1, size_t(opt.confidence * double(v.size())))];
-      st.thresholds[size_t(b)] = std::max(st.point_thresholds[size_t(b)], q);
-    }
-    // A tail too heavy for the extremes it was fitted to (a handful of fillets, xi at its
-    // bound) puts thresholds beyond any statistic, and beyond what plant.yaml reads back.
-    std::string beyond;
-    for (int b = 0; b < bands; ++b) {
-      double& t = st.thresholds[size_t(b)];
-      if (std::isfinite(t) && t < kMaxLearnedThreshold * 0.999) continue;
-      beyond += (beyond.empty() ? "" : ", ") + std::to_string(b);
-      t = kMaxLearnedThreshold * 0.999;
-    }
-    if (!beyond.empty() && rejecting(s)) {
-      char m[256];
-      std::snprintf(m, sizeof m,
-                    "%s: the fitted tail (xi %.2f, from %d extremes) sets no usable threshold in "
-                    "band%s %s: learn from more fillets",
-                    statistic_name(s), st.fit.model.xi, st.samples,
-                    beyond.find(',') == std::string::npos ? "" : "s", beyond.c_str());
-      r.problems.push_back(m);
-    }
-    ls.thresholds = st.thresholds;
-    st.implied_frr = implied(st.fit.model, u, st.thresholds);
-    qq_and_ks(st.fit, smp, st);
-  }
+  for (int s = 0; s < kStatistics; ++s)
+    learn_statistic(s, use, bands, has_needle, opt, rng, r.stats[size_t(s)], L.stats[size_t(s)],
+                    r.problems);
   r.ok = r.problems.empty();
   return r;
 }
