@@ -12,6 +12,15 @@
 
 namespace rangex {
 
+double plane_height(const CameraModel& cam, double u, double v, double* x_mm) {
+  const Ray r = cam.pixel_ray({u, v});
+  if (std::abs(r.dir.y) < 1e-12) return kNaN;
+  const double s = -r.origin.y / r.dir.y;
+  if (s <= 0) return kNaN;
+  if (x_mm) *x_mm = r.origin.x + r.dir.x * s;
+  return r.origin.z + r.dir.z * s;
+}
+
 namespace {
 
 struct Plateau {
@@ -64,20 +73,13 @@ struct EdgeCost {
   }
 };
 
-}  // namespace
+// The scan's lines on the block, away from its ends: the middle three fifths of the longest
+// run of lines whose stripe is off the bare belt.
+struct BlockLines {
+  int64_t a, b;  // first and last line
+};
 
-double plane_height(const CameraModel& cam, double u, double v, double* x_mm) {
-  const Ray r = cam.pixel_ray({u, v});
-  if (std::abs(r.dir.y) < 1e-12) return kNaN;
-  const double s = -r.origin.y / r.dir.y;
-  if (s <= 0) return kNaN;
-  if (x_mm) *x_mm = r.origin.x + r.dir.x * s;
-  return r.origin.z + r.dir.z * s;
-}
-
-StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const CameraModel& start,
-                           const Staircase& st, const std::string& camera, bool solve) {
-  if (lines < 20) fail(camera, ": the staircase scan has only ", lines, " lines");
+BlockLines find_block(const float* rows, int64_t lines, int width, const std::string& camera) {
   // The bare belt's row per column: the median of the first lines (the scan's lead-in).
   const int64_t lead = std::min<int64_t>(15, lines / 4);
   std::vector<double> belt(width, kNaN);
@@ -113,8 +115,12 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
   }
   if (best_len < 10)
     fail(camera, ": no staircase found in the scan (the stripe never leaves the belt)");
-  const int64_t a = best_a + best_len / 5, b = best_a + best_len - 1 - best_len / 5;
-  // Column means over the middle of the block.
+  return {best_a + best_len / 5, best_a + best_len - 1 - best_len / 5};
+}
+
+// Plateaus: runs of valid columns without a jump, in the column means over the block's lines.
+std::vector<Plateau> find_plateaus(const float* rows, int width, BlockLines block) {
+  const auto [a, b] = block;
   std::vector<double> mean(width, kNaN);
   for (int u = 0; u < width; ++u) {
     double s = 0;
@@ -123,7 +129,6 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
       if (std::isfinite(rows[n * width + u])) s += rows[n * width + u], ++c;
     if (c > (b - a + 1) / 2) mean[u] = s / double(c);
   }
-  // Plateaus: runs of valid columns without a jump.
   std::vector<Plateau> pl;
   for (int u = 0; u < width;) {
     if (!std::isfinite(mean[u])) {
@@ -138,8 +143,15 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
     u = p.u1 + 1;
     if (p.u1 - p.u0 + 1 >= 6) pl.push_back(p);
   }
-  // Which plateau is which step: order along x (from the start's model), then the
-  // alignment of [belt] steps... [belt] whose nominal heights fit best.
+  return pl;
+}
+
+// Which plateau is which step: order along x (from the start's model), then the alignment
+// of [belt] steps... [belt] whose nominal heights fit best. Sets each plateau's step and
+// puts them in x order; throws naming a step that shows no flat run, or a run that does not
+// match its step. Returns whether u grows with x.
+bool assign_steps(std::vector<Plateau>& pl, const CameraModel& start, const Staircase& st,
+                  const std::string& camera) {
   for (Plateau& p : pl) {
     double s = 0;
     for (auto& [u, v] : p.cols) s += plane_height(start, u, v);
@@ -193,8 +205,13 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
            " measures ", p.nominal_height - offset,
            " mm (after the common offset): the scan does not match the staircase's drawing");
   }
+  return u_with_x;
+}
 
-  // Every run's sides at a known wall (not at the image's border).
+// Every run's sides at a known wall (not at the image's border).
+std::vector<WallSide> wall_sides(const std::vector<Plateau>& pl, const Staircase& st, int width,
+                                 bool u_with_x) {
+  const int N = int(st.heights_mm.size());
   std::vector<WallSide> walls;
   auto height_of = [&](int i) {
     return i < 0 || i >= int(pl.size()) || pl[i].step < 0 ? 0.0 : st.heights_mm[pl[i].step];
@@ -218,6 +235,67 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
       walls.push_back({st.x0_mm + st.step_width_mm * N, 0.0, st.heights_mm[N - 1], ulo, in});
     }
   }
+  return walls;
+}
+
+// The fit's residuals through its camera: the column means' heights (mm and along the image
+// rows) and the walls' boundaries (px).
+void residual_figures(StaircaseFit& f, const std::vector<Plateau>& pl,
+                      const std::vector<WallSide>& walls, const Staircase& st, double erosion) {
+  double ss = 0, ss_px = 0, se = 0;
+  int n = 0;
+  for (const Plateau& q : pl) {
+    const double z = q.step < 0 ? 0.0 : st.heights_mm[q.step];
+    for (size_t i = 2; i + 2 < q.cols.size(); ++i, ++n) {
+      const auto& [u, v] = q.cols[i];
+      const double h = plane_height(f.camera, u, v);
+      const double dh = plane_height(f.camera, u, v + 0.5) - plane_height(f.camera, u, v - 0.5);
+      ss += (h - z) * (h - z);
+      ss_px += std::pow((h - z) / dh, 2);
+      f.height_worst_mm = std::max(f.height_worst_mm, std::abs(h - z));
+    }
+  }
+  for (const WallSide& w : walls) se += std::pow(predicted_boundary(f.camera, w, erosion) - w.u, 2);
+  f.height_rms_mm = std::sqrt(ss / std::max(1, n));
+  f.height_rms_px = std::sqrt(ss_px / std::max(1, n));
+  f.edge_rms_px = std::sqrt(se / std::max(1, int(walls.size())));
+}
+
+// Table 5: every line's columns on each step, through the fit's camera.
+void step_table(StaircaseFit& f, const float* rows, int width, BlockLines block,
+                const std::vector<Plateau>& pl, const Staircase& st) {
+  for (int k = 0; k < int(st.heights_mm.size()); ++k) {
+    StepStat s;
+    s.height_mm = st.heights_mm[k];
+    double sum1 = 0, sum2 = 0;
+    for (const Plateau& q : pl) {
+      if (q.step != k) continue;
+      for (size_t i = 2; i + 2 < q.cols.size(); ++i)
+        for (int64_t line = block.a; line <= block.b; ++line) {
+          const float r = rows[line * width + q.cols[i].first];
+          if (!std::isfinite(r)) continue;
+          const double h = plane_height(f.camera, q.cols[i].first, r);
+          sum1 += h, sum2 += h * h, ++s.samples;
+        }
+    }
+    s.mean_mm = sum1 / double(std::max<int64_t>(1, s.samples));
+    s.std_mm = std::sqrt(
+        std::max(0.0, sum2 / double(std::max<int64_t>(1, s.samples)) - s.mean_mm * s.mean_mm));
+    s.error_mm = s.mean_mm - s.height_mm;
+    f.worst_step_error_mm = std::max(f.worst_step_error_mm, std::abs(s.error_mm));
+    f.steps.push_back(s);
+  }
+}
+
+}  // namespace
+
+StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const CameraModel& start,
+                           const Staircase& st, const std::string& camera, bool solve) {
+  if (lines < 20) fail(camera, ": the staircase scan has only ", lines, " lines");
+  const BlockLines block = find_block(rows, lines, width, camera);
+  std::vector<Plateau> pl = find_plateaus(rows, width, block);
+  const bool u_with_x = assign_steps(pl, start, st, camera);
+  const std::vector<WallSide> walls = wall_sides(pl, st, width, u_with_x);
 
   // The solve: the pose and the boundary erosion (px).
   double p[7];
@@ -254,25 +332,8 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
   f.converged = sum.termination_type == ceres::CONVERGENCE;
   f.camera = posed_camera(start, p);
   f.plateaus = int(pl.size());
-  // Residuals of the column means, in mm and along the image rows.
-  double ss = 0, ss_px = 0, se = 0;
-  int n = 0;
-  for (const Plateau& q : pl) {
-    const double z = q.step < 0 ? 0.0 : st.heights_mm[q.step];
-    for (size_t i = 2; i + 2 < q.cols.size(); ++i, ++n) {
-      const auto& [u, v] = q.cols[i];
-      const double h = plane_height(f.camera, u, v);
-      const double dh = plane_height(f.camera, u, v + 0.5) - plane_height(f.camera, u, v - 0.5);
-      ss += (h - z) * (h - z);
-      ss_px += std::pow((h - z) / dh, 2);
-      f.height_worst_mm = std::max(f.height_worst_mm, std::abs(h - z));
-    }
-  }
-  for (const WallSide& w : walls) se += std::pow(predicted_boundary(f.camera, w, p[6]) - w.u, 2);
+  residual_figures(f, pl, walls, st, p[6]);
   f.edge_erosion_px = p[6];
-  f.height_rms_mm = std::sqrt(ss / std::max(1, n));
-  f.height_rms_px = std::sqrt(ss_px / std::max(1, n));
-  f.edge_rms_px = std::sqrt(se / std::max(1, ne));
   // Standard deviations from the covariance (residuals already scaled by their sigma;
   // rescaled by the fit's own residual variance).
   const std::vector<double> sds =
@@ -285,28 +346,7 @@ StaircaseFit fit_staircase(const float* rows, int64_t lines, int width, const Ca
         {names[i], p[i] * k, sds.empty() ? 0 : sds[i] * k, i < 3 ? "deg (change)" : "mm"});
   }
   f.estimates.push_back({"edge_erosion_px", p[6], sds.empty() ? 0 : sds[6], "px"});
-  // Table 5: every line's columns on each step, through the solved pose.
-  for (int k = 0; k < N; ++k) {
-    StepStat s;
-    s.height_mm = st.heights_mm[k];
-    double sum1 = 0, sum2 = 0;
-    for (const Plateau& q : pl) {
-      if (q.step != k) continue;
-      for (size_t i = 2; i + 2 < q.cols.size(); ++i)
-        for (int64_t line = a; line <= b; ++line) {
-          const float r = rows[line * width + q.cols[i].first];
-          if (!std::isfinite(r)) continue;
-          const double h = plane_height(f.camera, q.cols[i].first, r);
-          sum1 += h, sum2 += h * h, ++s.samples;
-        }
-    }
-    s.mean_mm = sum1 / double(std::max<int64_t>(1, s.samples));
-    s.std_mm = std::sqrt(
-        std::max(0.0, sum2 / double(std::max<int64_t>(1, s.samples)) - s.mean_mm * s.mean_mm));
-    s.error_mm = s.mean_mm - s.height_mm;
-    f.worst_step_error_mm = std::max(f.worst_step_error_mm, std::abs(s.error_mm));
-    f.steps.push_back(s);
-  }
+  step_table(f, rows, width, block, pl, st);
   return f;
 }
 
