@@ -62,17 +62,9 @@ Mat3 from_angle_axis(const double* aa) {
   return m;
 }
 
-}  // namespace
-
-std::array<double, 10> camera_parameters(const Intrinsics& k, const Distortion& d) {
-  return {k.fx, k.fy, k.cx, k.cy, k.skew, d.k1, d.k2, d.p1, d.p2, d.k3};
-}
-
-CameraFit calibrate_camera(const std::vector<TargetView>& views, int width, int height,
-                           const CameraSolveOptions& opt) {
-  if (int(views.size()) < opt.min_views)
-    fail("too few target views: ", views.size(), " usable, at least ", opt.min_views,
-         " needed (tilted differently, spread over the sensor)");
+// Zhang's closed-form start from the views, once every corner is checked to lie on the
+// sensor.
+ZhangStart zhang_start(const std::vector<TargetView>& views, int width, int height) {
   std::vector<PlanarView> planar;
   for (const TargetView& v : views) {
     for (const Vec2& p : v.points.pixels)
@@ -82,41 +74,15 @@ CameraFit calibrate_camera(const std::vector<TargetView>& views, int width, int 
              "x", height, " sensor");
     planar.push_back(v.points);
   }
-  ZhangStart z;
   try {
-    z = zhang_initialise(planar);
+    return zhang_initialise(planar);
   } catch (const Error& e) {
     fail(e.what());
   }
-  CameraFit fit;
-  fit.zhang = z.intrinsics;
-  const auto& fx = opt.fixed;
-  double in[5] = {z.intrinsics.fx, z.intrinsics.fy, z.intrinsics.cx, z.intrinsics.cy,
-                  fx[4] ? 0.0 : z.intrinsics.skew};
-  if (opt.start) {
-    if (fx[2]) in[2] = opt.start->cx;
-    if (fx[3]) in[3] = opt.start->cy;
-  }
-  double di[5] = {0, 0, 0, 0, 0};
-  std::vector<std::array<double, 6>> pose(views.size());
-  for (size_t k = 0; k < views.size(); ++k) {
-    double R[9];
-    for (int i = 0; i < 9; ++i) R[i] = z.R[k].m[i];
-    ceres::RotationMatrixToAngleAxis(ceres::RowMajorAdapter3x3<const double>(R), pose[k].data());
-    pose[k][3] = z.t[k].x, pose[k][4] = z.t[k].y, pose[k][5] = z.t[k].z;
-  }
+}
 
-  ceres::Problem problem;
-  size_t corners = 0;
-  for (size_t k = 0; k < views.size(); ++k) {
-    const PlanarView& v = views[k].points;
-    for (size_t i = 0; i < v.board.size(); ++i, ++corners) {
-      auto* cost = new ceres::AutoDiffCostFunction<CornerCost, 2, 5, 5, 3, 3>(
-          new CornerCost{v.board[i].x, v.board[i].y, v.board[i].z, v.pixels[i].x, v.pixels[i].y});
-      problem.AddResidualBlock(cost, new ceres::HuberLoss(opt.huber_px), in, di, pose[k].data(),
-                               pose[k].data() + 3);
-    }
-  }
+// The parameters held fixed (intrinsics, then distortion) stay at their start.
+void hold_fixed(ceres::Problem& problem, double* in, double* di, const std::array<bool, 10>& fx) {
   std::vector<int> held_in, held_di;
   for (int i = 0; i < 5; ++i) {
     if (fx[i]) held_in.push_back(i);
@@ -130,32 +96,14 @@ CameraFit calibrate_camera(const std::vector<TargetView>& views, int width, int 
     problem.SetParameterBlockConstant(di);
   else if (!held_di.empty())
     problem.SetManifold(di, new ceres::SubsetManifold(5, held_di));
+}
 
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_SCHUR;
-  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  so.max_num_iterations = opt.max_iterations;
-  so.function_tolerance = 1e-12;
-  so.gradient_tolerance = 1e-12;
-  so.parameter_tolerance = 1e-12;
-  Progress progress(opt.progress);
-  if (opt.progress) {
-    so.callbacks.push_back(&progress);
-    so.update_state_every_iteration = false;
-  }
-  ceres::Solver::Summary sum;
-  ceres::Solve(so, &problem, &sum);
-  fit.iterations = int(sum.iterations.size());
-  fit.converged = sum.termination_type == ceres::CONVERGENCE;
-  if (!sum.IsSolutionUsable()) fail("camera calibration did not converge: ", sum.message);
-
-  fit.intrinsics = {in[0], in[1], in[2], in[3], in[4]};
-  fit.distortion = {di[0], di[1], di[2], di[3], di[4]};
-  fit.value = camera_parameters(fit.intrinsics, fit.distortion);
-
-  // Residuals in px, and in mm on the target (a pixel spans depth / f there).
+// Residuals in px, and in mm on the target (a pixel spans depth / f there), per view and in
+// all. Appends each corner's depth; returns the residuals' sum of squares (px^2).
+double residual_figures(CameraFit& fit, const std::vector<TargetView>& views,
+                        const std::vector<std::array<double, 6>>& pose, const double* in,
+                        const double* di, std::vector<double>& depth) {
   double ss = 0, ss_mm = 0;
-  std::vector<double> depth;
   for (size_t k = 0; k < views.size(); ++k) {
     CameraFit::View fv;
     fv.name = views[k].name;
@@ -183,14 +131,18 @@ CameraFit calibrate_camera(const std::vector<TargetView>& views, int width, int 
     fit.worst_px = std::max(fit.worst_px, fv.worst_px);
     fit.views.push_back(fv);
   }
-  fit.rms_px = std::sqrt(ss / double(corners));
-  fit.rms_mm = std::sqrt(ss_mm / double(corners));
+  const double corners = double(fit.corner_px.size());
+  fit.rms_px = std::sqrt(ss / corners);
+  fit.rms_mm = std::sqrt(ss_mm / corners);
+  return ss;
+}
 
-  // Covariance of the 10 lens parameters, scaled by the residual variance per coordinate
-  // (Ceres gives (J^T J)^-1 for unit-variance residuals).
-  const int free_params = 10 - int(std::count(fx.begin(), fx.end(), true)) + 6 * int(views.size());
-  const double dof = std::max(1.0, 2.0 * double(corners) - free_params);
-  const double sigma2 = ss / dof;
+// Covariance of the 10 lens parameters (intrinsics, then distortion), scaled by `sigma2`,
+// the residual variance per coordinate (Ceres gives (J^T J)^-1 for unit-variance
+// residuals). Zero, with a warning, where the fit is rank-deficient.
+Eigen::Matrix<double, 10, 10> lens_covariance(ceres::Problem& problem, const double* in,
+                                              const double* di, double sigma2,
+                                              std::vector<std::string>& warnings) {
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;
   co.null_space_rank = -1;
@@ -211,15 +163,19 @@ CameraFit calibrate_camera(const std::vector<TargetView>& views, int width, int 
       }
     C *= sigma2;
   } else {
-    fit.warnings.push_back("the covariance could not be computed (rank-deficient fit)");
+    warnings.push_back("the covariance could not be computed (rank-deficient fit)");
   }
-  for (int i = 0; i < 10; ++i) fit.stddev[i] = std::sqrt(std::max(0.0, C(i, i)));
+  return C;
+}
 
-  // Uncertainty map: a point on the ray through each node at the working distance,
-  // projected with parameters moved along the covariance (first order).
+// Uncertainty map: a point on the ray through each node at the working distance (the
+// corners' median depth), projected with parameters moved along the covariance (first
+// order).
+void uncertainty_map(CameraFit& fit, const Eigen::Matrix<double, 10, 10>& C,
+                     std::vector<double>& depth, int width, int height, int step) {
   std::nth_element(depth.begin(), depth.begin() + depth.size() / 2, depth.end());
   UncertaintyMap& m = fit.map;
-  m.step = opt.map_step_px;
+  m.step = step;
   m.working_distance_mm = depth[depth.size() / 2];
   m.cols = (width - 1) / m.step + 1;
   m.rows = (height - 1) / m.step + 1;
@@ -251,9 +207,11 @@ CameraFit calibrate_camera(const std::vector<TargetView>& views, int width, int 
   std::sort(sorted.begin(), sorted.end());
   m.median = sorted[sorted.size() / 2];
   m.worst = sorted.back();
+}
 
-  // Coverage: sensor cells without a corner are extrapolated, not measured.
-  const int cx = opt.coverage_cells_x, cy = opt.coverage_cells_y;
+// Coverage: sensor cells (cx x cy over the image) without a corner are extrapolated, not
+// measured; a warning names them.
+void sensor_coverage(CameraFit& fit, int width, int height, int cx, int cy) {
   std::vector<int> seen(size_t(cx) * cy, 0);
   for (const Vec2& p : fit.corner_px) {
     const int i = std::clamp(int(p.x * cx / width), 0, cx - 1);
@@ -277,6 +235,85 @@ CameraFit calibrate_camera(const std::vector<TargetView>& views, int width, int 
                                 " sensor cells without a corner (px ", empty,
                                 "): the lens model is extrapolated there; add views that "
                                 "put the target into those parts of the image"));
+}
+
+}  // namespace
+
+std::array<double, 10> camera_parameters(const Intrinsics& k, const Distortion& d) {
+  return {k.fx, k.fy, k.cx, k.cy, k.skew, d.k1, d.k2, d.p1, d.p2, d.k3};
+}
+
+CameraFit calibrate_camera(const std::vector<TargetView>& views, int width, int height,
+                           const CameraSolveOptions& opt) {
+  if (int(views.size()) < opt.min_views)
+    fail("too few target views: ", views.size(), " usable, at least ", opt.min_views,
+         " needed (tilted differently, spread over the sensor)");
+  const ZhangStart z = zhang_start(views, width, height);
+  CameraFit fit;
+  fit.zhang = z.intrinsics;
+  const auto& fx = opt.fixed;
+  double in[5] = {z.intrinsics.fx, z.intrinsics.fy, z.intrinsics.cx, z.intrinsics.cy,
+                  fx[4] ? 0.0 : z.intrinsics.skew};
+  if (opt.start) {
+    if (fx[2]) in[2] = opt.start->cx;
+    if (fx[3]) in[3] = opt.start->cy;
+  }
+  double di[5] = {0, 0, 0, 0, 0};
+  std::vector<std::array<double, 6>> pose(views.size());
+  for (size_t k = 0; k < views.size(); ++k) {
+    double R[9];
+    for (int i = 0; i < 9; ++i) R[i] = z.R[k].m[i];
+    ceres::RotationMatrixToAngleAxis(ceres::RowMajorAdapter3x3<const double>(R), pose[k].data());
+    pose[k][3] = z.t[k].x, pose[k][4] = z.t[k].y, pose[k][5] = z.t[k].z;
+  }
+
+  ceres::Problem problem;
+  size_t corners = 0;
+  for (size_t k = 0; k < views.size(); ++k) {
+    const PlanarView& v = views[k].points;
+    for (size_t i = 0; i < v.board.size(); ++i, ++corners) {
+      auto* cost = new ceres::AutoDiffCostFunction<CornerCost, 2, 5, 5, 3, 3>(
+          new CornerCost{v.board[i].x, v.board[i].y, v.board[i].z, v.pixels[i].x, v.pixels[i].y});
+      problem.AddResidualBlock(cost, new ceres::HuberLoss(opt.huber_px), in, di, pose[k].data(),
+                               pose[k].data() + 3);
+    }
+  }
+  hold_fixed(problem, in, di, fx);
+
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_SCHUR;
+  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  so.max_num_iterations = opt.max_iterations;
+  so.function_tolerance = 1e-12;
+  so.gradient_tolerance = 1e-12;
+  so.parameter_tolerance = 1e-12;
+  Progress progress(opt.progress);
+  if (opt.progress) {
+    so.callbacks.push_back(&progress);
+    so.update_state_every_iteration = false;
+  }
+  ceres::Solver::Summary sum;
+  ceres::Solve(so, &problem, &sum);
+  fit.iterations = int(sum.iterations.size());
+  fit.converged = sum.termination_type == ceres::CONVERGENCE;
+  if (!sum.IsSolutionUsable()) fail("camera calibration did not converge: ", sum.message);
+
+  fit.intrinsics = {in[0], in[1], in[2], in[3], in[4]};
+  fit.distortion = {di[0], di[1], di[2], di[3], di[4]};
+  fit.value = camera_parameters(fit.intrinsics, fit.distortion);
+
+  std::vector<double> depth;
+  const double ss = residual_figures(fit, views, pose, in, di, depth);
+
+  // The lens parameters' covariance, scaled by the residual variance per coordinate.
+  const int free_params = 10 - int(std::count(fx.begin(), fx.end(), true)) + 6 * int(views.size());
+  const double dof = std::max(1.0, 2.0 * double(corners) - free_params);
+  const Eigen::Matrix<double, 10, 10> C = lens_covariance(problem, in, di, ss / dof, fit.warnings);
+  for (int i = 0; i < 10; ++i) fit.stddev[i] = std::sqrt(std::max(0.0, C(i, i)));
+
+  uncertainty_map(fit, C, depth, width, height, opt.map_step_px);
+  sensor_coverage(fit, width, height, opt.coverage_cells_x, opt.coverage_cells_y);
+  const UncertaintyMap& m = fit.map;
   if (m.worst > 4 * m.median)
     fit.warnings.push_back(join("projection uncertainty reaches ", m.worst, " px (median ",
                                 m.median, " px): parts of the sensor are poorly constrained"));
