@@ -65,7 +65,8 @@ void parse_fixed(const std::string& list_text, CameraSolveOptions& opt) {
 int solve_camera(int argc, char** argv) {
   const Args a(argc, argv, 3, {"skip-unfound"},
                {"config", "lane", "cam", "calibration", "out", "fix"});
-  a.expect_positionals(1, "calib camera DIR [--cam N] [--calibration FILE] [--out FILE]");
+  a.expect_positionals(
+      1, "calib camera DIR [--cam N] [--fix PARAMS] [--calibration FILE] [--out FILE]");
   const std::string dir = a.positional(0, "image folder");
   CameraImagesOptions opt;
   opt.cam = int(a.integer("cam", read_target_board(dir).camera.value_or(0)));

@@ -53,8 +53,9 @@ calibration of a lane (docs/calibration.md); each solve reads --calibration FILE
 plant's lane), writes the updated calibration to --out FILE and its report to FILE.reports/:
   calib simulate targets|staircase|pins|blocks OUT [--lane L] [--rig-seed S] [--cam N]
       calibration scans from the simulator (--rig-seed: a rig that differs from plant.yaml)
-  calib camera DIR [--cam N] [--fix-skew] [--skip-unfound]
-      intrinsics and distortion from target images (DIR/board.yaml describes the board)
+  calib camera DIR [--cam N] [--fix skew,k1,k2,p1,p2,k3] [--skip-unfound]
+      intrinsics and distortion from target images (DIR/board.yaml describes the board;
+      --fix: parameters held, skew and distortion terms at 0)
   calib staircase SCAN     both cameras' poses from a staircase scan (SCAN/staircase.yaml)
   calib xray SCAN | --pins CSV [--hold-pitch] [--row-offsets]
       fan-beam geometry and blur from a pin-phantom scan (SCAN/pin_phantom.yaml) or pins

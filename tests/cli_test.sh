@@ -173,6 +173,25 @@ check "and its TLS options" has "--ca CA.pem"
 help=$("$ctl" bench --help)
 check "bench --help sits under the benchmarks" has "^benchmarks"
 check "not under the calibration" lacks "calibration of a lane"
+# Every option the usage names is one its command takes (the usage once offered
+# `calib camera --fix-skew`, an option that command did not know). A command's entry is its
+# line and the lines indented under it; its options are given to it at once, with bad values
+# (an unknown option is refused before any value is read).
+usage=$("$ctl" help 2>&1)
+commands=$(grep -E "^  [a-z]" <<<"$usage" | awk '{ print ($2 ~ /^[a-z]/ && $1 ~ /^(audit|calib|db|learned|record|verify)$/) ? $1 " " $2 : $1 }' | sort -u)
+tried=0
+while read -r cmd; do
+  args=()
+  for opt in $(awk -v c="  $cmd " 'index($0, c) == 1 { on = 1; print; next }
+      on && /^      / { print; next } { on = 0 }' <<<"$usage" | grep -oE -- "--[a-z][a-z0-9-]*" | sort -u); do
+    args+=("$opt" x)
+    tried=$((tried + 1))
+  done
+  [ ${#args[@]} -eq 0 ] && continue
+  out=$(timeout 20 "$ctl" $cmd nowhere "${args[@]}" 2>&1)
+  check "$cmd takes every option the usage names" bash -c '! grep -q "unknown option" <<<"$1"' _ "$out"
+done <<<"$commands"
+check "the usage's options were tried ($tried)" test "$tried" -gt 100
 "$ctl" nosuch --help >/dev/null 2>&1
 check "an unknown command's --help is refused (exit 2)" test $? -eq 2
 
