@@ -178,7 +178,8 @@ check "not under the calibration" lacks "calibration of a lane"
 # line and the lines indented under it; its options are given to it at once, with bad values
 # (an unknown option is refused before any value is read).
 usage=$("$ctl" help 2>&1)
-commands=$(grep -E "^  [a-z]" <<<"$usage" | awk '{ print ($2 ~ /^[a-z]/ && $1 ~ /^(audit|calib|db|learned|record|verify)$/) ? $1 " " $2 : $1 }' | sort -u)
+# A lowercase second word is a subcommand (`calib camera`); else the command is one word.
+commands=$(grep -E "^  [a-z]" <<<"$usage" | awk '{ print ($2 ~ /^[a-z]/) ? $1 " " $2 : $1 }' | sort -u)
 tried=0
 while read -r cmd; do
   args=()
