@@ -106,7 +106,9 @@ ServerOptions options(const test::TempDir& t) {
   o.engine.queue_lines = 4096;
   o.engine.backend = cpu_request();
   o.engine.images = false;
-  o.engine.stall_s = 2;
+  // Long enough that a slow batch is not a stall: under TSan on CI's loaded 2 cores one batch
+  // took over 2 s (stop 95), and a test that waits for the store's failure saw that instead.
+  o.engine.stall_s = 30;
   // A hang bound: under TSan on a loaded machine a 4,096-line queue took over 30 s to drain.
   o.engine.drain_timeout_s = 300;
   return o;
@@ -871,8 +873,10 @@ TEST(IngestConcurrency, LockedStoreTurnsHealthNotServingAndNoDecisionIsLost) {
     }
     s.finish();
   }
-  while (test::health(ch, "") != 2) std::this_thread::sleep_for(10ms);
-  EXPECT_EQ(test::health(ch, "rangex.v1.ResultsService"), 2);
+  // Wait for the store's failure itself: a slow batch can make health NOT_SERVING for a moment
+  // on its own, and that says nothing about the store.
+  while (test::health(ch, "rangex.v1.ResultsService") != 2) std::this_thread::sleep_for(10ms);
+  EXPECT_EQ(test::health(ch, ""), 2);
   EXPECT_TRUE(sub.uids().empty());  // nothing published that is not stored
   sqlite3_exec(db, "ROLLBACK", nullptr, nullptr, nullptr);
   sqlite3_close(db);
