@@ -92,7 +92,7 @@ check "calibrated false rejects no more than the nominal rig's" \
 srv="$(dirname "$ctl")/../server/daemon/rangexd"
 "$srv" --listen 127.0.0.1:0 --http 127.0.0.1:0 --data "$work/data" >rangexd.log 2>&1 &
 pid=$!
-for _ in $(seq 100); do grep -q "listening on" rangexd.log && break; sleep 0.1; done
+for _ in $(seq 600); do grep -q "listening on" rangexd.log && break; kill -0 $pid 2>/dev/null || break; sleep 0.1; done
 addr=$(sed -nE 's/.*listening on ([0-9.]+:[0-9]+).*/\1/p' rangexd.log)
 up=$("$ctl" calib upload --server "$addr" --lane 0 --id solved --file lane0.yaml 2>&1)
 check "upload carries the reports" grep -q "report: passed" <<<"$up"

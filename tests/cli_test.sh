@@ -63,7 +63,7 @@ expect_error "bad csv" "bad.csv:3: column 2 ('lnI') is not a finite number" "$ct
 srv="$(dirname "$ctl")/../server/daemon/rangexd"
 "$srv" --listen 127.0.0.1:0 --http 127.0.0.1:0 --data "$work/data" >"$work/rangexd.log" 2>&1 &
 pid=$!
-for _ in $(seq 100); do grep -q "listening on" "$work/rangexd.log" && break; sleep 0.1; done
+for _ in $(seq 600); do grep -q "listening on" "$work/rangexd.log" && break; kill -0 $pid 2>/dev/null || break; sleep 0.1; done
 addr=$(sed -nE 's/.*listening on ([0-9.]+:[0-9]+).*/\1/p' "$work/rangexd.log")
 check "rangexd listens on loopback ($addr)" grep -q "^127.0.0.1:" <<<"$addr"
 "$ctl" record start --server "$addr" --lanes 0 --minutes 5 --name cli-shift >/dev/null || fails=$((fails + 1))
@@ -118,7 +118,7 @@ wait $pid
 check "graceful stop" grep -q "rangexd: stopped after" "$work/rangexd.log"
 "$srv" --listen 127.0.0.1:0 --http 127.0.0.1:0 --data "$work/data" >"$work/rangexd2.log" 2>&1 &
 pid=$!
-for _ in $(seq 100); do grep -q "listening on" "$work/rangexd2.log" && break; sleep 0.1; done
+for _ in $(seq 600); do grep -q "listening on" "$work/rangexd2.log" && break; kill -0 $pid 2>/dev/null || break; sleep 0.1; done
 addr=$(sed -nE 's/.*listening on ([0-9.]+:[0-9]+).*/\1/p' "$work/rangexd2.log")
 check "results kept across a restart" test "$("$ctl" fillets --server "$addr" | wc -l)" -ge 2
 kill -TERM $pid

@@ -58,7 +58,7 @@ start_server() {  # start_server a|b N [PLANT]: starts it, sets addr_a / addr_b,
     --listen 127.0.0.1:0 --http 127.0.0.1:0 >>"$work/rangexd-$s.log" 2>&1 &
   pids+=($!)
   eval "pid_$s=$!"
-  for _ in $(seq 200); do
+  for _ in $(seq 600); do
     [ "$(grep -c "listening on" "$work/rangexd-$s.log")" -ge "$2" ] && break
     sleep 0.1
   done
