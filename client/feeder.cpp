@@ -83,6 +83,157 @@ void retain(std::map<int, std::deque<InFlight>>& retained, InFlight&& line, int6
   while (!kept.empty() && kept.front().req->line().encoder() <= durable) kept.pop_front();
 }
 
+// Asks the server for its credit (and each lane's settled count), with sh.mu held by `lock`;
+// the answer is taken by the reader. False when the stream would not take the query.
+template <class Stream>
+bool ask_credit(Stream& stream, Shared& sh, uint64_t& seq, std::unique_lock<std::mutex>& lock) {
+  pb::StreamLinesRequest query;
+  query.set_sequence(seq++);
+  query.set_credit_query(true);
+  sh.query_pending = true;
+  sh.query_sequence = query.sequence();
+  lock.unlock();
+  const bool open = stream.Write(query);  // no lock held: the reader must keep taking answers
+  lock.lock();
+  return open;
+}
+
+bool first_sent(const InFlight& a, const InFlight& b) {
+  return a.req->sequence() < b.req->sequence();
+}
+
+void tell(const FeedOptions& opt, const std::string& m) {
+  if (opt.log) opt.log(m);
+}
+
+// One answer of the server, with sh.mu held: the credit, the answer to a credit query, or the
+// outcome of the oldest unacknowledged line (accepted, handed back, or refused).
+void take_answer(const pb::StreamLinesResponse& r, Shared& sh, FeedReport& rep,
+                 std::map<std::string, int>& told, const FeedOptions& opt) {
+  sh.credit = r.credit();
+  sh.epoch = r.server_epoch();
+  sh.progress = Clock::now();
+  if (sh.query_pending && r.sequence() == sh.query_sequence) {
+    sh.query_pending = false;
+    ++sh.answered_on_stream;
+    for (const pb::LaneProgress& p : r.lanes())
+      if (p.has_settled_encoder()) sh.settled[p.lane()] = p.settled_encoder();
+    return;
+  }
+  if (sh.unacked.empty() || sh.unacked.front().req->sequence() != r.sequence()) return;
+  InFlight line = std::move(sh.unacked.front());
+  sh.unacked.pop_front();
+  const std::string& code = r.error().code();
+  if (r.accepted() || (line.resent && code == "DUPLICATE_LINE")) {
+    if (!line.acked) ++rep.accepted;
+    if (line.resent && code == "DUPLICATE_LINE") ++rep.duplicates;
+    line.acked = true;
+    ++sh.acked_on_stream;
+    // Before the lane has a durable count nothing of it is durable: all kept.
+    if (opt.keep_until_durable)
+      retain(sh.retained, std::move(line),
+             r.has_durable_encoder() ? r.durable_encoder() : INT64_MIN);
+  } else if (code == "SHUTTING_DOWN" || code == "STORE_UNAVAILABLE") {
+    // Not taken, not lost: kept, and sent again in order once a server can take it.
+    ++rep.handed_back;
+    if (told[code]++ < 1)
+      tell(opt,
+           "lines handed back (" + code + ": " + r.error().message() + "); they are sent again");
+    line.resent = true;
+    sh.handed_back.push_back(std::move(line));
+    sh.holding = true;
+  } else {
+    ++rep.refused[code];
+    if (told[code]++ < 3)
+      tell(opt, "line " + std::to_string(r.sequence()) + " refused: " + code + ": " +
+                    r.error().message());
+  }
+}
+
+// Without an answer for reconnect_for_s (a server that does not come back: a call that waits
+// for it would wait for ever, its opening included), the stream is cancelled and the feed
+// gives up, naming what is not settled. `opening` and `over` are read under sh.mu.
+std::thread watch_stream(Shared& sh, grpc::ClientContext& ctx, const bool& opening,
+                         const bool& over, double reconnect_for_s) {
+  return std::thread([&sh, &ctx, &opening, &over, reconnect_for_s] {
+    std::unique_lock<std::mutex> lock(sh.mu);
+    while (!over) {
+      sh.cv.wait_for(lock, std::chrono::milliseconds(200));
+      const bool waiting = opening || !sh.unacked.empty() || sh.query_pending;  // an answer
+      if (!over && waiting &&
+          Clock::now() - sh.progress > std::chrono::duration<double>(reconnect_for_s)) {
+        lock.unlock();
+        ctx.TryCancel();
+        return;
+      }
+    }
+  });
+}
+
+// After the first answer of a new stream, with sh.mu held: what this stream resends before
+// new lines, in the order first sent. Another server than the one that acknowledged the
+// retained lines (rangexd restarted) lacks what it had not made durable: those go too.
+void gather_resends(Shared& sh, std::deque<InFlight>& again, uint64_t& known_epoch) {
+  if (sh.epoch != known_epoch && known_epoch != 0) {
+    for (auto& [lane, kept] : sh.retained)
+      for (InFlight& f : kept) again.push_back(std::move(f));
+    sh.retained.clear();
+  }
+  if (!sh.broken) known_epoch = sh.epoch;
+  for (InFlight& f : sh.unacked) again.push_back(std::move(f));
+  sh.unacked.clear();
+  for (InFlight& f : sh.handed_back) again.push_back(std::move(f));
+  sh.handed_back.clear();
+  std::sort(again.begin(), again.end(), first_sent);
+}
+
+// After a stream ended, with sh.mu held: what it did not get to resend waits for the next,
+// with what it left unacknowledged and what was handed back.
+void keep_for_next_stream(Shared& sh, std::deque<InFlight>& again) {
+  for (InFlight& f : again) sh.unacked.push_back(std::move(f));
+  again.clear();
+  for (InFlight& f : sh.handed_back) sh.unacked.push_back(std::move(f));
+  sh.handed_back.clear();
+  std::sort(sh.unacked.begin(), sh.unacked.end(), first_sent);
+}
+
+// The wait before a credit query that no line carries: longer each time, spread so that the
+// streams of a plant do not all ask at the same moment.
+struct Probe {
+  std::chrono::milliseconds wait{50};
+  std::minstd_rand jitter;
+};
+
+// Flow control: at most `window` lines unacknowledged, and no more than the credit of the
+// last answer (this stream's share of the server's queue, counted after that line: the
+// lines sent since will take from it). With no credit and nothing outstanding, ask for the
+// credit again after a while, longer each time: never with a line, which a full queue would
+// drop. False when this stream sends no more (it ended, lines were handed back, or `open`
+// was cleared by a query it would not take).
+template <class Stream>
+bool wait_for_room(Stream& stream, Shared& sh, int window, uint64_t& seq, Probe& probe,
+                   bool& open) {
+  std::unique_lock<std::mutex> lock(sh.mu);
+  while (true) {
+    sh.cv.wait(lock, [&] {
+      const int limit = std::min(window, std::max(sh.credit, 0));
+      return sh.broken || sh.holding ||
+             (!sh.query_pending && (int(sh.unacked.size()) < limit || sh.unacked.empty()));
+    });
+    if (sh.broken || sh.holding || int(sh.unacked.size()) < std::min(window, sh.credit)) break;
+    // Spread over half to one and a half times the wait.
+    lock.unlock();
+    std::this_thread::sleep_for(probe.wait / 2 + probe.wait * (probe.jitter() % 1000) / 1000);
+    probe.wait = std::min(probe.wait * 2, std::chrono::milliseconds(1000));
+    lock.lock();
+    open = ask_credit(stream, sh, seq, lock);
+    if (!open) break;
+  }
+  if (sh.broken || sh.holding || !open) return false;
+  probe.wait = std::chrono::milliseconds(50);
+  return true;
+}
+
 // After the last line: credit queries until every lane fed is settled past its last line
 // (true), the stream ends or hands lines back, or settle_for_s has passed since the first
 // call (false). The answers' lane progress is taken by the reader.
@@ -103,15 +254,7 @@ bool wait_settled_on(Stream& stream, Shared& sh, uint64_t& seq,
     if (all) return true;
     if (sh.broken || sh.holding) return false;
     if (Clock::now() - start > std::chrono::duration<double>(settle_for_s)) return false;
-    pb::StreamLinesRequest query;
-    query.set_sequence(seq++);
-    query.set_credit_query(true);
-    sh.query_pending = true;
-    sh.query_sequence = query.sequence();
-    lock.unlock();
-    const bool open = stream.Write(query);
-    lock.lock();
-    if (!open) return false;
+    if (!ask_credit(stream, sh, seq, lock)) return false;
     sh.cv.wait(lock, [&] { return !sh.query_pending || sh.broken; });
     lock.unlock();
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
@@ -119,14 +262,32 @@ bool wait_settled_on(Stream& stream, Shared& sh, uint64_t& seq,
   }
 }
 
+// What is not known to be in the store: the kept lines above each lane's last settled count
+// (or every line of a lane never reported), as each lane's (first, last) count.
+std::map<int, std::pair<int64_t, int64_t>> unsettled_counts(
+    const Shared& sh, const std::map<int, int64_t>& last_sent) {
+  std::map<int, std::pair<int64_t, int64_t>> out;
+  for (const auto& [lane, last] : last_sent) {
+    const auto it = sh.settled.find(lane);
+    if (it != sh.settled.end() && it->second >= last) continue;
+    int64_t first = last;
+    auto lower = [&](const std::deque<InFlight>& d) {
+      for (const InFlight& f : d)
+        if (f.req->line().lane() == lane) first = std::min(first, f.req->line().encoder());
+    };
+    if (auto k = sh.retained.find(lane); k != sh.retained.end()) lower(k->second);
+    lower(sh.unacked);
+    if (it != sh.settled.end()) first = std::max(first, it->second + 1);
+    out[lane] = {first, last};
+  }
+  return out;
+}
+
 }  // namespace
 
 FeedReport Feeder::run(LineSource& source) {
   FeedReport rep;
   Shared sh;
-  auto say = [&](const std::string& m) {
-    if (opt_.log) opt_.log(m);
-  };
   std::map<std::string, int> told;
   auto stub = pb::IngestService::NewStub(channel_);
   const auto lanes = source.lanes();
@@ -136,8 +297,8 @@ FeedReport Feeder::run(LineSource& source) {
   uint64_t seq = 0;
   constexpr std::chrono::milliseconds kFirstBackoff(100);
   auto backoff = kFirstBackoff;
-  auto probe_wait = std::chrono::milliseconds(50);
-  std::minstd_rand jitter(uint32_t(reinterpret_cast<uintptr_t>(&sh)));
+  Probe probe{std::chrono::milliseconds(50),
+              std::minstd_rand(uint32_t(reinterpret_cast<uintptr_t>(&sh)))};
   std::deque<InFlight> again;        // to resend on this stream, in first-sent order
   uint64_t known_epoch = 0;          // of the server that acknowledged what is retained
   std::map<int, int64_t> last_sent;  // by lane
@@ -147,23 +308,8 @@ FeedReport Feeder::run(LineSource& source) {
   while (true) {
     grpc::ClientContext ctx;
     ctx.set_wait_for_ready(true);  // a reconnect waits for the server to be back
-    // Without an answer for reconnect_for_s (a server that does not come back: a call that
-    // waits for it would wait for ever, its opening included), the stream is cancelled and
-    // the feed gives up, naming what is not settled.
     bool stream_over = false, opening = true;
-    std::thread guard([&] {
-      std::unique_lock<std::mutex> lock(sh.mu);
-      while (!stream_over) {
-        sh.cv.wait_for(lock, std::chrono::milliseconds(200));
-        const bool waiting = opening || !sh.unacked.empty() || sh.query_pending;  // an answer
-        if (!stream_over && waiting &&
-            Clock::now() - sh.progress > std::chrono::duration<double>(opt_.reconnect_for_s)) {
-          lock.unlock();
-          ctx.TryCancel();
-          return;
-        }
-      }
-    });
+    std::thread guard = watch_stream(sh, ctx, opening, stream_over, opt_.reconnect_for_s);
     auto stream = stub->StreamLines(&ctx);
     {
       std::lock_guard<std::mutex> lock(sh.mu);
@@ -178,45 +324,7 @@ FeedReport Feeder::run(LineSource& source) {
       pb::StreamLinesResponse r;
       while (stream->Read(&r)) {
         std::lock_guard<std::mutex> lock(sh.mu);
-        sh.credit = r.credit();
-        sh.epoch = r.server_epoch();
-        sh.progress = Clock::now();
-        if (sh.query_pending && r.sequence() == sh.query_sequence) {
-          sh.query_pending = false;
-          ++sh.answered_on_stream;
-          for (const pb::LaneProgress& p : r.lanes())
-            if (p.has_settled_encoder()) sh.settled[p.lane()] = p.settled_encoder();
-          sh.cv.notify_all();
-          continue;
-        }
-        if (sh.unacked.empty() || sh.unacked.front().req->sequence() != r.sequence()) continue;
-        InFlight line = std::move(sh.unacked.front());
-        sh.unacked.pop_front();
-        const std::string& code = r.error().code();
-        if (r.accepted() || (line.resent && code == "DUPLICATE_LINE")) {
-          if (!line.acked) ++rep.accepted;
-          if (line.resent && code == "DUPLICATE_LINE") ++rep.duplicates;
-          line.acked = true;
-          ++sh.acked_on_stream;
-          // Before the lane has a durable count nothing of it is durable: all kept.
-          if (opt_.keep_until_durable)
-            retain(sh.retained, std::move(line),
-                   r.has_durable_encoder() ? r.durable_encoder() : INT64_MIN);
-        } else if (code == "SHUTTING_DOWN" || code == "STORE_UNAVAILABLE") {
-          // Not taken, not lost: kept, and sent again in order once a server can take it.
-          ++rep.handed_back;
-          if (told[code]++ < 1)
-            say("lines handed back (" + code + ": " + r.error().message() +
-                "); they are sent again");
-          line.resent = true;
-          sh.handed_back.push_back(std::move(line));
-          sh.holding = true;
-        } else {
-          ++rep.refused[code];
-          if (told[code]++ < 3)
-            say("line " + std::to_string(r.sequence()) + " refused: " + code + ": " +
-                r.error().message());
-        }
+        take_answer(r, sh, rep, told, opt_);
         sh.cv.notify_all();
       }
       std::lock_guard<std::mutex> lock(sh.mu);
@@ -224,76 +332,21 @@ FeedReport Feeder::run(LineSource& source) {
       sh.cv.notify_all();
     });
 
-    // First a credit query: its answer tells whether this is the server that had our
-    // lines. Another one (rangexd restarted) lacks what it had not made durable: those are
-    // resent with the unacknowledged lines, in the order first sent, before new lines; the
-    // same one still has them.
+    // First a credit query: its answer tells whether this is the server that had our lines.
     bool open = true;
     {
-      pb::StreamLinesRequest query;
-      query.set_sequence(seq++);
-      query.set_credit_query(true);
       std::unique_lock<std::mutex> lock(sh.mu);
-      sh.query_pending = true;
-      sh.query_sequence = query.sequence();
-      lock.unlock();
-      open = stream->Write(query);
-      lock.lock();
+      open = ask_credit(*stream, sh, seq, lock);
       if (open) sh.cv.wait(lock, [&] { return !sh.query_pending || sh.broken; });
-      if (sh.epoch != known_epoch && known_epoch != 0) {
-        for (auto& [lane, kept] : sh.retained)
-          for (InFlight& f : kept) again.push_back(std::move(f));
-        sh.retained.clear();
-      }
-      if (!sh.broken) known_epoch = sh.epoch;
-      for (InFlight& f : sh.unacked) again.push_back(std::move(f));
-      sh.unacked.clear();
-      for (InFlight& f : sh.handed_back) again.push_back(std::move(f));
-      sh.handed_back.clear();
-      std::sort(again.begin(), again.end(), [](const InFlight& a, const InFlight& b) {
-        return a.req->sequence() < b.req->sequence();
-      });
+      gather_resends(sh, again, known_epoch);
     }
     while (open && (!again.empty() || next < total)) {
       const int64_t n = next / int64_t(lanes.size());
       const int li = int(next % int64_t(lanes.size()));
       if (again.empty() && opt_.rate > 0 && li == 0)  // pace: line n of every lane at n / rate s
         std::this_thread::sleep_until(t0 + std::chrono::duration<double>(double(n) / opt_.rate));
+      if (!wait_for_room(*stream, sh, opt_.window, seq, probe, open)) break;
       std::shared_ptr<const pb::StreamLinesRequest> out;
-      {
-        // Flow control: at most `window` lines unacknowledged, and no more than the credit
-        // of the last answer (this stream's share of the server's queue, counted after that
-        // line: the lines sent since will take from it). With no credit and nothing
-        // outstanding, ask for the credit again after a while, longer each time: never
-        // with a line, which a full queue would drop.
-        std::unique_lock<std::mutex> lock(sh.mu);
-        while (true) {
-          sh.cv.wait(lock, [&] {
-            const int limit = std::min(opt_.window, std::max(sh.credit, 0));
-            return sh.broken || sh.holding ||
-                   (!sh.query_pending && (int(sh.unacked.size()) < limit || sh.unacked.empty()));
-          });
-          if (sh.broken || sh.holding || int(sh.unacked.size()) < std::min(opt_.window, sh.credit))
-            break;
-          // Spread over half to one and a half times the wait, so that the streams of a
-          // plant do not all ask at the same moment.
-          lock.unlock();
-          std::this_thread::sleep_for(probe_wait / 2 + probe_wait * (jitter() % 1000) / 1000);
-          probe_wait = std::min(probe_wait * 2, std::chrono::milliseconds(1000));
-          pb::StreamLinesRequest query;
-          query.set_sequence(seq++);
-          query.set_credit_query(true);
-          lock.lock();
-          sh.query_pending = true;
-          sh.query_sequence = query.sequence();
-          lock.unlock();
-          open = stream->Write(query);
-          lock.lock();
-          if (!open) break;
-        }
-        if (sh.broken || sh.holding || !open) break;
-        probe_wait = std::chrono::milliseconds(50);
-      }
       if (!again.empty()) {  // a resend, under the same flow control as new lines
         InFlight f = std::move(again.front());
         again.pop_front();
@@ -332,16 +385,8 @@ FeedReport Feeder::run(LineSource& source) {
     rep.status = stream->Finish();
     bool done;
     {
-      // What this stream did not get to resend waits for the next, with what it left
-      // unacknowledged.
       std::lock_guard<std::mutex> lock(sh.mu);
-      for (InFlight& f : again) sh.unacked.push_back(std::move(f));
-      again.clear();
-      for (InFlight& f : sh.handed_back) sh.unacked.push_back(std::move(f));
-      sh.handed_back.clear();
-      std::sort(sh.unacked.begin(), sh.unacked.end(), [](const InFlight& a, const InFlight& b) {
-        return a.req->sequence() < b.req->sequence();
-      });
+      keep_for_next_stream(sh, again);
       done = next >= total && sh.unacked.empty() &&
              (settled_all || opt_.settle_for_s <= 0 ||
               Clock::now() - settle_start > std::chrono::duration<double>(opt_.settle_for_s));
@@ -350,15 +395,15 @@ FeedReport Feeder::run(LineSource& source) {
       // Every outcome is stored: a cut of the last stream after that (a server recycling
       // its connections) is not the feed's failure.
       if (settled_all && !rep.status.ok()) {
-        say("the last stream ended (" + rep.status.error_message() +
-            ") after every outcome was stored");
+        tell(opt_, "the last stream ended (" + rep.status.error_message() +
+                       ") after every outcome was stored");
         rep.status = grpc::Status::OK;
       }
       break;
     }
     if (!retryable(rep.status) && !rep.status.ok()) break;
     if (Clock::now() - sh.progress > std::chrono::duration<double>(opt_.reconnect_for_s)) {
-      say("no progress for " + std::to_string(int(opt_.reconnect_for_s)) + " s; giving up");
+      tell(opt_, "no progress for " + std::to_string(int(opt_.reconnect_for_s)) + " s; giving up");
       break;
     }
     ++rep.reconnects;
@@ -372,30 +417,15 @@ FeedReport Feeder::run(LineSource& source) {
     rep.longest_backoff_ms = std::max<uint64_t>(rep.longest_backoff_ms, uint64_t(backoff.count()));
     size_t kept = 0;
     for (const auto& [lane, k] : sh.retained) kept += k.size();
-    say("stream ended (" + (rep.status.ok() ? std::string("OK") : rep.status.error_message()) +
-        "); reconnecting and resending " + std::to_string(sh.unacked.size()) +
-        " unacknowledged lines and " + std::to_string(kept) + " not yet durable");
+    tell(opt_, "stream ended (" +
+                   (rep.status.ok() ? std::string("OK") : rep.status.error_message()) +
+                   "); reconnecting and resending " + std::to_string(sh.unacked.size()) +
+                   " unacknowledged lines and " + std::to_string(kept) + " not yet durable");
     std::this_thread::sleep_for(backoff);
     backoff = std::min(backoff * 2, std::chrono::milliseconds(2000));
   }
   rep.settled = settled_all || opt_.settle_for_s <= 0;
-  if (!settled_all && opt_.settle_for_s > 0) {
-    // What is not known to be in the store: the kept lines above each lane's last settled
-    // count (or every line of a lane never reported).
-    for (const auto& [lane, last] : last_sent) {
-      const auto it = sh.settled.find(lane);
-      if (it != sh.settled.end() && it->second >= last) continue;
-      int64_t first = last;
-      auto lower = [&](const std::deque<InFlight>& d) {
-        for (const InFlight& f : d)
-          if (f.req->line().lane() == lane) first = std::min(first, f.req->line().encoder());
-      };
-      if (auto k = sh.retained.find(lane); k != sh.retained.end()) lower(k->second);
-      lower(sh.unacked);
-      if (it != sh.settled.end()) first = std::max(first, it->second + 1);
-      rep.unsettled[lane] = {first, last};
-    }
-  }
+  if (!settled_all && opt_.settle_for_s > 0) rep.unsettled = unsettled_counts(sh, last_sent);
   rep.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return rep;
 }
