@@ -88,8 +88,10 @@ double Fillet::mu_at(double x, double b) const {
          (1 + rough.at(x, b));
 }
 
-Fillet make_fillet(Rng& rng, Rng& phys, int id, double b_start, double x_center,
-                   const FilletParams& prm) {
+namespace {
+
+// The outline and profile of one fillet, in its own frame.
+Shape draw_shape(Rng& rng, Rng& phys, const FilletParams& prm) {
   Shape sh;
   sh.L = rng.uniform(120, 200);
   sh.W = rng.uniform(60, 100);
@@ -121,15 +123,17 @@ Fillet make_fillet(Rng& rng, Rng& phys, int id, double b_start, double x_center,
     sh.fold_h = phys.uniform(3, 8);
     sh.fold_s = phys.uniform(0.1, 0.3) * sh.L;
   }
-  const double yaw = rng.uniform(-25, 25) * kPi / 180;  // long axis against the belt axis
+  return sh;
+}
+
+// The fillet's height raster: the shape turned by `yaw` (its long axis against the belt's),
+// in a box whose meat starts at b_start.
+void rasterise(Fillet& f, const Shape& sh, double yaw, double b_start, double x_center) {
   const double cy = std::cos(yaw), sy = std::sin(yaw);
   // Extent of the rotated outline (with room for the harmonics).
   const double ra = 0.5 * sh.L * 1.25, rb = 0.5 * sh.W * 1.35 * (1 + std::abs(sh.taper));
   const double ext_b = std::abs(cy) * ra + std::abs(sy) * rb;
   const double ext_x = std::abs(sy) * ra + std::abs(cy) * rb;
-
-  Fillet f;
-  f.id = id;
   f.x_center = x_center;
   f.b_center = b_start + ext_b;
   f.ix0 = int(std::floor((x_center - ext_x - kLaneX0Mm) / kRasterPitchMm));
@@ -141,16 +145,12 @@ Fillet make_fillet(Rng& rng, Rng& phys, int id, double b_start, double x_center,
   f.b_min = f.ib0 * kRasterPitchMm;
   f.b_max = f.b_min + (f.nb - 1) * kRasterPitchMm;
   f.height.assign(size_t(f.nx) * f.nb, 0.f);
-  auto local = [&](double x, double b, double& s, double& t) {
-    const double dx = x - f.x_center, db = b - f.b_center;
-    s = cy * db + sy * dx;
-    t = -sy * db + cy * dx;
-  };
   int j_lo = f.nb, j_hi = -1;
   for (int j = 0; j < f.nb; ++j)
     for (int i = 0; i < f.nx; ++i) {
-      double s, t;
-      local(f.x_min + i * kRasterPitchMm, f.b_min + j * kRasterPitchMm, s, t);
+      const double dx = f.x_min + i * kRasterPitchMm - f.x_center;
+      const double db = f.b_min + j * kRasterPitchMm - f.b_center;
+      const double s = cy * db + sy * dx, t = -sy * db + cy * dx;
       // Raster edges stay zero so that the fillet ends inside its box.
       const float h =
           (i == 0 || j == 0 || i == f.nx - 1 || j == f.nb - 1) ? 0.f : float(sh.height(s, t));
@@ -169,16 +169,19 @@ Fillet make_fillet(Rng& rng, Rng& phys, int id, double b_start, double x_center,
     f.b_center -= j_lo * kRasterPitchMm;
     f.b_max = (f.ib0 + j_hi + 1) * kRasterPitchMm;
   }
-  f.mu = rng.uniform(0.028, 0.032);
-  f.texture_amp = rng.uniform(0.005, 0.02);
-  f.texture_kx = 2 * kPi / rng.uniform(15, 40);
-  f.texture_kb = 2 * kPi / rng.uniform(15, 40);
-  f.texture_phase = rng.uniform(0, 2 * kPi);
+}
 
-  // Inclusions sit where the meat is thick enough to hold them. `tilt_max`: how far the
-  // inclusion's long axis may rise out of the belt's plane (rad).
-  auto place = [&](Inclusion::Kind kind, double size, double semi_y_frac, double semi_z_frac,
-                   double dmu, double calc, double tilt_max = 0.3) -> Inclusion* {
+// Places inclusions where the meat is thick enough to hold them.
+struct Placer {
+  Fillet& f;
+  Rng& rng;
+  Rng& phys;
+
+  // One inclusion of `size` mm and semi-axes in those fractions of it, or none where 200
+  // tries found no meat thick enough. `tilt_max`: how far its long axis may rise out of the
+  // belt's plane (rad).
+  Inclusion* place(Inclusion::Kind kind, double size, double semi_y_frac, double semi_z_frac,
+                   double dmu, double calc, double tilt_max = 0.3) {
     for (int attempt = 0; attempt < 200; ++attempt) {
       const double x = rng.uniform(f.x_min, f.x_max), b = rng.uniform(f.b_min, f.b_max);
       const double h = f.height_at(x, b);
@@ -203,97 +206,121 @@ Fillet make_fillet(Rng& rng, Rng& phys, int id, double b_start, double x_center,
       return &f.inclusions.back();
     }
     return nullptr;
-  };
-  constexpr double kBoneMuFull = 0.12;  // fully calcified bone, 1/mm
-  const bool shapes = prm.needle + prm.chip + prm.rib + prm.cluster > 0;
+  }
+
+  // A curved rib piece (two bent halves) or a cluster of small pieces: one fragment in the
+  // truth, several ellipsoids in the meat.
+  void rib_or_cluster(Inclusion::Shape shape, double size, double dmu, double calc) {
+    const bool rib = shape == Inclusion::kRib;
+    const double len = rib ? std::max(size, 4.0) : std::max(size, 3.0);
+    const double part = rib ? 0.55 * len : 0.45 * len;
+    if (!place(Inclusion::kBone, part, rib ? 0.25 : 0.6, rib ? 0.25 : 0.5, dmu, calc)) return;
+    const size_t primary = f.inclusions.size() - 1;
+    f.inclusions[primary].shape = shape;
+    f.inclusions[primary].size_mm = len;
+    const double a = phys.uniform(0, 2 * kPi);
+    if (rib) f.inclusions[primary].to_local = rotation_zx(a, 0).transposed();
+    const Inclusion first = f.inclusions[primary];
+    const int parts = rib ? 1 : phys.integer(2, 4);
+    for (int q = 0; q < parts; ++q) {
+      Inclusion o = first;
+      o.secondary = true;
+      o.size_mm = part;
+      // The rib's second half continues the first, bent by 17-34 degrees; a cluster's
+      // pieces lie around the first within 40 % of its extent.
+      const double ang = rib ? a : phys.uniform(0, 2 * kPi);
+      const double r = rib ? 0.5 * part : phys.uniform(1, std::max(1.5, 0.4 * len));
+      o.center = {first.center.x + r * std::cos(ang), first.center.y + r * std::sin(ang),
+                  first.center.z};
+      if (rib) {
+        const double bend = phys.uniform(0.3, 0.6);
+        o.center = o.center +
+                   Vec3{0.5 * part * std::cos(ang + bend), 0.5 * part * std::sin(ang + bend), 0};
+        o.to_local = rotation_zx(ang + bend, 0).transposed();
+      } else {
+        o.semi = first.semi * phys.uniform(0.6, 1.0);
+      }
+      if (f.height_at(o.center.x, o.center.y) > o.center.z + o.semi.z + 0.3)
+        f.inclusions.push_back(o);
+    }
+  }
+
+  // One bone fragment of 1-10 mm: needle, chip, rib or cluster by the plant's shares, else
+  // compact.
+  void bone(const FilletParams& prm) {
+    constexpr double kBoneMuFull = 0.12;  // fully calcified bone, 1/mm
+    static constexpr double kBins[5] = {1, 2, 3, 5, 10};
+    const int bin = rng.integer(0, 3);
+    const double size = rng.uniform(kBins[bin], kBins[bin + 1]);
+    const double calc = rng.uniform(prm.calcification_min, prm.calcification_max);
+    const double dmu = calc * (kBoneMuFull - f.mu);
+    Inclusion::Shape shape = Inclusion::kCompact;
+    if (prm.needle + prm.chip + prm.rib + prm.cluster > 0) {
+      double pick = phys.uniform(0, 1);
+      for (auto [share, kind] :
+           {std::pair{prm.needle, Inclusion::kNeedle}, std::pair{prm.chip, Inclusion::kChip},
+            std::pair{prm.rib, Inclusion::kRib}, std::pair{prm.cluster, Inclusion::kCluster}})
+        if ((pick -= share) < 0) {
+          shape = kind;
+          break;
+        }
+    }
+    if (shape == Inclusion::kNeedle) {
+      // Needles and slivers: long, under a millimetre thick, at any orientation.
+      const double len = std::max(size, 3.0), thick = phys.uniform(0.3, 0.8);
+      if (Inclusion* in = place(Inclusion::kBone, len, thick / len, thick / len, dmu, calc, 1.2))
+        in->shape = Inclusion::kNeedle;
+    } else if (shape == Inclusion::kChip) {
+      const double thick = phys.uniform(0.4, 0.9);
+      if (Inclusion* in =
+              place(Inclusion::kBone, size, phys.uniform(0.6, 0.9), thick / size, dmu, calc))
+        in->shape = Inclusion::kChip;
+    } else if (shape == Inclusion::kRib || shape == Inclusion::kCluster) {
+      rib_or_cluster(shape, size, dmu, calc);
+    } else {
+      place(Inclusion::kBone, size, rng.uniform(0.35, 0.7), rng.uniform(0.3, 0.6), dmu, calc);
+    }
+  }
+};
+
+}  // namespace
+
+Fillet make_fillet(Rng& rng, Rng& phys, int id, double b_start, double x_center,
+                   const FilletParams& prm) {
+  const Shape sh = draw_shape(rng, phys, prm);
+  const double yaw = rng.uniform(-25, 25) * kPi / 180;
+  Fillet f;
+  f.id = id;
+  rasterise(f, sh, yaw, b_start, x_center);
+  f.mu = rng.uniform(0.028, 0.032);
+  f.texture_amp = rng.uniform(0.005, 0.02);
+  f.texture_kx = 2 * kPi / rng.uniform(15, 40);
+  f.texture_kb = 2 * kPi / rng.uniform(15, 40);
+  f.texture_phase = rng.uniform(0, 2 * kPi);
+
+  Placer in{f, rng, phys};
   if (rng.chance(prm.bone_probability)) {
     const int n = rng.chance(0.3) ? 2 : 1;
-    static constexpr double kBins[5] = {1, 2, 3, 5, 10};
-    for (int k = 0; k < n; ++k) {
-      const int bin = rng.integer(0, 3);
-      const double size = rng.uniform(kBins[bin], kBins[bin + 1]);
-      const double calc = rng.uniform(prm.calcification_min, prm.calcification_max);
-      const double dmu = calc * (kBoneMuFull - f.mu);
-      // The fragment's shape: needle, chip, rib, cluster by their shares, else compact.
-      Inclusion::Shape shape = Inclusion::kCompact;
-      if (shapes) {
-        double pick = phys.uniform(0, 1);
-        for (auto [share, kind] :
-             {std::pair{prm.needle, Inclusion::kNeedle}, std::pair{prm.chip, Inclusion::kChip},
-              std::pair{prm.rib, Inclusion::kRib}, std::pair{prm.cluster, Inclusion::kCluster}})
-          if ((pick -= share) < 0) {
-            shape = kind;
-            break;
-          }
-      }
-      if (shape == Inclusion::kNeedle) {
-        // Needles and slivers: long, under a millimetre thick, at any orientation.
-        const double len = std::max(size, 3.0), thick = phys.uniform(0.3, 0.8);
-        if (Inclusion* in = place(Inclusion::kBone, len, thick / len, thick / len, dmu, calc, 1.2))
-          in->shape = Inclusion::kNeedle;
-      } else if (shape == Inclusion::kChip) {
-        const double thick = phys.uniform(0.4, 0.9);
-        if (Inclusion* in =
-                place(Inclusion::kBone, size, phys.uniform(0.6, 0.9), thick / size, dmu, calc))
-          in->shape = Inclusion::kChip;
-      } else if (shape == Inclusion::kRib || shape == Inclusion::kCluster) {
-        // A curved rib piece (two bent halves) or a cluster of small pieces: one fragment
-        // in the truth, several ellipsoids in the meat.
-        const bool rib = shape == Inclusion::kRib;
-        const double len = rib ? std::max(size, 4.0) : std::max(size, 3.0);
-        const double part = rib ? 0.55 * len : 0.45 * len;
-        if (!place(Inclusion::kBone, part, rib ? 0.25 : 0.6, rib ? 0.25 : 0.5, dmu, calc)) continue;
-        const size_t primary = f.inclusions.size() - 1;
-        f.inclusions[primary].shape = shape;
-        f.inclusions[primary].size_mm = len;
-        const double a = phys.uniform(0, 2 * kPi);
-        if (rib) f.inclusions[primary].to_local = rotation_zx(a, 0).transposed();
-        const Inclusion first = f.inclusions[primary];
-        const int parts = rib ? 1 : phys.integer(2, 4);
-        for (int q = 0; q < parts; ++q) {
-          Inclusion o = first;
-          o.secondary = true;
-          o.size_mm = part;
-          // The rib's second half continues the first, bent by 17-34 degrees; a cluster's
-          // pieces lie around the first within 40 % of its extent.
-          const double ang = rib ? a : phys.uniform(0, 2 * kPi);
-          const double r = rib ? 0.5 * part : phys.uniform(1, std::max(1.5, 0.4 * len));
-          o.center = {first.center.x + r * std::cos(ang), first.center.y + r * std::sin(ang),
-                      first.center.z};
-          if (rib) {
-            const double bend = phys.uniform(0.3, 0.6);
-            o.center = o.center + Vec3{0.5 * part * std::cos(ang + bend),
-                                       0.5 * part * std::sin(ang + bend), 0};
-            o.to_local = rotation_zx(ang + bend, 0).transposed();
-          } else {
-            o.semi = first.semi * phys.uniform(0.6, 1.0);
-          }
-          if (f.height_at(o.center.x, o.center.y) > o.center.z + o.semi.z + 0.3)
-            f.inclusions.push_back(o);
-        }
-      } else {
-        place(Inclusion::kBone, size, rng.uniform(0.35, 0.7), rng.uniform(0.3, 0.6), dmu, calc);
-      }
-    }
+    for (int k = 0; k < n; ++k) in.bone(prm);
   }
   if (rng.chance(prm.air_probability)) {
     const int n = rng.integer(1, 3);
     for (int k = 0; k < n; ++k)
-      place(Inclusion::kAir, rng.uniform(2, 6), rng.uniform(0.6, 1.0), rng.uniform(0.5, 0.9), -f.mu,
-            0);
+      in.place(Inclusion::kAir, rng.uniform(2, 6), rng.uniform(0.6, 1.0), rng.uniform(0.5, 0.9),
+               -f.mu, 0);
   }
   if (rng.chance(prm.fat_probability)) {
     const int n = rng.integer(1, 2);
     for (int k = 0; k < n; ++k)
-      place(Inclusion::kFat, rng.uniform(10, 30), rng.uniform(0.4, 0.7), rng.uniform(0.1, 0.25),
-            -0.15 * f.mu, 0);
+      in.place(Inclusion::kFat, rng.uniform(10, 30), rng.uniform(0.4, 0.7), rng.uniform(0.1, 0.25),
+               -0.15 * f.mu, 0);
   }
   // Cartilage and tendon: a little denser than meat, elongated; not bone.
   if (prm.cartilage_probability > 0 && phys.chance(prm.cartilage_probability)) {
     const double len = phys.uniform(6, 20);
-    if (Inclusion* in = place(Inclusion::kCartilage, len, phys.uniform(0.1, 0.3),
-                              phys.uniform(0.08, 0.2), phys.uniform(0.15, 0.35) * f.mu, 0))
-      in->shape = Inclusion::kCompact;
+    if (Inclusion* c = in.place(Inclusion::kCartilage, len, phys.uniform(0.1, 0.3),
+                                phys.uniform(0.08, 0.2), phys.uniform(0.15, 0.35) * f.mu, 0))
+      c->shape = Inclusion::kCompact;
   }
   // Rough meat draws from a stream of its own, seeded from the physics stream only when
   // asked for, so that every other plant stays draw for draw as it was.
