@@ -73,16 +73,12 @@ std::string lane_label(int lane) {
   return "lane=\"" + std::to_string(lane) + "\"";
 }
 
-}  // namespace
-
-std::string prometheus_text(const MetricsInput& m) {
-  const EngineStats& s = m.stats;
-  Writer w;
-
+// Lines and fillets by lane: received, processed, refused, dropped, decided; restarts.
+void lane_counters(Writer& w, const EngineStats& s, const std::vector<LaneState>& lanes) {
   w.family("rangex_lines_received_total", "counter",
            "Lines received, by lane (lane=\"none\": requests naming no lane of this plant).");
   uint64_t laneless = s.received;
-  for (const LaneState& l : m.lanes) {
+  for (const LaneState& l : lanes) {
     w.sample("rangex_lines_received_total", lane_label(l.config.id), l.received);
     laneless -= std::min(laneless, l.received);
   }
@@ -90,7 +86,7 @@ std::string prometheus_text(const MetricsInput& m) {
 
   w.family("rangex_lines_processed_total", "counter",
            "Lines through the line stages and into their lane's assembly, by lane.");
-  for (const LaneState& l : m.lanes)
+  for (const LaneState& l : lanes)
     w.sample("rangex_lines_processed_total", lane_label(l.config.id), l.processed);
 
   w.family("rangex_lines_refused_total", "counter",
@@ -98,7 +94,7 @@ std::string prometheus_text(const MetricsInput& m) {
            "line).");
   for (const auto& [code, n] : s.refused) {
     uint64_t rest = n;
-    for (const LaneState& l : m.lanes)
+    for (const LaneState& l : lanes)
       if (const auto it = l.refused.find(code); it != l.refused.end()) {
         w.sample("rangex_lines_refused_total",
                  lane_label(l.config.id) + ",code=" + label_value(code), it->second);
@@ -110,13 +106,13 @@ std::string prometheus_text(const MetricsInput& m) {
 
   w.family("rangex_lines_dropped_total", "counter",
            "Lines accepted and then not processed, by lane and reason.");
-  for (const LaneState& l : m.lanes)
+  for (const LaneState& l : lanes)
     for (const auto& [reason, n] : l.dropped)
       w.sample("rangex_lines_dropped_total",
                lane_label(l.config.id) + ",reason=" + label_value(reason), n);
 
   w.family("rangex_fillets_total", "counter", "Fillets decided, by lane and decision.");
-  for (const LaneState& l : m.lanes) {
+  for (const LaneState& l : lanes) {
     const std::string lane = lane_label(l.config.id);
     w.sample("rangex_fillets_total", lane + ",decision=\"pass\"",
              l.fillets - l.rejects - l.not_inspected);
@@ -126,58 +122,57 @@ std::string prometheus_text(const MetricsInput& m) {
 
   w.family("rangex_lane_restarts_total", "counter",
            "Lane restarts (encoder resets, jumps, lanes that stopped being fed), by lane.");
-  for (const LaneState& l : m.lanes)
+  for (const LaneState& l : lanes)
     w.sample("rangex_lane_restarts_total", lane_label(l.config.id), l.restarts);
+}
 
-  // Positive release to the line's PLC.
-  if (s.plc) {
-    const PlcStatus& p = *s.plc;
-    const std::string at = "plc=" + label_value(p.address);
-    w.family("rangex_plc_up", "gauge", "1 while the PLC's Modbus TCP link is up.");
-    w.sample("rangex_plc_up", at, uint64_t(p.connected));
-    w.family("rangex_plc_fillets_total", "counter",
-             "Fillets by what the PLC was told: released (clean, in time), diverted (rejected or "
-             "not inspected), late (clean, decided after the deadline), unreleased (clean, the "
-             "PLC unreachable until the deadline).");
-    w.sample("rangex_plc_fillets_total", at + ",result=\"released\"", p.released);
-    w.sample("rangex_plc_fillets_total", at + ",result=\"diverted\"", p.diverted);
-    w.sample("rangex_plc_fillets_total", at + ",result=\"late\"", p.late);
-    w.sample("rangex_plc_fillets_total", at + ",result=\"unreleased\"", p.unreleased);
-    w.family("rangex_plc_pending", "gauge", "Releases waiting to be sent.");
-    w.sample("rangex_plc_pending", at, p.pending);
-    w.family("rangex_plc_least_spare_seconds", "gauge",
-             "The least time to spare of a release sent (-1: none yet).");
-    w.sample("rangex_plc_least_spare_seconds", at,
-             p.least_spare_ms < 0 ? -1.0 : p.least_spare_ms / 1e3);
-  }
+// Positive release to the line's PLC.
+void plc_metrics(Writer& w, const PlcStatus& p) {
+  const std::string at = "plc=" + label_value(p.address);
+  w.family("rangex_plc_up", "gauge", "1 while the PLC's Modbus TCP link is up.");
+  w.sample("rangex_plc_up", at, uint64_t(p.connected));
+  w.family("rangex_plc_fillets_total", "counter",
+           "Fillets by what the PLC was told: released (clean, in time), diverted (rejected or "
+           "not inspected), late (clean, decided after the deadline), unreleased (clean, the "
+           "PLC unreachable until the deadline).");
+  w.sample("rangex_plc_fillets_total", at + ",result=\"released\"", p.released);
+  w.sample("rangex_plc_fillets_total", at + ",result=\"diverted\"", p.diverted);
+  w.sample("rangex_plc_fillets_total", at + ",result=\"late\"", p.late);
+  w.sample("rangex_plc_fillets_total", at + ",result=\"unreleased\"", p.unreleased);
+  w.family("rangex_plc_pending", "gauge", "Releases waiting to be sent.");
+  w.sample("rangex_plc_pending", at, p.pending);
+  w.family("rangex_plc_least_spare_seconds", "gauge",
+           "The least time to spare of a release sent (-1: none yet).");
+  w.sample("rangex_plc_least_spare_seconds", at,
+           p.least_spare_ms < 0 ? -1.0 : p.least_spare_ms / 1e3);
+}
 
-  // Forwarding to the plant-wide database.
-  if (s.forwarding) {
-    const ForwarderStatus& f = *s.forwarding;
-    const std::string at = "server_id=" + label_value(f.server_id);
-    w.family("rangex_forward_up", "gauge",
-             "1 while forwarding to the plant-wide PostgreSQL works.");
-    w.sample("rangex_forward_up", at, uint64_t(f.connected));
-    w.family("rangex_forward_lag_records", "gauge",
-             "Chain links stored here and not yet in the plant-wide database.");
-    w.sample("rangex_forward_lag_records", at, uint64_t(std::max<int64_t>(0, f.lag_records)));
-    w.family("rangex_forward_lag_seconds", "gauge", "The age of the oldest of them.");
-    w.sample("rangex_forward_lag_seconds", at, f.lag_seconds);
-    w.family("rangex_forward_links_total", "counter",
-             "Chain links (decisions and audit entries) forwarded since the server started.");
-    w.sample("rangex_forward_links_total", at, uint64_t(f.links));
-    w.family("rangex_forward_failures_total", "counter",
-             "Failed connections or batches (each retried; nothing is dropped).");
-    w.sample("rangex_forward_failures_total", at, uint64_t(f.failures));
-  }
+// Forwarding to the plant-wide database.
+void forwarding_metrics(Writer& w, const ForwarderStatus& f) {
+  const std::string at = "server_id=" + label_value(f.server_id);
+  w.family("rangex_forward_up", "gauge", "1 while forwarding to the plant-wide PostgreSQL works.");
+  w.sample("rangex_forward_up", at, uint64_t(f.connected));
+  w.family("rangex_forward_lag_records", "gauge",
+           "Chain links stored here and not yet in the plant-wide database.");
+  w.sample("rangex_forward_lag_records", at, uint64_t(std::max<int64_t>(0, f.lag_records)));
+  w.family("rangex_forward_lag_seconds", "gauge", "The age of the oldest of them.");
+  w.sample("rangex_forward_lag_seconds", at, f.lag_seconds);
+  w.family("rangex_forward_links_total", "counter",
+           "Chain links (decisions and audit entries) forwarded since the server started.");
+  w.sample("rangex_forward_links_total", at, uint64_t(f.links));
+  w.family("rangex_forward_failures_total", "counter",
+           "Failed connections or batches (each retried; nothing is dropped).");
+  w.sample("rangex_forward_failures_total", at, uint64_t(f.failures));
+}
 
-  // Lanes fed by their own GigE Vision devices.
+// Lanes fed by their own GigE Vision devices.
+void sensor_metrics(Writer& w, const std::vector<LaneState>& lanes) {
   auto device_label = [](int lane, const SensorState& d) {
     return lane_label(lane) + ",role=" + label_value(d.role) + ",device=" + label_value(d.device);
   };
   w.family("rangex_sensor_up", "gauge",
            "1 while a lane's GigE Vision device streams, 0 otherwise (connecting, lost, refused).");
-  for (const LaneState& l : m.lanes)
+  for (const LaneState& l : lanes)
     if (l.sensors)
       for (const SensorState& d : l.sensors->devices)
         w.sample("rangex_sensor_up", device_label(l.config.id, d),
@@ -204,17 +199,19 @@ std::string prometheus_text(const MetricsInput& m) {
        &SensorState::reconnects}};
   for (const Counter& c : counters) {
     w.family(c.name, "counter", c.help);
-    for (const LaneState& l : m.lanes)
+    for (const LaneState& l : lanes)
       if (l.sensors)
         for (const SensorState& d : l.sensors->devices)
           w.sample(c.name, device_label(l.config.id, d), d.*c.field);
   }
+}
 
-  // Learned thresholds and drift: what the lane's recently passed fillets imply.
+// Learned thresholds and drift: what the lane's recently passed fillets imply.
+void learned_metrics(Writer& w, const std::vector<LaneState>& lanes) {
   w.family("rangex_lane_implied_false_reject_rate", "gauge",
            "With learned thresholds: the per-fillet false-reject rate the lane's recently passed "
            "fillets imply under its learned model (-1: not estimated yet), by lane and version.");
-  for (const LaneState& l : m.lanes)
+  for (const LaneState& l : lanes)
     if (l.config.inspection.learned.active())
       w.sample(
           "rangex_lane_implied_false_reject_rate",
@@ -223,10 +220,13 @@ std::string prometheus_text(const MetricsInput& m) {
   w.family("rangex_lane_product_drift", "gauge",
            "1 when a lane's product is rougher than learned (implied false rejects above twice "
            "the target): re-learn.");
-  for (const LaneState& l : m.lanes)
+  for (const LaneState& l : lanes)
     if (l.config.inspection.learned.active())
       w.sample("rangex_lane_product_drift", lane_label(l.config.id), l.product_drift ? 1.0 : 0.0);
+}
 
+// The line stages' batches on the backend, and the store's failed writes.
+void batch_counters(Writer& w, const EngineStats& s) {
   w.family("rangex_batches_total", "counter", "Line batches computed by the backend.");
   w.sample("rangex_batches_total", "", s.batches.batches);
   w.family("rangex_batches_verified_total", "counter",
@@ -241,7 +241,10 @@ std::string prometheus_text(const MetricsInput& m) {
   w.sample("rangex_backend_failures_total", "", s.batches.failures);
   w.family("rangex_store_errors_total", "counter", "Failed writes to the store.");
   w.sample("rangex_store_errors_total", "", s.store_errors);
+}
 
+// Each stage's latency and the decision's, as histograms in seconds.
+void latency_histograms(Writer& w, const EngineStats& s) {
   w.family("rangex_stage_latency_seconds", "histogram",
            "Latency of each stage: queue_wait (a line), line_batch (a batch through the line "
            "stages), inspection_wait and inspection (a fillet), inspection_<part>, store.");
@@ -260,7 +263,11 @@ std::string prometheus_text(const MetricsInput& m) {
            "From the arrival of a fillet's last line to its decision being stored and "
            "published.");
   w.histogram("rangex_decision_latency_seconds", "", s.decision);
+}
 
+// What is now: the queue, rates, streams, health, the backend and each lane's calibration.
+void gauges(Writer& w, const MetricsInput& m) {
+  const EngineStats& s = m.stats;
   w.family("rangex_queue_depth_lines", "gauge", "Lines waiting for the worker.");
   w.sample("rangex_queue_depth_lines", "", uint64_t(s.queue_depth));
   w.family("rangex_queue_capacity_lines", "gauge", "Lines the queue holds at most.");
@@ -290,6 +297,20 @@ std::string prometheus_text(const MetricsInput& m) {
   for (const LaneState& l : m.lanes)
     if (l.idle_ms >= 0)
       w.sample("rangex_lane_idle_seconds", lane_label(l.config.id), double(l.idle_ms) / 1e3);
+}
+
+}  // namespace
+
+std::string prometheus_text(const MetricsInput& m) {
+  Writer w;
+  lane_counters(w, m.stats, m.lanes);
+  if (m.stats.plc) plc_metrics(w, *m.stats.plc);
+  if (m.stats.forwarding) forwarding_metrics(w, *m.stats.forwarding);
+  sensor_metrics(w, m.lanes);
+  learned_metrics(w, m.lanes);
+  batch_counters(w, m.stats);
+  latency_histograms(w, m.stats);
+  gauges(w, m);
   return std::move(w).str();
 }
 
