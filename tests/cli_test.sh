@@ -55,6 +55,7 @@ check "fit json" grep -q '"beta0": 8.1023' <<<"$fit"
 fit2=$("$ctl" fit "$(dirname "$0")/data/rlm/hardened.csv" --degree 2 --json)
 check "parabola json" grep -q '"beta2": 0.00016367' <<<"$fit2"
 expect_error "bad lane list" "--lanes takes numbers from 1 to 16 separated by commas (got '4,x')" "$ctl" bench-server --lanes 4,x
+expect_error "bench lines" "--lines must be >= 1 (got 0)" "$ctl" bench-server --lines 0
 expect_error "bad degree" "--degree must be 1 (a line) or 2" "$ctl" fit "$(dirname "$0")/data/rlm/hardened.csv" --degree 3
 printf 'T,lnI\n1,2\n3,x\n' >"$work/bad.csv"
 expect_error "bad csv" "bad.csv:3: column 2 ('lnI') is not a finite number" "$ctl" fit "$work/bad.csv"

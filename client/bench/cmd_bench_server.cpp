@@ -121,6 +121,7 @@ void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans,
             FeedOptions fo;
             fo.keep_until_durable = false;  // the server's memory is what is measured
             fo.window = 8;
+            fo.settle_for_s = 0;  // 400 lines cut a fillet: the shutdown decides it
             const FeedReport r = Feeder(ch, fo).run(src);
             const uint64_t dups =
                 r.refused.count("DUPLICATE_LINE") ? r.refused.at("DUPLICATE_LINE") : 0;
@@ -152,6 +153,77 @@ void capacity(const PlantConfig& plant, const std::vector<pb::LineScan>& scans,
     std::fflush(stdout);
   }
 }
+
+// In-process: the same lines through the server's line path on the CPU backend into each
+// lane's LaneProcessor, batches of 64: what the server adds is measured against this.
+double in_process_lps(const PlantConfig& plant, const std::vector<pb::LineScan>& scans, int nl,
+                      int threads) {
+  const LaneConfig& lc = plant.lanes[0];
+  const int lines = int(scans.size());
+  const size_t frame = size_t(lc.frame_width) * lc.frame_height;
+  std::vector<QueuedLine> block;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int lane = 0; lane < nl; ++lane) {
+    LinePath path({plant.lanes[lane]}, cpu_request(threads));
+    LaneProcessor proc(plant.lanes[lane], {false, false}, [](InspectedFillet&&) {});
+    path.attach(plant.lanes[lane].id, &proc);
+    for (int k0 = 0; k0 < lines; k0 += 64) {
+      const int c = std::min(64, lines - k0);
+      shape_block(block, c, plant.lanes[lane].id, frame, lc.xray.pixels);
+      for (int k = 0; k < c; ++k) {
+        const pb::LineScan& scan = scans[k0 + k];
+        IncomingLine& in = block[k].line;
+        in.encoder = scan.encoder();
+        std::memcpy(in.cam0.data(), scan.cam0().data(), frame);
+        std::memcpy(in.cam1.data(), scan.cam1().data(), frame);
+        std::memcpy(in.xray.data(), scan.xray().data(), scan.xray().size());
+      }
+      path.run(block);
+    }
+    proc.finish();
+  }
+  return double(nl) * lines /
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Resident memory while the lanes were fed: the server's share (over the process as it
+// was before the server started) at its peak, and its trend from the first fifth of
+// the feed to the last.
+void print_resident(const std::vector<std::pair<double, int64_t>>& resident,
+                    int64_t resident_before, int nl) {
+  if (resident.size() >= 10 && resident_before > 0) {
+    int64_t peak = 0;
+    double first = 0, last = 0;
+    const size_t fifth = resident.size() / 5;
+    for (size_t k = 0; k < resident.size(); ++k) {
+      peak = std::max(peak, resident[k].second);
+      if (k < fifth) first += double(resident[k].second) / double(fifth);
+      if (k >= resident.size() - fifth) last += double(resident[k].second) / double(fifth);
+    }
+    std::printf(
+        "       resident: +%.0f MB at the peak (%.1f MB a lane), %+.1f MB from the "
+        "feed's first fifth to its last (%.1f s)\n",
+        double(peak - resident_before) / 1e6, double(peak - resident_before) / 1e6 / nl,
+        (last - first) / 1e6, resident.back().first);
+    // A long run: resident memory minute by minute (its slope says whether it is flat).
+    if (resident.back().first >= 120) {
+      std::printf("       resident by minute (MB over the start):");
+      // The slope leaves out the first minute (buffers and the store filling).
+      double t_next = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, m = 0;
+      for (const auto& [t, bytes] : resident) {
+        const double y = double(bytes - resident_before) / 1e6;
+        if (t >= 60) sx += t, sy += y, sxx += t * t, sxy += t * y, ++m;
+        if (t >= t_next) {
+          std::printf(" %.0f", y);
+          t_next += 60;
+        }
+      }
+      const double slope = (m * sxy - sx * sy) / (m * sxx - sx * sx);
+      std::printf("\n       slope after the first minute: %+.2f MB per minute\n", 60 * slope);
+    }
+  }
+}
+
 }  // namespace
 
 int cmd_bench_server(int argc, char** argv) {
@@ -162,7 +234,10 @@ int cmd_bench_server(int argc, char** argv) {
       "bench-server [--lines N] [--backend cpu|opencl|vulkan|auto|all] "
       "[--device D] [--lanes 1,4,16] [--rate LINES/S [--seconds S] [--plc]] [--path] "
       "[--capacity]");
-  const int n = int(a.integer("lines", 1200));
+  // By default one whole scene per lane: a scene cut short leaves its last fillet open, and
+  // that fillet ends only when the server stops.
+  const long n = a.integer("lines", 0);
+  if (a.has("lines") && n < 1) fail("--lines must be >= 1 (got ", n, ")");
   // A fixed rate per lane (a belt's speed) measures latency at a plant's load; without it
   // the feeders send as fast as the server takes lines (throughput).
   const double rate = std::stod(a.get("rate", "0"));
@@ -190,46 +265,25 @@ int cmd_bench_server(int argc, char** argv) {
   // One lane's worth of lines with fillets in them, reused on every lane; a repeated scene
   // is whole, so that no fillet is cut where it starts again.
   constexpr int kFillets = 3;
-  const std::vector<pb::LineScan> scans =
-      render_lane_lines(lc, kFillets, seconds > 0 ? INT64_MAX : int64_t(n));
+  std::vector<pb::LineScan> scans = render_lane_lines(lc, kFillets, INT64_MAX);
+  const int scene_lines = int(scans.size());
+  if (seconds <= 0 && n > 0 && n < scene_lines) scans.resize(size_t(n));
   const int lines = int(scans.size());
   const int64_t repeats =
       seconds > 0 ? std::max<int64_t>(1, int64_t(std::ceil(seconds * rate / lines))) : 1;
-  const size_t frame = size_t(lc.frame_width) * lc.frame_height;
-  std::printf(
-      "end to end through gRPC on loopback, %d lines per lane (%d fillets each), %d threads, %s\n",
-      int(lines * repeats), int(kFillets * repeats), threads,
-      rate > 0 ? ("fed at " + std::to_string(int(rate)) + " lines/s per lane").c_str()
-               : "fed as fast as the server takes lines");
+  const std::string fillets = lines < scene_lines
+                                  ? "of a " + std::to_string(kFillets) + "-fillet scene's " +
+                                        std::to_string(scene_lines) +
+                                        ": its last fillet is cut and ends at the stop"
+                                  : std::to_string(kFillets * repeats) + " fillets each";
+  std::printf("end to end through gRPC on loopback, %d lines per lane (%s), %d threads, %s\n",
+              int(lines * repeats), fillets.c_str(), threads,
+              rate > 0 ? ("fed at " + std::to_string(int(rate)) + " lines/s per lane").c_str()
+                       : "fed as fast as the server takes lines");
   std::printf("%-6s %-8s %16s %16s %8s %24s\n", "lanes", "backend", "in-process l/s", "gRPC l/s",
               "ratio", "last line -> decision");
   for (int nl : lane_counts) {
-    // In-process: the same lines through the server's line path on the CPU backend into each
-    // lane's LaneProcessor, batches of 64: what the server adds is measured against this.
-    std::vector<QueuedLine> block;
-    const auto t0 = std::chrono::steady_clock::now();
-    for (int lane = 0; lane < nl; ++lane) {
-      LinePath path({plant.lanes[lane]}, cpu_request(threads));
-      LaneProcessor proc(plant.lanes[lane], {false, false}, [](InspectedFillet&&) {});
-      path.attach(plant.lanes[lane].id, &proc);
-      for (int k0 = 0; k0 < lines; k0 += 64) {
-        const int c = std::min(64, lines - k0);
-        shape_block(block, c, plant.lanes[lane].id, frame, lc.xray.pixels);
-        for (int k = 0; k < c; ++k) {
-          const pb::LineScan& scan = scans[k0 + k];
-          IncomingLine& in = block[k].line;
-          in.encoder = scan.encoder();
-          std::memcpy(in.cam0.data(), scan.cam0().data(), frame);
-          std::memcpy(in.cam1.data(), scan.cam1().data(), frame);
-          std::memcpy(in.xray.data(), scan.xray().data(), scan.xray().size());
-        }
-        path.run(block);
-      }
-      proc.finish();
-    }
-    const double inproc =
-        double(nl) * lines /
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double inproc = in_process_lps(plant, scans, nl, threads);
 
     // Through the server on each backend: one stream per lane, all at once.
     for (const BackendRequest& backend : backends) {
@@ -273,6 +327,9 @@ int cmd_bench_server(int argc, char** argv) {
             fo.keep_until_durable = false;  // the server's memory is what is measured
             fo.window = 128;
             fo.rate = rate;
+            // The server's shutdown below decides every line it took. A wait for each lane to
+            // be settled would instead wait out the idle close of a fillet the lines cut.
+            fo.settle_for_s = 0;
             const FeedReport r = Feeder(ch, fo).run(src);
             refused += int64_t(r.refused_total());
             for (const auto& [code, n] : r.refused)
@@ -305,40 +362,7 @@ int cmd_bench_server(int argc, char** argv) {
       if (plc)
         std::printf("       clean fillets diverted for lateness: %llu\n",
                     (unsigned long long)clean_late);
-      // Resident memory while the lanes were fed: the server's share (over the process as it
-      // was before the server started) at its peak, and its trend from the first fifth of
-      // the feed to the last.
-      if (resident.size() >= 10 && resident_before > 0) {
-        int64_t peak = 0;
-        double first = 0, last = 0;
-        const size_t fifth = resident.size() / 5;
-        for (size_t k = 0; k < resident.size(); ++k) {
-          peak = std::max(peak, resident[k].second);
-          if (k < fifth) first += double(resident[k].second) / double(fifth);
-          if (k >= resident.size() - fifth) last += double(resident[k].second) / double(fifth);
-        }
-        std::printf(
-            "       resident: +%.0f MB at the peak (%.1f MB a lane), %+.1f MB from the "
-            "feed's first fifth to its last (%.1f s)\n",
-            double(peak - resident_before) / 1e6, double(peak - resident_before) / 1e6 / nl,
-            (last - first) / 1e6, resident.back().first);
-        // A long run: resident memory minute by minute (its slope says whether it is flat).
-        if (resident.back().first >= 120) {
-          std::printf("       resident by minute (MB over the start):");
-          // The slope leaves out the first minute (buffers and the store filling).
-          double t_next = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, m = 0;
-          for (const auto& [t, bytes] : resident) {
-            const double y = double(bytes - resident_before) / 1e6;
-            if (t >= 60) sx += t, sy += y, sxx += t * t, sxy += t * y, ++m;
-            if (t >= t_next) {
-              std::printf(" %.0f", y);
-              t_next += 60;
-            }
-          }
-          const double slope = (m * sxy - sx * sy) / (m * sxx - sx * sx);
-          std::printf("\n       slope after the first minute: %+.2f MB per minute\n", 60 * slope);
-        }
-      }
+      print_resident(resident, resident_before, nl);
       std::fflush(stdout);
     }
   }
