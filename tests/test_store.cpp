@@ -195,3 +195,27 @@ TEST(Store, ADecisionAndItsImagesAreStoredTogetherOrNotAtAll) {
   }
   EXPECT_TRUE(Store::verify_chain(t.str()).ok);
 }
+
+TEST(Store, ImagesStagedForDecisionsNotStoredAreGoneWhenItOpensAgain) {
+  test::TempDir t;
+  std::string staged, image;
+  {
+    Store s(t.str());
+    const int64_t uid = s.add_fillet(sample());
+    std::filesystem::create_directories(s.image_dir(uid));
+    image = s.image_dir(uid) + "/xray.png";
+    std::ofstream(image) << "whole";
+    s.add_image(uid, "xray", image);
+    // The process is made to exit while it writes a decision's images (a full disk past
+    // exit_after_s): one image whole, one cut off in its .part.
+    staged = s.staging_dir(sample());
+    std::filesystem::create_directories(staged);
+    std::ofstream(staged + "/overlay.png") << "overlay";
+    std::ofstream(staged + "/xray.png.part") << "xr";
+  }
+  Store s(t.str());
+  EXPECT_FALSE(std::filesystem::exists(staged));
+  EXPECT_FALSE(std::filesystem::exists(std::filesystem::path(staged).parent_path()));
+  EXPECT_TRUE(std::filesystem::exists(image));  // stored images stay
+  EXPECT_EQ(s.list_fillets(0, 0, -1, 0, 10).size(), 1u);
+}

@@ -98,6 +98,11 @@ Store::Store(const std::string& dir) : dir_(dir) {
          "); rangexd will not run on it: restore it from a backup, or move it aside to start "
          "a new one");
   }
+  // Images staged for decisions the last process did not store (it stopped, crashed or was
+  // made to exit mid-write, which can leave a .part): those fillets are decided again from
+  // the lines the feeders resend, and staged anew. Nothing else reads them.
+  std::error_code ec;
+  fs::remove_all(fs::path(dir) / "images" / "staged", ec);
   exec("PRAGMA journal_mode=WAL");
   // The durability rule: a decision is committed (to the WAL, fsync'd) before it is
   // published, so a decision any subscriber saw survives a crash of rangexd or of the
