@@ -200,7 +200,8 @@ void keep_for_next_stream(Shared& sh, std::deque<InFlight>& again) {
 // The wait before a credit query that no line carries: longer each time, spread so that the
 // streams of a plant do not all ask at the same moment.
 struct Probe {
-  std::chrono::milliseconds wait{50};
+  static constexpr std::chrono::milliseconds kFirst{50};
+  std::chrono::milliseconds wait = kFirst;
   std::minstd_rand jitter;
 };
 
@@ -230,7 +231,7 @@ bool wait_for_room(Stream& stream, Shared& sh, int window, uint64_t& seq, Probe&
     if (!open) break;
   }
   if (sh.broken || sh.holding || !open) return false;
-  probe.wait = std::chrono::milliseconds(50);
+  probe.wait = Probe::kFirst;
   return true;
 }
 
@@ -297,8 +298,7 @@ FeedReport Feeder::run(LineSource& source) {
   uint64_t seq = 0;
   constexpr std::chrono::milliseconds kFirstBackoff(100);
   auto backoff = kFirstBackoff;
-  Probe probe{std::chrono::milliseconds(50),
-              std::minstd_rand(uint32_t(reinterpret_cast<uintptr_t>(&sh)))};
+  Probe probe{Probe::kFirst, std::minstd_rand(uint32_t(reinterpret_cast<uintptr_t>(&sh)))};
   std::deque<InFlight> again;        // to resend on this stream, in first-sent order
   uint64_t known_epoch = 0;          // of the server that acknowledged what is retained
   std::map<int, int64_t> last_sent;  // by lane

@@ -62,10 +62,13 @@ expect_error "bad csv" "bad.csv:3: column 2 ('lnI') is not a finite number" "$ct
 
 # The server: rangexd on a free loopback port, fed over gRPC, queried, stopped gracefully.
 srv="$(dirname "$ctl")/../server/daemon/rangexd"
-"$srv" --listen 127.0.0.1:0 --http 127.0.0.1:0 --data "$work/data" >"$work/rangexd.log" 2>&1 &
-pid=$!
-for _ in $(seq 600); do grep -q "listening on" "$work/rangexd.log" && break; kill -0 $pid 2>/dev/null || break; sleep 0.1; done
-addr=$(sed -nE 's/.*listening on ([0-9.]+:[0-9]+).*/\1/p' "$work/rangexd.log")
+start_rangexd() {  # start_rangexd LOG: rangexd on the test's store; sets pid and addr
+  "$srv" --listen 127.0.0.1:0 --http 127.0.0.1:0 --data "$work/data" >"$1" 2>&1 &
+  pid=$!
+  for _ in $(seq 600); do grep -q "listening on" "$1" && break; kill -0 $pid 2>/dev/null || break; sleep 0.1; done
+  addr=$(sed -nE 's/.*listening on ([0-9.]+:[0-9]+).*/\1/p' "$1")
+}
+start_rangexd "$work/rangexd.log"
 check "rangexd listens on loopback ($addr)" grep -q "^127.0.0.1:" <<<"$addr"
 "$ctl" record start --server "$addr" --lanes 0 --minutes 5 --name cli-shift >/dev/null || fails=$((fails + 1))
 "$ctl" feed --server "$addr" --simulate --lanes 2 --fillets 1 --seed 3 >"$work/feed.txt" || fails=$((fails + 1))
@@ -117,10 +120,7 @@ expect_error "a run the lane does not keep is refused" "the fillets it keeps are
 kill -TERM $pid
 wait $pid
 check "graceful stop" grep -q "rangexd: stopped after" "$work/rangexd.log"
-"$srv" --listen 127.0.0.1:0 --http 127.0.0.1:0 --data "$work/data" >"$work/rangexd2.log" 2>&1 &
-pid=$!
-for _ in $(seq 600); do grep -q "listening on" "$work/rangexd2.log" && break; kill -0 $pid 2>/dev/null || break; sleep 0.1; done
-addr=$(sed -nE 's/.*listening on ([0-9.]+:[0-9]+).*/\1/p' "$work/rangexd2.log")
+start_rangexd "$work/rangexd2.log"
 check "results kept across a restart" test "$("$ctl" fillets --server "$addr" | wc -l)" -ge 2
 kill -TERM $pid
 wait $pid

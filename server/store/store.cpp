@@ -21,6 +21,11 @@ int64_t now_ns() {
 }
 
 namespace {
+// Where a decision's images wait until the decision is stored (staging_dir).
+fs::path staging_root(const std::string& dir) {
+  return fs::path(dir) / "images" / "staged";
+}
+
 StoredFillet fillet_row(const Stmt& q) {
   StoredFillet f;
   f.uid = q.i64(0);
@@ -102,7 +107,7 @@ Store::Store(const std::string& dir) : dir_(dir) {
   // made to exit mid-write, which can leave a .part): those fillets are decided again from
   // the lines the feeders resend, and staged anew. Nothing else reads them.
   std::error_code ec;
-  fs::remove_all(fs::path(dir) / "images" / "staged", ec);
+  fs::remove_all(staging_root(dir), ec);
   exec("PRAGMA journal_mode=WAL");
   // The durability rule: a decision is committed (to the WAL, fsync'd) before it is
   // published, so a decision any subscriber saw survives a crash of rangexd or of the
@@ -329,8 +334,7 @@ void Store::register_image(int64_t uid, const std::string& kind, const std::stri
 }
 
 std::string Store::staging_dir(const StoredFillet& f) const {
-  return (fs::path(dir_) / "images" / "staged" /
-          (std::to_string(f.lane) + "-" + std::to_string(f.first_encoder)))
+  return (staging_root(dir_) / (std::to_string(f.lane) + "-" + std::to_string(f.first_encoder)))
       .string();
 }
 
