@@ -65,13 +65,17 @@ int run_fleet(const rangex::PlantConfig& plant, const std::string& http,
   std::printf("rangexd: fleet view stopped\n");
   return 0;
 }
-}  // namespace
-
-int main(int argc, char** argv) {
+// What the command line asks for; empty strings and zeros leave the plant file's values.
+struct Args {
   std::string config, listen, http, data, backend, device, servers_ca, server_id;
   bool fleet = false;
   int threads = int(std::max(1u, std::thread::hardware_concurrency()));
   long queue = 0, batch = 0;
+};
+
+// Exits 2 with the usage on a bad option, 0 after --help.
+Args parse_args(int argc, char** argv) {
+  Args o;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -92,151 +96,176 @@ int main(int argc, char** argv) {
       return n;
     };
     if (a == "--config")
-      config = value();
+      o.config = value();
     else if (a == "--listen")
-      listen = value();
+      o.listen = value();
     else if (a == "--http")
-      http = value();
+      o.http = value();
     else if (a == "--data")
-      data = value();
+      o.data = value();
     else if (a == "--threads")
-      threads = int(number(value()));
+      o.threads = int(number(value()));
     else if (a == "--backend")
-      backend = value();
+      o.backend = value();
     else if (a == "--device")
-      device = value();
+      o.device = value();
     else if (a == "--queue")
-      queue = number(value());
+      o.queue = number(value());
     else if (a == "--batch")
-      batch = number(value());
+      o.batch = number(value());
     else if (a == "--fleet")
-      fleet = true;
+      o.fleet = true;
     else if (a == "--servers-ca")
-      servers_ca = value();
+      o.servers_ca = value();
     else if (a == "--server-id")
-      server_id = value();
+      o.server_id = value();
     else if (a == "--help" || a == "-h") {
       std::fputs(kUsage, stdout);
-      return 0;
+      std::exit(0);
     } else {
       std::fprintf(stderr, "rangexd: unknown option %s\n%s", a.c_str(), kUsage);
-      return 2;
+      std::exit(2);
     }
   }
-  if (!backend.empty() && backend != "auto" && backend != "cpu" && backend != "opencl" &&
-      backend != "vulkan") {
+  if (!o.backend.empty() && o.backend != "auto" && o.backend != "cpu" && o.backend != "opencl" &&
+      o.backend != "vulkan") {
     std::fprintf(stderr, "rangexd: --backend must be auto, cpu, opencl or vulkan (got '%s')\n",
-                 backend.c_str());
-    return 2;
+                 o.backend.c_str());
+    std::exit(2);
   }
-  if (config.empty()) {
+  if (o.config.empty()) {
     if (const char* env = std::getenv("RANGEX_CONFIG"))
-      config = env;
+      o.config = env;
     else
-      config = std::filesystem::exists("config/plant.yaml") ? "config/plant.yaml"
-                                                            : RANGEX_DEFAULT_CONFIG;
+      o.config = std::filesystem::exists("config/plant.yaml") ? "config/plant.yaml"
+                                                              : RANGEX_DEFAULT_CONFIG;
   }
+  return o;
+}
+
+rangex::ServerOptions server_options(const rangex::PlantConfig& plant, const Args& a) {
+  rangex::ServerOptions opt;
+  opt.listen = a.listen;
+  opt.data_dir = a.data;
+  static_cast<rangex::EngineSettings&>(opt.engine) = plant.engine;
+  opt.engine.backend.name = a.backend.empty() ? plant.backend : a.backend;
+  opt.engine.backend.device = a.device.empty() ? plant.device : a.device;
+  opt.engine.backend.threads = a.threads;
+  if (a.queue) opt.engine.queue_lines = size_t(a.queue);
+  if (a.batch) opt.engine.batch_lines = int(a.batch);
+  opt.on_fatal = [](const rangex::Health& h) {
+    for (const std::string& r : h.reasons)
+      std::fprintf(stderr, "rangexd: cannot inspect: %s\n", r.c_str());
+    // Nothing accepted is lost by exiting: no durable count has passed a decision the
+    // store did not take, so the feeders still hold those lines and resend them.
+    std::fprintf(stderr,
+                 "rangexd: not serving for longer than exit_after_s; exiting (the lines not "
+                 "yet durable are handed back: feeders resend them to the next server)\n");
+    std::fflush(stderr);
+    std::_Exit(3);  // nothing can be drained through a stalled worker
+  };
+  return opt;
+}
+
+// The dashboard and /metrics, over the same engine, store and results hub; none for "off".
+std::unique_ptr<rangex::HttpServer> start_dashboard(rangex::RangexServer& server,
+                                                    const rangex::PlantConfig& plant,
+                                                    const std::string& http) {
+  const std::string where = http.empty() ? plant.http : http;
+  if (where == "off") return nullptr;
+  rangex::HttpOptions ho;
+  ho.listen = where;
+  ho.security = plant.security;
+  ho.ingest_streams = [&server] { return server.ingest_streams(); };
+  return std::make_unique<rangex::HttpServer>(server.engine(), server.store(), server.hub(), ho);
+}
+
+// What a plant engineer reads first in the log: where it listens, its lanes, its security,
+// constants not fitted to this plant, the backend and the dashboard.
+void print_banner(rangex::RangexServer& server, const rangex::PlantConfig& plant,
+                  const std::string& store, const rangex::HttpServer* web) {
+  const rangex::BackendInfo b = server.engine().backend();
+  std::printf("rangexd: plant '%s', %zu lanes, listening on %s, store %s\n", plant.name.c_str(),
+              plant.lanes.size(), server.address().c_str(), store.c_str());
+  if (!plant.lane_servers.empty()) {
+    std::string ids;
+    for (const rangex::LaneConfig& l : plant.lanes)
+      ids += (ids.empty() ? "" : ", ") + std::to_string(l.id);
+    std::printf("rangexd: server %s runs lanes %s of the plant file\n", plant.server_id.c_str(),
+                ids.c_str());
+  }
+  const rangex::SecurityConfig& sec = plant.security;
+  std::printf("rangexd: %s; %s%s; clients without credentials: %s\n",
+              sec.tls() ? "TLS" : "plaintext", sec.client_ca.empty() ? "" : "client certificates, ",
+              sec.tokens.empty() ? "no tokens" : "bearer tokens",
+              rangex::role_name(sec.anonymous_role()));
+  for (const rangex::LaneConfig& l : plant.lanes)
+    if (const std::string w = rangex::unfitted_constants(l); !w.empty())
+      std::fprintf(stderr, "rangexd: warning: %s\n", w.c_str());
+  std::printf("rangexd: backend %s (%s): %s, %s; %s\n", b.name.c_str(),
+              server.engine().backend_note().c_str(), b.device.c_str(), b.driver.c_str(),
+              b.limits.c_str());
+  if (web)
+    std::printf("rangexd: dashboard at %s://%s/ (metrics at /metrics)\n",
+                web->tls() ? "https" : "http", web->address().c_str());
+  std::fflush(stdout);
+}
+
+// Serves until SIGINT/SIGTERM, then decides the queued lines and stops.
+int serve(const rangex::PlantConfig& plant, const Args& a) {
+  const rangex::ServerOptions opt = server_options(plant, a);
+  rangex::RangexServer server(plant, opt);
+  std::unique_ptr<rangex::HttpServer> web = start_dashboard(server, plant, a.http);
+  // The fleet view (a plant-wide database) reads where this dashboard serves and the
+  // server's health; nothing reads the dashboard after this scope.
+  rangex::PlantHistory no_history;
+  if (web)
+    server.describe_for_fleet(web->url(), [&web] { return web->health_text(); });
+  else
+    server.describe_for_fleet("", [&server, &no_history] {
+      return rangex::server_health_text(server.engine(), no_history, rangex::HttpOptions{}.version);
+    });
+  struct Undescribe {
+    rangex::RangexServer& s;
+    ~Undescribe() { s.describe_for_fleet("", nullptr); }
+  } undescribe{server};
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  print_banner(server, plant, a.data.empty() ? plant.storage : a.data, web.get());
+  while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  std::printf(
+      "rangexd: stopping: deciding the queued lines; new lines and the fillets still coming "
+      "in are handed back to the feeders\n");
+  std::fflush(stdout);
+  if (!server.shutdown(rangex::OpenFillets::kHandBack)) {
+    print_stats(server);
+    std::fprintf(stderr,
+                 "rangexd: could not drain within %.0f s; the lines not decided are not "
+                 "durable: feeders resend them to the next server\n",
+                 opt.engine.drain_timeout_s);
+    std::fflush(stderr);
+    std::_Exit(3);
+  }
+  // The dashboard's event streams have every decision and have ended; then it stops.
+  if (web) web->stop();
+  const auto s = server.engine().stats();
+  std::printf("rangexd: stopped after %llu lines, %llu fillets\n", (unsigned long long)s.processed,
+              (unsigned long long)s.fillets);
+  return 0;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Args a = parse_args(argc, argv);
   try {
-    rangex::PlantConfig plant = rangex::load_plant_config(config);
-    if (fleet) return run_fleet(plant, http, servers_ca);
+    rangex::PlantConfig plant = rangex::load_plant_config(a.config);
+    if (a.fleet) return run_fleet(plant, a.http, a.servers_ca);
     // One plant file for several servers: this one runs the lanes it names for it.
-    if (!server_id.empty()) plant.server_id = server_id;
+    if (!a.server_id.empty()) plant.server_id = a.server_id;
     if (plant.server_id.empty() && !plant.lane_servers.empty())
       plant.server_id = rangex::host_name();
     plant = rangex::plant_for_server(plant, plant.server_id);
-    rangex::ServerOptions opt;
-    opt.listen = listen;
-    opt.data_dir = data;
-    static_cast<rangex::EngineSettings&>(opt.engine) = plant.engine;
-    opt.engine.backend.name = backend.empty() ? plant.backend : backend;
-    opt.engine.backend.device = device.empty() ? plant.device : device;
-    opt.engine.backend.threads = threads;
-    if (queue) opt.engine.queue_lines = size_t(queue);
-    if (batch) opt.engine.batch_lines = int(batch);
-    opt.on_fatal = [](const rangex::Health& h) {
-      for (const std::string& r : h.reasons)
-        std::fprintf(stderr, "rangexd: cannot inspect: %s\n", r.c_str());
-      // Nothing accepted is lost by exiting: no durable count has passed a decision the
-      // store did not take, so the feeders still hold those lines and resend them.
-      std::fprintf(stderr,
-                   "rangexd: not serving for longer than exit_after_s; exiting (the lines not "
-                   "yet durable are handed back: feeders resend them to the next server)\n");
-      std::fflush(stderr);
-      std::_Exit(3);  // nothing can be drained through a stalled worker
-    };
-    rangex::RangexServer server(plant, opt);
-    // The dashboard and /metrics, over the same engine, store and results hub.
-    std::unique_ptr<rangex::HttpServer> web;
-    if (const std::string where = http.empty() ? plant.http : http; where != "off") {
-      rangex::HttpOptions ho;
-      ho.listen = where;
-      ho.security = plant.security;
-      ho.ingest_streams = [&server] { return server.ingest_streams(); };
-      web = std::make_unique<rangex::HttpServer>(server.engine(), server.store(), server.hub(), ho);
-    }
-    // The fleet view (a plant-wide database) reads where this dashboard serves and the
-    // server's health; nothing reads the dashboard after this scope.
-    rangex::PlantHistory no_history;
-    if (web)
-      server.describe_for_fleet(web->url(), [&web] { return web->health_text(); });
-    else
-      server.describe_for_fleet("", [&server, &no_history] {
-        return rangex::server_health_text(server.engine(), no_history,
-                                          rangex::HttpOptions{}.version);
-      });
-    struct Undescribe {
-      rangex::RangexServer& s;
-      ~Undescribe() { s.describe_for_fleet("", nullptr); }
-    } undescribe{server};
-    std::signal(SIGINT, on_signal);
-    std::signal(SIGTERM, on_signal);
-    const rangex::BackendInfo b = server.engine().backend();
-    std::printf("rangexd: plant '%s', %zu lanes, listening on %s, store %s\n", plant.name.c_str(),
-                plant.lanes.size(), server.address().c_str(),
-                (data.empty() ? plant.storage : data).c_str());
-    if (!plant.lane_servers.empty()) {
-      std::string ids;
-      for (const rangex::LaneConfig& l : plant.lanes)
-        ids += (ids.empty() ? "" : ", ") + std::to_string(l.id);
-      std::printf("rangexd: server %s runs lanes %s of the plant file\n", plant.server_id.c_str(),
-                  ids.c_str());
-    }
-    const rangex::SecurityConfig& sec = plant.security;
-    std::printf("rangexd: %s; %s%s; clients without credentials: %s\n",
-                sec.tls() ? "TLS" : "plaintext",
-                sec.client_ca.empty() ? "" : "client certificates, ",
-                sec.tokens.empty() ? "no tokens" : "bearer tokens",
-                rangex::role_name(sec.anonymous_role()));
-    for (const rangex::LaneConfig& l : plant.lanes)
-      if (const std::string w = rangex::unfitted_constants(l); !w.empty())
-        std::fprintf(stderr, "rangexd: warning: %s\n", w.c_str());
-    std::printf("rangexd: backend %s (%s): %s, %s; %s\n", b.name.c_str(),
-                server.engine().backend_note().c_str(), b.device.c_str(), b.driver.c_str(),
-                b.limits.c_str());
-    if (web)
-      std::printf("rangexd: dashboard at %s://%s/ (metrics at /metrics)\n",
-                  web->tls() ? "https" : "http", web->address().c_str());
-    std::fflush(stdout);
-    while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    std::printf(
-        "rangexd: stopping: deciding the queued lines; new lines and the fillets still coming "
-        "in are handed back to the feeders\n");
-    std::fflush(stdout);
-    if (!server.shutdown(rangex::OpenFillets::kHandBack)) {
-      print_stats(server);
-      std::fprintf(stderr,
-                   "rangexd: could not drain within %.0f s; the lines not decided are not "
-                   "durable: feeders resend them to the next server\n",
-                   opt.engine.drain_timeout_s);
-      std::fflush(stderr);
-      std::_Exit(3);
-    }
-    // The dashboard's event streams have every decision and have ended; then it stops.
-    if (web) web->stop();
-    const auto s = server.engine().stats();
-    std::printf("rangexd: stopped after %llu lines, %llu fillets\n",
-                (unsigned long long)s.processed, (unsigned long long)s.fillets);
-    return 0;
+    return serve(plant, a);
   } catch (const rangex::Error& e) {
     std::fprintf(stderr, "rangexd: error: %s\n", e.what());
     return 1;
