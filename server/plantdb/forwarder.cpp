@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <ctime>
-#include <map>
+#include <vector>
 
 #include "core/error.h"
 #include "core/log.h"
@@ -126,12 +126,116 @@ void Forwarder::connect() {
             db_->where(), id, held.seq);
 }
 
+namespace {
+// One writer per table: each sends all of a batch's rows as arrays in one statement.
+void insert_links(PgConnection& db, const std::string& id, const std::vector<ForwardLink>& ls) {
+  PgArray seq, kind, ref, ts, prev, hash, day;
+  for (const ForwardLink& l : ls) {
+    seq.add(l.seq), kind.add(l.kind), ref.add(l.ref), ts.add(l.ts_ns);
+    prev.add(l.prev), hash.add(l.hash), day.add(utc_day(l.ts_ns));
+  }
+  db.exec(
+      "INSERT INTO ledger SELECT $1, * FROM unnest($2::bigint[], $3::text[], $4::bigint[], "
+      "$5::bigint[], $6::text[], $7::text[], $8::date[]) ON CONFLICT DO NOTHING",
+      {id, seq.text(), kind.text(), ref.text(), ts.text(), prev.text(), hash.text(), day.text()});
+}
+
+// A fillet's fragments are partitioned by their fillet's day, not their own.
+void insert_fillets(PgConnection& db, const std::string& id, const std::vector<StoredFillet>& fs) {
+  PgArray uid, lane, lf, enc, rows, dec, reason, cal, b0, b1, b2, rm, rs, y0, ns, day;
+  PgArray fu, fi, fk, fx, fy, fa, fz, fat, fm, r0, r1, c0, c1, bm, fd;
+  for (const StoredFillet& f : fs) {
+    const std::string fillet_day = utc_day(f.decided_ns);
+    uid.add(f.uid), lane.add(int64_t(f.lane)), lf.add(f.lane_fillet), enc.add(f.first_encoder);
+    rows.add(int64_t(f.rows)), dec.add(f.decision), reason.add(f.reason);
+    cal.add(f.calibration_id), b0.add(f.beta0), b1.add(f.beta1), b2.add(f.beta2);
+    rm.add(f.resid_mean_dn), rs.add(f.resid_std_dn), y0.add(f.belt_y0_mm);
+    ns.add(f.decided_ns), day.add(fillet_day);
+    for (size_t k = 0; k < f.fragments.size(); ++k) {
+      const StoredFragment& g = f.fragments[k];
+      fu.add(f.uid), fi.add(int64_t(k)), fk.add(g.kind), fx.add(g.x_mm), fy.add(g.y_mm);
+      fa.add(g.area_mm2), fz.add(g.peak_z), fat.add(g.attenuation_mm2), fm.add(g.meat_mm);
+      r0.add(int64_t(g.row0)), r1.add(int64_t(g.row1)), c0.add(int64_t(g.col0));
+      c1.add(int64_t(g.col1)), bm.add(g.bone_mg), fd.add(fillet_day);
+    }
+  }
+  db.exec(
+      "INSERT INTO fillets SELECT $1, * FROM unnest($2::bigint[], $3::int[], $4::bigint[], "
+      "$5::bigint[], $6::int[], $7::text[], $8::text[], $9::text[], $10::float8[], "
+      "$11::float8[], $12::float8[], $13::float8[], $14::float8[], $15::float8[], "
+      "$16::bigint[], $17::date[]) ON CONFLICT DO NOTHING",
+      {id, uid.text(), lane.text(), lf.text(), enc.text(), rows.text(), dec.text(), reason.text(),
+       cal.text(), b0.text(), b1.text(), b2.text(), rm.text(), rs.text(), y0.text(), ns.text(),
+       day.text()});
+  if (fu.text() != "{}")
+    db.exec(
+        "INSERT INTO fragments SELECT $1, * FROM unnest($2::bigint[], $3::int[], $4::text[], "
+        "$5::float8[], $6::float8[], $7::float8[], $8::float8[], $9::float8[], "
+        "$10::float8[], $11::int[], $12::int[], $13::int[], $14::int[], $15::float8[], "
+        "$16::date[]) ON CONFLICT DO NOTHING",
+        {id, fu.text(), fi.text(), fk.text(), fx.text(), fy.text(), fa.text(), fz.text(),
+         fat.text(), fm.text(), r0.text(), r1.text(), c0.text(), c1.text(), bm.text(), fd.text()});
+}
+
+void insert_audit(PgConnection& db, const std::string& id,
+                  const std::vector<std::pair<int64_t, AuditEntry>>& audit) {
+  PgArray row, ts, who, what, detail, day;
+  for (const auto& [r, e] : audit) {
+    row.add(r), ts.add(e.ts_ns), who.add(e.who), what.add(e.what), detail.add(e.detail);
+    day.add(utc_day(e.ts_ns));
+  }
+  db.exec(
+      "INSERT INTO audit SELECT $1, * FROM unnest($2::bigint[], $3::bigint[], $4::text[], "
+      "$5::text[], $6::text[], $7::date[]) ON CONFLICT DO NOTHING",
+      {id, row.text(), ts.text(), who.text(), what.text(), detail.text(), day.text()});
+}
+
+void insert_images(PgConnection& db, const std::string& id,
+                   const std::vector<ForwardImage>& images) {
+  PgArray uid, kind, path, day;
+  for (const ForwardImage& i : images)
+    uid.add(i.uid), kind.add(i.kind), path.add(i.path), day.add(utc_day(i.decided_ns));
+  // A later image of the same kind replaces the earlier reference, as in the store.
+  db.exec(
+      "INSERT INTO images SELECT $1, * FROM unnest($2::bigint[], $3::text[], $4::text[], "
+      "$5::date[]) ON CONFLICT (server_id, fillet_uid, kind, day) DO UPDATE SET path = "
+      "excluded.path",
+      {id, uid.text(), kind.text(), path.text(), day.text()});
+}
+
+void insert_settings(PgConnection& db, const std::string& id,
+                     const std::vector<ForwardSetting>& settings) {
+  PgArray kind, lane, sid, yaml, report, ns;
+  for (const ForwardSetting& s : settings) {
+    kind.add(std::string(s.learned ? "learned" : "calibration")), lane.add(int64_t(s.lane));
+    sid.add(s.id), yaml.add(s.yaml), report.add(s.report), ns.add(s.uploaded_ns);
+  }
+  db.exec(
+      "INSERT INTO settings (server_id, kind, lane, id, yaml, report, uploaded_ns) SELECT "
+      "$1, * FROM unnest($2::text[], $3::int[], $4::text[], $5::text[], $6::text[], "
+      "$7::bigint[]) ON CONFLICT DO NOTHING",
+      {id, kind.text(), lane.text(), sid.text(), yaml.text(), report.text(), ns.text()});
+}
+
+// Exactly the listed settings are active for this server; every other one is not.
+void mark_active(PgConnection& db, const std::string& id,
+                 const std::vector<ActiveSetting>& active) {
+  PgArray kind, lane, sid;
+  for (const ActiveSetting& a : active)
+    kind.add(std::string(a.learned ? "learned" : "calibration")), lane.add(int64_t(a.lane)),
+        sid.add(a.id);
+  db.exec(
+      "UPDATE settings s SET active = EXISTS (SELECT 1 FROM unnest($2::text[], $3::int[], "
+      "$4::text[]) a(kind, lane, id) WHERE a.kind = s.kind AND a.lane = s.lane AND a.id = "
+      "s.id) WHERE s.server_id = $1",
+      {id, kind.text(), lane.text(), sid.text()});
+}
+}  // namespace
+
 void Forwarder::forward(const ForwardBatch& b) {
   PgConnection& db = *db_;
   const std::string id = opt_.server_id;
   // Each record's day partition, by the time it carries.
-  std::map<int64_t, std::string> fillet_day;
-  for (const StoredFillet& f : b.fillets) fillet_day[f.uid] = utc_day(f.decided_ns);
   std::set<std::string> days;
   for (const ForwardLink& l : b.links) days.insert(utc_day(l.ts_ns));
   for (const ForwardImage& i : b.images) days.insert(utc_day(i.decided_ns));
@@ -139,98 +243,12 @@ void Forwarder::forward(const ForwardBatch& b) {
   try {
     for (const std::string& d : days)
       if (!days_.count(d)) db.exec("SELECT rangex_day_partitions($1::date)", {d});
-    if (!b.links.empty()) {
-      PgArray seq, kind, ref, ts, prev, hash, day;
-      for (const ForwardLink& l : b.links) {
-        seq.add(l.seq), kind.add(l.kind), ref.add(l.ref), ts.add(l.ts_ns);
-        prev.add(l.prev), hash.add(l.hash), day.add(utc_day(l.ts_ns));
-      }
-      db.exec(
-          "INSERT INTO ledger SELECT $1, * FROM unnest($2::bigint[], $3::text[], $4::bigint[], "
-          "$5::bigint[], $6::text[], $7::text[], $8::date[]) ON CONFLICT DO NOTHING",
-          {id, seq.text(), kind.text(), ref.text(), ts.text(), prev.text(), hash.text(),
-           day.text()});
-    }
-    if (!b.fillets.empty()) {
-      PgArray uid, lane, lf, enc, rows, dec, reason, cal, b0, b1, b2, rm, rs, y0, ns, day;
-      PgArray fu, fi, fk, fx, fy, fa, fz, fat, fm, r0, r1, c0, c1, bm, fd;
-      for (const StoredFillet& f : b.fillets) {
-        uid.add(f.uid), lane.add(int64_t(f.lane)), lf.add(f.lane_fillet), enc.add(f.first_encoder);
-        rows.add(int64_t(f.rows)), dec.add(f.decision), reason.add(f.reason);
-        cal.add(f.calibration_id), b0.add(f.beta0), b1.add(f.beta1), b2.add(f.beta2);
-        rm.add(f.resid_mean_dn), rs.add(f.resid_std_dn), y0.add(f.belt_y0_mm);
-        ns.add(f.decided_ns), day.add(fillet_day[f.uid]);
-        for (size_t k = 0; k < f.fragments.size(); ++k) {
-          const StoredFragment& g = f.fragments[k];
-          fu.add(f.uid), fi.add(int64_t(k)), fk.add(g.kind), fx.add(g.x_mm), fy.add(g.y_mm);
-          fa.add(g.area_mm2), fz.add(g.peak_z), fat.add(g.attenuation_mm2), fm.add(g.meat_mm);
-          r0.add(int64_t(g.row0)), r1.add(int64_t(g.row1)), c0.add(int64_t(g.col0));
-          c1.add(int64_t(g.col1)), bm.add(g.bone_mg), fd.add(fillet_day[f.uid]);
-        }
-      }
-      db.exec(
-          "INSERT INTO fillets SELECT $1, * FROM unnest($2::bigint[], $3::int[], $4::bigint[], "
-          "$5::bigint[], $6::int[], $7::text[], $8::text[], $9::text[], $10::float8[], "
-          "$11::float8[], $12::float8[], $13::float8[], $14::float8[], $15::float8[], "
-          "$16::bigint[], $17::date[]) ON CONFLICT DO NOTHING",
-          {id, uid.text(), lane.text(), lf.text(), enc.text(), rows.text(), dec.text(),
-           reason.text(), cal.text(), b0.text(), b1.text(), b2.text(), rm.text(), rs.text(),
-           y0.text(), ns.text(), day.text()});
-      if (fu.text() != "{}")
-        db.exec(
-            "INSERT INTO fragments SELECT $1, * FROM unnest($2::bigint[], $3::int[], $4::text[], "
-            "$5::float8[], $6::float8[], $7::float8[], $8::float8[], $9::float8[], "
-            "$10::float8[], $11::int[], $12::int[], $13::int[], $14::int[], $15::float8[], "
-            "$16::date[]) ON CONFLICT DO NOTHING",
-            {id, fu.text(), fi.text(), fk.text(), fx.text(), fy.text(), fa.text(), fz.text(),
-             fat.text(), fm.text(), r0.text(), r1.text(), c0.text(), c1.text(), bm.text(),
-             fd.text()});
-    }
-    if (!b.audit.empty()) {
-      PgArray row, ts, who, what, detail, day;
-      for (const auto& [r, e] : b.audit) {
-        row.add(r), ts.add(e.ts_ns), who.add(e.who), what.add(e.what), detail.add(e.detail);
-        day.add(utc_day(e.ts_ns));
-      }
-      db.exec(
-          "INSERT INTO audit SELECT $1, * FROM unnest($2::bigint[], $3::bigint[], $4::text[], "
-          "$5::text[], $6::text[], $7::date[]) ON CONFLICT DO NOTHING",
-          {id, row.text(), ts.text(), who.text(), what.text(), detail.text(), day.text()});
-    }
-    if (!b.images.empty()) {
-      PgArray uid, kind, path, day;
-      for (const ForwardImage& i : b.images)
-        uid.add(i.uid), kind.add(i.kind), path.add(i.path), day.add(utc_day(i.decided_ns));
-      // A later image of the same kind replaces the earlier reference, as in the store.
-      db.exec(
-          "INSERT INTO images SELECT $1, * FROM unnest($2::bigint[], $3::text[], $4::text[], "
-          "$5::date[]) ON CONFLICT (server_id, fillet_uid, kind, day) DO UPDATE SET path = "
-          "excluded.path",
-          {id, uid.text(), kind.text(), path.text(), day.text()});
-    }
-    if (!b.settings.empty()) {
-      PgArray kind, lane, sid, yaml, report, ns;
-      for (const ForwardSetting& s : b.settings) {
-        kind.add(std::string(s.learned ? "learned" : "calibration")), lane.add(int64_t(s.lane));
-        sid.add(s.id), yaml.add(s.yaml), report.add(s.report), ns.add(s.uploaded_ns);
-      }
-      db.exec(
-          "INSERT INTO settings (server_id, kind, lane, id, yaml, report, uploaded_ns) SELECT "
-          "$1, * FROM unnest($2::text[], $3::int[], $4::text[], $5::text[], $6::text[], "
-          "$7::bigint[]) ON CONFLICT DO NOTHING",
-          {id, kind.text(), lane.text(), sid.text(), yaml.text(), report.text(), ns.text()});
-    }
-    if (need_active_) {
-      PgArray kind, lane, sid;
-      for (const ActiveSetting& a : b.active)
-        kind.add(std::string(a.learned ? "learned" : "calibration")), lane.add(int64_t(a.lane)),
-            sid.add(a.id);
-      db.exec(
-          "UPDATE settings s SET active = EXISTS (SELECT 1 FROM unnest($2::text[], $3::int[], "
-          "$4::text[]) a(kind, lane, id) WHERE a.kind = s.kind AND a.lane = s.lane AND a.id = "
-          "s.id) WHERE s.server_id = $1",
-          {id, kind.text(), lane.text(), sid.text()});
-    }
+    if (!b.links.empty()) insert_links(db, id, b.links);
+    if (!b.fillets.empty()) insert_fillets(db, id, b.fillets);
+    if (!b.audit.empty()) insert_audit(db, id, b.audit);
+    if (!b.images.empty()) insert_images(db, id, b.images);
+    if (!b.settings.empty()) insert_settings(db, id, b.settings);
+    if (need_active_) mark_active(db, id, b.active);
     const int64_t lag = std::max<int64_t>(0, b.pending - int64_t(b.links.size()));
     // The cursor moves in the same transaction as the records: forwarded means held.
     const PgRows moved = db.exec(
