@@ -140,10 +140,8 @@ std::string id_list(const std::vector<int64_t>& ids, size_t most = 20) {
   return s;
 }
 
-}  // namespace
-
-StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::string& who) {
-  Lane& l = lane(id);
+// Refuses a request that names a bad value, before any fillet is collected.
+void check_learn_request(const Engine::LearnRequest& req) {
   const bool relearn = !req.relearn_from.empty();
   if (req.min_fillets < 0 || req.min_fillets > 10000)
     fail("min_fillets must be within 0..10000 (0: 30, or the run's; got ", req.min_fillets, ")");
@@ -163,6 +161,33 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
         "keep_fillets names fillets of an earlier learning run: give relearn_from, the id of "
         "the version that run stored");
   if (req.keep.size() > 1000) fail("keep_fillets: at most 1000 (got ", req.keep.size(), ")");
+}
+
+// A new run learns with the lane's inspection settings.
+void learn_with_lane_settings(KeptLearning& run, const LaneConfig& lc,
+                              const Engine::LearnRequest& req) {
+  run.inspection = lc.inspection;
+  // The run's own target and confidence: a re-learning keeps them unless it asks for others.
+  run.lo.target_frr = req.target_frr > 0 ? req.target_frr : lc.inspection.false_reject_target;
+  run.lo.confidence = req.confidence;
+  if (req.min_fillets > 0) run.lo.min_fillets = req.min_fillets;  // else LearnOptions' 30
+  // The lane ran with its own settings; extremes come in its bands.
+  if (lc.inspection.learned.active()) {
+    run.lo.band_edges_mm = lc.inspection.learned.band_edges_mm;
+    run.lo.spread_by_thickness = lc.inspection.learned.spread_by_thickness;
+    run.lo.rim_walls = lc.inspection.learned.rim_walls;
+  } else {
+    run.lo.spread_by_thickness = lc.inspection.spread_by_thickness;
+    run.lo.rim_walls = lc.inspection.rim_walls;
+  }
+}
+
+}  // namespace
+
+StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::string& who) {
+  Lane& l = lane(id);
+  const bool relearn = !req.relearn_from.empty();
+  check_learn_request(req);
   const std::string vid = req.id.empty() ? learning_version_name() : req.id;
   if (store_.setting(SettingKind::kLearned, id, vid))
     fail_exists("lane ", id, " already has learned settings '", vid, "' (versions are immutable)");
@@ -204,20 +229,7 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
       std::lock_guard<std::mutex> lock(ctl_mu_);
       lc = l.config;
     }
-    run->inspection = lc.inspection;
-    // The run's own target and confidence: a re-learning keeps them unless it asks for others.
-    run->lo.target_frr = req.target_frr > 0 ? req.target_frr : lc.inspection.false_reject_target;
-    run->lo.confidence = req.confidence;
-    if (req.min_fillets > 0) run->lo.min_fillets = req.min_fillets;  // else LearnOptions' 30
-    // The lane ran with its own settings; extremes come in its bands.
-    if (lc.inspection.learned.active()) {
-      run->lo.band_edges_mm = lc.inspection.learned.band_edges_mm;
-      run->lo.spread_by_thickness = lc.inspection.learned.spread_by_thickness;
-      run->lo.rim_walls = lc.inspection.learned.rim_walls;
-    } else {
-      run->lo.spread_by_thickness = lc.inspection.spread_by_thickness;
-      run->lo.rim_walls = lc.inspection.rim_walls;
-    }
+    learn_with_lane_settings(*run, lc, req);
     run->set = std::move(set);
   }
 
