@@ -172,9 +172,9 @@ void LaneAssembler::flush() {
   close_all("the lines ended while this fillet was coming in");
 }
 
-void LaneAssembler::close_segment() {
+// Fillet pixels of the open segment, rows x pixels: thicker than the floor on a seen line.
+std::vector<uint8_t> LaneAssembler::segment_mask() const {
   const int rows = int(segment_.size()), D = pixels_;
-  const InspectionParams& ip = lane_.inspection;
   std::vector<uint8_t> on(size_t(rows) * D, 0);
   // A line is seen when it has a thickness line with some thickness in it: a missing line
   // has none, and a line whose camera frames were lost (black) has no valid sample.
@@ -188,7 +188,8 @@ void LaneAssembler::close_segment() {
   for (int r = 0; r < rows; ++r) {
     if (!seen[r]) continue;
     const Row& row = segment_[r];
-    for (int i = 0; i < D; ++i) on[size_t(r) * D + i] = row.thickness[i] > ip.floor_mm;
+    for (int i = 0; i < D; ++i)
+      on[size_t(r) * D + i] = row.thickness[i] > lane_.inspection.floor_mm;
   }
   // A line with no thickness must not cut a fillet in two: it takes the union of its
   // neighbours, so the fillet stays one region; a missing line goes into its fail-safe
@@ -202,10 +203,78 @@ void LaneAssembler::close_segment() {
       on[size_t(r) * D + i] =
           (up >= 0 && on[size_t(up) * D + i]) || (dn < rows && on[size_t(dn) * D + i]);
   }
+  return on;
+}
+
+// One fillet's image: its component's box with a 2-pixel margin, with the lane's geometry.
+FilletImage LaneAssembler::cut_fillet(const Component& c, const std::vector<int>& labels,
+                                      int missing, bool interrupted) {
+  const int rows = int(segment_.size()), D = pixels_;
+  const InspectionParams& ip = lane_.inspection;
+  FilletImage f;
+  f.lane = lane_.id;
+  f.id = next_id_++;
+  const int r0 = std::max(0, c.row0 - 2), r1 = std::min(rows - 1, c.row1 + 2);
+  const int c0 = std::max(0, c.col0 - 2), c1 = std::min(D - 1, c.col1 + 2);
+  f.rows = r1 - r0 + 1;
+  f.cols = c1 - c0 + 1;
+  f.first_line = segment_[r0].line;
+  f.first_encoder = segment_[r0].encoder;
+  f.first_col = c0;
+  f.pitch_mm = lane_.xray.pitch_mm;
+  f.step_mm = lane_.encoder_step_mm;
+  f.x0_mm = lane_.xray.pixel_x(c0);
+  f.y0_mm = double(f.first_line - lane_.xray.delay_lines) * lane_.encoder_step_mm;
+  f.bits = lane_.xray.bits;
+  f.source_x_mm = lane_.xray.source_x_mm;
+  f.source_z_mm = lane_.xray.source_z_mm;
+  f.detector_z_mm = lane_.xray.detector_z_mm;
+  const FanBeam& fb = lane_.xray;
+  if (fb.measured_delay_lines != 0) f.shift_lines = fb.measured_delay_lines - fb.delay_lines;
+  f.tan_alpha = std::tan(fb.plane_alpha_deg * M_PI / 180);
+  f.tan_beta = std::tan(fb.plane_beta_deg * M_PI / 180);
+  f.detector_sigma_px = fb.detector_sigma_px;
+  f.focal_spot_sigma_mm = fb.focal_spot_sigma_mm;
+  f.has_dual_energy = fb.energies == 2 && fb.has_dual_energy;
+  if (f.has_dual_energy) f.dual_energy = fb.dual_energy;
+  f.touches_lane_edge = c.col0 == 0 || c.col1 == D - 1;
+  f.missing_lines = missing;
+  if (interrupted) f.interrupted = interrupted_;
+  f.xray.assign(f.size(), 0);
+  const bool dual = std::any_of(segment_.begin() + r0, segment_.begin() + r1 + 1,
+                                [](const Row& row) { return !row.xray_high.empty(); });
+  if (dual) f.xray_high.assign(f.size(), 0);
+  f.thickness.assign(f.size(), std::numeric_limits<float>::quiet_NaN());
+  f.mask.assign(f.size(), 0);
+  std::vector<uint8_t> present(f.size(), 0);
+  for (int r = r0; r <= r1; ++r) {
+    const Row& row = segment_[r];
+    if (row.missing) continue;
+    for (int i = c0; i <= c1; ++i) {
+      const size_t o = size_t(r - r0) * f.cols + (i - c0);
+      f.xray[o] = row.xray[i];
+      if (dual && !row.xray_high.empty()) f.xray_high[o] = row.xray_high[i];
+      f.thickness[o] = row.thickness[i];
+      f.mask[o] = labels[size_t(r) * D + i] == c.label;
+      present[o] = 1;
+    }
+  }
+  f.wall_gap_px = close_wall_gaps(f, ip.max_wall_gap_px, ip.floor_mm);
+  // Meat by the X-ray with no thickness: the laser lost it.
+  const float meat_level = float(0.9 * open_beam_);
+  for (size_t o = 0; o < f.size(); ++o)
+    f.invalid_thickness_px +=
+        present[o] && !std::isfinite(f.thickness[o]) && f.xray[o] < meat_level;
+  return f;
+}
+
+void LaneAssembler::close_segment() {
+  const int rows = int(segment_.size()), D = pixels_;
+  const InspectionParams& ip = lane_.inspection;
+  const std::vector<uint8_t> on = segment_mask();
   std::vector<int> labels;
   const auto comps = label_components(on.data(), rows, D, labels);
   const double px_area = lane_.xray.pitch_mm * lane_.encoder_step_mm;
-  const float meat_level = float(0.9 * open_beam_);
   for (const Component& c : comps) {
     int missing = 0;
     for (int r = std::max(0, c.row0 - 1); r <= std::min(rows - 1, c.row1 + 1); ++r)
@@ -218,61 +287,8 @@ void LaneAssembler::close_segment() {
       ++stats_.debris;
       continue;
     }
-    FilletImage f;
-    f.lane = lane_.id;
-    f.id = next_id_++;
-    const int r0 = std::max(0, c.row0 - 2), r1 = std::min(rows - 1, c.row1 + 2);
-    const int c0 = std::max(0, c.col0 - 2), c1 = std::min(D - 1, c.col1 + 2);
-    f.rows = r1 - r0 + 1;
-    f.cols = c1 - c0 + 1;
-    f.first_line = segment_[r0].line;
-    f.first_encoder = segment_[r0].encoder;
-    f.first_col = c0;
-    f.pitch_mm = lane_.xray.pitch_mm;
-    f.step_mm = lane_.encoder_step_mm;
-    f.x0_mm = lane_.xray.pixel_x(c0);
-    f.y0_mm = double(f.first_line - lane_.xray.delay_lines) * lane_.encoder_step_mm;
-    f.bits = lane_.xray.bits;
-    f.source_x_mm = lane_.xray.source_x_mm;
-    f.source_z_mm = lane_.xray.source_z_mm;
-    f.detector_z_mm = lane_.xray.detector_z_mm;
-    const FanBeam& fb = lane_.xray;
-    if (fb.measured_delay_lines != 0) f.shift_lines = fb.measured_delay_lines - fb.delay_lines;
-    f.tan_alpha = std::tan(fb.plane_alpha_deg * M_PI / 180);
-    f.tan_beta = std::tan(fb.plane_beta_deg * M_PI / 180);
-    f.detector_sigma_px = fb.detector_sigma_px;
-    f.focal_spot_sigma_mm = fb.focal_spot_sigma_mm;
-    f.has_dual_energy = fb.energies == 2 && fb.has_dual_energy;
-    if (f.has_dual_energy) f.dual_energy = fb.dual_energy;
-    f.touches_lane_edge = c.col0 == 0 || c.col1 == D - 1;
-    f.missing_lines = missing;
-    if (interrupted) f.interrupted = interrupted_;
-    f.xray.assign(f.size(), 0);
-    const bool dual = std::any_of(segment_.begin() + r0, segment_.begin() + r1 + 1,
-                                  [](const Row& row) { return !row.xray_high.empty(); });
-    if (dual) f.xray_high.assign(f.size(), 0);
-    f.thickness.assign(f.size(), std::numeric_limits<float>::quiet_NaN());
-    f.mask.assign(f.size(), 0);
-    std::vector<uint8_t> present(f.size(), 0);
-    for (int r = r0; r <= r1; ++r) {
-      const Row& row = segment_[r];
-      if (row.missing) continue;
-      for (int i = c0; i <= c1; ++i) {
-        const size_t o = size_t(r - r0) * f.cols + (i - c0);
-        f.xray[o] = row.xray[i];
-        if (dual && !row.xray_high.empty()) f.xray_high[o] = row.xray_high[i];
-        f.thickness[o] = row.thickness[i];
-        f.mask[o] = labels[size_t(r) * D + i] == c.label;
-        present[o] = 1;
-      }
-    }
-    f.wall_gap_px = close_wall_gaps(f, ip.max_wall_gap_px, ip.floor_mm);
-    // Meat by the X-ray with no thickness: the laser lost it.
-    for (size_t o = 0; o < f.size(); ++o)
-      f.invalid_thickness_px +=
-          present[o] && !std::isfinite(f.thickness[o]) && f.xray[o] < meat_level;
     ++stats_.fillets;
-    sink_(std::move(f));
+    sink_(cut_fillet(c, labels, missing, interrupted));
   }
   segment_.clear();
   empty_run_ = 0;

@@ -23,6 +23,8 @@
 
 namespace rangex {
 
+struct Component;  // pipeline/connected_components.h
+
 struct AssemblyStats {
   int64_t lines = 0;          // X-ray lines taken in, missing ones included
   int64_t missing_lines = 0;  // lines marked missing
@@ -83,6 +85,9 @@ class LaneAssembler {
   void add_row(Row&& row);
   bool occupied(const std::vector<float>& t) const;
   void close_segment();
+  std::vector<uint8_t> segment_mask() const;
+  FilletImage cut_fillet(const Component& c, const std::vector<int>& labels, int missing,
+                         bool interrupted);
   void close_all(const std::string& reason);
   void start_line(int64_t encoder);
 
