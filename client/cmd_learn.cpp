@@ -85,6 +85,51 @@ std::vector<LaneFillets> from_replay(const std::vector<LaneReplay>& lanes) {
   return out;
 }
 
+// A learning run in memory: the plant's lanes simulated with no bone, each fillet
+// inspected as a recording's would be (no frames written).
+std::vector<LaneFillets> simulated_fillets(const PlantConfig& plant, const Args& a,
+                                           const ReplayOptions& opt) {
+  sim::SimulationParams sp;
+  sp.lanes = int(a.integer("lanes", long(plant.lanes.size())));
+  sp.scene.fillets = int(a.integer("fillets", 40));
+  sp.seed = uint64_t(a.integer("seed", 1));
+  if (a.has("physics")) sp.physics = sim::load_plant_physics(a.require("physics"));
+  sp.physics.bones.probability = 0;
+  std::map<int, LaneFillets> by_lane;
+  std::mutex mu;
+  PlantRunOptions po;
+  po.backend = opt.backend;
+  po.threads = int(std::max(1u, std::thread::hardware_concurrency()));
+  po.on_fillet = [&](const InspectedFillet& f) {
+    std::lock_guard<std::mutex> lock(mu);
+    LaneFillets& l = by_lane[f.result.lane];
+    l.lane = f.result.lane;
+    l.set.add(f.result, f.image);
+  };
+  ProgressBar bar("simulate");
+  run_simulated_plant(plant, sp, po, [&](int64_t d, int64_t t) { bar.update(d, t); });
+  std::vector<LaneFillets> lanes;
+  for (auto& [id, l] : by_lane) lanes.push_back(std::move(l));
+  return lanes;
+}
+
+// The learned thresholds' sensitivity claims, checked on another recording's fillets of the
+// lane; printed, and returned for the report.
+nlohmann::json held_out_check(const LaneReplay& c, const LaneLearning& ll,
+                              const SensitivityOptions& so, const std::string& dir) {
+  ProgressBar cbar("sensitivity (check)");
+  const HeldOutCheck hc =
+      check_held_out(c.fillets, ll, so, [&](int d, int t) { cbar.update(d, t); });
+  std::printf(
+      "  held-out check on %d fillets of %s: %d of %zu claims by band held, %d contradicted\n",
+      hc.fillets, dir.c_str(), hc.held(), hc.checks.size(), hc.contradicted());
+  for (const ClaimCheck& k : hc.checks)
+    if (!k.held) std::printf("    %s\n", claim_check_text(k).c_str());
+  for (const StatedCheck& k : hc.stated)
+    std::printf("    \"%s\": %s\n", k.claim.text.c_str(), claim_check_text(k).c_str());
+  return nlohmann::json::parse(claim_checks_json(dir, hc.fillets, hc.checks, hc.stated, hc.cells));
+}
+
 }  // namespace
 
 int cmd_learn(int argc, char** argv) {
@@ -135,28 +180,7 @@ int cmd_learn(int argc, char** argv) {
   for (auto& l : plant.lanes) l.inspection.learned = LearnedDetection{};
   std::vector<LaneFillets> lanes;
   if (simulate) {
-    // A learning run in memory: the plant's lanes simulated with no bone, each fillet
-    // inspected as a recording's would be (no frames written).
-    sim::SimulationParams sp;
-    sp.lanes = int(a.integer("lanes", long(plant.lanes.size())));
-    sp.scene.fillets = int(a.integer("fillets", 40));
-    sp.seed = uint64_t(a.integer("seed", 1));
-    if (a.has("physics")) sp.physics = sim::load_plant_physics(a.require("physics"));
-    sp.physics.bones.probability = 0;
-    std::map<int, LaneFillets> by_lane;
-    std::mutex mu;
-    PlantRunOptions po;
-    po.backend = opt.backend;
-    po.threads = int(std::max(1u, std::thread::hardware_concurrency()));
-    po.on_fillet = [&](const InspectedFillet& f) {
-      std::lock_guard<std::mutex> lock(mu);
-      LaneFillets& l = by_lane[f.result.lane];
-      l.lane = f.result.lane;
-      l.set.add(f.result, f.image);
-    };
-    ProgressBar bar("simulate");
-    run_simulated_plant(plant, sp, po, [&](int64_t d, int64_t t) { bar.update(d, t); });
-    for (auto& [id, l] : by_lane) lanes.push_back(std::move(l));
+    lanes = simulated_fillets(plant, a, opt);
   } else {
     ProgressBar bar("replay");
     lanes = from_replay(
@@ -199,18 +223,7 @@ int cmd_learn(int argc, char** argv) {
     nlohmann::json lane_json = nlohmann::json::parse(learned_report_json(r.lane, L, sens, points));
     for (const LaneReplay& c : check) {
       if (c.lane != r.lane || sens.inspections == 0) continue;
-      ProgressBar cbar("sensitivity (check)");
-      const HeldOutCheck hc =
-          check_held_out(c.fillets, ll, so, [&](int d, int t) { cbar.update(d, t); });
-      lane_json["held_out_check"] = nlohmann::json::parse(
-          claim_checks_json(check_rec->dir(), hc.fillets, hc.checks, hc.stated, hc.cells));
-      std::printf(
-          "  held-out check on %d fillets of %s: %d of %zu claims by band held, %d contradicted\n",
-          hc.fillets, check_rec->dir().c_str(), hc.held(), hc.checks.size(), hc.contradicted());
-      for (const ClaimCheck& k : hc.checks)
-        if (!k.held) std::printf("    %s\n", claim_check_text(k).c_str());
-      for (const StatedCheck& k : hc.stated)
-        std::printf("    \"%s\": %s\n", k.claim.text.c_str(), claim_check_text(k).c_str());
+      lane_json["held_out_check"] = held_out_check(c, ll, so, check_rec->dir());
     }
     report["lanes"].push_back(lane_json);
     write_learn_plots(report_dir, r.lane, L, sens);
