@@ -109,6 +109,159 @@ std::string learn_live(pb::ControlService::Stub& stub, const pb::LearnProductReq
   return out;
 }
 
+// The lane's inspection.learned section of a plant configuration rangexctl learn wrote,
+// with the report it wrote beside it (--report, else PLANT.report/learn.json).
+void learned_upload(const Args& a, pb::ControlService::Stub& stub) {
+  UnaryCall ctx;
+  const std::string file = a.require("file");
+  const int lane = int(a.integer("lane", 0));
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file);
+  } catch (const YAML::Exception& e) {
+    fail(file, ": not valid YAML: ", e.what());
+  }
+  std::string section;
+  for (const YAML::Node& ln : root["lanes"])
+    if (ln["id"] && ln["id"].as<int>() == lane && ln["inspection"] && ln["inspection"]["learned"]) {
+      YAML::Emitter e;
+      e << ln["inspection"]["learned"];
+      section = e.c_str();
+    }
+  if (section.empty()) fail(file, ": lane ", lane, " has no inspection.learned section");
+  const std::string report_file =
+      a.get("report", (std::filesystem::path(file).parent_path() /
+                       (std::filesystem::path(file).stem().string() + ".report") / "learn.json")
+                          .string());
+  std::string report;
+  if (std::ifstream r(report_file); r) {
+    std::stringstream rs;
+    rs << r.rdbuf();
+    report = rs.str();
+  } else if (a.has("report")) {
+    fail(report_file, ": cannot open");
+  }
+  pb::UploadLearnedSettingsRequest req;
+  req.set_lane(lane);
+  req.set_id(a.require("id"));
+  req.set_yaml(section);
+  req.set_report_json(report);
+  pb::UploadLearnedSettingsResponse resp;
+  check_status(stub.UploadLearnedSettings(&ctx, req, &resp), "upload");
+  std::printf("uploaded learned settings '%s' for lane %d; report: %s\n",
+              resp.settings().id().c_str(), resp.settings().lane(),
+              resp.settings().report_status().c_str());
+}
+
+void learned_list(const Args& a, pb::ControlService::Stub& stub) {
+  UnaryCall ctx;
+  pb::ListLearnedSettingsRequest req;
+  req.set_lane(int(a.integer("lane", -1)));
+  req.set_full(a.flag("full"));
+  pb::ListLearnedSettingsResponse resp;
+  check_status(stub.ListLearnedSettings(&ctx, req, &resp), "list");
+  // An empty answer says so: a blank screen reads as a command that did nothing.
+  if (resp.settings().empty())
+    std::printf("no learned settings%s (rangexctl learned upload, or learned learn)\n",
+                req.lane() >= 0 ? (" for lane " + std::to_string(req.lane())).c_str() : "");
+  for (const auto& s : resp.settings()) {
+    std::fputs(learned_info_text(s).c_str(), stdout);
+    if (a.flag("full")) std::printf("%s\n", s.yaml().c_str());
+  }
+}
+
+void learned_activate(const Args& a, pb::ControlService::Stub& stub) {
+  UnaryCall ctx;
+  pb::ActivateLearnedSettingsRequest req;
+  req.set_lane(int(a.integer("lane", 0)));
+  req.set_id(a.require("id"));
+  req.set_force(a.flag("force"));
+  pb::ActivateLearnedSettingsResponse resp;
+  check_status(stub.ActivateLearnedSettings(&ctx, req, &resp), "activate");
+  std::printf(
+      "learned settings '%s' of lane %d activated; they take over at the next batch without "
+      "a fillet in progress\n",
+      req.id().c_str(), req.lane());
+}
+
+// --lanes 0,1,2: every lane listed learns its own product at once, from its own next
+// fillets (one call each). 2 when a lane's learning failed (stored, not to be activated).
+int learned_learn(const Args& a, pb::ControlService::Stub& stub) {
+  std::vector<int> lanes;
+  if (a.has("lanes")) {
+    if (a.has("lane")) fail("give --lane L or --lanes L,L,..., not both");
+    for (int l : a.lane_ids("lanes")) {
+      if (std::find(lanes.begin(), lanes.end(), l) != lanes.end())
+        fail("--lanes: lane ", l, " is listed twice");
+      lanes.push_back(l);
+    }
+    if (lanes.empty()) fail("--lanes must be lane ids separated by commas");
+  } else {
+    lanes.push_back(int(a.integer("lane", 0)));
+  }
+  pb::LearnProductRequest req;
+  req.set_fillets(int(a.integer("fillets", 40)));
+  req.set_min_fillets(int(a.integer("min-fillets", 0)));
+  req.set_id(a.get("id", ""));
+  if (a.has("target-frr")) req.set_target_frr(std::stod(a.get("target-frr", "0")));
+  if (a.has("tradeoff"))
+    for (double t : tradeoff_targets(a.get("tradeoff", ""))) req.add_tradeoff_targets(t);
+  const long timeout = a.integer("timeout", 3600);
+  if (timeout < 1 || timeout > 86400) fail("--timeout must be within 1..86400 s");
+  req.set_timeout_s(double(timeout));
+  // Again from the fillets of the lane's last live run, keeping the fillets it named that
+  // an operator checked and found clean (--keep 0:7,0:12, as it names them).
+  req.set_relearn_from(a.get("relearn-from", ""));
+  if (a.has("keep")) {
+    if (req.relearn_from().empty())
+      fail(
+          "--keep names fillets of an earlier learning run: give --relearn-from ID, the "
+          "version that run stored");
+    if (lanes.size() > 1) fail("--keep names one lane's fillets: give --lane L");
+    for (const auto& [lane, id] : checked_clean_fillets(a.get("keep", ""))) {
+      if (lane != lanes[0]) fail("--keep: fillet ", lane, ":", id, " is not of lane ", lanes[0]);
+      req.add_keep_fillets(id);
+    }
+  }
+  for (int l : lanes)
+    if (req.relearn_from().empty())
+      std::printf("lane %d: learning from its next %d fillets ...\n", l, req.fillets());
+    else
+      std::printf("lane %d: learning again from the fillets of '%s' ...\n", l,
+                  req.relearn_from().c_str());
+  std::fflush(stdout);
+  // Each lane's outcome as it ends; a lane that fails does not stop the others.
+  std::mutex out_mu;
+  int failed = 0, failed_learning = 0;
+  std::vector<std::thread> runs;
+  for (int l : lanes)
+    runs.emplace_back([&, l] {
+      pb::LearnProductRequest mine = req;
+      mine.set_lane(l);
+      std::string text;
+      bool ok = true, passed = false;
+      try {
+        text = learn_live(stub, mine, timeout, passed);
+      } catch (const std::exception& e) {
+        text = "lane " + std::to_string(l) + ": " + e.what() + "\n";
+        ok = false;
+      }
+      std::lock_guard<std::mutex> lock(out_mu);
+      std::fputs(text.c_str(), ok ? stdout : stderr);
+      std::fflush(ok ? stdout : stderr);
+      failed += !ok;
+      failed_learning += ok && !passed;
+    });
+  for (std::thread& t : runs) t.join();
+  if (failed > 0) fail(failed, " of ", lanes.size(), " lanes learned nothing");
+  // As `rangexctl learn`: a learning that failed (stored, but not to be activated) is 2.
+  if (failed_learning > 0) {
+    std::fprintf(stderr, "%d of %zu lanes' learning failed\n", failed_learning, lanes.size());
+    return 2;
+  }
+  return 0;
+}
+
 }  // namespace
 
 // `rangexctl learned upload|list|activate|learn`: learned inspection settings on rangexd.
@@ -119,155 +272,16 @@ int cmd_learned(int argc, char** argv) {
                remote_options({"lane", "lanes", "id", "file", "report", "fillets", "target-frr",
                                "min-fillets", "timeout", "tradeoff", "relearn-from", "keep"}));
   auto stub = pb::ControlService::NewStub(server_channel(a));
-  UnaryCall ctx;
-  auto show = [](const pb::LearnedSettingsInfo& s) {
-    std::fputs(learned_info_text(s).c_str(), stdout);
-  };
-  if (verb == "upload") {
-    // The lane's inspection.learned section of a plant configuration rangexctl learn wrote,
-    // with the report it wrote beside it (--report, else PLANT.report/learn.json).
-    const std::string file = a.require("file");
-    const int lane = int(a.integer("lane", 0));
-    YAML::Node root;
-    try {
-      root = YAML::LoadFile(file);
-    } catch (const YAML::Exception& e) {
-      fail(file, ": not valid YAML: ", e.what());
-    }
-    std::string section;
-    for (const YAML::Node& ln : root["lanes"])
-      if (ln["id"] && ln["id"].as<int>() == lane && ln["inspection"] &&
-          ln["inspection"]["learned"]) {
-        YAML::Emitter e;
-        e << ln["inspection"]["learned"];
-        section = e.c_str();
-      }
-    if (section.empty()) fail(file, ": lane ", lane, " has no inspection.learned section");
-    const std::string report_file =
-        a.get("report", (std::filesystem::path(file).parent_path() /
-                         (std::filesystem::path(file).stem().string() + ".report") / "learn.json")
-                            .string());
-    std::string report;
-    if (std::ifstream r(report_file); r) {
-      std::stringstream rs;
-      rs << r.rdbuf();
-      report = rs.str();
-    } else if (a.has("report")) {
-      fail(report_file, ": cannot open");
-    }
-    pb::UploadLearnedSettingsRequest req;
-    req.set_lane(lane);
-    req.set_id(a.require("id"));
-    req.set_yaml(section);
-    req.set_report_json(report);
-    pb::UploadLearnedSettingsResponse resp;
-    check_status(stub->UploadLearnedSettings(&ctx, req, &resp), "upload");
-    std::printf("uploaded learned settings '%s' for lane %d; report: %s\n",
-                resp.settings().id().c_str(), resp.settings().lane(),
-                resp.settings().report_status().c_str());
-  } else if (verb == "list") {
-    pb::ListLearnedSettingsRequest req;
-    req.set_lane(int(a.integer("lane", -1)));
-    req.set_full(a.flag("full"));
-    pb::ListLearnedSettingsResponse resp;
-    check_status(stub->ListLearnedSettings(&ctx, req, &resp), "list");
-    // An empty answer says so: a blank screen reads as a command that did nothing.
-    if (resp.settings().empty())
-      std::printf("no learned settings%s (rangexctl learned upload, or learned learn)\n",
-                  req.lane() >= 0 ? (" for lane " + std::to_string(req.lane())).c_str() : "");
-    for (const auto& s : resp.settings()) {
-      show(s);
-      if (a.flag("full")) std::printf("%s\n", s.yaml().c_str());
-    }
-  } else if (verb == "activate") {
-    pb::ActivateLearnedSettingsRequest req;
-    req.set_lane(int(a.integer("lane", 0)));
-    req.set_id(a.require("id"));
-    req.set_force(a.flag("force"));
-    pb::ActivateLearnedSettingsResponse resp;
-    check_status(stub->ActivateLearnedSettings(&ctx, req, &resp), "activate");
-    std::printf(
-        "learned settings '%s' of lane %d activated; they take over at the next batch without "
-        "a fillet in progress\n",
-        req.id().c_str(), req.lane());
-  } else if (verb == "learn") {
-    // --lanes 0,1,2: every lane listed learns its own product at once, from its own next
-    // fillets (one call each).
-    std::vector<int> lanes;
-    if (a.has("lanes")) {
-      if (a.has("lane")) fail("give --lane L or --lanes L,L,..., not both");
-      for (int l : a.lane_ids("lanes")) {
-        if (std::find(lanes.begin(), lanes.end(), l) != lanes.end())
-          fail("--lanes: lane ", l, " is listed twice");
-        lanes.push_back(l);
-      }
-      if (lanes.empty()) fail("--lanes must be lane ids separated by commas");
-    } else {
-      lanes.push_back(int(a.integer("lane", 0)));
-    }
-    pb::LearnProductRequest req;
-    req.set_fillets(int(a.integer("fillets", 40)));
-    req.set_min_fillets(int(a.integer("min-fillets", 0)));
-    req.set_id(a.get("id", ""));
-    if (a.has("target-frr")) req.set_target_frr(std::stod(a.get("target-frr", "0")));
-    if (a.has("tradeoff"))
-      for (double t : tradeoff_targets(a.get("tradeoff", ""))) req.add_tradeoff_targets(t);
-    const long timeout = a.integer("timeout", 3600);
-    if (timeout < 1 || timeout > 86400) fail("--timeout must be within 1..86400 s");
-    req.set_timeout_s(double(timeout));
-    // Again from the fillets of the lane's last live run, keeping the fillets it named that
-    // an operator checked and found clean (--keep 0:7,0:12, as it names them).
-    req.set_relearn_from(a.get("relearn-from", ""));
-    if (a.has("keep")) {
-      if (req.relearn_from().empty())
-        fail(
-            "--keep names fillets of an earlier learning run: give --relearn-from ID, the "
-            "version that run stored");
-      if (lanes.size() > 1) fail("--keep names one lane's fillets: give --lane L");
-      for (const auto& [lane, id] : checked_clean_fillets(a.get("keep", ""))) {
-        if (lane != lanes[0]) fail("--keep: fillet ", lane, ":", id, " is not of lane ", lanes[0]);
-        req.add_keep_fillets(id);
-      }
-    }
-    for (int l : lanes)
-      if (req.relearn_from().empty())
-        std::printf("lane %d: learning from its next %d fillets ...\n", l, req.fillets());
-      else
-        std::printf("lane %d: learning again from the fillets of '%s' ...\n", l,
-                    req.relearn_from().c_str());
-    std::fflush(stdout);
-    // Each lane's outcome as it ends; a lane that fails does not stop the others.
-    std::mutex out_mu;
-    int failed = 0, failed_learning = 0;
-    std::vector<std::thread> runs;
-    for (int l : lanes)
-      runs.emplace_back([&, l] {
-        pb::LearnProductRequest mine = req;
-        mine.set_lane(l);
-        std::string text;
-        bool ok = true, passed = false;
-        try {
-          text = learn_live(*stub, mine, timeout, passed);
-        } catch (const std::exception& e) {
-          text = "lane " + std::to_string(l) + ": " + e.what() + "\n";
-          ok = false;
-        }
-        std::lock_guard<std::mutex> lock(out_mu);
-        std::fputs(text.c_str(), ok ? stdout : stderr);
-        std::fflush(ok ? stdout : stderr);
-        failed += !ok;
-        failed_learning += ok && !passed;
-      });
-    for (std::thread& t : runs) t.join();
-    if (failed > 0) fail(failed, " of ", lanes.size(), " lanes learned nothing");
-    // As `rangexctl learn`: a learning that failed (stored, but not to be activated) is 2.
-    if (failed_learning > 0) {
-      std::fprintf(stderr, "%d of %zu lanes' learning failed\n", failed_learning, lanes.size());
-      return 2;
-    }
-  } else {
+  if (verb == "upload")
+    learned_upload(a, *stub);
+  else if (verb == "list")
+    learned_list(a, *stub);
+  else if (verb == "activate")
+    learned_activate(a, *stub);
+  else if (verb == "learn")
+    return learned_learn(a, *stub);
+  else
     fail("learned: unknown verb '", verb, "' (upload, list, activate, learn)");
-  }
   return 0;
 }
 
