@@ -62,6 +62,54 @@ std::vector<ChainLink> Store::chain_links(const std::string& dir, int64_t from_n
   return out;
 }
 
+namespace {
+
+void broken(ChainReport& r, int64_t seq, std::string why) {
+  r.ok = false;
+  r.first_broken_seq = seq;
+  r.problem = std::move(why);
+}
+
+// Where the chain starts: the genesis, or the checkpoint retention left, which holds only
+// when the chained entry of the pass that set it names it. False: the start was changed.
+bool chain_start(sqlite3* db, ChainReport& r, std::string& prev) {
+  prev = kChainGenesis;
+  {
+    Stmt t(db, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'chain_checkpoint'");
+    if (!t.step()) return true;
+  }
+  Stmt c(db, "SELECT seq, hash FROM chain_checkpoint");
+  if (!c.step()) return true;
+  r.checkpoint_seq = c.i64(0);
+  prev = r.head = c.str(1);
+  Stmt a(db, "SELECT detail FROM audit WHERE what = 'retention.prune' ORDER BY rowid DESC LIMIT 1");
+  if (!a.step() || a.str(0).find(prev) == std::string::npos) {
+    broken(r, r.checkpoint_seq,
+           "the chain's checkpoint (link " + std::to_string(r.checkpoint_seq) +
+               ") is not the one the latest retention.prune audit entry names: the start of the "
+               "chain was changed");
+    return false;
+  }
+  return true;
+}
+
+// Rows that never joined the chain were added behind its back.
+void rows_outside_chain(sqlite3* db, const std::set<int64_t>& fillets,
+                        const std::set<int64_t>& audits, ChainReport& r) {
+  Stmt f(db, "SELECT uid FROM fillets ORDER BY uid");
+  while (r.ok && f.step())
+    if (!fillets.count(f.i64(0)))
+      broken(r, 0,
+             "fillet " + std::to_string(f.i64(0)) + " is not in the chain (added afterwards)");
+  Stmt a(db, "SELECT rowid FROM audit ORDER BY rowid");
+  while (r.ok && a.step())
+    if (!audits.count(a.i64(0)))
+      broken(r, 0,
+             "audit entry " + std::to_string(a.i64(0)) + " is not in the chain (added afterwards)");
+}
+
+}  // namespace
+
 ChainReport Store::verify_chain(const std::string& dir) {
   const std::unique_ptr<Store> view = read_only(dir);
   sqlite3* db = view->db_;
@@ -74,98 +122,57 @@ ChainReport Store::verify_chain(const std::string& dir) {
     r.problem = "the database is damaged: " + d;
     return r;
   }
-  auto broken = [&](int64_t seq, std::string why) {
-    r.ok = false;
-    r.first_broken_seq = seq;
-    r.problem = std::move(why);
-  };
-  {
-    std::string prev = kChainGenesis;
-    bool has_checkpoint_table = false;
-    {
-      Stmt t(db, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'chain_checkpoint'");
-      has_checkpoint_table = t.step();
+  std::string prev;
+  if (!chain_start(db, r, prev)) return r;
+  std::set<int64_t> fillets, audits;
+  Stmt q(db, "SELECT seq, kind, ref, ts_ns, prev, hash FROM ledger ORDER BY seq");
+  while (r.ok && q.step()) {
+    const int64_t seq = q.i64(0), ref = q.i64(2);
+    const std::string kind = q.str(1), link_prev = q.str(4), hash = q.str(5);
+    const std::string what = kind + " " + std::to_string(ref);
+    if (link_prev != prev) {
+      broken(r, seq,
+             "link " + std::to_string(seq) + " (" + what +
+                 ") does not follow the link before it: a link was removed, inserted or "
+                 "reordered");
+      break;
     }
-    if (has_checkpoint_table) {
-      Stmt c(db, "SELECT seq, hash FROM chain_checkpoint");
-      if (c.step()) {
-        r.checkpoint_seq = c.i64(0);
-        prev = r.head = c.str(1);
-        // The checkpoint is only as good as the chained entry of the pass that set it.
-        Stmt a(db,
-               "SELECT detail FROM audit WHERE what = 'retention.prune' ORDER BY rowid DESC "
-               "LIMIT 1");
-        if (!a.step() || a.str(0).find(prev) == std::string::npos) {
-          broken(r.checkpoint_seq,
-                 "the chain's checkpoint (link " + std::to_string(r.checkpoint_seq) +
-                     ") is not the one the latest retention.prune audit entry names: the "
-                     "start of the chain was changed");
-          return r;
-        }
-      }
-    }
-    std::set<int64_t> fillets, audits;
-    Stmt q(db, "SELECT seq, kind, ref, ts_ns, prev, hash FROM ledger ORDER BY seq");
-    while (r.ok && q.step()) {
-      const int64_t seq = q.i64(0), ref = q.i64(2);
-      const std::string kind = q.str(1), link_prev = q.str(4), hash = q.str(5);
-      const std::string what = kind + " " + std::to_string(ref);
-      if (link_prev != prev) {
-        broken(seq, "link " + std::to_string(seq) + " (" + what +
-                        ") does not follow the link before it: a link was removed, inserted or "
-                        "reordered");
+    std::string content;
+    if (kind == "fillet") {
+      if (!fillets.insert(ref).second) {
+        broken(r, seq, "fillet " + std::to_string(ref) + " is chained twice");
         break;
       }
-      std::string content;
-      if (kind == "fillet") {
-        if (!fillets.insert(ref).second) {
-          broken(seq, "fillet " + std::to_string(ref) + " is chained twice");
-          break;
-        }
-        try {
-          content = chain_content(view->read_fillet(ref));
-        } catch (const NotFound&) {
-          broken(seq, "fillet " + std::to_string(ref) + " was removed from the store");
-          break;
-        }
-      } else if (kind == "audit") {
-        audits.insert(ref);
-        Stmt a(db, "SELECT ts_ns, who, what, detail FROM audit WHERE rowid = ?");
-        a.bind(1, ref);
-        if (!a.step()) {
-          broken(seq, "audit entry " + std::to_string(ref) + " was removed from the store");
-          break;
-        }
-        content = chain_content(ref, {a.i64(0), a.str(1), a.str(2), a.str(3)});
-      } else {
-        broken(seq, "link " + std::to_string(seq) + " is of an unknown kind '" + kind + "'");
+      try {
+        content = chain_content(view->read_fillet(ref));
+      } catch (const NotFound&) {
+        broken(r, seq, "fillet " + std::to_string(ref) + " was removed from the store");
         break;
       }
-      if (chain_hash(prev, content) != hash) {
-        broken(seq, what +
-                        " was changed after it was recorded (its content no longer hashes to "
-                        "link " +
-                        std::to_string(seq) + ")");
+    } else if (kind == "audit") {
+      audits.insert(ref);
+      Stmt a(db, "SELECT ts_ns, who, what, detail FROM audit WHERE rowid = ?");
+      a.bind(1, ref);
+      if (!a.step()) {
+        broken(r, seq, "audit entry " + std::to_string(ref) + " was removed from the store");
         break;
       }
-      prev = hash;
-      ++r.links;
-      r.head = hash;
+      content = chain_content(ref, {a.i64(0), a.str(1), a.str(2), a.str(3)});
+    } else {
+      broken(r, seq, "link " + std::to_string(seq) + " is of an unknown kind '" + kind + "'");
+      break;
     }
-    if (r.ok) {
-      // Rows that never joined the chain were added behind its back.
-      Stmt f(db, "SELECT uid FROM fillets ORDER BY uid");
-      while (r.ok && f.step())
-        if (!fillets.count(f.i64(0)))
-          broken(0,
-                 "fillet " + std::to_string(f.i64(0)) + " is not in the chain (added afterwards)");
-      Stmt a(db, "SELECT rowid FROM audit ORDER BY rowid");
-      while (r.ok && a.step())
-        if (!audits.count(a.i64(0)))
-          broken(0, "audit entry " + std::to_string(a.i64(0)) +
-                        " is not in the chain (added afterwards)");
+    if (chain_hash(prev, content) != hash) {
+      broken(r, seq,
+             what + " was changed after it was recorded (its content no longer hashes to link " +
+                 std::to_string(seq) + ")");
+      break;
     }
+    prev = hash;
+    ++r.links;
+    r.head = hash;
   }
+  if (r.ok) rows_outside_chain(db, fillets, audits, r);
   return r;
 }
 

@@ -37,6 +37,89 @@ int64_t Store::prune_images(int64_t before_ns, int max_rows, std::vector<std::st
   return int64_t(rows.size());
 }
 
+namespace {
+
+struct Link {
+  int64_t seq;
+  std::string kind;
+  int64_t ref;
+  std::string hash;
+};
+
+// While forwarding is on, nothing the plant-wide database lacks is pruned: the cutoffs stop
+// at the first record it does not hold (a link, or an image of a fillet).
+void stop_at_unforwarded(sqlite3* db, const ForwardCursor& done, int64_t& records_before_ns,
+                         int64_t& images_before_ns) {
+  Stmt l(db, "SELECT ts_ns FROM ledger WHERE seq > ? ORDER BY seq LIMIT 1");
+  l.bind(1, done.seq);
+  if (l.step()) records_before_ns = std::min(records_before_ns, l.i64(0));
+  Stmt i(db,
+         "SELECT f.decided_ns FROM image_log l JOIN fillets f ON f.uid = l.fillet_uid "
+         "WHERE l.seq > ? ORDER BY l.seq LIMIT 1");
+  i.bind(1, done.image_seq);
+  if (i.step()) {
+    records_before_ns = std::min(records_before_ns, i.i64(0));
+    images_before_ns = std::min(images_before_ns, i.i64(0));
+  }
+}
+
+// The prefix of the chain stamped before the cutoff: it ends at the first link inside
+// retention, whatever older links follow that one. At most max_rows links.
+std::vector<Link> prunable_links(sqlite3* db, int64_t records_before_ns, int max_rows) {
+  int64_t stop = INT64_MAX;
+  {
+    Stmt q(db, "SELECT MIN(seq) FROM ledger WHERE ts_ns >= ?");
+    q.bind(1, records_before_ns);
+    if (q.step() && !q.null(0)) stop = q.i64(0);
+  }
+  std::vector<Link> links;
+  Stmt q(db, "SELECT seq, kind, ref, hash FROM ledger WHERE seq < ? ORDER BY seq LIMIT ?");
+  q.bind(1, stop).bind(2, int64_t(max_rows));
+  while (q.step()) links.push_back({q.i64(0), q.str(1), q.i64(2), q.str(3)});
+  return links;
+}
+
+// Each link's row: a fillet with its fragments, images (their files listed for removal) and
+// image log, or an audit entry.
+void delete_linked_rows(sqlite3* db, const std::vector<Link>& links, PruneReport& rep,
+                        std::vector<std::string>& files) {
+  for (const Link& l : links) {
+    if (l.kind == "fillet") {
+      Stmt p(db, "SELECT path FROM images WHERE fillet_uid = ?");
+      p.bind(1, l.ref);
+      while (p.step()) files.push_back(p.str(0));
+      for (const char* sql :
+           {"DELETE FROM images WHERE fillet_uid = ?", "DELETE FROM image_log WHERE fillet_uid = ?",
+            "DELETE FROM fragments WHERE fillet_uid = ?", "DELETE FROM fillets WHERE uid = ?"}) {
+        Stmt d(db, sql);
+        d.bind(1, l.ref);
+        d.step();
+      }
+      ++rep.fillets;
+    } else {
+      Stmt d(db, "DELETE FROM audit WHERE rowid = ?");
+      d.bind(1, l.ref);
+      d.step();
+      ++rep.audit_entries;
+    }
+  }
+}
+
+// The links up to the last pruned one go; the chain now starts from its hash.
+void set_checkpoint(sqlite3* db, const PruneReport& rep, int64_t records_before_ns) {
+  Stmt d(db, "DELETE FROM ledger WHERE seq <= ?");
+  d.bind(1, rep.checkpoint_seq);
+  d.step();
+  Stmt c(db,
+         "INSERT OR REPLACE INTO chain_checkpoint (id, seq, hash, ts_ns, before_ns) "
+         "VALUES (1, ?, ?, ?, ?)");
+  c.bind(1, rep.checkpoint_seq).bind(2, rep.checkpoint_hash).bind(3, now_ns());
+  c.bind(4, records_before_ns);
+  c.step();
+}
+
+}  // namespace
+
 PruneReport Store::prune(int64_t records_before_ns, int64_t images_before_ns, int max_rows) {
   if (max_rows < 1) fail("prune: max_rows must be >= 1");
   PruneReport rep;
@@ -45,80 +128,19 @@ PruneReport Store::prune(int64_t records_before_ns, int64_t images_before_ns, in
     std::lock_guard<std::mutex> lock(mu_);
     exec("BEGIN");
     try {
-      // While forwarding is on, nothing the plant-wide database lacks is pruned: the cutoffs
-      // stop at the first record it does not hold (a link, or an image of a fillet).
-      if (hold_unforwarded_) {
-        const ForwardCursor done = forwarded_locked();
-        Stmt l(db_, "SELECT ts_ns FROM ledger WHERE seq > ? ORDER BY seq LIMIT 1");
-        l.bind(1, done.seq);
-        if (l.step()) records_before_ns = std::min(records_before_ns, l.i64(0));
-        Stmt i(db_,
-               "SELECT f.decided_ns FROM image_log l JOIN fillets f ON f.uid = l.fillet_uid "
-               "WHERE l.seq > ? ORDER BY l.seq LIMIT 1");
-        i.bind(1, done.image_seq);
-        if (i.step()) {
-          records_before_ns = std::min(records_before_ns, i.i64(0));
-          images_before_ns = std::min(images_before_ns, i.i64(0));
-        }
-      }
+      if (hold_unforwarded_)
+        stop_at_unforwarded(db_, forwarded_locked(), records_before_ns, images_before_ns);
       rep.images = prune_images(std::max(images_before_ns, records_before_ns), max_rows, files);
       rep.more = rep.images == max_rows;
-      // The prefix of the chain stamped before the cutoff: it ends at the first link inside
-      // retention, whatever older links follow that one.
-      int64_t stop = INT64_MAX;
-      {
-        Stmt q(db_, "SELECT MIN(seq) FROM ledger WHERE ts_ns >= ?");
-        q.bind(1, records_before_ns);
-        if (q.step() && !q.null(0)) stop = q.i64(0);
-      }
-      struct Link {
-        int64_t seq;
-        std::string kind;
-        int64_t ref;
-        std::string hash;
-      };
-      std::vector<Link> links;
-      {
-        Stmt q(db_, "SELECT seq, kind, ref, hash FROM ledger WHERE seq < ? ORDER BY seq LIMIT ?");
-        q.bind(1, stop).bind(2, int64_t(max_rows));
-        while (q.step()) links.push_back({q.i64(0), q.str(1), q.i64(2), q.str(3)});
-      }
+      const std::vector<Link> links = prunable_links(db_, records_before_ns, max_rows);
       rep.more = rep.more || int(links.size()) == max_rows;
-      for (const Link& l : links) {
-        if (l.kind == "fillet") {
-          Stmt p(db_, "SELECT path FROM images WHERE fillet_uid = ?");
-          p.bind(1, l.ref);
-          while (p.step()) files.push_back(p.str(0));
-          for (const char* sql : {"DELETE FROM images WHERE fillet_uid = ?",
-                                  "DELETE FROM image_log WHERE fillet_uid = ?",
-                                  "DELETE FROM fragments WHERE fillet_uid = ?",
-                                  "DELETE FROM fillets WHERE uid = ?"}) {
-            Stmt d(db_, sql);
-            d.bind(1, l.ref);
-            d.step();
-          }
-          ++rep.fillets;
-        } else {
-          Stmt d(db_, "DELETE FROM audit WHERE rowid = ?");
-          d.bind(1, l.ref);
-          d.step();
-          ++rep.audit_entries;
-        }
-      }
+      delete_linked_rows(db_, links, rep, files);
       rep.links = int64_t(links.size());
       std::string head = head_;
       if (!links.empty()) {
         rep.checkpoint_seq = links.back().seq;
         rep.checkpoint_hash = links.back().hash;
-        Stmt d(db_, "DELETE FROM ledger WHERE seq <= ?");
-        d.bind(1, rep.checkpoint_seq);
-        d.step();
-        Stmt c(db_,
-               "INSERT OR REPLACE INTO chain_checkpoint (id, seq, hash, ts_ns, before_ns) "
-               "VALUES (1, ?, ?, ?, ?)");
-        c.bind(1, rep.checkpoint_seq).bind(2, rep.checkpoint_hash).bind(3, now_ns());
-        c.bind(4, records_before_ns);
-        c.step();
+        set_checkpoint(db_, rep, records_before_ns);
         head = append_audit({now_ns(), "rangexd", "retention.prune",
                              join(rep.links, " links (", rep.fillets, " fillets, ",
                                   rep.audit_entries, " audit entries) stamped before ",
