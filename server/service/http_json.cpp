@@ -1,6 +1,8 @@
 #include "service/http_json.h"
 
 #include <cstdio>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "pipeline/product_drift.h"
@@ -51,26 +53,39 @@ json audit_json(const AuditEntry& e) {
   return {{"ts_ns", e.ts_ns}, {"who", e.who}, {"what", e.what}, {"detail", e.detail}};
 }
 
-json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) {
+namespace {
+// A lane's line rate over the last 10 s, and its fillets, rejects and fillets not inspected
+// over the last 5 minutes.
+struct LaneRates {
   double line_rate = 0, fillets_per_min = 0, reject_rate = 0, ni_rate = 0;
+};
+
+LaneRates lane_rates(const LaneState& l, PlantHistory& h) {
+  LaneRates r;
   HistorySample a, b;
   if (h.window(10'000'000'000, a, b)) {
     const LaneCounts *ca = find_lane(a, l.config.id), *cb = find_lane(b, l.config.id);
     const double dt = double(b.t_ns - a.t_ns) / 1e9;
-    if (ca && cb && dt > 0) line_rate = double(cb->processed - ca->processed) / dt;
+    if (ca && cb && dt > 0) r.line_rate = double(cb->processed - ca->processed) / dt;
   }
   if (h.window(300'000'000'000, a, b)) {
     const LaneCounts *ca = find_lane(a, l.config.id), *cb = find_lane(b, l.config.id);
     const double dt = double(b.t_ns - a.t_ns) / 1e9;
     if (ca && cb && dt > 0) {
       const double n = double(cb->fillets - ca->fillets);
-      fillets_per_min = 60 * n / dt;
+      r.fillets_per_min = 60 * n / dt;
       if (n > 0) {
-        reject_rate = double(cb->rejects - ca->rejects) / n;
-        ni_rate = double(cb->not_inspected - ca->not_inspected) / n;
+        r.reject_rate = double(cb->rejects - ca->rejects) / n;
+        r.ni_rate = double(cb->not_inspected - ca->not_inspected) / n;
       }
     }
   }
+  return r;
+}
+
+// The lane's light and the reason shown beside it: the first warning that holds, and a
+// sensor that is not streaming over all of them (it leaves the lane blind).
+std::pair<std::string, std::string> lane_light(const LaneState& l, double ni_rate) {
   std::string light = "green", why = "inspecting";
   if (!l.fed) {
     light = "grey", why = "never fed";
@@ -91,6 +106,15 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
     light = "amber", why = ver.last && !ver.last->passed
                                ? "the last verification failed: " + ver.last->detail
                                : "a verification is due";
+  if (l.sensors)
+    for (const SensorState& d : l.sensors->devices)
+      if (d.state != "streaming" && light != "grey")
+        light = "red",
+        why = d.role + " (" + d.device + ") " + d.state + (d.error.empty() ? "" : ": " + d.error);
+  return {light, why};
+}
+
+json verification_json(const LaneVerification& ver) {
   json verification = {{"running", ver.running},
                        {"running_piece", ver.running_piece},
                        {"fillets_left", ver.fillets_left},
@@ -103,33 +127,36 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
                             {"unix_ns", ver.last->unix_ns},
                             {"fillet_uid", ver.last->fillet_uid},
                             {"detail", ver.last->detail}};
-  json sensors = nullptr;
-  if (l.sensors) {
-    json devices = json::array();
-    for (const SensorState& d : l.sensors->devices) {
-      devices.push_back({{"role", d.role},
-                         {"device", d.device},
-                         {"description", d.description},
-                         {"state", d.state},
-                         {"error", d.error},
-                         {"frames", d.frames},
-                         {"incomplete", d.incomplete},
-                         {"lost_frames", d.lost_frames},
-                         {"wrong_format", d.wrong_format},
-                         {"lacked", d.lacked},
-                         {"underruns", d.underruns},
-                         {"reconnects", d.reconnects}});
-      // A device that is not streaming leaves the lane blind.
-      if (d.state != "streaming" && light != "grey")
-        light = "red",
-        why = d.role + " (" + d.device + ") " + d.state + (d.error.empty() ? "" : ": " + d.error);
-    }
-    sensors = {{"trigger", l.sensors->trigger},
-               {"lines", l.sensors->lines},
-               {"incomplete_lines", l.sensors->incomplete},
-               {"refused_lines", l.sensors->refused},
-               {"devices", devices}};
-  }
+  return verification;
+}
+
+json sensors_json(const LaneState& l) {
+  if (!l.sensors) return nullptr;
+  json devices = json::array();
+  for (const SensorState& d : l.sensors->devices)
+    devices.push_back({{"role", d.role},
+                       {"device", d.device},
+                       {"description", d.description},
+                       {"state", d.state},
+                       {"error", d.error},
+                       {"frames", d.frames},
+                       {"incomplete", d.incomplete},
+                       {"lost_frames", d.lost_frames},
+                       {"wrong_format", d.wrong_format},
+                       {"lacked", d.lacked},
+                       {"underruns", d.underruns},
+                       {"reconnects", d.reconnects}});
+  return {{"trigger", l.sensors->trigger},
+          {"lines", l.sensors->lines},
+          {"incomplete_lines", l.sensors->incomplete},
+          {"refused_lines", l.sensors->refused},
+          {"devices", devices}};
+}
+}  // namespace
+
+json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) {
+  const LaneRates r = lane_rates(l, h);
+  const auto [light, why] = lane_light(l, r.ni_rate);
   const LearnedDetection& learned = l.config.inspection.learned;
   return {
       {"lane", l.config.id},
@@ -152,16 +179,16 @@ json lane_json(const LaneState& l, PlantHistory& h, const std::string& backend) 
       {"not_inspected", l.not_inspected},
       {"refused", l.refused},
       {"dropped", l.dropped},
-      {"line_rate", line_rate},
-      {"fillets_per_min", fillets_per_min},
-      {"reject_rate", reject_rate},
-      {"not_inspected_rate", ni_rate},
+      {"line_rate", r.line_rate},
+      {"fillets_per_min", r.fillets_per_min},
+      {"reject_rate", r.reject_rate},
+      {"not_inspected_rate", r.ni_rate},
       {"light", light},
       {"light_reason", why},
       {"backend", backend},
-      {"sensors", sensors},
+      {"sensors", sensors_json(l)},
       {"plc", l.plc},
-      {"verification", verification}};
+      {"verification", verification_json(l.verification)}};
 }
 
 std::string server_health_text(Engine& engine, PlantHistory& h, const std::string& version) {
