@@ -395,17 +395,21 @@ void statistics_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   if (!mk.has_needles() && p.line_sigma_along_px > 0)
     reach = std::max(reach, smooth_reach_px(p.line_sigma_along_px, p.line_sigma_across_px));
   const ClosureReach cr = closure_reach(closure_z, use.data(), img.rows, img.cols, reach);
-  auto smooth_at = [&](double along, double across, int dir) {
-    return [&, at = MaskedSmoothAt(along, across, dir)](size_t i) {
-      return at(cr.e.data(), use.data(), img.rows, img.cols, int(i / size_t(img.cols)),
-                int(i % size_t(img.cols)));
-    };
+  // A Gaussian's share of the closures is their e smoothed by the same masked kernel, taken
+  // over the whole image at once and read at the pixels near them.
+  std::vector<float> e_smoothed;
+  auto near_values = [&]() {
+    std::vector<double> sums(cr.near.size());
+    for (size_t k = 0; k < cr.near.size(); ++k) sums[k] = e_smoothed[cr.near[k]];
+    return sums;
   };
   masked_gaussian(z.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, zs);
   const SpreadProfile round_spread = unit_spread_by_thickness(
       zs, img.thickness.data(), use.data(), bins, gaussian_noise_gain(p.smooth_sigma_px));
-  discount_closures(zs, cr, img.thickness.data(), round_spread,
-                    smooth_at(p.smooth_sigma_px, p.smooth_sigma_px, -1));
+  if (!cr.empty()) {
+    masked_gaussian(cr.e.data(), use.data(), img.rows, img.cols, p.smooth_sigma_px, e_smoothed);
+    discount_closures(zs, cr, img.thickness.data(), round_spread, near_values());
+  }
   res.z_spread =
       round_spread.scale.empty() ? 0.0 : round_spread.scale[round_spread.scale.size() / 2];
   // The statistics, oriented so that larger is more bone-like (round, needle) or air-like.
@@ -464,8 +468,11 @@ void statistics_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
                                p.line_sigma_across_px, dir, zl);
       const SpreadProfile s =
           unit_spread_by_thickness(zl, img.thickness.data(), use.data(), bins, gain);
-      discount_closures(zl, cr, img.thickness.data(), s,
-                        smooth_at(p.line_sigma_along_px, p.line_sigma_across_px, dir));
+      if (!cr.empty()) {
+        masked_line_gaussian(cr.e.data(), use.data(), img.rows, img.cols, p.line_sigma_along_px,
+                             p.line_sigma_across_px, dir, e_smoothed);
+        discount_closures(zl, cr, img.thickness.data(), s, near_values());
+      }
       for (size_t i = 0; i < n; ++i)
         if (std::isfinite(zl[i]) && !(stat[kStatNeedle][i] >= -zl[i]))
           stat[kStatNeedle][i] = -zl[i];

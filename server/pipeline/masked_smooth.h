@@ -31,16 +31,4 @@ int smooth_reach_px(double sigma_along, double sigma_across = 0);
 double masked_smooth_at(const float* v, const uint8_t* mask, int rows, int cols, double sigma_along,
                         double sigma_across, int direction, int r, int c);
 
-// masked_smooth_at with its kernels made once, for many pixels (the thousands near a
-// fillet's outline): the same sums in the same order.
-class MaskedSmoothAt {
- public:
-  MaskedSmoothAt(double sigma_along, double sigma_across, int direction);
-  double operator()(const float* v, const uint8_t* mask, int rows, int cols, int r, int c) const;
-
- private:
-  std::vector<float> ka_, kc_;
-  int dx_ = 1, dy_ = 0, cx_ = 0, cy_ = 1;
-};
-
 }  // namespace rangex
