@@ -236,6 +236,37 @@ TEST(ThicknessSpread, BinsHoldEveryPixelOnceInThicknessOrderWithTies) {
   for (size_t i = 0; i < n; ++i) EXPECT_EQ(seen[i], use[i] && std::isfinite(t[i]) ? 1 : 0) << i;
 }
 
+// One bin (one spread per fillet; or a fillet too small for two): every usable measured pixel
+// once, in image order, its centre the thickness at the middle rank of the sorted values (what
+// the bins in thickness order give), with ties, an even and an odd count.
+TEST(ThicknessSpread, OneBinHoldsEveryPixelInImageOrderAndTheMiddleThickness) {
+  for (const size_t n : {40001u, 40002u, 5000u}) {
+    std::mt19937_64 rng(5 + n);
+    std::uniform_int_distribution<int> step(2, 50);
+    std::vector<float> t(n);
+    std::vector<uint8_t> use(n, 1);
+    for (size_t i = 0; i < n; ++i) {
+      t[i] = 0.5f * float(step(rng));
+      if (i % 13 == 0) use[i] = 0;
+      if (i % 31 == 0) t[i] = std::numeric_limits<float>::quiet_NaN();
+    }
+    std::vector<size_t> want;
+    std::vector<float> sorted;
+    for (size_t i = 0; i < n; ++i)
+      if (use[i] && std::isfinite(t[i])) want.push_back(i), sorted.push_back(t[i]);
+    std::sort(sorted.begin(), sorted.end());
+    // n = 5000: the default 3,000 pixels a bin leave room for one only.
+    const ThicknessBins bins = n == 5000 ? thickness_bins(t.data(), use.data(), n)
+                                         : thickness_bins(t.data(), use.data(), n, 1);
+    ASSERT_EQ(bins.members.size(), 1u) << n;
+    EXPECT_EQ(bins.members[0], want) << n;
+    EXPECT_EQ(bins.centre_mm[0], double(sorted[sorted.size() / 2])) << n;
+  }
+  std::vector<float> t(10, 3.f);
+  std::vector<uint8_t> none(10, 0);
+  EXPECT_TRUE(thickness_bins(t.data(), none.data(), 10, 1).members.empty());
+}
+
 // Statistic s's extremes in the fillets below: g moved up by 0.3 s.
 GevModel stat_model(const GevModel& g, int s) {
   GevModel gs = g;

@@ -22,6 +22,23 @@ double interpolate(const std::vector<double>& x, const std::vector<double>& y, d
 
 ThicknessBins thickness_bins(const float* thickness, const uint8_t* use, size_t n, int max_bins,
                              size_t min_per_bin) {
+  std::vector<size_t> usable;
+  for (size_t i = 0; i < n; ++i)
+    if (use[i] && std::isfinite(thickness[i])) usable.push_back(i);
+  // One bin (one spread per fillet, the default; or a small fillet): no order is needed, only
+  // the median thickness, the same rank of the same values as the sorted order below gives.
+  // Its members stay in image order, so that each statistic's values are read in order.
+  if (max_bins <= 1 || usable.size() / std::max<size_t>(1, min_per_bin) < 2) {
+    ThicknessBins b;
+    if (usable.empty()) return b;
+    std::vector<float> t(usable.size());
+    for (size_t k = 0; k < usable.size(); ++k) t[k] = thickness[usable[k]];
+    const auto mid = t.begin() + long(t.size() / 2);
+    std::nth_element(t.begin(), mid, t.end());
+    b.centre_mm.push_back(*mid);
+    b.members.push_back(std::move(usable));
+    return b;
+  }
   // Sorted as (thickness, index) pairs by thickness alone: the same comparisons, so the same
   // order, ties included, as sorting the indices through the image, without a scattered read
   // per comparison. Indices in 32 bits where they fit (every fillet): half the memory moved.
@@ -32,8 +49,8 @@ ThicknessBins thickness_bins(const float* thickness, const uint8_t* use, size_t 
       Index i;
     };
     std::vector<At> by_t;
-    for (size_t i = 0; i < n; ++i)
-      if (use[i] && std::isfinite(thickness[i])) by_t.push_back({thickness[i], Index(i)});
+    by_t.reserve(usable.size());
+    for (size_t i : usable) by_t.push_back({thickness[i], Index(i)});
     std::sort(by_t.begin(), by_t.end(), [](const At& a, const At& b) { return a.t < b.t; });
     px.resize(by_t.size());
     for (size_t k = 0; k < by_t.size(); ++k) px[k] = by_t[k].i;

@@ -13,8 +13,10 @@ namespace rangex {
 // The fillet's usable pixels ordered into equal-count thickness bins (once per fillet, for
 // every statistic).
 struct ThicknessBins {
-  std::vector<std::vector<size_t>> members;  // pixel indices per bin, thinnest first
-  std::vector<double> centre_mm;             // median thickness per bin
+  // Pixel indices per bin, the thinnest bin first; one bin's in image order, several bins' by
+  // thickness.
+  std::vector<std::vector<size_t>> members;
+  std::vector<double> centre_mm;  // median thickness per bin
 };
 
 // At most max_bins bins of at least min_per_bin pixels (one bin for a small fillet).
