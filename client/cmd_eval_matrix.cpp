@@ -559,22 +559,8 @@ std::string json(const std::vector<Row>& rows) {
   return os.str();
 }
 
-}  // namespace
-
-int cmd_eval_matrix(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"keep-scans", "dual-energy"},
-               {"variants", "only", "fillets", "seed", "out", "config", "learn", "check", "frr",
-                "frr-part", "bones", "confidence", "tail-from"});
-  a.expect_positionals(
-      0,
-      "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] "
-      "[--seed S] [--learn N (0: none)] [--check N] [--frr N] [--frr-part N] [--bones N] "
-      "[--confidence C] [--tail-from P (learn's)] [--keep-scans] "
-      "[--dual-energy]");
-  const PlantConfig plant = load_config(a.get("config", ""));
-  const fs::path vdir = a.get(
-      "variants", (fs::path(config_path(a.get("config", ""))).parent_path() / "variants").string());
-  if (!fs::is_directory(vdir)) fail(vdir.string(), ": no such folder of plant variants");
+// The variants' files in name order, or those --only names, in its order.
+std::vector<fs::path> variant_files(const Args& a, const fs::path& vdir) {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(vdir))
     if (e.path().extension() == ".yaml") files.push_back(e.path());
@@ -591,7 +577,11 @@ int cmd_eval_matrix(int argc, char** argv) {
     }
     files = keep;
   }
-  if (files.empty()) fail(vdir.string(), " holds no variant (*.yaml)");
+  return files;
+}
+
+// The run's options from the command line, refused where out of range.
+MatrixOptions matrix_options(const Args& a) {
   MatrixOptions mo;
   mo.fillets = int(a.integer("fillets", 60));
   mo.seed = a.integer("seed", 11);
@@ -611,8 +601,108 @@ int cmd_eval_matrix(int argc, char** argv) {
   if (mo.bone_fillets > 0 && mo.learn_fillets == 0)
     fail("--bones inspects with the learned thresholds: it needs --learn N > 0");
   if (mo.learn_fillets < 0 || mo.check_fillets < 1) fail("--learn must be >= 0 and --check >= 1");
+  return mo;
+}
+
+// The matrix's report over the variants run so far.
+std::string matrix_text(const std::vector<Row>& rows, const MatrixOptions& mo) {
   const int fillets = mo.fillets;
   const long seed = mo.seed;
+  std::ostringstream os;
+  os << "plant variants, each calibrated from its own scenes (" << fillets << " fillets each, seed "
+     << seed << "):\n"
+     << "thick/bias: thickness mean |error| and bias, mm; resid: how rough the plant is, the "
+        "residual I - P's standard deviation in DN (the dissertation's real fillets: 29.6); "
+        "recall: calcified fragments >= 2 mm;"
+        " needle, edge: the same for needles and within 3 mm of the edge or on meat under 6 "
+        "mm (found/present); posit.: position error, mm; f.rej: clean fillets rejected; n.i.: "
+        "fillets not inspected; f.frag/f: detections matching no bone per fillet, <1mm / "
+        "1-3mm of them from the meat's edge; xr: the X-ray-only baseline\n\n"
+     << table(rows, false);
+  if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
+    os << "\nheld out (never tuned on):\n" << table(rows, true);
+  if (mo.learn_fillets > 0) {
+    os << "\nwith thresholds learned from " << mo.learn_fillets
+       << " clean fillets of each variant (another seed; claims checked on " << mo.check_fillets
+       << " more): recall of calcified >= 2 mm with its 95 % interval; f.rej: clean fillets "
+          "rejected with the 95 % interval in %; bands: sensitivity claims by thickness band "
+          "held on the check fillets; stated: the report's sentences held there (their pieces "
+          "found); flag: fillets the learning named as bone-like, each checked against the "
+          "truth as a plant checks them by hand (kept: found clean and learned again with "
+          "them, learn --keep; bony ones left out)\n\n"
+       << learned_table(rows, false);
+    if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
+      os << "\nheld out (never tuned on):\n" << learned_table(rows, true);
+    if (std::any_of(rows.begin(), rows.end(),
+                    [](const Row& r) { return !r.claims_not_held.empty(); })) {
+      os << "\nclaims by band not held on the check fillets (a band's claim rests on 10-40 "
+            "pieces there, which fall one or two short of its rate by chance about as often "
+            "as not; contradicted: so few found in under 5 % of checks of a true claim):\n";
+      for (const Row& r : rows)
+        if (!r.claims_not_held.empty()) {
+          os << r.name << ": " << r.claims_not_held.size() << " of " << r.claims << " not held, "
+             << r.claims_contradicted << " contradicted\n";
+          for (const std::string& t : r.claims_not_held) os << "  " << t << "\n";
+        }
+    }
+    if (std::any_of(rows.begin(), rows.end(),
+                    [](const Row& r) { return !r.drift_sentence.empty(); })) {
+      os << "\nthe lane's drift monitor over the clean run (its passed fillets in order; "
+            "a warning when the last 200 imply more than twice the target):\n";
+      for (const Row& r : rows)
+        if (!r.drift_sentence.empty())
+          os << r.name << ":\n" << prefixed(r.drift_sentence, "  ") << "\n";
+    }
+    os << "\nwhere the learned thresholds missed calcified fragments >= 2 mm:\n";
+    for (const Row& r : rows)
+      if (r.learned_run)
+        os << r.name << ": " << missed_summary(r.learned) << "\n"
+           << prefixed(missed_lines(r.learned), "  ");
+    if (mo.bone_fillets > 0)
+      os << "\nthe bone run: " << mo.bone_fillets
+         << " more fillets of each variant's plant, bones and all (seeds " << seed + 10000
+         << ", +100 a part of " << mo.frr_part
+         << "), inspected with the learned thresholds and judged against their truth; the "
+            "interval is Wilson's 95 %, pooled with the plant's fragments:\n"
+         << bone_run_text(rows);
+    os << "\nthe report's sphere claims on each variant's own fragments (the plant's"
+       << (mo.bone_fillets > 0 ? " and the bone run's" : "")
+       << "): a compact fragment is covered where the claim for its band of meat is a sphere "
+          "holding no more bone than it (volume x its attenuation over the meat, against the "
+          "test piece's); the claim says 95 %:\n";
+    for (const Row& r : rows)
+      if (r.claims_measured) os << claims_text(r.name, r.fragment_claims);
+    os << "\nagainst the acceptance targets, every fillet of this run pooled: the plant's, "
+          "the clean run's and the bone run's, with the learned thresholds; Wilson's 95 % "
+          "intervals. Recall is judged on plants without needles, rib plates or cartilage, "
+          "and reported on the others:\n"
+       << acceptance_section(rows);
+  }
+  for (const Row& r : rows)
+    if (!r.failed.empty()) os << "\nfailed: " << r.name << ": " << r.failed << "\n";
+  return os.str();
+}
+
+}  // namespace
+
+int cmd_eval_matrix(int argc, char** argv) {
+  const Args a(argc, argv, 2, {"keep-scans", "dual-energy"},
+               {"variants", "only", "fillets", "seed", "out", "config", "learn", "check", "frr",
+                "frr-part", "bones", "confidence", "tail-from"});
+  a.expect_positionals(
+      0,
+      "eval-matrix --out DIR [--variants DIR] [--only A,B] [--fillets N] "
+      "[--seed S] [--learn N (0: none)] [--check N] [--frr N] [--frr-part N] [--bones N] "
+      "[--confidence C] [--tail-from P (learn's)] [--keep-scans] "
+      "[--dual-energy]");
+  const PlantConfig plant = load_config(a.get("config", ""));
+  const fs::path vdir = a.get(
+      "variants", (fs::path(config_path(a.get("config", ""))).parent_path() / "variants").string());
+  if (!fs::is_directory(vdir)) fail(vdir.string(), ": no such folder of plant variants");
+  const std::vector<fs::path> files = variant_files(a, vdir);
+  if (files.empty()) fail(vdir.string(), " holds no variant (*.yaml)");
+  const MatrixOptions mo = matrix_options(a);
+  const int fillets = mo.fillets;
   const fs::path out = a.require("out");
   if (a.flag("dual-energy")) {
     DualEnergyMatrixOptions d;
@@ -644,79 +734,7 @@ int cmd_eval_matrix(int argc, char** argv) {
     rows.back().minutes =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / 60;
     // Written after every variant, so that a long run's results are there as they come.
-    std::ostringstream os;
-    os << "plant variants, each calibrated from its own scenes (" << fillets
-       << " fillets each, seed " << seed << "):\n"
-       << "thick/bias: thickness mean |error| and bias, mm; resid: how rough the plant is, the "
-          "residual I - P's standard deviation in DN (the dissertation's real fillets: 29.6); "
-          "recall: calcified fragments >= 2 mm;"
-          " needle, edge: the same for needles and within 3 mm of the edge or on meat under 6 "
-          "mm (found/present); posit.: position error, mm; f.rej: clean fillets rejected; n.i.: "
-          "fillets not inspected; f.frag/f: detections matching no bone per fillet, <1mm / "
-          "1-3mm of them from the meat's edge; xr: the X-ray-only baseline\n\n"
-       << table(rows, false);
-    if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
-      os << "\nheld out (never tuned on):\n" << table(rows, true);
-    if (mo.learn_fillets > 0) {
-      os << "\nwith thresholds learned from " << mo.learn_fillets
-         << " clean fillets of each variant (another seed; claims checked on " << mo.check_fillets
-         << " more): recall of calcified >= 2 mm with its 95 % interval; f.rej: clean fillets "
-            "rejected with the 95 % interval in %; bands: sensitivity claims by thickness band "
-            "held on the check fillets; stated: the report's sentences held there (their pieces "
-            "found); flag: fillets the learning named as bone-like, each checked against the "
-            "truth as a plant checks them by hand (kept: found clean and learned again with "
-            "them, learn --keep; bony ones left out)\n\n"
-         << learned_table(rows, false);
-      if (std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.held_out; }))
-        os << "\nheld out (never tuned on):\n" << learned_table(rows, true);
-      if (std::any_of(rows.begin(), rows.end(),
-                      [](const Row& r) { return !r.claims_not_held.empty(); })) {
-        os << "\nclaims by band not held on the check fillets (a band's claim rests on 10-40 "
-              "pieces there, which fall one or two short of its rate by chance about as often "
-              "as not; contradicted: so few found in under 5 % of checks of a true claim):\n";
-        for (const Row& r : rows)
-          if (!r.claims_not_held.empty()) {
-            os << r.name << ": " << r.claims_not_held.size() << " of " << r.claims << " not held, "
-               << r.claims_contradicted << " contradicted\n";
-            for (const std::string& t : r.claims_not_held) os << "  " << t << "\n";
-          }
-      }
-      if (std::any_of(rows.begin(), rows.end(),
-                      [](const Row& r) { return !r.drift_sentence.empty(); })) {
-        os << "\nthe lane's drift monitor over the clean run (its passed fillets in order; "
-              "a warning when the last 200 imply more than twice the target):\n";
-        for (const Row& r : rows)
-          if (!r.drift_sentence.empty())
-            os << r.name << ":\n" << prefixed(r.drift_sentence, "  ") << "\n";
-      }
-      os << "\nwhere the learned thresholds missed calcified fragments >= 2 mm:\n";
-      for (const Row& r : rows)
-        if (r.learned_run)
-          os << r.name << ": " << missed_summary(r.learned) << "\n"
-             << prefixed(missed_lines(r.learned), "  ");
-      if (mo.bone_fillets > 0)
-        os << "\nthe bone run: " << mo.bone_fillets
-           << " more fillets of each variant's plant, bones and all (seeds " << seed + 10000
-           << ", +100 a part of " << mo.frr_part
-           << "), inspected with the learned thresholds and judged against their truth; the "
-              "interval is Wilson's 95 %, pooled with the plant's fragments:\n"
-           << bone_run_text(rows);
-      os << "\nthe report's sphere claims on each variant's own fragments (the plant's"
-         << (mo.bone_fillets > 0 ? " and the bone run's" : "")
-         << "): a compact fragment is covered where the claim for its band of meat is a sphere "
-            "holding no more bone than it (volume x its attenuation over the meat, against the "
-            "test piece's); the claim says 95 %:\n";
-      for (const Row& r : rows)
-        if (r.claims_measured) os << claims_text(r.name, r.fragment_claims);
-      os << "\nagainst the acceptance targets, every fillet of this run pooled: the plant's, "
-            "the clean run's and the bone run's, with the learned thresholds; Wilson's 95 % "
-            "intervals. Recall is judged on plants without needles, rib plates or cartilage, "
-            "and reported on the others:\n"
-         << acceptance_section(rows);
-    }
-    for (const Row& r : rows)
-      if (!r.failed.empty()) os << "\nfailed: " << r.name << ": " << r.failed << "\n";
-    text = os.str();
+    text = matrix_text(rows, mo);
     std::ofstream(out / "matrix.txt") << text;
     std::ofstream(out / "matrix.json") << json(rows);
   }
