@@ -594,6 +594,19 @@ TEST(MatchedKernels, BlockedSumsEqualTheDirectSumAcrossBlocksAndHoles) {
         }
       EXPECT_NEAR(out[i], ref, 1e-6 * (1 + mag)) << r << "," << c;
     }
+  // Padded once for a wider kernel (as inspection pads for its whole bank): the same sums,
+  // bit for bit; a kernel wider than the padding is refused.
+  const PaddedField wide = pad_field(z.data(), use.data(), rows, cols, radius + 3);
+  std::vector<float> again;
+  apply_kernel(wide, use.data(), taps, radius, again);
+  ASSERT_EQ(again.size(), out.size());
+  for (size_t i = 0; i < out.size(); ++i)
+    if (std::isnan(out[i]))
+      EXPECT_TRUE(std::isnan(again[i])) << i;
+    else
+      EXPECT_EQ(again[i], out[i]) << i;
+  const std::vector<double> wider(size_t(2 * radius + 9) * size_t(2 * radius + 9), 1.0);
+  EXPECT_THROW(apply_kernel(wide, use.data(), wider, radius + 4, again), Error);
 }
 
 TEST(MatchedKernels, LearnedKernelsTravelWithTheLearnedSettingsAndBadOnesAreRefused) {

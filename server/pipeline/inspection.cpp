@@ -427,13 +427,19 @@ void statistics_from_z(const FilletImage& img, const std::vector<uint8_t>& use,
   std::vector<int16_t>&round_k = ds.round_k, &needle_k = ds.needle_k;
   round_k.assign(mk.empty() ? 0 : n, -1);
   needle_k.assign(mk.has_needles() ? n : 0, -1);
-  if (!mk.empty() || mk.has_needles())
+  PaddedField zp;  // zc padded once for every kernel
+  if (!mk.empty() || mk.has_needles()) {
     clip_bright(z.data(), use.data(), img.rows, img.cols, mk.clip, mk.enclosure_px, mk.void_level,
                 zc);
+    int widest = 0;
+    for (int r : mk.radii) widest = std::max(widest, r);
+    for (int r : mk.needle_radii) widest = std::max(widest, r);
+    zp = pad_field(zc.data(), use.data(), img.rows, img.cols, widest);
+  }
   std::vector<double> abs_taps, closure_acc;
   auto most_bone_like = [&](const std::vector<double>& taps, int radius, double spread,
                             std::vector<float>& into, std::vector<int16_t>& which, size_t k) {
-    apply_kernel(zc.data(), use.data(), img.rows, img.cols, taps, radius, zk);
+    apply_kernel(zp, use.data(), taps, radius, zk);
     const SpreadProfile s =
         unit_spread_by_thickness(zk, img.thickness.data(), use.data(), bins, 0.5 * spread);
     if (!cr.empty()) {

@@ -311,25 +311,36 @@ void learn_needle_kernels(const TextureCovariance& c, const std::vector<double>&
   }
 }
 
-double apply_kernel(const float* z, const uint8_t* use, int rows, int cols,
-                    const std::vector<double>& taps, int radius, std::vector<float>& out) {
-  const int w = 2 * radius + 1;
-  const size_t n = size_t(rows) * size_t(cols);
-  // z on a copy padded by the radius with zeros (flat meat off the usable pixels and beyond
-  // the box), so that the sums need no bounds. A row of outputs is taken kBlock columns at a
-  // time (a block with no usable pixel is skipped), every tap summed into the block before the
-  // next: the block's sums stay in registers instead of going through memory once per tap. Each
-  // pixel sums its taps in the same order as the direct sum over its window, so the outputs are the
-  // same. The copy has a block's slack at its end: the last block of a row may read past the row's
-  // end into zeros, and what it sums there is never written.
-  constexpr int kBlock = 32;
-  const size_t pc = size_t(cols) + 2 * size_t(radius);
-  std::vector<double> v((size_t(rows) + 2 * size_t(radius)) * pc + kBlock, 0.0);
+namespace {
+// A row of outputs is taken kBlock columns at a time, every tap summed into the block before
+// the next: the block's sums stay in registers instead of going through memory once per tap.
+// The last block of a row may read past the row's end, into padding or the slack; what it
+// sums there is never written.
+constexpr int kBlock = 32;
+}  // namespace
+
+PaddedField pad_field(const float* z, const uint8_t* use, int rows, int cols, int radius) {
+  PaddedField f;
+  f.rows = rows, f.cols = cols, f.radius = radius;
+  f.pitch = size_t(cols) + 2 * size_t(radius);
+  f.v.assign((size_t(rows) + 2 * size_t(radius)) * f.pitch + kBlock, 0.0);
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < cols; ++c) {
       const size_t i = size_t(r) * cols + c;
-      if (use[i] && std::isfinite(z[i])) v[size_t(r + radius) * pc + size_t(c + radius)] = z[i];
+      if (use[i] && std::isfinite(z[i]))
+        f.v[size_t(r + radius) * f.pitch + size_t(c + radius)] = z[i];
     }
+  return f;
+}
+
+double apply_kernel(const PaddedField& f, const uint8_t* use, const std::vector<double>& taps,
+                    int radius, std::vector<float>& out) {
+  if (radius > f.radius) fail("apply_kernel: radius ", radius, " beyond the padding's ", f.radius);
+  const int w = 2 * radius + 1, rows = f.rows, cols = f.cols;
+  const size_t n = size_t(rows) * size_t(cols);
+  // Each pixel sums its taps in the same order as the direct sum over its window, so the
+  // outputs are the same whatever the padding.
+  const size_t skip = size_t(f.radius - radius);
   out.assign(n, std::numeric_limits<float>::quiet_NaN());
   for (int r = 0; r < rows; ++r) {
     const uint8_t* u = use + size_t(r) * cols;
@@ -338,7 +349,7 @@ double apply_kernel(const float* z, const uint8_t* use, int rows, int cols,
       if (std::none_of(u + c0, u + c0 + m, [](uint8_t x) { return x != 0; })) continue;
       double acc[kBlock] = {};
       for (int i = 0; i < w; ++i) {
-        const double* row = &v[size_t(r + i) * pc + size_t(c0)];
+        const double* row = &f.v[(size_t(r + i) + skip) * f.pitch + size_t(c0) + skip];
         const double* h = &taps[size_t(i) * w];
         for (int j = 0; j < w; ++j) {
           const double hj = h[j];
@@ -353,6 +364,11 @@ double apply_kernel(const float* z, const uint8_t* use, int rows, int cols,
   double g = 0;
   for (double h : taps) g += h * h;
   return std::sqrt(g);
+}
+
+double apply_kernel(const float* z, const uint8_t* use, int rows, int cols,
+                    const std::vector<double>& taps, int radius, std::vector<float>& out) {
+  return apply_kernel(pad_field(z, use, rows, cols, radius), use, taps, radius, out);
 }
 
 double apply_kernel_at(const float* z, const uint8_t* use, int rows, int cols,

@@ -98,9 +98,22 @@ void learn_needle_kernels(const TextureCovariance& c, const std::vector<double>&
                           const std::vector<double>& diameters_mm, double pitch_mm, double step_mm,
                           double blur_px, MatchedKernels& k);
 
+// z on a copy padded by `radius` with zeros (flat meat off the usable pixels and beyond the
+// box), so that a kernel's sums need no bounds: made once for every kernel of a fillet whose
+// radius is at most `radius`.
+struct PaddedField {
+  int rows = 0, cols = 0, radius = 0;
+  size_t pitch = 0;       // cols + 2 radius
+  std::vector<double> v;  // (rows + 2 radius) x pitch, and a block's slack at the end
+};
+PaddedField pad_field(const float* z, const uint8_t* use, int rows, int cols, int radius);
+
 // out = sum over the window of h z, z taken as 0 off the usable pixels (where the window
-// leaves the fillet the kernel sees flat meat); NaN off them. Returns sqrt(sum h^2), the
-// kernel's gain on white noise of unit spread.
+// leaves the fillet the kernel sees flat meat); NaN off them. radius <= f.radius. Returns
+// sqrt(sum h^2), the kernel's gain on white noise of unit spread.
+double apply_kernel(const PaddedField& f, const uint8_t* use, const std::vector<double>& taps,
+                    int radius, std::vector<float>& out);
+// The same on z padded for this kernel alone.
 double apply_kernel(const float* z, const uint8_t* use, int rows, int cols,
                     const std::vector<double>& taps, int radius, std::vector<float>& out);
 
