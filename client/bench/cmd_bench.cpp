@@ -80,49 +80,9 @@ Rounds measure_rounds(int frames, int rounds, double seconds,
       r.fps[k].push_back(frames_per_second(frames, per, passes[k]));
   return r;
 }
-}  // namespace
-
-int cmd_bench(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"path"},
-               {"frames", "seconds", "rounds", "config", "backend", "device", "threads", "lanes",
-                "batches", "lines", "batch"});
-  a.expect_positionals(0,
-                       "bench [--frames N] [--seconds S] [--rounds R] | bench --backend "
-                       "cpu|opencl|vulkan|all [--device D] [--seconds S] [--lanes 1,4,16] "
-                       "[--batches 1,16,64,256] | bench --path [--lanes 1,4,16] [--lines N] "
-                       "[--batch B] [--threads T]");
-  if (a.flag("path")) {
-    PathBenchOptions o;
-    o.lanes = a.int_list("lanes", o.lanes, 4096);
-    o.lines = int(a.integer("lines", o.lines));
-    o.batch = int(a.integer("batch", o.batch));
-    o.threads = int(a.integer("threads", o.threads));
-    if (o.threads < 1 || o.threads > 64) fail("--threads must be within 1..64");
-    return bench_path(load_config(a.get("config", "")), o);
-  }
-  if (a.has("backend")) {
-    BackendBenchOptions o;
-    o.backends = backend_names(a.get("backend", "all"));
-    // The CPU first, always: every other backend is reported as a ratio to it.
-    o.backends.erase(std::remove(o.backends.begin(), o.backends.end(), "cpu"), o.backends.end());
-    o.backends.insert(o.backends.begin(), "cpu");
-    o.device = a.get("device", "");
-    o.threads = int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
-    if (o.threads < 1) fail("--threads must be >= 1");
-    o.seconds = std::stod(a.get("seconds", "0.25"));
-    if (!(o.seconds > 0)) fail("--seconds must be > 0");
-    o.lanes = a.int_list("lanes", o.lanes, 4096);
-    o.batches = a.int_list("batches", o.batches, 4096);
-    return bench_backends(load_config(a.get("config", "")), o);
-  }
-  const int nframes = int(a.integer("frames", 256));
-  const double secs = std::stod(a.get("seconds", "1.0"));
-  const int nrounds = int(a.integer("rounds", 9));
-  if (nframes < 2) fail("--frames must be >= 2");
-  if (nrounds < 1) fail("--rounds must be >= 1");
-  if (!(secs > 0)) fail("--seconds must be > 0");
-  const PlantConfig plant = load_config(a.get("config", ""));
-  const LaneConfig& lc = plant.lanes.front();
+// Stripe extraction over simulated frames, beside a sequential read of the same frames and
+// the OpenCV-composed centroid, in alternating rounds.
+void bench_stripes(const LaneConfig& lc, int nframes, double secs, int nrounds) {
   const int W = lc.frame_width, H = lc.frame_height;
   const size_t frame = size_t(W) * H;
 
@@ -206,7 +166,10 @@ int cmd_bench(int argc, char** argv) {
   std::snprintf(mt, sizeof mt, "rangex modified centroid, %d threads", threads);
   pass_line(mt, kOursMt);
   std::printf("rangex default / OpenCV composed: %.2fx\n", rounds.fps_median(kOurs) / cv_fps);
+}
 
+// Returns the fillet, which bench_dual_energy inspects too.
+FilletImage bench_inspection(const LaneConfig& lc, double secs) {
   // Compensation + detection of one 500 x 250 px fillet (200 x 100 mm), beside the same
   // steps written naively, on the same fillet in the same run.
   const FilletImage fillet = sim::synthetic_fillet(
@@ -223,7 +186,10 @@ int cmd_bench(int argc, char** argv) {
               std::string(decision_name(d_naive)).c_str());
   std::printf("%-38s %10.2f ms/fillet  (%s)  %.1fx faster\n", "rangex", 1e3 / fast_per_s,
               std::string(decision_name(d_fast)).c_str(), fast_per_s / naive_per_s);
+  return fillet;
+}
 
+void bench_dual_energy(const FilletImage& fillet, const InspectionParams& ip, double secs) {
   // Dual energy (docs/dual-energy.md): the same fillet's thickness on a sandwich detector
   // (lean with 8 % fat, both lines rendered through NIST's coefficients, the wedge fitted),
   // inspected on its bone image, beside one energy on its low line, in the same run. On the
@@ -266,6 +232,54 @@ int cmd_bench(int argc, char** argv) {
               "dual energy with the laser + low line", 1e3 / both_per_s,
               1e6 / both_per_s / dual.rows, std::string(decision_name(d_both)).c_str(),
               low_per_s / both_per_s);
+}
+
+}  // namespace
+
+int cmd_bench(int argc, char** argv) {
+  const Args a(argc, argv, 2, {"path"},
+               {"frames", "seconds", "rounds", "config", "backend", "device", "threads", "lanes",
+                "batches", "lines", "batch"});
+  a.expect_positionals(0,
+                       "bench [--frames N] [--seconds S] [--rounds R] | bench --backend "
+                       "cpu|opencl|vulkan|all [--device D] [--seconds S] [--lanes 1,4,16] "
+                       "[--batches 1,16,64,256] | bench --path [--lanes 1,4,16] [--lines N] "
+                       "[--batch B] [--threads T]");
+  if (a.flag("path")) {
+    PathBenchOptions o;
+    o.lanes = a.int_list("lanes", o.lanes, 4096);
+    o.lines = int(a.integer("lines", o.lines));
+    o.batch = int(a.integer("batch", o.batch));
+    o.threads = int(a.integer("threads", o.threads));
+    if (o.threads < 1 || o.threads > 64) fail("--threads must be within 1..64");
+    return bench_path(load_config(a.get("config", "")), o);
+  }
+  if (a.has("backend")) {
+    BackendBenchOptions o;
+    o.backends = backend_names(a.get("backend", "all"));
+    // The CPU first, always: every other backend is reported as a ratio to it.
+    o.backends.erase(std::remove(o.backends.begin(), o.backends.end(), "cpu"), o.backends.end());
+    o.backends.insert(o.backends.begin(), "cpu");
+    o.device = a.get("device", "");
+    o.threads = int(a.integer("threads", long(std::max(1u, std::thread::hardware_concurrency()))));
+    if (o.threads < 1) fail("--threads must be >= 1");
+    o.seconds = std::stod(a.get("seconds", "0.25"));
+    if (!(o.seconds > 0)) fail("--seconds must be > 0");
+    o.lanes = a.int_list("lanes", o.lanes, 4096);
+    o.batches = a.int_list("batches", o.batches, 4096);
+    return bench_backends(load_config(a.get("config", "")), o);
+  }
+  const int nframes = int(a.integer("frames", 256));
+  const double secs = std::stod(a.get("seconds", "1.0"));
+  const int nrounds = int(a.integer("rounds", 9));
+  if (nframes < 2) fail("--frames must be >= 2");
+  if (nrounds < 1) fail("--rounds must be >= 1");
+  if (!(secs > 0)) fail("--seconds must be > 0");
+  const PlantConfig plant = load_config(a.get("config", ""));
+  const LaneConfig& lc = plant.lanes.front();
+  bench_stripes(lc, nframes, secs, nrounds);
+  const FilletImage fillet = bench_inspection(lc, secs);
+  bench_dual_energy(fillet, lc.inspection, secs);
   return 0;
 }
 
