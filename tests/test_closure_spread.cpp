@@ -38,7 +38,7 @@ TEST(ClosureSpread, AStatisticIsDividedByItsSpreadWithTheClosuresShare) {
   SpreadProfile s;
   s.centre_mm = {10}, s.median = {0}, s.scale = {0.5};
   std::vector<float> v(C, 4.0f), t(C, 10.0f);
-  discount_closures(v, cr, t.data(), s, [](size_t) { return 1.5; });  // c = 1.5 / 0.5 = 3
+  discount_closures(v, cr, t.data(), s, std::vector<double>(cr.near.size(), 1.5));  // c = 3
   EXPECT_FLOAT_EQ(v[0], 4.0f);
   for (int i : {1, 2, 3}) EXPECT_FLOAT_EQ(v[size_t(i)], float(4 / std::sqrt(10.0))) << i;
   EXPECT_FLOAT_EQ(v[4], 4.0f);
@@ -68,10 +68,11 @@ TEST(ClosureSpread, AClosureAloneStaysUnderSqrt3Spreads) {
   for (float x : zs) before = std::min(before, x);
   EXPECT_LT(before, -3.5);
   const ClosureReach cr = closure_reach(e, use.data(), R, C, 4);
-  discount_closures(zs, cr, t.data(), s, [&](size_t i) {
-    return masked_smooth_at(cr.e.data(), use.data(), R, C, sigma, sigma, -1, int(i) / C,
-                            int(i) % C);
-  });
+  std::vector<double> sums;
+  for (size_t i : cr.near)
+    sums.push_back(
+        masked_smooth_at(cr.e.data(), use.data(), R, C, sigma, sigma, -1, int(i) / C, int(i) % C));
+  discount_closures(zs, cr, t.data(), s, sums);
   for (float x : zs) EXPECT_GT(x, -std::sqrt(3.0));
 }
 

@@ -53,15 +53,6 @@ ClosureReach closure_reach(std::vector<float> e, const uint8_t* use, int rows, i
 }
 
 void discount_closures(std::vector<float>& v, const ClosureReach& cr, const float* thickness,
-                       const SpreadProfile& s, const std::function<double(size_t)>& sum_at) {
-  if (cr.empty() || s.centre_mm.empty()) return;
-  std::vector<double> sums(cr.near.size());
-  for (size_t k = 0; k < cr.near.size(); ++k)
-    if (std::isfinite(v[cr.near[k]])) sums[k] = sum_at(cr.near[k]);
-  discount_closures(v, cr, thickness, s, sums);
-}
-
-void discount_closures(std::vector<float>& v, const ClosureReach& cr, const float* thickness,
                        const SpreadProfile& s, const std::vector<double>& sums) {
   if (cr.empty() || s.centre_mm.empty()) return;
   for (size_t k = 0; k < cr.near.size(); ++k) {

@@ -9,7 +9,6 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
-#include <functional>
 #include <vector>
 
 #include "pipeline/thickness_spread.h"
@@ -26,12 +25,9 @@ struct ClosureReach {
 // e: per pixel (empty: no closure). reach: the largest kernel's half-width in pixels.
 ClosureReach closure_reach(std::vector<float> e, const uint8_t* use, int rows, int cols, int reach);
 
-// v <- v / sqrt(1 + (sum_at(i) / scale(T_i))^2) at each pixel near a closure, where sum_at(i)
-// is the kernel's sum of |h| e at pixel i and s the profile v was brought to unit spread with.
-void discount_closures(std::vector<float>& v, const ClosureReach& cr, const float* thickness,
-                       const SpreadProfile& s, const std::function<double(size_t)>& sum_at);
-
-// The same with the sums given for cr.near's pixels, in its order.
+// v <- v / sqrt(1 + (sums[k] / scale(T_i))^2) at each pixel i = cr.near[k] near a closure,
+// where sums[k] is the kernel's sum of |h| e there and s the profile v was brought to unit
+// spread with.
 void discount_closures(std::vector<float>& v, const ClosureReach& cr, const float* thickness,
                        const SpreadProfile& s, const std::vector<double>& sums);
 

@@ -103,42 +103,26 @@ LineSteps line_steps(int direction) {
 }
 }  // namespace
 
-namespace {
-// The smoothing at one pixel: the kernels' product summed over the window, the mask's
-// weights normalised.
-class MaskedSmoothAt {
- public:
-  MaskedSmoothAt(double sigma_along, double sigma_across, int direction) {
-    const bool round = direction < 0;
-    const LineSteps st = round ? LineSteps{1, 0, 0, 1, false} : line_steps(direction);
-    ka_ = gauss_taps(st.diagonal ? sigma_along / std::sqrt(2.0) : sigma_along);
-    kc_ = round ? ka_ : gauss_taps(sigma_across);
-    dx_ = st.dx, dy_ = st.dy, cx_ = st.cx, cy_ = st.cy;
-  }
-  double operator()(const float* v, const uint8_t* mask, int rows, int cols, int r, int c) const {
-    const int ra = int(ka_.size() / 2), rc = int(kc_.size() / 2);
-    double num = 0, den = 0;
-    for (int a = -ra; a <= ra; ++a)
-      for (int b = -rc; b <= rc; ++b) {
-        const int x = c + a * dx_ + b * cx_, y = r + a * dy_ + b * cy_;
-        if (x < 0 || x >= cols || y < 0 || y >= rows) continue;
-        const size_t j = size_t(y) * cols + x;
-        if (!mask[j]) continue;
-        const double w = double(ka_[a + ra]) * kc_[b + rc];
-        num += w * v[j], den += w;
-      }
-    return den > 0 ? num / den : std::numeric_limits<double>::quiet_NaN();
-  }
-
- private:
-  std::vector<float> ka_, kc_;
-  int dx_ = 1, dy_ = 0, cx_ = 0, cy_ = 1;
-};
-}  // namespace
-
 double masked_smooth_at(const float* v, const uint8_t* mask, int rows, int cols, double sigma_along,
                         double sigma_across, int direction, int r, int c) {
-  return MaskedSmoothAt(sigma_along, sigma_across, direction)(v, mask, rows, cols, r, c);
+  // The kernels' product summed over the window, the mask's weights normalised.
+  const bool round = direction < 0;
+  const LineSteps st = round ? LineSteps{1, 0, 0, 1, false} : line_steps(direction);
+  const std::vector<float> ka =
+      gauss_taps(st.diagonal ? sigma_along / std::sqrt(2.0) : sigma_along);
+  const std::vector<float> kc = round ? ka : gauss_taps(sigma_across);
+  const int ra = int(ka.size() / 2), rc = int(kc.size() / 2);
+  double num = 0, den = 0;
+  for (int a = -ra; a <= ra; ++a)
+    for (int b = -rc; b <= rc; ++b) {
+      const int x = c + a * st.dx + b * st.cx, y = r + a * st.dy + b * st.cy;
+      if (x < 0 || x >= cols || y < 0 || y >= rows) continue;
+      const size_t j = size_t(y) * cols + x;
+      if (!mask[j]) continue;
+      const double w = double(ka[a + ra]) * kc[b + rc];
+      num += w * v[j], den += w;
+    }
+  return den > 0 ? num / den : std::numeric_limits<double>::quiet_NaN();
 }
 
 double masked_line_gaussian(const float* v, const uint8_t* mask, int rows, int cols,
