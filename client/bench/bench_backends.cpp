@@ -84,21 +84,18 @@ void print_cell(const char* backend, int lanes, int lines, double items_per_batc
   std::fflush(stdout);
 }
 
-}  // namespace
+// What the tables measured that the closing lines compare, by backend.
+struct BenchRates {
+  std::map<std::string, double> bandwidth;                          // host-to-device copy, bytes/s
+  std::map<std::string, double> best_stripe_bytes;                  // stripe stage, frames' bytes/s
+  std::map<std::string, double> best_lines;                         // line path, lines/s
+  std::map<std::string, std::map<std::string, double>> stage_rate;  // stage: items/s
+};
 
-int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
-  const int max_lanes = *std::max_element(opt.lanes.begin(), opt.lanes.end());
-  const PlantConfig p = default_plant_config(max_lanes);
-  const LaneConfig& lc = plant.lanes.front();
-  const size_t frame = size_t(lc.frame_width) * lc.frame_height;
-  std::vector<LaneConfig> lanes = p.lanes;
-  for (LaneConfig& l : lanes) {
-    const int id = l.id;
-    l = lc;
-    l.id = id;
-  }
-  // 64 distinct lines of a simulated lane with fillets in it.
-  const std::vector<uint8_t> rendered = render_distinct_lines(lc, 64);
+// Every requested backend that starts, each set to `lanes`, with its copy bandwidth.
+std::vector<std::unique_ptr<Backend>> start_backends(const BackendBenchOptions& opt,
+                                                     const std::vector<LaneConfig>& lanes,
+                                                     BenchRates& rates) {
   std::vector<std::unique_ptr<Backend>> backends;
   for (const std::string& name : opt.backends) {
     BackendRequest r;
@@ -116,25 +113,29 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
                 i.limits.c_str(), i.emulated ? " (a CPU emulation)" : "");
   }
   if (backends.empty()) fail("no backend could start");
-  std::map<std::string, double> bandwidth;
   for (auto& b : backends) {
     b->set_lanes(lanes);
     const double bw = b->upload_bandwidth(size_t(256) << 20);
-    bandwidth[b->info().name] = bw;
+    rates.bandwidth[b->info().name] = bw;
     if (bw > 0)
       std::printf("%-12s host-to-device copy: %.2f GB/s (256 MiB from pinned staging, best of 5)\n",
                   b->info().name.c_str(), bw / 1e9);
   }
-  const bool has_cpu = backends.front()->info().name == "cpu";
+  return backends;
+}
 
+void print_stripe_table(std::vector<std::unique_ptr<Backend>>& backends, const LaneConfig& lc,
+                        const std::vector<uint8_t>& rendered, const BackendBenchOptions& opt,
+                        BenchRates& rates) {
+  const size_t frame = size_t(lc.frame_width) * lc.frame_height;
+  const bool has_cpu = backends.front()->info().name == "cpu";
   std::printf(
       "\nstripe stage: %dx%d Mono8 frames from the backend's staging, both cameras of every line "
       "in one dispatch; per batch: upload / compute / download\n",
       lc.frame_width, lc.frame_height);
   std::printf("%-12s %5s %6s %21s %13s %9s %9s %9s\n", "backend", "lanes", "lines", "frames/s", "",
               "up", "compute", "down");
-  std::map<std::pair<int, int>, Cell> cpu_stripes, cpu_path;
-  std::map<std::string, double> best_stripe_bytes, best_lines;
+  std::map<std::pair<int, int>, Cell> cpu_stripes;
   for (int nl : opt.lanes)
     for (int lines : opt.batches) {
       const LineBatchInputs bb = interleave_lines(rendered, frame, nl, lines);
@@ -154,34 +155,45 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
         const bool is_cpu = b->info().name == "cpu";
         if (is_cpu) cpu_stripes[{nl, lines}] = c;
         const double bytes = double(bb.frames.size());
-        best_stripe_bytes[b->info().name] =
-            std::max(best_stripe_bytes[b->info().name], c.per_s * bytes);
+        double& best = rates.best_stripe_bytes[b->info().name];
+        best = std::max(best, c.per_s * bytes);
         print_cell(b->info().name.c_str(), nl, lines, 2.0 * lines, bytes, c,
                    has_cpu && !is_cpu ? &cpu_stripes[{nl, lines}] : nullptr, "frames/s");
       }
     }
+}
 
+void print_line_path_table(std::vector<std::unique_ptr<Backend>>& backends, const LaneConfig& lc,
+                           const std::vector<uint8_t>& rendered, const BackendBenchOptions& opt,
+                           BenchRates& rates) {
+  const size_t frame = size_t(lc.frame_width) * lc.frame_height;
+  const bool has_cpu = backends.front()->info().name == "cpu";
   std::printf(
       "\nline path: stripes, rectification, fusion, projection; one upload and one download per "
       "batch, two batches in flight\n");
   std::printf("%-12s %5s %6s %21s %13s %9s %9s %9s\n", "backend", "lanes", "lines", "lines/s", "",
               "up", "compute", "down");
+  std::map<std::pair<int, int>, Cell> cpu_path;
   for (int nl : opt.lanes)
     for (int lines : opt.batches) {
       const LineBatchInputs bb = interleave_lines(rendered, frame, nl, lines);
       for (auto& b : backends) {
         const Cell c = line_path(*b, bb, opt.seconds);
-        best_lines[b->info().name] = std::max(best_lines[b->info().name], c.per_s * lines);
+        double& best = rates.best_lines[b->info().name];
+        best = std::max(best, c.per_s * lines);
         const bool is_cpu = b->info().name == "cpu";
         if (is_cpu) cpu_path[{nl, lines}] = c;
         print_cell(b->info().name.c_str(), nl, lines, lines, double(bb.frames.size()), c,
                    has_cpu && !is_cpu ? &cpu_path[{nl, lines}] : nullptr, "lines/s ");
       }
     }
+}
 
-  // Every case of the stage table (offline/stage_cases.h, which the backend suite checks on
-  // every backend) on the largest batch and 16 fillets of 60,000 pixels (a 500 x 250 px
-  // fillet holds about that many); the robust fit beside them.
+// Every case of the stage table (offline/stage_cases.h, which the backend suite checks on
+// every backend) on the largest batch and 16 fillets of 60,000 pixels (a 500 x 250 px
+// fillet holds about that many); the robust fit beside them.
+void print_stage_cases(std::vector<std::unique_ptr<Backend>>& backends, const LaneConfig& lc,
+                       const BackendBenchOptions& opt, int max_lanes, BenchRates& rates) {
   const int nl = max_lanes, lines = *std::max_element(opt.batches.begin(), opt.batches.end());
   const StageWork work = make_stage_work(lc, nl, lines, 16, 60000, 60000);
   const std::vector<StageCase> cases = stage_cases(work);
@@ -190,7 +202,6 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
   std::printf("%-12s %-12s %14s %-8s %9s %9s %9s\n", "backend", "stage", "items/s", "", "up",
               "compute", "down");
   std::map<std::string, double> cpu_stage;
-  std::map<std::string, std::map<std::string, double>> stage_rate;  // backend, stage: items/s
   const FilletBatch fb = work.fillets();
   for (auto& b : backends) {
     const std::string name = b->info().name;
@@ -208,7 +219,7 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
     for (const StageCase& sc : cases) {
       StageOutput out;
       const Cell c = measure(*b, opt.seconds, [&] { sc.run(*b, work, out); });
-      stage_rate[name][sc.stage] = c.per_s * sc.items;
+      rates.stage_rate[name][sc.stage] = c.per_s * sc.items;
       row(sc.stage, sc.items, sc.unit, c);
     }
     // The whole robust fit: every iteration's per-pixel work on the backend, the iteration
@@ -216,10 +227,13 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
     row("fit", double(fb.pixels()), "pixels",
         measure(*b, opt.seconds, [&] { fit_tukey_lines(*b, fb); }));
   }
+}
 
-  // Dual energy beside the line stages, per X-ray line: the decomposition (basis and lengths)
-  // and the bone given the fat share, per line of the detector's pixels, against the line
-  // path's cost per line at its best batch.
+// Dual energy beside the line stages, per X-ray line: the decomposition (basis and lengths)
+// and the bone given the fat share, per line of the detector's pixels, against the line
+// path's cost per line at its best batch; then the stripe stage against the copy.
+void print_closing_lines(const std::vector<std::unique_ptr<Backend>>& backends,
+                         const LaneConfig& lc, BenchRates& rates) {
   std::printf("\ndual energy per X-ray line of %d pixels, beside the line path (best batch):\n",
               lc.xray.pixels);
   std::printf("%-12s %14s %14s %14s\n", "backend", "decomposition", "bone", "line path");
@@ -227,22 +241,44 @@ int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
     const std::string name = b->info().name;
     auto us = [&](double per_s) { return per_s > 0 ? 1e6 / per_s : 0.0; };
     std::printf("%-12s %11.1f us %11.1f us %11.1f us\n", name.c_str(),
-                us(stage_rate[name]["dual-energy"] / lc.xray.pixels),
-                us(stage_rate[name]["dual-energy-bone"] / lc.xray.pixels), us(best_lines[name]));
+                us(rates.stage_rate[name]["dual-energy"] / lc.xray.pixels),
+                us(rates.stage_rate[name]["dual-energy-bone"] / lc.xray.pixels),
+                us(rates.best_lines[name]));
   }
 
   std::printf("\nstripe stage at its best batch, against the device's host-to-device copy:\n");
   for (auto& b : backends) {
     const std::string name = b->info().name;
-    const double bw = bandwidth[name];
+    const double bw = rates.bandwidth[name], best = rates.best_stripe_bytes[name];
     if (bw > 0)
       std::printf("%-12s %.2f GB/s of frames = %.2f of the %.2f GB/s copy bandwidth\n",
-                  name.c_str(), best_stripe_bytes[name] / 1e9, best_stripe_bytes[name] / bw,
-                  bw / 1e9);
+                  name.c_str(), best / 1e9, best / bw, bw / 1e9);
     else
       std::printf("%-12s %.2f GB/s of frames (reads host memory in place: no copy to compare)\n",
-                  name.c_str(), best_stripe_bytes[name] / 1e9);
+                  name.c_str(), best / 1e9);
   }
+}
+
+}  // namespace
+
+int bench_backends(const PlantConfig& plant, const BackendBenchOptions& opt) {
+  const int max_lanes = *std::max_element(opt.lanes.begin(), opt.lanes.end());
+  const PlantConfig p = default_plant_config(max_lanes);
+  const LaneConfig& lc = plant.lanes.front();
+  std::vector<LaneConfig> lanes = p.lanes;
+  for (LaneConfig& l : lanes) {
+    const int id = l.id;
+    l = lc;
+    l.id = id;
+  }
+  // 64 distinct lines of a simulated lane with fillets in it.
+  const std::vector<uint8_t> rendered = render_distinct_lines(lc, 64);
+  BenchRates rates;
+  std::vector<std::unique_ptr<Backend>> backends = start_backends(opt, lanes, rates);
+  print_stripe_table(backends, lc, rendered, opt, rates);
+  print_line_path_table(backends, lc, rendered, opt, rates);
+  print_stage_cases(backends, lc, opt, max_lanes, rates);
+  print_closing_lines(backends, lc, rates);
   return 0;
 }
 
