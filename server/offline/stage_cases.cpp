@@ -130,14 +130,14 @@ StageWork make_stage_work(const LaneConfig& lane, int lanes, int lines, int fill
   return w;
 }
 
-std::vector<StageCase> stage_cases(const StageWork& w) {
-  std::vector<StageCase> cases;
+namespace {
+
+// The line stages: stripes, rectification, fusion, projection.
+void add_line_cases(const StageWork& w, std::vector<StageCase>& cases) {
   const int lines = w.batch.lines, frames = 2 * lines;
   const int width = w.lanes.front().frame_width;
   const size_t cols = size_t(frames) * size_t(width);
   const size_t grid = w.ref.profile.size(), pixels = w.ref.thickness.size();
-  const size_t fillet_px = w.fillet_thickness.size();
-
   cases.push_back({"stripe", "flags exact, rows within 1e-4 px", double(cols), "columns",
                    [frames](Backend& b, const StageWork& w, StageOutput& o) {
                      b.stripes(w.batch.frames.data(), frames, w.batch.frame_slot.data(), o.stripes);
@@ -194,6 +194,11 @@ std::vector<StageCase> stage_cases(const StageWork& w) {
                                             Tolerance::kThicknessMm, 0);
                      return d;
                    }});
+}
+
+// The pseudo-X-ray stages over the batch of fillets.
+void add_fillet_cases(const StageWork& w, std::vector<StageCase>& cases) {
+  const size_t fillet_px = w.fillet_thickness.size();
   // ln P within float rounding of the double model, P within exp's error (relative),
   // residual and z to float rounding of the same values.
   cases.push_back({"pseudo-xray", "ln P 1e-6, P 1e-5 relative, residual 2e-6, z 1e-5",
@@ -226,6 +231,9 @@ std::vector<StageCase> stage_cases(const StageWork& w) {
          if (d.empty()) d = first_difference("IRLS sum", g.sums, r.sums, nsums, 1e-12, 1e-11);
          return d;
        }});
+}
+
+void add_dual_energy_cases(const StageWork& w, std::vector<StageCase>& cases) {
   // Dual energy: the same doubles in another order of nothing; log to a few ulp and float
   // results (a basis length one float step apart moves the lengths by the 3 x 3 inverse's
   // row times it, far inside a thousandth of their sigma).
@@ -285,6 +293,15 @@ std::vector<StageCase> stage_cases(const StageWork& w) {
            d = first_difference("bone sigma", g.bone_sigma, r.bone_sigma, de_n, 0, 1e-5);
          return d;
        }});
+}
+
+}  // namespace
+
+std::vector<StageCase> stage_cases(const StageWork& w) {
+  std::vector<StageCase> cases;
+  add_line_cases(w, cases);
+  add_fillet_cases(w, cases);
+  add_dual_energy_cases(w, cases);
   return cases;
 }
 
