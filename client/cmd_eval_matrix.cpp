@@ -102,153 +102,187 @@ void drop_scans(const fs::path& dir, std::initializer_list<const char*> scans,
     for (const char* d : scans) fs::remove_all(dir / d);
 }
 
+// The steps of one variant's run: its folder, log, physics and calibration, and the plant
+// configuration every step reads, as this command does.
+struct VariantSteps {
+  const VariantRun& v;
+  const std::string& config;
+  const MatrixOptions& mo;
+  std::string at(const std::string& name) const { return v.at(name); }
+  void step(std::vector<std::string> args) const {
+    if (!config.empty()) args.insert(args.end(), {"--config", config});
+    run_step(v.log, std::move(args));
+  }
+  // More fillets inspected with what the variant learned, in parts of at most frr_part
+  // fillets: the clean run and the bone run.
+  PartRun more() const {
+    PartRun p;
+    p.dir = v.dir, p.log = v.log, p.physics = v.physics, p.cal = v.cal;
+    p.learned = at("learned.yaml"), p.config = config;
+    p.part = mo.frr_part, p.keep = mo.keep;
+    return p;
+  }
+};
+
+// The plant's own calibration (fan beam and blur from its pins, registration from its
+// blocks, K1/K2 from its own recording), then its plant simulated and processed.
+void calibrate_and_process(const VariantSteps& s) {
+  const std::string &V = s.v.physics, &cal = s.v.cal;
+  s.step({"calib", "simulate", "pins", s.at("pins"), "--physics", V});
+  s.step({"calib", "simulate", "blocks", s.at("blocks"), "--physics", V});
+  s.step({"calib", "xray", s.at("pins"), "--out", cal});
+  s.step({"calib", "registration", s.at("blocks"), "--calibration", cal});
+  drop_scans(s.v.dir, {"pins", "blocks"}, s.mo);
+  s.step({"simulate", "--out", s.at("rec"), "--lanes", "1", "--fillets",
+          std::to_string(s.mo.fillets), "--seed", std::to_string(s.mo.seed), "--physics", V});
+  s.step({"calib", "scatter", s.at("rec"), "--calibration", cal});
+  s.step({"process", s.at("rec"), "--out", s.at("out"), "--images", "none", "--calibration", cal});
+}
+
+// The plant's own product learned from clean fillets of another seed (cartilage and all,
+// bone left out), its claims checked on a third seed, then the plant inspected with it and
+// the clean run.
+void learn_and_process(const VariantSteps& s, Row& r) {
+  const MatrixOptions& mo = s.mo;
+  const long seed = mo.seed;
+  const std::string &V = s.v.physics, &cal = s.v.cal, &log = s.v.log;
+  s.step({"simulate", "--out", s.at("learn_rec"), "--lanes", "1", "--fillets",
+          std::to_string(mo.learn_fillets), "--seed", std::to_string(seed + 1000), "--physics", V,
+          "--clean"});
+  s.step({"simulate", "--out", s.at("check_rec"), "--lanes", "1", "--fillets",
+          std::to_string(mo.check_fillets), "--seed", std::to_string(seed + 2000), "--physics", V,
+          "--clean"});
+  // A failed learning's named fillets checked as a plant would (client/learning_check.h):
+  // clean ones learned again with, bony ones left out.
+  std::vector<std::string> extra = {"--calibration",   cal,         "--check",
+                                    s.at("check_rec"), "--version", "matrix-" + r.name};
+  if (!s.config.empty()) extra.insert(extra.end(), {"--config", s.config});
+  if (!mo.confidence.empty()) extra.insert(extra.end(), {"--confidence", mo.confidence});
+  if (!mo.tail_from.empty()) extra.insert(extra.end(), {"--tail-from", mo.tail_from});
+  r.check = learn_as_a_plant_would(log, s.at("learn_rec"), s.at("learned.yaml"), extra);
+  drop_scans(s.v.dir, {"learn_rec", "check_rec"}, mo);
+  // The learned configuration in place of the plant's (run_step adds no --config here).
+  run_step(log, {"process", s.at("rec"), "--out", s.at("out_learned"), "--images", "none",
+                 "--calibration", cal, "--config", s.at("learned.yaml")});
+  r.learned_run = true;
+  // The clean run in parts of at most frr_part fillets (seeds 3000, 3100, ... past the
+  // plant's), each part's scan dropped once inspected.
+  PartRun clean = s.more();
+  clean.rec = "frr_rec", clean.out = "out_frr";
+  clean.fillets = mo.frr_fillets, clean.seed = seed + 3000;
+  run_in_parts(clean, {});
+}
+
+// The clean run's parts as their records, counted into `r` (fillets, rejects, detections).
+std::vector<RecordSet> read_clean_runs(const fs::path& dir, int lane, Row& r) {
+  std::vector<RecordSet> clean_runs;
+  for (int part = 0; fs::is_directory(dir / ("out_frr" + std::to_string(part))); ++part) {
+    const RecordSet& clean = clean_runs.emplace_back(read_records(
+        (dir / ("out_frr" + std::to_string(part)) / ("lane" + std::to_string(lane))).string(), ""));
+    r.frr_fillets += int(clean.fillets.size());
+    for (const auto& f : clean.fillets)
+      r.frr_rejected += f.decision != "pass", r.frr_not_inspected += f.decision == "not_inspected";
+    // Bone detections only: air pockets (marbling looks like them) do not reject.
+    r.frr_fragments += int(std::count_if(clean.fragments.begin(), clean.fragments.end(),
+                                         [](const auto& f) { return f.kind == "bone"; }));
+  }
+  return clean_runs;
+}
+
+// What the learning reported (learn.json): ok, its fillets, those it named, its sensitivity
+// and the check of its claims; with the clean run and what the drift monitor said over it.
+void read_learning(const VariantSteps& s, int lane, Row& r) {
+  const std::string report = (s.v.dir / "learned.report" / "learn.json").string();
+  const auto j = nlohmann::json::parse(read_text_file(report));
+  for (const auto& l : j.at("lanes")) {
+    r.learn_ok = l.at("ok").get<bool>();
+    r.learn_fillets = l.at("fillets").get<int>();
+    if (l.contains("flagged_fillets")) r.learn_flagged = int(l.at("flagged_fillets").size());
+    for (const auto& t : l.at("sensitivity").at("summary")) r.sensitivity.push_back(t);
+    const std::vector<RecordSet> clean_runs = read_clean_runs(s.v.dir, lane, r);
+    if (const LearnedDetection L =
+            load_plant_config(s.at("learned.yaml")).lane(lane).inspection.learned;
+        !clean_runs.empty() && L.active()) {
+      r.drift = recorded_drift(L, clean_runs, lane);
+      r.drift_sentence = drift_sentence(lane, r.drift);
+    }
+    if (l.contains("held_out_check")) {
+      const nlohmann::json& h = l["held_out_check"];
+      r.claims = h["claims"].get<int>(), r.claims_held = h["held"].get<int>();
+      r.claims_contradicted = h.value("contradicted", 0);
+      for (const auto& k : h["checks"])
+        if (!k["held"].get<bool>()) r.claims_not_held.push_back(k.value("text", std::string()));
+      r.stated = h["stated"].get<int>(), r.stated_held = h["stated_held"].get<int>();
+      for (const auto& k : h["stated_checks"])
+        r.stated_found += k["found"].get<int>(), r.stated_injected += k["injected"].get<int>();
+    }
+  }
+}
+
+// The learned run judged against the truth, each miss's margin and each fragment's chance
+// measured, the bone run, and the report's claims held against their fragments.
+void evaluate_learned(const VariantSteps& s, const RecordingReader& rec, const LaneConfig& lc,
+                      const VariantTruth& vt, Row& r) {
+  const int lane = rec.info().lanes.at(0);
+  const fs::path ll = s.v.dir / "out_learned" / ("lane" + std::to_string(lane));
+  add_lane(r.learned, vt.fragments, vt.fillets, read_records(ll.string(), ""), &vt.edges);
+  finish(r.learned);
+  // What finding each miss would cost: its fillet inspected again with the learned
+  // thresholds scaled down (offline/miss_margin.h), on the recording replayed as the
+  // learned run was.
+  auto margins = [&](DetectionEval& e, const RecordingReader& from) {
+    PlantConfig lp = load_plant_config(s.at("learned.yaml"));
+    apply_calibration_option(lp, s.v.cal);
+    ReplayOptions ro;
+    ro.keep_images = true, ro.baseline = false, ro.recalibrated = true;
+    ro.lanes = {from.info().lanes.at(0)};
+    const auto replayed = replay_recording(from, lp, ro);
+    for (const LaneReplay& l : replayed) {
+      measure_miss_margins(e, l.lane, l.fillets, lp.lane(l.lane).inspection);
+      measure_fragment_chances(e, l.lane, l.fillets, lp.lane(l.lane).inspection);
+    }
+  };
+  // Every fragment's chance is measured (what recall the bone allows), so each run is
+  // replayed, misses or none.
+  margins(r.learned, rec);
+  if (s.mo.bone_fillets > 0) {
+    PartRun bones = s.more();
+    bones.fillets = s.mo.bone_fillets, bones.seed = s.mo.seed + 10000;
+    r.bones = run_bone_parts(bones, lc, margins);
+  }
+  const std::string report = (s.v.dir / "learned.report" / "learn.json").string();
+  r.fragment_claims =
+      claims_on_fragments(report_claims(report, lane), r.learned, s.mo.seed, r.bones);
+  r.claims_measured = true;
+  read_learning(s, lane, r);
+}
+
 Row run_variant(const fs::path& file, const fs::path& dir, const PlantConfig& plant,
                 const std::string& config, const MatrixOptions& mo) {
-  const int fillets = mo.fillets;
-  const long seed = mo.seed;
   Row r;
   const VariantRun v(file, dir);
   r.name = v.name, r.held_out = v.held_out;
-  const std::string &log = v.log, &V = v.physics, &cal = v.cal;
-  auto at = [&](const std::string& name) { return v.at(name); };
-  // Every step reads the same plant configuration as this command.
-  auto step = [&](std::vector<std::string> args) {
-    if (!config.empty()) args.insert(args.end(), {"--config", config});
-    run_step(log, std::move(args));
-  };
-  // More fillets inspected with what the variant learned, in parts of at most frr_part
-  // fillets: the clean run and the bone run.
-  PartRun more;
-  more.dir = dir, more.log = log, more.physics = V, more.cal = cal;
-  more.learned = at("learned.yaml"), more.config = config;
-  more.part = mo.frr_part, more.keep = mo.keep;
-  // The plant's own calibration: fan beam and blur from its pins, registration from its
-  // blocks, K1/K2 from its own recording.
-  step({"calib", "simulate", "pins", at("pins"), "--physics", V});
-  step({"calib", "simulate", "blocks", at("blocks"), "--physics", V});
-  step({"calib", "xray", at("pins"), "--out", cal});
-  step({"calib", "registration", at("blocks"), "--calibration", cal});
-  drop_scans(dir, {"pins", "blocks"}, mo);
-  step({"simulate", "--out", at("rec"), "--lanes", "1", "--fillets", std::to_string(fillets),
-        "--seed", std::to_string(seed), "--physics", V});
-  step({"calib", "scatter", at("rec"), "--calibration", cal});
-  step({"process", at("rec"), "--out", at("out"), "--images", "none", "--calibration", cal});
-  // The plant's own product learned from clean fillets of another seed (cartilage and all,
-  // bone left out), its claims checked on a third seed, then the plant inspected with it.
-  if (mo.learn_fillets > 0) {
-    step({"simulate", "--out", at("learn_rec"), "--lanes", "1", "--fillets",
-          std::to_string(mo.learn_fillets), "--seed", std::to_string(seed + 1000), "--physics", V,
-          "--clean"});
-    step({"simulate", "--out", at("check_rec"), "--lanes", "1", "--fillets",
-          std::to_string(mo.check_fillets), "--seed", std::to_string(seed + 2000), "--physics", V,
-          "--clean"});
-    // A failed learning's named fillets checked as a plant would (client/learning_check.h):
-    // clean ones learned again with, bony ones left out.
-    std::vector<std::string> extra = {"--calibration", cal,         "--check",
-                                      at("check_rec"), "--version", "matrix-" + r.name};
-    if (!config.empty()) extra.insert(extra.end(), {"--config", config});
-    if (!mo.confidence.empty()) extra.insert(extra.end(), {"--confidence", mo.confidence});
-    if (!mo.tail_from.empty()) extra.insert(extra.end(), {"--tail-from", mo.tail_from});
-    r.check = learn_as_a_plant_would(log, at("learn_rec"), at("learned.yaml"), extra);
-    drop_scans(dir, {"learn_rec", "check_rec"}, mo);
-    // The learned configuration in place of the plant's (run_step adds no --config here).
-    run_step(log, {"process", at("rec"), "--out", at("out_learned"), "--images", "none",
-                   "--calibration", cal, "--config", at("learned.yaml")});
-    r.learned_run = true;
-    // The clean run in parts of at most frr_part fillets (seeds 3000, 3100, ... past the
-    // plant's), each part's scan dropped once inspected.
-    PartRun clean = more;
-    clean.rec = "frr_rec", clean.out = "out_frr";
-    clean.fillets = mo.frr_fillets, clean.seed = seed + 3000;
-    run_in_parts(clean, {});
-  }
+  const VariantSteps s{v, config, mo};
+  calibrate_and_process(s);
+  if (mo.learn_fillets > 0) learn_and_process(s, r);
   // Evaluation against the recording's truth.
-  const RecordingReader rec(at("rec"));
+  const RecordingReader rec(s.at("rec"));
   const RecordingInfo& info = rec.info();
   const int lane = info.lanes.at(0);
-  const LaneConfig lc = load_lane_calibration(plant, lane, cal);
+  const LaneConfig lc = load_lane_calibration(plant, lane, v.cal);
   const fs::path ld = dir / "out" / ("lane" + std::to_string(lane));
   std::vector<float> rows[2] = {read_f32(ld / "stripe_cam0.f32", size_t(info.lines) * info.width),
                                 read_f32(ld / "stripe_cam1.f32", size_t(info.lines) * info.width)};
   const auto t = read_f32(ld / "thickness.f32", size_t(info.lines) * info.xray_pixels);
   r.thickness = evaluate_lane(rec, lc, rows, t).thickness;
   const VariantTruth vt(rec, lc);
-  const auto& frags = vt.fragments;
-  r.cartilage = int(std::count_if(frags.begin(), frags.end(),
+  r.cartilage = int(std::count_if(vt.fragments.begin(), vt.fragments.end(),
                                   [](const TruthFragment& f) { return f.kind == "cartilage"; }));
-  const auto& truth = vt.fillets;
-  const EdgeMap& edges = vt.edges;
-  add_lane(r.ours, frags, truth, read_records(ld.string(), ""), &edges);
-  add_lane(r.base, frags, truth, read_records(ld.string(), "baseline_"), &edges);
+  add_lane(r.ours, vt.fragments, vt.fillets, read_records(ld.string(), ""), &vt.edges);
+  add_lane(r.base, vt.fragments, vt.fillets, read_records(ld.string(), "baseline_"), &vt.edges);
   finish(r.ours);
   finish(r.base);
-  if (r.learned_run) {
-    const fs::path ll = dir / "out_learned" / ("lane" + std::to_string(lane));
-    add_lane(r.learned, frags, truth, read_records(ll.string(), ""), &edges);
-    finish(r.learned);
-    // What finding each miss would cost: its fillet inspected again with the learned
-    // thresholds scaled down (offline/miss_margin.h), on the recording replayed as the
-    // learned run was.
-    auto margins = [&](DetectionEval& e, const RecordingReader& from) {
-      PlantConfig lp = load_plant_config(at("learned.yaml"));
-      apply_calibration_option(lp, cal);
-      ReplayOptions ro;
-      ro.keep_images = true, ro.baseline = false, ro.recalibrated = true;
-      ro.lanes = {from.info().lanes.at(0)};
-      const auto replayed = replay_recording(from, lp, ro);
-      for (const LaneReplay& l : replayed) {
-        measure_miss_margins(e, l.lane, l.fillets, lp.lane(l.lane).inspection);
-        measure_fragment_chances(e, l.lane, l.fillets, lp.lane(l.lane).inspection);
-      }
-    };
-    // Every fragment's chance is measured (what recall the bone allows), so each run is
-    // replayed, misses or none.
-    margins(r.learned, rec);
-    if (mo.bone_fillets > 0) {
-      PartRun bones = more;
-      bones.fillets = mo.bone_fillets, bones.seed = seed + 10000;
-      r.bones = run_bone_parts(bones, lc, margins);
-    }
-    const std::string report = (dir / "learned.report" / "learn.json").string();
-    r.fragment_claims = claims_on_fragments(report_claims(report, lane), r.learned, seed, r.bones);
-    r.claims_measured = true;
-    const auto j = nlohmann::json::parse(read_text_file(report));
-    for (const auto& l : j.at("lanes")) {
-      r.learn_ok = l.at("ok").get<bool>();
-      r.learn_fillets = l.at("fillets").get<int>();
-      if (l.contains("flagged_fillets")) r.learn_flagged = int(l.at("flagged_fillets").size());
-      for (const auto& s : l.at("sensitivity").at("summary")) r.sensitivity.push_back(s);
-      std::vector<RecordSet> clean_runs;
-      for (int part = 0; fs::is_directory(dir / ("out_frr" + std::to_string(part))); ++part) {
-        const RecordSet& clean = clean_runs.emplace_back(read_records(
-            (dir / ("out_frr" + std::to_string(part)) / ("lane" + std::to_string(lane))).string(),
-            ""));
-        r.frr_fillets += int(clean.fillets.size());
-        for (const auto& f : clean.fillets)
-          r.frr_rejected += f.decision != "pass",
-              r.frr_not_inspected += f.decision == "not_inspected";
-        // Bone detections only: air pockets (marbling looks like them) do not reject.
-        r.frr_fragments += int(std::count_if(clean.fragments.begin(), clean.fragments.end(),
-                                             [](const auto& f) { return f.kind == "bone"; }));
-      }
-      if (const LearnedDetection L =
-              load_plant_config(at("learned.yaml")).lane(lane).inspection.learned;
-          !clean_runs.empty() && L.active()) {
-        r.drift = recorded_drift(L, clean_runs, lane);
-        r.drift_sentence = drift_sentence(lane, r.drift);
-      }
-      if (l.contains("held_out_check")) {
-        const nlohmann::json& h = l["held_out_check"];
-        r.claims = h["claims"].get<int>(), r.claims_held = h["held"].get<int>();
-        r.claims_contradicted = h.value("contradicted", 0);
-        for (const auto& k : h["checks"])
-          if (!k["held"].get<bool>()) r.claims_not_held.push_back(k.value("text", std::string()));
-        r.stated = h["stated"].get<int>(), r.stated_held = h["stated_held"].get<int>();
-        for (const auto& k : h["stated_checks"])
-          r.stated_found += k["found"].get<int>(), r.stated_injected += k["injected"].get<int>();
-      }
-    }
-  }
+  if (r.learned_run) evaluate_learned(s, rec, lc, vt, r);
   drop_scans(dir, {"rec"}, mo);
   return r;
 }
