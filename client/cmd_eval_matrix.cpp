@@ -5,17 +5,13 @@
 // recording is replayed with that calibration and evaluated against its truth, beside the
 // X-ray-only baseline. Held-out variants are reported apart. A benchmark (minutes per
 // variant); the tests run a slice.
-#include <fcntl.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -32,7 +28,6 @@
 #include "eval_steps.h"
 #include "f32_file.h"
 #include "learning_check.h"
-#include "offline/acceptance.h"
 #include "offline/detection_eval.h"
 #include "offline/evaluation.h"
 #include "offline/fillet_records.h"
@@ -62,6 +57,8 @@ struct VariantSteps {
   const std::string& config;
   const MatrixOptions& mo;
   std::string at(const std::string& name) const { return v.at(name); }
+  // What the learning reported (its JSON), which the claims and the row are read from.
+  std::string learn_report() const { return (v.dir / "learned.report" / "learn.json").string(); }
   void step(std::vector<std::string> args) const {
     if (!config.empty()) args.insert(args.end(), {"--config", config});
     run_step(v.log, std::move(args));
@@ -145,7 +142,7 @@ std::vector<RecordSet> read_clean_runs(const fs::path& dir, int lane, MatrixRow&
 // What the learning reported (learn.json): ok, its fillets, those it named, its sensitivity
 // and the check of its claims; with the clean run and what the drift monitor said over it.
 void read_learning(const VariantSteps& s, int lane, MatrixRow& r) {
-  const std::string report = (s.v.dir / "learned.report" / "learn.json").string();
+  const std::string report = s.learn_report();
   const auto j = nlohmann::json::parse(read_text_file(report));
   for (const auto& l : j.at("lanes")) {
     r.learn_ok = l.at("ok").get<bool>();
@@ -203,7 +200,7 @@ void evaluate_learned(const VariantSteps& s, const RecordingReader& rec, const L
     bones.fillets = s.mo.bone_fillets, bones.seed = s.mo.seed + 10000;
     r.bones = run_bone_parts(bones, lc, margins);
   }
-  const std::string report = (s.v.dir / "learned.report" / "learn.json").string();
+  const std::string report = s.learn_report();
   r.fragment_claims =
       claims_on_fragments(report_claims(report, lane), r.learned, s.mo.seed, r.bones);
   r.claims_measured = true;

@@ -341,8 +341,9 @@ std::string matrix_text(const std::vector<MatrixRow>& rows, const MatrixOptions&
         "fillets not inspected; f.frag/f: detections matching no bone per fillet, <1mm / "
         "1-3mm of them from the meat's edge; xr: the X-ray-only baseline\n\n"
      << table(rows, false);
-  if (std::any_of(rows.begin(), rows.end(), [](const MatrixRow& r) { return r.held_out; }))
-    os << "\nheld out (never tuned on):\n" << table(rows, true);
+  const bool held_out =
+      std::any_of(rows.begin(), rows.end(), [](const MatrixRow& r) { return r.held_out; });
+  if (held_out) os << "\nheld out (never tuned on):\n" << table(rows, true);
   if (mo.learn_fillets > 0) {
     os << "\nwith thresholds learned from " << mo.learn_fillets
        << " clean fillets of each variant (another seed; claims checked on " << mo.check_fillets
@@ -353,8 +354,7 @@ std::string matrix_text(const std::vector<MatrixRow>& rows, const MatrixOptions&
           "truth as a plant checks them by hand (kept: found clean and learned again with "
           "them, learn --keep; bony ones left out)\n\n"
        << learned_table(rows, false);
-    if (std::any_of(rows.begin(), rows.end(), [](const MatrixRow& r) { return r.held_out; }))
-      os << "\nheld out (never tuned on):\n" << learned_table(rows, true);
+    if (held_out) os << "\nheld out (never tuned on):\n" << learned_table(rows, true);
     if (std::any_of(rows.begin(), rows.end(),
                     [](const MatrixRow& r) { return !r.claims_not_held.empty(); })) {
       os << "\nclaims by band not held on the check fillets (a band's claim rests on 10-40 "
