@@ -22,6 +22,22 @@ InspectionParams params() {
   return default_lane_config(0).inspection;
 }
 
+// A whitened kernel for a sphere of d_mm learned from white noise (where it is the sphere's
+// profile), the texture clipped at `clip` spreads with the bright enclosure of `reach` px.
+MatchedKernels white_noise_kernels(double d_mm, double clip, int reach, uint64_t seed) {
+  TextureCovariance white(8, clip, reach);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<float> g;
+  const int side = 120;
+  std::vector<float> z(size_t(side) * side);
+  std::vector<uint8_t> all(z.size(), 1);
+  for (int k = 0; k < 4; ++k) {
+    for (float& x : z) x = g(rng);
+    white.add(z.data(), all.data(), side, side);
+  }
+  return learn_matched_kernels(white, {d_mm}, 0.4, 0.4, 0);
+}
+
 }  // namespace
 
 TEST(Inspection, PseudoXrayRecoversKnownBeta) {
@@ -292,17 +308,7 @@ TEST(Inspection, ABonesContrastIsReadUnderTheWhitenedKernelThatFoundIt) {
   InspectionParams p = params();
   const FilletResult gauss = inspect_fillet(f, p, false);
   ASSERT_EQ(gauss.fragments.size(), 1u) << gauss.reason;
-  TextureCovariance white(8);
-  std::mt19937_64 rng(5);
-  std::normal_distribution<float> g;
-  const int side = 120;
-  std::vector<float> z(size_t(side) * side);
-  std::vector<uint8_t> all(z.size(), 1);
-  for (int k = 0; k < 4; ++k) {
-    for (float& x : z) x = g(rng);
-    white.add(z.data(), all.data(), side, side);
-  }
-  p.learned.matched = learn_matched_kernels(white, {1.5}, 0.4, 0.4, 0);
+  p.learned.matched = white_noise_kernels(1.5, 3, 0, 5);
   const FilletResult kern = inspect_fillet(f, p, false);
   ASSERT_EQ(kern.fragments.size(), 1u) << kern.reason;
   std::printf("meat_mm: Gaussians %.2f, whitened kernel %.2f (truth 4.0)\n",
@@ -313,6 +319,72 @@ TEST(Inspection, ABonesContrastIsReadUnderTheWhitenedKernelThatFoundIt) {
   EXPECT_EQ(inspect_fillet(f, p, false).fragments.size(), 1u);
   p.learned.matched = {};
   EXPECT_TRUE(inspect_fillet(f, p, false).fragments.empty());
+}
+
+namespace {
+
+// A lean island inside a ring of fat, centred on pixel (r0, c0): the ring 3-6 px from the
+// centre attenuates `ring` less than the fillet's prediction (-ln(I / P) = -ring), the island
+// `island` (negative: less), and a bone of `bone` at its centre pixel and its four neighbours.
+constexpr int kRingRow = 150, kRingCol = 113;  // x 5.2 mm, y 160 mm
+FilletImage fat_ring(FilletImage f, double ring, double island, double bone) {
+  const int r0 = kRingRow, c0 = kRingCol;
+  for (int r = r0 - 6; r <= r0 + 6; ++r)
+    for (int c = c0 - 6; c <= c0 + 6; ++c) {
+      const double d = std::hypot(r - r0, c - c0);
+      double excess = d <= 6 && d >= 3 ? -ring : d < 3 ? island : 0;
+      if (std::abs(r - r0) + std::abs(c - c0) <= 1) excess += bone;
+      uint16_t& x = f.xray[size_t(r) * f.cols + c];
+      x = uint16_t(std::lround(x * std::exp(-excess)));
+    }
+  return f;
+}
+
+}  // namespace
+
+// Whitened kernels read a pixel enclosed by bright fat by its depth below the fat
+// (matched_enclosure), so that a bone in a fat streak keeps its contrast. A lean island in a
+// ring of fat reads the same way, yet adds no attenuation over its pixels: no bone, and no
+// reject. A bone in that island does add attenuation and stays a fragment.
+TEST(Inspection, ADetectionThatAddsNoAttenuationIsNoFragment) {
+  const FilletImage clean = synthetic_fillet(std::log(3600.0), -0.03, {}, 7);
+  InspectionParams p = params();
+  p.learned.matched = white_noise_kernels(2.0, 0.5, 4, 9);
+  ASSERT_GT(p.learned.matched.enclosure_px, 0);
+  ASSERT_TRUE(p.require_added_attenuation);  // the default
+  const FilletImage island = fat_ring(clean, 0.15, -0.01, 0);
+  InspectionParams off = p;
+  off.require_added_attenuation = false;
+  const FilletResult seen = inspect_fillet(island, off, true);
+  ASSERT_EQ(seen.fragments.size(), 1u) << seen.reason;
+  const Blob& b = seen.fragments[0];
+  EXPECT_NEAR(b.x_mm, 5.2, 1.0);
+  EXPECT_NEAR(b.y_mm, 160, 1.0);
+  // The ring and island in its box add none either (the residual the inspection kept).
+  double sum = 0;
+  const double px_area = island.pitch_mm * island.step_mm;
+  for (int r = b.row0; r <= b.row1; ++r)
+    for (int c = b.col0; c <= b.col1; ++c) {
+      const size_t i = size_t(r) * island.cols + c;
+      if (std::hypot(r - kRingRow, c - kRingCol) <= 6.5 && std::isfinite(seen.residual[i]))
+        sum += -seen.residual[i] * px_area;
+    }
+  std::printf("the island: peak z %.1f, %.2f mm^2, adds %.4f mm^2 (its box %.4f)\n", b.peak_z,
+              b.area_mm2, b.attenuation_mm2, sum);
+  EXPECT_LE(b.attenuation_mm2, 0);
+  EXPECT_LT(sum, 0);
+  const FilletResult dropped = inspect_fillet(island, p, false);
+  EXPECT_TRUE(dropped.fragments.empty()) << dropped.reason;
+  EXPECT_EQ(dropped.decision, Decision::kPass);
+  // What learning fits and drift follows is the statistic, the same with the rule or without.
+  ASSERT_EQ(dropped.extremes.size(), seen.extremes.size());
+  for (size_t k = 0; k < seen.extremes.size(); ++k)
+    EXPECT_EQ(dropped.extremes[k].x, seen.extremes[k].x);
+
+  const FilletResult bone = inspect_fillet(fat_ring(clean, 0.15, -0.01, 0.15), p, false);
+  ASSERT_EQ(bone.fragments.size(), 1u) << bone.reason;
+  EXPECT_GT(bone.fragments[0].attenuation_mm2, 0);
+  EXPECT_EQ(bone.decision, Decision::kReject);
 }
 
 namespace {

@@ -30,6 +30,7 @@ void read_inspection(const ConfigNode& n, InspectionParams& q) {
                "line_sigma_across_px",
                "attenuation_degree",
                "min_fragment_meat_mm",
+               "require_added_attenuation",
                "false_reject_target",
                "matched_kernels_mm",
                "matched_clip",
@@ -59,6 +60,7 @@ void read_inspection(const ConfigNode& n, InspectionParams& q) {
   n.get("min_fragment_meat_mm", q.min_fragment_meat_mm);
   if (!(q.min_fragment_meat_mm >= 0 && q.min_fragment_meat_mm <= 20))
     n.at("min_fragment_meat_mm").bad("must be within 0..20 mm (0: off)");
+  n.get("require_added_attenuation", q.require_added_attenuation);
   n.positive("air_z_threshold", q.air_z_threshold);
   if (n.has("spread")) q.spread_by_thickness = read_spread(n.at("spread"));
   n.get("false_reject_target", q.false_reject_target);

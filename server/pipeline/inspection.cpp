@@ -192,6 +192,12 @@ std::vector<Blob> blobs(const std::vector<float>& w_map, const std::vector<uint8
         b.attenuation_mm2 += -double(resid[i]) * px_area;  // > 0 for bone, < 0 for air
         strongest.push_back({w, r, k});
       }
+    // Bone adds attenuation over its pixels (air removes it); a component that adds none is
+    // the texture around it, which the kernels' side lobes read as a piece.
+    if (sign < 0 && p.require_added_attenuation && !(b.attenuation_mm2 > 0)) {
+      strongest.clear();
+      continue;
+    }
     // Its contrast where its statistic is strongest (the few best pixels: each evaluation
     // runs the five kernels). Under the Gaussians and, where a whitened kernel found the
     // pixel, under that kernel too, the larger: a Gaussian smooths a small piece away and
