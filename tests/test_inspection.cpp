@@ -344,17 +344,19 @@ FilletImage fat_ring(FilletImage f, double ring, double island, double bone) {
 
 // Whitened kernels read a pixel enclosed by bright fat by its depth below the fat
 // (matched_enclosure), so that a bone in a fat streak keeps its contrast. A lean island in a
-// ring of fat reads the same way, yet adds no attenuation over its pixels: no bone, and no
-// reject. A bone in that island does add attenuation and stays a fragment.
-TEST(Inspection, ADetectionThatAddsNoAttenuationIsNoFragment) {
+// ring of fat reads the same way, yet adds no attenuation over its pixels. Where the plant
+// asks for it (require_added_attenuation), that is no fragment and no reject; a bone in the
+// island that adds attenuation stays one, a weak one that does not is dropped too (the
+// choice's cost).
+TEST(Inspection, WhereAskedADetectionThatAddsNoAttenuationIsNoFragment) {
   const FilletImage clean = synthetic_fillet(std::log(3600.0), -0.03, {}, 7);
   InspectionParams p = params();
   p.learned.matched = white_noise_kernels(2.0, 0.5, 4, 9);
   ASSERT_GT(p.learned.matched.enclosure_px, 0);
-  ASSERT_TRUE(p.require_added_attenuation);  // the default
+  const InspectionParams off = p;
+  EXPECT_FALSE(off.require_added_attenuation);  // the default: the plant's choice
+  p.require_added_attenuation = true;
   const FilletImage island = fat_ring(clean, 0.15, -0.01, 0);
-  InspectionParams off = p;
-  off.require_added_attenuation = false;
   const FilletResult seen = inspect_fillet(island, off, true);
   ASSERT_EQ(seen.fragments.size(), 1u) << seen.reason;
   const Blob& b = seen.fragments[0];
@@ -385,6 +387,11 @@ TEST(Inspection, ADetectionThatAddsNoAttenuationIsNoFragment) {
   ASSERT_EQ(bone.fragments.size(), 1u) << bone.reason;
   EXPECT_GT(bone.fragments[0].attenuation_mm2, 0);
   EXPECT_EQ(bone.decision, Decision::kReject);
+  const FilletImage weak = fat_ring(clean, 0.15, -0.01, 0.03);
+  const FilletResult weak_seen = inspect_fillet(weak, off, false);
+  ASSERT_EQ(weak_seen.fragments.size(), 1u) << weak_seen.reason;
+  EXPECT_LE(weak_seen.fragments[0].attenuation_mm2, 0);
+  EXPECT_TRUE(inspect_fillet(weak, p, false).fragments.empty());
 }
 
 namespace {

@@ -147,17 +147,17 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
   EXPECT_NE(error_of("lanes: [{id: 0, inspection: {matched_needle_diameter_mm: []}}]\n")
                 .find("inspection.matched_needle_diameter_mm: expected a diameter or a list"),
             std::string::npos);
-  // A detection must add attenuation unless the plant says otherwise.
+  // That a detection must add attenuation is the plant's choice, off unless it says so.
   EXPECT_NE(error_of("lanes: [{id: 0, inspection: {require_added_attenuation: 0.5}}]\n")
                 .find("inspection.require_added_attenuation: expected true or false"),
             std::string::npos);
-  EXPECT_TRUE(parse_plant_config("lanes: [{id: 0}]\n", "test")
-                  .lane(0)
-                  .inspection.require_added_attenuation);
-  EXPECT_FALSE(parse_plant_config(
-                   "lanes: [{id: 0, inspection: {require_added_attenuation: false}}]\n", "test")
+  EXPECT_FALSE(parse_plant_config("lanes: [{id: 0}]\n", "test")
                    .lane(0)
                    .inspection.require_added_attenuation);
+  EXPECT_TRUE(parse_plant_config(
+                  "lanes: [{id: 0, inspection: {require_added_attenuation: true}}]\n", "test")
+                  .lane(0)
+                  .inspection.require_added_attenuation);
   // One diameter or a bank of widths.
   EXPECT_EQ(parse_plant_config("lanes: [{id: 0}]\n", "test")
                 .lane(0)
