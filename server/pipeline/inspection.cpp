@@ -192,8 +192,9 @@ std::vector<Blob> blobs(const std::vector<float>& w_map, const std::vector<uint8
         b.attenuation_mm2 += -double(resid[i]) * px_area;  // > 0 for bone, < 0 for air
         strongest.push_back({w, r, k});
       }
-    // Bone adds attenuation over its pixels (air removes it); a component that adds none is
-    // the texture around it, which the kernels' side lobes read as a piece.
+    // Where the plant asks: bone adds attenuation over its pixels. A component that adds none
+    // is a lean island the bright enclosure read by its depth below fat, or a bone in fat
+    // lighter than lean meat, which this drops too (lane_config.h).
     if (sign < 0 && p.require_added_attenuation && !(b.attenuation_mm2 > 0)) {
       strongest.clear();
       continue;
