@@ -220,106 +220,134 @@ std::string acceptance_section(const std::vector<MatrixRow>& rows) {
 
 }  // namespace
 
+namespace {
+
+using ShapeCounts = std::vector<std::pair<std::string, std::pair<int, int>>>;
+
+// {"shape": [found, present], ...}
+std::string shape_counts_json(const ShapeCounts& by_shape) {
+  std::ostringstream os;
+  os << "{";
+  for (size_t k = 0; k < by_shape.size(); ++k)
+    os << (k ? ", " : "") << "\"" << by_shape[k].first << "\": [" << by_shape[k].second.first
+       << ", " << by_shape[k].second.second << "]";
+  os << "}";
+  return os.str();
+}
+
+// A variant's run at the plant file's fixed thresholds and the X-ray-only baseline's: the
+// fields from "held_out" to "minutes".
+std::string fixed_json(const MatrixRow& r) {
+  const DetectionEval& e = r.ours;
+  std::ostringstream os;
+  os << "\"held_out\": " << (r.held_out ? "true" : "false")
+     << ", \"thickness_mean_abs_mm\": " << r.thickness.mean_abs
+     << ", \"thickness_bias_mm\": " << r.thickness.bias
+     << ", \"residual_std_dn\": " << e.resid_std_dn
+     << ", \"recall_calcified_ge_2mm\": " << e.recall_calcified_2mm() << ", \"recall_edge\": ["
+     << e.found_edge << ", " << e.total_edge << "]"
+     << ", \"recall_inner\": [" << e.found_inner << ", " << e.total_inner << "]"
+     << ", \"recall_by_shape\": " << shape_counts_json(e.by_shape)
+     << ", \"false_reject_rate\": " << e.false_reject_rate()
+     << ", \"clean_fillets\": " << e.clean_fillets << ", \"fillets\": " << e.fillets
+     << ", \"not_inspected\": " << e.not_inspected << ", \"false_fragments\": " << e.false_fragments
+     << ", \"false_fragments_by_edge\": [" << e.false_by_edge[0] << ", " << e.false_by_edge[1]
+     << ", " << e.false_by_edge[2] << "]"
+     << ", \"position_mean_mm\": " << e.position.stats().mean_abs
+     << ", \"baseline_recall_calcified_ge_2mm\": " << r.base.recall_calcified_2mm()
+     << ", \"baseline_false_reject_rate\": " << r.base.false_reject_rate()
+     << ", \"minutes\": " << r.minutes;
+  return os.str();
+}
+
+// The bone run's parts pooled, with the fragments each missed (by its seed).
+std::string bone_run_json(const MatrixRow& r) {
+  const BoneRunTotals t = pooled(r.bones);
+  int measured = 0;
+  const double allows = bone_allows(r, measured);
+  std::ostringstream os;
+  os << "{\"fillets\": " << t.fillets << ", \"recall_calcified_ge_2mm\": [" << t.found << ", "
+     << t.present << "], \"recall_by_shape\": " << shape_counts_json(t.by_shape)
+     << ", \"bone_allows\": [" << allows << ", " << measured << "]"
+     << ", \"calcified_fillets_passed\": [" << t.calcified_passed << ", " << t.calcified_fillets
+     << "], \"false_rejects\": [" << t.clean_rejected << ", " << t.clean
+     << "], \"false_fragments\": " << t.false_fragments << ", \"missed\": [";
+  bool first = true;
+  for (const BonePart& b : r.bones)
+    if (!b.eval.missed.empty())
+      os << (first ? "" : ", ") << missed_json(b.eval, b.seed), first = false;
+  os << "]}";
+  return os.str();
+}
+
+// The issue's targets, judged over every fillet of the run pooled.
+std::string acceptance_json(const MatrixRow& r) {
+  const AcceptanceCounts c = acceptance_counts(r);
+  const Acceptance a = judge_acceptance(c);
+  std::ostringstream os;
+  os << "{\"met\": " << (a.met() ? "true" : "false") << ", \"false_rejects\": [" << c.clean_rejected
+     << ", " << c.clean << "], \"false_reject_upper\": " << a.false_reject_ci.hi
+     << ", \"false_rejects_met\": " << (a.false_rejects_met ? "true" : "false")
+     << ", \"no_bone\": [" << c.no_bone << ", " << c.fillets
+     << "], \"no_bone_met\": " << (a.no_bone_met ? "true" : "false")
+     << ", \"recall_calcified_ge_2mm\": [" << c.found << ", " << c.present
+     << "], \"recall_judged\": " << (a.recall_judged ? "true" : "false")
+     << ", \"recall_met\": " << (a.recall_met ? "true" : "false")
+     << ", \"recall_exempt\": " << nlohmann::json(a.recall_exempt).dump()
+     << ", \"needles\": " << c.needles << ", \"ribs\": " << c.ribs
+     << ", \"cartilage\": " << c.cartilage << "}";
+  return os.str();
+}
+
+// The run with the thresholds learned from the variant's own clean fillets: the plant's
+// fillets, the learning's claims and their checks, the clean run, the bone run, the targets.
+std::string learned_json(const MatrixRow& r) {
+  const DetectionEval& l = r.learned;
+  int k = 0, n = 0;
+  calcified_2mm(l, k, n);
+  std::ostringstream os;
+  os << "{\"ok\": " << (r.learn_ok ? "true" : "false")
+     << ", \"learning_fillets\": " << r.learn_fillets << ", \"flagged\": " << r.learn_flagged
+     << ", \"named\": " << r.check.named << ", \"kept_checked_clean\": " << r.check.kept
+     << ", \"left_out_bony\": " << r.check.bony << ", \"recall_calcified_ge_2mm\": [" << k << ", "
+     << n << "], \"recall_by_shape\": " << shape_counts_json(l.by_shape) << ", \"false_rejects\": ["
+     << l.clean_rejected << ", " << l.clean_fillets << "], \"not_inspected\": " << l.not_inspected
+     << ", \"false_fragments\": " << l.false_fragments << ", \"fillets\": " << l.fillets
+     << ", \"claims\": " << r.claims << ", \"claims_held\": " << r.claims_held
+     << ", \"claims_contradicted\": " << r.claims_contradicted << ", \"stated\": " << r.stated
+     << ", \"stated_held\": " << r.stated_held << ", \"stated_pieces\": [" << r.stated_found << ", "
+     << r.stated_injected << "]"
+     << ", \"clean_run\": {\"fillets\": " << r.frr_fillets << ", \"rejected\": " << r.frr_rejected
+     << ", \"not_inspected\": " << r.frr_not_inspected << ", \"fragments\": " << r.frr_fragments
+     << ", \"drift\": " << drift_json(r.drift) << "}"
+     << ", \"sensitivity\": [";
+  for (size_t q = 0; q < r.sensitivity.size(); ++q)
+    os << (q ? ", " : "") << "\"" << r.sensitivity[q] << "\"";
+  os << "], \"missed\": [" << missed_json(l, -1) << "]";
+  if (r.claims_measured) os << ", \"claims_on_fragments\": " << claims_json(r.fragment_claims);
+  bool first = true;
+  os << ", \"fragment_chances\": [" << chances_json(r.learned, -1, first);
+  for (const BonePart& b : r.bones) os << chances_json(b.eval, b.seed, first);
+  os << "]";
+  if (!r.bones.empty()) os << ", \"bone_run\": " << bone_run_json(r);
+  os << ", \"acceptance\": " << acceptance_json(r) << "}";
+  return os.str();
+}
+
+}  // namespace
+
 std::string matrix_json(const std::vector<MatrixRow>& rows) {
   std::ostringstream os;
   os << "{\"variants\": [";
   for (size_t i = 0; i < rows.size(); ++i) {
     const MatrixRow& r = rows[i];
-    const DetectionEval& e = r.ours;
+    os << (i ? ",\n  " : "\n  ");
     if (!r.failed.empty()) {
-      os << (i ? ",\n  " : "\n  ") << nlohmann::json{{"name", r.name}, {"failed", r.failed}}.dump();
+      os << nlohmann::json{{"name", r.name}, {"failed", r.failed}}.dump();
       continue;
     }
-    os << (i ? ",\n  " : "\n  ") << "{\"name\": \"" << r.name
-       << "\", \"held_out\": " << (r.held_out ? "true" : "false")
-       << ", \"thickness_mean_abs_mm\": " << r.thickness.mean_abs
-       << ", \"thickness_bias_mm\": " << r.thickness.bias
-       << ", \"residual_std_dn\": " << e.resid_std_dn
-       << ", \"recall_calcified_ge_2mm\": " << e.recall_calcified_2mm() << ", \"recall_edge\": ["
-       << e.found_edge << ", " << e.total_edge << "]"
-       << ", \"recall_inner\": [" << e.found_inner << ", " << e.total_inner << "]"
-       << ", \"recall_by_shape\": {";
-    for (size_t k = 0; k < e.by_shape.size(); ++k)
-      os << (k ? ", " : "") << "\"" << e.by_shape[k].first << "\": [" << e.by_shape[k].second.first
-         << ", " << e.by_shape[k].second.second << "]";
-    os << "}, \"false_reject_rate\": " << e.false_reject_rate()
-       << ", \"clean_fillets\": " << e.clean_fillets << ", \"fillets\": " << e.fillets
-       << ", \"not_inspected\": " << e.not_inspected
-       << ", \"false_fragments\": " << e.false_fragments << ", \"false_fragments_by_edge\": ["
-       << e.false_by_edge[0] << ", " << e.false_by_edge[1] << ", " << e.false_by_edge[2] << "]"
-       << ", \"position_mean_mm\": " << e.position.stats().mean_abs
-       << ", \"baseline_recall_calcified_ge_2mm\": " << r.base.recall_calcified_2mm()
-       << ", \"baseline_false_reject_rate\": " << r.base.false_reject_rate()
-       << ", \"minutes\": " << r.minutes;
-    if (r.learned_run) {
-      const DetectionEval& l = r.learned;
-      int k = 0, n = 0;
-      calcified_2mm(l, k, n);
-      os << ", \"learned\": {\"ok\": " << (r.learn_ok ? "true" : "false")
-         << ", \"learning_fillets\": " << r.learn_fillets << ", \"flagged\": " << r.learn_flagged
-         << ", \"named\": " << r.check.named << ", \"kept_checked_clean\": " << r.check.kept
-         << ", \"left_out_bony\": " << r.check.bony << ", \"recall_calcified_ge_2mm\": [" << k
-         << ", " << n << "], \"recall_by_shape\": {";
-      for (size_t q = 0; q < l.by_shape.size(); ++q)
-        os << (q ? ", " : "") << "\"" << l.by_shape[q].first << "\": ["
-           << l.by_shape[q].second.first << ", " << l.by_shape[q].second.second << "]";
-      os << "}, \"false_rejects\": [" << l.clean_rejected << ", " << l.clean_fillets
-         << "], \"not_inspected\": " << l.not_inspected
-         << ", \"false_fragments\": " << l.false_fragments << ", \"fillets\": " << l.fillets
-         << ", \"claims\": " << r.claims << ", \"claims_held\": " << r.claims_held
-         << ", \"claims_contradicted\": " << r.claims_contradicted << ", \"stated\": " << r.stated
-         << ", \"stated_held\": " << r.stated_held << ", \"stated_pieces\": [" << r.stated_found
-         << ", " << r.stated_injected << "]"
-         << ", \"clean_run\": {\"fillets\": " << r.frr_fillets
-         << ", \"rejected\": " << r.frr_rejected << ", \"not_inspected\": " << r.frr_not_inspected
-         << ", \"fragments\": " << r.frr_fragments << ", \"drift\": " << drift_json(r.drift) << "}"
-         << ", \"sensitivity\": [";
-      for (size_t q = 0; q < r.sensitivity.size(); ++q)
-        os << (q ? ", " : "") << "\"" << r.sensitivity[q] << "\"";
-      os << "], \"missed\": [" << missed_json(l, -1) << "]";
-      if (r.claims_measured) os << ", \"claims_on_fragments\": " << claims_json(r.fragment_claims);
-      {
-        bool first = true;
-        os << ", \"fragment_chances\": [" << chances_json(r.learned, -1, first);
-        for (const BonePart& b : r.bones) os << chances_json(b.eval, b.seed, first);
-        os << "]";
-      }
-      if (!r.bones.empty()) {
-        const BoneRunTotals t = pooled(r.bones);
-        os << ", \"bone_run\": {\"fillets\": " << t.fillets << ", \"recall_calcified_ge_2mm\": ["
-           << t.found << ", " << t.present << "], \"recall_by_shape\": {";
-        for (size_t q = 0; q < t.by_shape.size(); ++q)
-          os << (q ? ", " : "") << "\"" << t.by_shape[q].first << "\": ["
-             << t.by_shape[q].second.first << ", " << t.by_shape[q].second.second << "]";
-        int measured = 0;
-        const double allows = bone_allows(r, measured);
-        os << "}, \"bone_allows\": [" << allows << ", " << measured << "]";
-        os << ", \"calcified_fillets_passed\": [" << t.calcified_passed << ", "
-           << t.calcified_fillets << "]";
-        os << ", \"false_rejects\": [" << t.clean_rejected << ", " << t.clean
-           << "], \"false_fragments\": " << t.false_fragments << ", \"missed\": [";
-        bool first = true;
-        for (const BonePart& b : r.bones)
-          if (!b.eval.missed.empty())
-            os << (first ? "" : ", ") << missed_json(b.eval, b.seed), first = false;
-        os << "]}";
-      }
-      const AcceptanceCounts c = acceptance_counts(r);
-      const Acceptance a = judge_acceptance(c);
-      os << ", \"acceptance\": {\"met\": " << (a.met() ? "true" : "false")
-         << ", \"false_rejects\": [" << c.clean_rejected << ", " << c.clean
-         << "], \"false_reject_upper\": " << a.false_reject_ci.hi
-         << ", \"false_rejects_met\": " << (a.false_rejects_met ? "true" : "false")
-         << ", \"no_bone\": [" << c.no_bone << ", " << c.fillets
-         << "], \"no_bone_met\": " << (a.no_bone_met ? "true" : "false")
-         << ", \"recall_calcified_ge_2mm\": [" << c.found << ", " << c.present
-         << "], \"recall_judged\": " << (a.recall_judged ? "true" : "false")
-         << ", \"recall_met\": " << (a.recall_met ? "true" : "false")
-         << ", \"recall_exempt\": " << nlohmann::json(a.recall_exempt).dump()
-         << ", \"needles\": " << c.needles << ", \"ribs\": " << c.ribs
-         << ", \"cartilage\": " << c.cartilage << "}";
-      os << "}";
-    }
+    os << "{\"name\": \"" << r.name << "\", " << fixed_json(r);
+    if (r.learned_run) os << ", \"learned\": " << learned_json(r);
     os << "}";
   }
   os << "\n]}\n";
