@@ -284,6 +284,135 @@ std::map<int, std::pair<int64_t, int64_t>> unsettled_counts(
   return out;
 }
 
+// What one feed carries from stream to stream.
+struct FeedState {
+  int64_t next = 0;  // the next new line: n = next / lanes, lane = next % lanes
+  uint64_t seq = 0;
+  std::deque<InFlight> again;        // to resend on this stream, in first-sent order
+  uint64_t known_epoch = 0;          // of the server that acknowledged what is retained
+  std::map<int, int64_t> last_sent;  // by lane
+  bool settled_all = false;
+  Clock::time_point settle_start = Clock::time_point::max();
+  static constexpr std::chrono::milliseconds kFirstBackoff{100};
+  std::chrono::milliseconds backoff = kFirstBackoff;
+};
+
+// A new stream starts with nothing outstanding on it; `opening` is read by its watch.
+void begin_stream(Shared& sh, bool& opening) {
+  std::lock_guard<std::mutex> lock(sh.mu);
+  opening = false;
+  sh.broken = false;
+  sh.holding = false;
+  sh.query_pending = false;
+  sh.acked_on_stream = 0;
+  sh.answered_on_stream = 0;
+}
+
+// The stream's reader: every answer taken under sh.mu until the stream ends.
+template <class Stream>
+std::thread read_answers(Stream& stream, Shared& sh, FeedReport& rep,
+                         std::map<std::string, int>& told, const FeedOptions& opt) {
+  return std::thread([&stream, &sh, &rep, &told, &opt] {
+    pb::StreamLinesResponse r;
+    while (stream.Read(&r)) {
+      std::lock_guard<std::mutex> lock(sh.mu);
+      take_answer(r, sh, rep, told, opt);
+      sh.cv.notify_all();
+    }
+    std::lock_guard<std::mutex> lock(sh.mu);
+    sh.broken = true;
+    sh.cv.notify_all();
+  });
+}
+
+// First a credit query: its answer tells whether this is the server that had our lines, and
+// so what this stream resends. False when the stream would not take the query.
+template <class Stream>
+bool first_answer(Stream& stream, Shared& sh, FeedState& st) {
+  std::unique_lock<std::mutex> lock(sh.mu);
+  const bool open = ask_credit(stream, sh, st.seq, lock);
+  if (open) sh.cv.wait(lock, [&] { return !sh.query_pending || sh.broken; });
+  gather_resends(sh, st.again, st.known_epoch);
+  return open;
+}
+
+// The next line to send, counted as outstanding: a resend first, else line n of lane li.
+std::shared_ptr<const pb::StreamLinesRequest> next_request(LineSource& source, int li, int64_t n,
+                                                           Shared& sh, FeedState& st,
+                                                           FeedReport& rep) {
+  st.settle_start = Clock::time_point::max();  // the wait counts from the last line
+  if (!st.again.empty()) {                     // a resend, under the same flow control as new lines
+    InFlight f = std::move(st.again.front());
+    st.again.pop_front();
+    f.resent = true;
+    std::shared_ptr<const pb::StreamLinesRequest> out = f.req;
+    std::lock_guard<std::mutex> lock(sh.mu);
+    sh.unacked.push_back(std::move(f));
+    ++rep.resent;
+    return out;
+  }
+  auto req = std::make_shared<pb::StreamLinesRequest>();
+  req->set_sequence(st.seq++);
+  source.line(li, n, *req->mutable_line());
+  st.last_sent[req->line().lane()] = req->line().encoder();
+  std::lock_guard<std::mutex> lock(sh.mu);
+  sh.unacked.push_back({req, false});
+  ++st.next;
+  ++rep.sent;
+  return req;
+}
+
+// What this stream resends, then the lines not yet sent, paced and under flow control, until
+// all are sent or the stream sends no more (it ended, or lines were handed back). Returns
+// whether the stream is still open for writing: one that holds handed-back lines is closed
+// by WritesDone, so that the server ends it.
+template <class Stream>
+bool send_lines(Stream& stream, LineSource& source, int64_t total, Clock::time_point t0, Shared& sh,
+                FeedState& st, Probe& probe, FeedReport& rep, const FeedOptions& opt) {
+  const int64_t lanes = int64_t(source.lanes().size());
+  bool open = true;
+  while (open && (!st.again.empty() || st.next < total)) {
+    const int64_t n = st.next / lanes;
+    const int li = int(st.next % lanes);
+    if (st.again.empty() && opt.rate > 0 && li == 0)  // pace: line n of every lane at n / rate s
+      std::this_thread::sleep_until(t0 + std::chrono::duration<double>(double(n) / opt.rate));
+    if (!wait_for_room(stream, sh, opt.window, st.seq, probe, open)) break;
+    const auto out = next_request(source, li, n, sh, st, rep);
+    open = stream.Write(*out);  // no lock held: the reader must keep taking acks
+  }
+  return open;
+}
+
+// After a stream ended, with its reader and watch joined: whether the feed is over (every line
+// acknowledged, and settled or no longer waited for). What is left waits for the next stream.
+bool feed_over(Shared& sh, FeedState& st, int64_t total, const FeedOptions& opt) {
+  std::lock_guard<std::mutex> lock(sh.mu);
+  keep_for_next_stream(sh, st.again);
+  return st.next >= total && sh.unacked.empty() &&
+         (st.settled_all || opt.settle_for_s <= 0 ||
+          Clock::now() - st.settle_start > std::chrono::duration<double>(opt.settle_for_s));
+}
+
+// The wait before the next stream, said in the log.
+void wait_to_reconnect(const Shared& sh, FeedState& st, FeedReport& rep, const FeedOptions& opt) {
+  ++rep.reconnects;
+  // A stream that got lines acknowledged, or (waiting to be settled, with no lines to
+  // send) its queries answered and nothing handed back, was a working connection that
+  // ended (a server that recycles connections, a restart): the next waits the first step
+  // again, as gRPC's own connection backoff does once connected. Only streams that take
+  // nothing (a server handing lines back, or one that fails at once) wait longer each time.
+  if (sh.acked_on_stream > 0 || (sh.answered_on_stream > 0 && !sh.holding))
+    st.backoff = FeedState::kFirstBackoff;
+  rep.longest_backoff_ms = std::max<uint64_t>(rep.longest_backoff_ms, uint64_t(st.backoff.count()));
+  size_t kept = 0;
+  for (const auto& [lane, k] : sh.retained) kept += k.size();
+  tell(opt, "stream ended (" + (rep.status.ok() ? std::string("OK") : rep.status.error_message()) +
+                "); reconnecting and resending " + std::to_string(sh.unacked.size()) +
+                " unacknowledged lines and " + std::to_string(kept) + " not yet durable");
+  std::this_thread::sleep_for(st.backoff);
+  st.backoff = std::min(st.backoff * 2, std::chrono::milliseconds(2000));
+}
+
 }  // namespace
 
 FeedReport Feeder::run(LineSource& source) {
@@ -291,19 +420,10 @@ FeedReport Feeder::run(LineSource& source) {
   Shared sh;
   std::map<std::string, int> told;
   auto stub = pb::IngestService::NewStub(channel_);
-  const auto lanes = source.lanes();
-  const int64_t total = source.lines() * int64_t(lanes.size());
+  const int64_t total = source.lines() * int64_t(source.lanes().size());
   const auto t0 = Clock::now();
-  int64_t next = 0;  // the next new line: n = next / lanes, lane = next % lanes
-  uint64_t seq = 0;
-  constexpr std::chrono::milliseconds kFirstBackoff(100);
-  auto backoff = kFirstBackoff;
+  FeedState st;
   Probe probe{Probe::kFirst, std::minstd_rand(uint32_t(reinterpret_cast<uintptr_t>(&sh)))};
-  std::deque<InFlight> again;        // to resend on this stream, in first-sent order
-  uint64_t known_epoch = 0;          // of the server that acknowledged what is retained
-  std::map<int, int64_t> last_sent;  // by lane
-  bool settled_all = false;
-  Clock::time_point settle_start = Clock::time_point::max();
 
   while (true) {
     grpc::ClientContext ctx;
@@ -311,69 +431,15 @@ FeedReport Feeder::run(LineSource& source) {
     bool stream_over = false, opening = true;
     std::thread guard = watch_stream(sh, ctx, opening, stream_over, opt_.reconnect_for_s);
     auto stream = stub->StreamLines(&ctx);
-    {
-      std::lock_guard<std::mutex> lock(sh.mu);
-      opening = false;
-      sh.broken = false;
-      sh.holding = false;
-      sh.query_pending = false;
-      sh.acked_on_stream = 0;
-      sh.answered_on_stream = 0;
-    }
-    std::thread reader([&] {
-      pb::StreamLinesResponse r;
-      while (stream->Read(&r)) {
-        std::lock_guard<std::mutex> lock(sh.mu);
-        take_answer(r, sh, rep, told, opt_);
-        sh.cv.notify_all();
-      }
-      std::lock_guard<std::mutex> lock(sh.mu);
-      sh.broken = true;
-      sh.cv.notify_all();
-    });
-
-    // First a credit query: its answer tells whether this is the server that had our lines.
-    bool open = true;
-    {
-      std::unique_lock<std::mutex> lock(sh.mu);
-      open = ask_credit(*stream, sh, seq, lock);
-      if (open) sh.cv.wait(lock, [&] { return !sh.query_pending || sh.broken; });
-      gather_resends(sh, again, known_epoch);
-    }
-    while (open && (!again.empty() || next < total)) {
-      const int64_t n = next / int64_t(lanes.size());
-      const int li = int(next % int64_t(lanes.size()));
-      if (again.empty() && opt_.rate > 0 && li == 0)  // pace: line n of every lane at n / rate s
-        std::this_thread::sleep_until(t0 + std::chrono::duration<double>(double(n) / opt_.rate));
-      if (!wait_for_room(*stream, sh, opt_.window, seq, probe, open)) break;
-      std::shared_ptr<const pb::StreamLinesRequest> out;
-      if (!again.empty()) {  // a resend, under the same flow control as new lines
-        InFlight f = std::move(again.front());
-        again.pop_front();
-        f.resent = true;
-        out = f.req;
-        std::lock_guard<std::mutex> lock(sh.mu);
-        sh.unacked.push_back(std::move(f));
-        ++rep.resent;
-        settle_start = Clock::time_point::max();  // the wait counts from the last line
-      } else {
-        auto req = std::make_shared<pb::StreamLinesRequest>();
-        req->set_sequence(seq++);
-        source.line(li, n, *req->mutable_line());
-        last_sent[req->line().lane()] = req->line().encoder();
-        out = req;
-        std::lock_guard<std::mutex> lock(sh.mu);
-        sh.unacked.push_back({out, false});
-        ++next;
-        ++rep.sent;
-        settle_start = Clock::time_point::max();
-      }
-      open = stream->Write(*out);  // no lock held: the reader must keep taking acks
-    }
+    begin_stream(sh, opening);
+    std::thread reader = read_answers(*stream, sh, rep, told, opt_);
+    bool open = first_answer(*stream, sh, st);
+    if (open) open = send_lines(*stream, source, total, t0, sh, st, probe, rep, opt_);
     // Every line sent: wait for them all to be settled in the store (a server that hands
     // lines back, or goes, sends this stream round again).
-    if (open && next >= total && again.empty() && opt_.settle_for_s > 0 && !settled_all)
-      settled_all = wait_settled_on(*stream, sh, seq, last_sent, settle_start, opt_.settle_for_s);
+    if (open && st.next >= total && st.again.empty() && opt_.settle_for_s > 0 && !st.settled_all)
+      st.settled_all =
+          wait_settled_on(*stream, sh, st.seq, st.last_sent, st.settle_start, opt_.settle_for_s);
     if (open) stream->WritesDone();
     reader.join();
     {
@@ -383,18 +449,10 @@ FeedReport Feeder::run(LineSource& source) {
     sh.cv.notify_all();
     guard.join();
     rep.status = stream->Finish();
-    bool done;
-    {
-      std::lock_guard<std::mutex> lock(sh.mu);
-      keep_for_next_stream(sh, again);
-      done = next >= total && sh.unacked.empty() &&
-             (settled_all || opt_.settle_for_s <= 0 ||
-              Clock::now() - settle_start > std::chrono::duration<double>(opt_.settle_for_s));
-    }
-    if (done && (rep.status.ok() || settled_all)) {
+    if (feed_over(sh, st, total, opt_) && (rep.status.ok() || st.settled_all)) {
       // Every outcome is stored: a cut of the last stream after that (a server recycling
       // its connections) is not the feed's failure.
-      if (settled_all && !rep.status.ok()) {
+      if (st.settled_all && !rep.status.ok()) {
         tell(opt_, "the last stream ended (" + rep.status.error_message() +
                        ") after every outcome was stored");
         rep.status = grpc::Status::OK;
@@ -406,26 +464,10 @@ FeedReport Feeder::run(LineSource& source) {
       tell(opt_, "no progress for " + std::to_string(int(opt_.reconnect_for_s)) + " s; giving up");
       break;
     }
-    ++rep.reconnects;
-    // A stream that got lines acknowledged, or (waiting to be settled, with no lines to
-    // send) its queries answered and nothing handed back, was a working connection that
-    // ended (a server that recycles connections, a restart): the next waits the first step
-    // again, as gRPC's own connection backoff does once connected. Only streams that take
-    // nothing (a server handing lines back, or one that fails at once) wait longer each time.
-    if (sh.acked_on_stream > 0 || (sh.answered_on_stream > 0 && !sh.holding))
-      backoff = kFirstBackoff;
-    rep.longest_backoff_ms = std::max<uint64_t>(rep.longest_backoff_ms, uint64_t(backoff.count()));
-    size_t kept = 0;
-    for (const auto& [lane, k] : sh.retained) kept += k.size();
-    tell(opt_, "stream ended (" +
-                   (rep.status.ok() ? std::string("OK") : rep.status.error_message()) +
-                   "); reconnecting and resending " + std::to_string(sh.unacked.size()) +
-                   " unacknowledged lines and " + std::to_string(kept) + " not yet durable");
-    std::this_thread::sleep_for(backoff);
-    backoff = std::min(backoff * 2, std::chrono::milliseconds(2000));
+    wait_to_reconnect(sh, st, rep, opt_);
   }
-  rep.settled = settled_all || opt_.settle_for_s <= 0;
-  if (!settled_all && opt_.settle_for_s > 0) rep.unsettled = unsettled_counts(sh, last_sent);
+  rep.settled = st.settled_all || opt_.settle_for_s <= 0;
+  if (!st.settled_all && opt_.settle_for_s > 0) rep.unsettled = unsettled_counts(sh, st.last_sent);
   rep.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return rep;
 }
