@@ -6,6 +6,7 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
 
@@ -217,6 +218,77 @@ int process_simulated(const Args& a, const PlantConfig& plant) {
   return 0;
 }
 
+// A replayed lane's thickness per line (f32 and a PNG in 0.01 mm, 65535 where nothing was
+// measured) and its stripe rows; the share of thickness pixels measured. A recording of a
+// real line keeps no per-line arrays: nothing written, 0.
+double write_lane_thickness(const fs::path& ld, const LaneReplay& r) {
+  if (r.thickness.empty()) return 0;
+  write_f32(ld / "thickness.f32", r.thickness);
+  write_f32(ld / "stripe_cam0.f32", r.stripe_rows[0]);
+  write_f32(ld / "stripe_cam1.f32", r.stripe_rows[1]);
+  size_t valid = 0;
+  std::vector<uint16_t> png(r.thickness.size());
+  for (size_t i = 0; i < png.size(); ++i) {
+    const float t = r.thickness[i];
+    valid += std::isfinite(t);
+    png[i] = std::isfinite(t) ? uint16_t(std::clamp(std::lround(t * 100.0), 0L, 65534L)) : 65535;
+  }
+  write_png16((ld / "thickness.png").string(), png.data(), r.pixels, int(r.lines));
+  return double(valid) / double(r.thickness.size());
+}
+
+// What `process` wrote of one lane, for its summary.
+struct ProcessedLane {
+  RecordSet ours;
+  double valid = 0;  // share of thickness pixels measured
+};
+
+// Everything `process` writes of a replayed lane under out/laneN: thickness, X-ray, each
+// fillet's images and the lane's records.
+ProcessedLane write_processed_lane(const fs::path& out, const LaneReplay& r,
+                                   const RecordingReader& rec, Images images) {
+  const fs::path ld = out / ("lane" + std::to_string(r.lane));
+  fs::create_directories(ld);
+  ProcessedLane p;
+  p.valid = write_lane_thickness(ld, r);
+  std::vector<uint16_t> xray(size_t(r.lines) * r.pixels);
+  rec.read(r.lane, 0, r.lines, nullptr, nullptr, xray.data(), nullptr);
+  write_png16((ld / "xray.png").string(), xray.data(), r.pixels, int(r.lines));
+  RecordSet base;
+  for (const InspectedFillet& f : r.fillets) {
+    p.ours.add(f.result);
+    base.add(f.baseline);
+    maybe_write_images(ld, f, images);
+  }
+  write_lane_records(ld, p.ours, base);
+  return p;
+}
+
+// The lane's entry in summary.json; with learned thresholds, what its drift monitor would
+// have said of this product (`drift`, its sentence).
+std::string processed_lane_json(const LaneReplay& r, const ProcessedLane& p,
+                                const PlantConfig& plant, std::string& drift) {
+  std::ostringstream js;
+  js << "{\"lane\": " << r.lane << ", \"lines\": " << r.lines << ", \"pixels\": " << r.pixels
+     << ", \"valid_thickness_fraction\": " << p.valid
+     << ", \"fusion\": {\"both\": " << r.fusion.both << ", \"single\": " << r.fusion.single
+     << ", \"conflict\": " << r.fusion.conflict << ", \"filled\": " << r.fusion.filled
+     << ", \"missing\": " << r.fusion.missing << "}, \"fillets\": " << p.ours.fillets.size()
+     << ", \"pass\": " << count_decision(p.ours, "pass")
+     << ", \"reject\": " << count_decision(p.ours, "reject")
+     << ", \"not_inspected\": " << count_decision(p.ours, "not_inspected")
+     << ", \"debris\": " << r.assembly.debris << ", \"pipeline_seconds\": " << r.seconds
+     << ", \"lines_per_second\": " << (r.seconds > 0 ? double(r.lines) / r.seconds : 0)
+     << ", \"inspection_seconds\": " << r.inspection_seconds;
+  if (const LearnedDetection& L = plant.lane(r.lane).inspection.learned; L.active()) {
+    const RecordedDrift d = recorded_drift(L, {p.ours}, r.lane);
+    js << ", \"drift\": " << drift_json(d);
+    drift = drift_sentence(r.lane, d);
+  }
+  js << "}";
+  return js.str();
+}
+
 }  // namespace
 
 int cmd_process(int argc, char** argv) {
@@ -267,67 +339,23 @@ int cmd_process(int argc, char** argv) {
   std::printf("line stages on %s: %s (%s)\n", backend.name.c_str(), backend.device.c_str(),
               backend.driver.c_str());
   std::ostringstream js;
-  js << "{\"recording\": \"" << rec.dir() << "\", \"calibration_id\": \"" << plant.calibration_id
-     << "\", \"lanes\": [";
+  js << "{\"recording\": " << nlohmann::json(rec.dir()).dump()
+     << ", \"calibration_id\": " << nlohmann::json(plant.calibration_id).dump() << ", \"lanes\": [";
   for (size_t li = 0; li < lanes.size(); ++li) {
     const LaneReplay& r = lanes[li];
-    const fs::path ld = out / ("lane" + std::to_string(r.lane));
-    fs::create_directories(ld);
-    size_t valid = 0;
-    if (!r.thickness.empty()) {  // per line, where the lines are where their counts say
-      write_f32(ld / "thickness.f32", r.thickness);
-      write_f32(ld / "stripe_cam0.f32", r.stripe_rows[0]);
-      write_f32(ld / "stripe_cam1.f32", r.stripe_rows[1]);
-      // Thickness PNG: 0.01 mm per count, 65535 where nothing was measured.
-      std::vector<uint16_t> png(r.thickness.size());
-      for (size_t i = 0; i < png.size(); ++i) {
-        const float t = r.thickness[i];
-        valid += std::isfinite(t);
-        png[i] =
-            std::isfinite(t) ? uint16_t(std::clamp(std::lround(t * 100.0), 0L, 65534L)) : 65535;
-      }
-      write_png16((ld / "thickness.png").string(), png.data(), r.pixels, int(r.lines));
-    }
-    std::vector<uint16_t> xray(size_t(r.lines) * r.pixels);
-    rec.read(r.lane, 0, r.lines, nullptr, nullptr, xray.data(), nullptr);
-    write_png16((ld / "xray.png").string(), xray.data(), r.pixels, int(r.lines));
-    RecordSet ours, base;
-    for (const InspectedFillet& f : r.fillets) {
-      ours.add(f.result);
-      base.add(f.baseline);
-      maybe_write_images(ld, f, images);
-    }
-    write_lane_records(ld, ours, base);
-    const double lines_per_s = r.seconds > 0 ? double(r.lines) / r.seconds : 0;
-    js << (li ? ", " : "") << "{\"lane\": " << r.lane << ", \"lines\": " << r.lines
-       << ", \"pixels\": " << r.pixels << ", \"valid_thickness_fraction\": "
-       << double(valid) / double(std::max<size_t>(1, r.thickness.size()))
-       << ", \"fusion\": {\"both\": " << r.fusion.both << ", \"single\": " << r.fusion.single
-       << ", \"conflict\": " << r.fusion.conflict << ", \"filled\": " << r.fusion.filled
-       << ", \"missing\": " << r.fusion.missing << "}, \"fillets\": " << ours.fillets.size()
-       << ", \"pass\": " << count_decision(ours, "pass")
-       << ", \"reject\": " << count_decision(ours, "reject")
-       << ", \"not_inspected\": " << count_decision(ours, "not_inspected")
-       << ", \"debris\": " << r.assembly.debris << ", \"pipeline_seconds\": " << r.seconds
-       << ", \"lines_per_second\": " << lines_per_s
-       << ", \"inspection_seconds\": " << r.inspection_seconds;
-    // With learned thresholds: what the lane's drift monitor would have said of this product.
+    const ProcessedLane p = write_processed_lane(out, r, rec, images);
     std::string drift;
-    if (const LearnedDetection& L = plant.lane(r.lane).inspection.learned; L.active()) {
-      const RecordedDrift d = recorded_drift(L, {ours}, r.lane);
-      js << ", \"drift\": " << drift_json(d);
-      drift = drift_sentence(r.lane, d);
-    }
-    js << "}";
+    js << (li ? ", " : "") << processed_lane_json(r, p, plant, drift);
     char thickness[64] = "a recording of a real line";  // per-line arrays not kept
     if (!r.thickness.empty())
       std::snprintf(thickness, sizeof thickness, "%.1f%% of thickness pixels valid",
-                    100.0 * double(valid) / double(r.thickness.size()));
+                    100.0 * p.valid);
     std::printf(
         "lane %d: %lld lines, %s, %zu fillets (%d pass, %d reject, %d not inspected), %.0f "
         "lines/s (%s)\n",
-        r.lane, (long long)r.lines, thickness, ours.fillets.size(), count_decision(ours, "pass"),
-        count_decision(ours, "reject"), count_decision(ours, "not_inspected"), lines_per_s,
+        r.lane, (long long)r.lines, thickness, p.ours.fillets.size(),
+        count_decision(p.ours, "pass"), count_decision(p.ours, "reject"),
+        count_decision(p.ours, "not_inspected"), r.seconds > 0 ? double(r.lines) / r.seconds : 0,
         backend.name.c_str());
     if (!drift.empty()) std::printf("%s\n", drift.c_str());
   }
