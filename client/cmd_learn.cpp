@@ -130,6 +130,97 @@ nlohmann::json held_out_check(const LaneReplay& c, const LaneLearning& ll,
   return nlohmann::json::parse(claim_checks_json(dir, hc.fillets, hc.checks, hc.stated, hc.cells));
 }
 
+// How the lanes are learned, from the command line: the fit's options (each lane's target,
+// confidence and tail are set per lane, in learn_lanes), the test pieces', the targets traded
+// off, the version's name, where the fillets came from and where the report goes.
+struct LearnRun {
+  LearnOptions lo;
+  SensitivityOptions so;
+  std::vector<double> tradeoff;
+  std::string version, source;
+  fs::path report_dir;
+};
+
+LearnRun learn_run(const Args& a, const std::string& source, const std::string& out) {
+  LearnRun run;
+  run.source = source;
+  run.report_dir =
+      a.get("report",
+            (fs::path(out).parent_path() / (fs::path(out).stem().string() + ".report")).string());
+  run.lo.bootstrap = int(a.number("bootstrap", 100, 20, 10000));
+  run.lo.min_fillets = int(a.number("min-fillets", 30, 10, 100000));
+  if (a.has("keep")) run.lo.checked_clean = checked_clean_fillets(a.get("keep", ""));
+  if (a.has("tradeoff")) run.tradeoff = tradeoff_targets(a.get("tradeoff", ""));
+  run.so.material.excess_ratio = a.number("excess-ratio", run.so.material.excess_ratio, 0.05, 100);
+  run.so.material.excess_per_mm = a.number("excess-per-mm", 0, 0, 10);
+  // Without --force a failed learning writes no configuration: it is refused without the
+  // test pieces, most of a learning's time (the report says the sensitivity was not measured).
+  run.so.when_learning_failed = a.flag("force");
+  run.version = a.get("version", learning_version_name());
+  return run;
+}
+
+// Learns each lane, checks its claims on the held-out fillets (`check`, replayed from
+// `check_dir`), writes its plots and says what it learned. Each lane's entry goes into
+// report["lanes"]; returns each lane's learned settings, and `all_ok` whether every lane's
+// learning passed.
+std::vector<std::pair<int, LearnedDetection>> learn_lanes(const Args& a, const PlantConfig& plant,
+                                                          const std::vector<LaneFillets>& lanes,
+                                                          const std::vector<LaneReplay>& check,
+                                                          const std::string& check_dir,
+                                                          LearnRun& run, nlohmann::json& report,
+                                                          bool& all_ok) {
+  std::vector<std::pair<int, LearnedDetection>> learned;
+  LearnOptions& lo = run.lo;
+  for (const LaneFillets& r : lanes) {
+    const LaneConfig& lane = plant.lane(r.lane);
+    lo.target_frr = a.number("target-frr", lane.inspection.false_reject_target, 1e-5, 0.2);
+    lo.confidence = a.number("confidence", lo.confidence, 0.5, 0.999);
+    lo.tail_from = a.number("tail-from", lo.tail_from, 0, 0.95);
+    lo.spread_by_thickness = lane.inspection.spread_by_thickness;
+    lo.rim_walls = lane.inspection.rim_walls;
+    std::printf("lane %d: %zu fillets inspected (%d not inspected, left out); fitting ...\n",
+                r.lane, r.set.size(), r.set.not_inspected);
+    std::fflush(stdout);
+    // The sensitivity the thresholds buy, and what other false-reject targets would buy, is
+    // measured on the same fillets and test pieces (the report says so; a held-out check is
+    // --check, on fillets it did not learn from).
+    ProgressBar sbar(run.tradeoff.empty() ? "sensitivity" : "sensitivity, every target");
+    const LaneLearning ll = learn_lane(
+        r.set, lane.inspection, lo, run.so, run.version,
+        run.source + " lane " + std::to_string(r.lane), [&](int d, int t) { sbar.update(d, t); },
+        run.tradeoff);
+    const ProductLearning& L = ll.learning;
+    const SensitivityResult& sens = ll.sensitivity;
+    const std::vector<TradeoffPoint>& points = ll.tradeoff;
+    nlohmann::json lane_json = nlohmann::json::parse(learned_report_json(r.lane, L, sens, points));
+    for (const LaneReplay& c : check) {
+      if (c.lane != r.lane || sens.inspections == 0) continue;
+      lane_json["held_out_check"] = held_out_check(c, ll, run.so, check_dir);
+    }
+    report["lanes"].push_back(lane_json);
+    write_learn_plots(run.report_dir, r.lane, L, sens);
+    std::printf("%s", learn_summary_text(r.lane, L, sens).c_str());
+    if (!points.empty()) std::printf("%s", tradeoff_text(ll, points).c_str());
+    all_ok = all_ok && L.ok;
+    learned.push_back({r.lane, L.learned});
+  }
+  return learned;
+}
+
+// The plant's configuration with each lane's learned section, written to `out` and read back
+// as a plant configuration.
+void write_learned_plant(const std::string& config, const std::string& out,
+                         const std::vector<std::pair<int, LearnedDetection>>& learned) {
+  const std::string text = learned_plant_yaml(config, learned);
+  {
+    std::ofstream o(out);
+    o << text;
+    if (!o) fail(out, ": cannot write");
+  }
+  load_plant_config(out);
+}
+
 }  // namespace
 
 int cmd_learn(int argc, char** argv) {
@@ -152,24 +243,8 @@ int cmd_learn(int argc, char** argv) {
   if (a.has("calibration")) apply_calibration_option(plant, a.get("calibration", ""));
   std::unique_ptr<RecordingReader> rec;
   if (!simulate) rec = std::make_unique<RecordingReader>(a.positional(0, "recording folder"));
-  const std::string source = simulate ? "a clean simulated plant" : rec->dir();
   const std::string out = a.require("out");
-  const fs::path report_dir =
-      a.get("report",
-            (fs::path(out).parent_path() / (fs::path(out).stem().string() + ".report")).string());
-  LearnOptions lo;
-  lo.bootstrap = int(a.number("bootstrap", 100, 20, 10000));
-  lo.min_fillets = int(a.number("min-fillets", 30, 10, 100000));
-  if (a.has("keep")) lo.checked_clean = checked_clean_fillets(a.get("keep", ""));
-  const std::vector<double> tradeoff =
-      a.has("tradeoff") ? tradeoff_targets(a.get("tradeoff", "")) : std::vector<double>{};
-  SensitivityOptions so;
-  so.material.excess_ratio = a.number("excess-ratio", so.material.excess_ratio, 0.05, 100);
-  so.material.excess_per_mm = a.number("excess-per-mm", 0, 0, 10);
-  // Without --force a failed learning writes no configuration: it is refused without the
-  // test pieces, most of a learning's time (the report says the sensitivity was not measured).
-  so.when_learning_failed = a.flag("force");
-  const std::string version = a.get("version", learning_version_name());
+  LearnRun run = learn_run(a, simulate ? "a clean simulated plant" : rec->dir(), out);
   ReplayOptions opt;
   opt.keep_images = true;
   opt.baseline = false;
@@ -196,47 +271,16 @@ int cmd_learn(int argc, char** argv) {
     check =
         replay_recording(*check_rec, plant, opt, [&](int64_t d, int64_t t) { bar.update(d, t); });
   }
-  fs::create_directories(report_dir);
-  nlohmann::json report = {{"recording", source}, {"config", config}, {"version", version}};
-  std::vector<std::pair<int, LearnedDetection>> learned;
+  fs::create_directories(run.report_dir);
+  nlohmann::json report = {{"recording", run.source}, {"config", config}, {"version", run.version}};
   bool all_ok = true;
-  for (const LaneFillets& r : lanes) {
-    const LaneConfig& lane = plant.lane(r.lane);
-    lo.target_frr = a.number("target-frr", lane.inspection.false_reject_target, 1e-5, 0.2);
-    lo.confidence = a.number("confidence", lo.confidence, 0.5, 0.999);
-    lo.tail_from = a.number("tail-from", lo.tail_from, 0, 0.95);
-    lo.spread_by_thickness = lane.inspection.spread_by_thickness;
-    lo.rim_walls = lane.inspection.rim_walls;
-    std::printf("lane %d: %zu fillets inspected (%d not inspected, left out); fitting ...\n",
-                r.lane, r.set.size(), r.set.not_inspected);
-    std::fflush(stdout);
-    // The sensitivity the thresholds buy, and what other false-reject targets would buy, is
-    // measured on the same fillets and test pieces (the report says so; a held-out check is
-    // --check, on fillets it did not learn from).
-    ProgressBar sbar(tradeoff.empty() ? "sensitivity" : "sensitivity, every target");
-    const LaneLearning ll = learn_lane(
-        r.set, lane.inspection, lo, so, version, source + " lane " + std::to_string(r.lane),
-        [&](int d, int t) { sbar.update(d, t); }, tradeoff);
-    const ProductLearning& L = ll.learning;
-    const SensitivityResult& sens = ll.sensitivity;
-    const std::vector<TradeoffPoint>& points = ll.tradeoff;
-    nlohmann::json lane_json = nlohmann::json::parse(learned_report_json(r.lane, L, sens, points));
-    for (const LaneReplay& c : check) {
-      if (c.lane != r.lane || sens.inspections == 0) continue;
-      lane_json["held_out_check"] = held_out_check(c, ll, so, check_rec->dir());
-    }
-    report["lanes"].push_back(lane_json);
-    write_learn_plots(report_dir, r.lane, L, sens);
-    std::printf("%s", learn_summary_text(r.lane, L, sens).c_str());
-    if (!points.empty()) std::printf("%s", tradeoff_text(ll, points).c_str());
-    all_ok = all_ok && L.ok;
-    learned.push_back({r.lane, L.learned});
-  }
+  const auto learned =
+      learn_lanes(a, plant, lanes, check, check_rec ? check_rec->dir() : "", run, report, all_ok);
   report["ok"] = all_ok;
-  std::ofstream(report_dir / "learn.json") << report.dump(2) << "\n";
+  std::ofstream(run.report_dir / "learn.json") << report.dump(2) << "\n";
   std::printf(
       "report: %s/learn.json and lane*_thresholds.png, lane*_sensitivity.png, lane*_qq.png\n",
-      report_dir.c_str());
+      run.report_dir.c_str());
   if (!all_ok && !a.flag("force")) {
     std::fprintf(stderr,
                  "learning failed (see the problems above): %s not written (--force writes it, "
@@ -244,14 +288,8 @@ int cmd_learn(int argc, char** argv) {
                  out.c_str());
     return 2;
   }
-  const std::string text = learned_plant_yaml(config, learned);
-  {
-    std::ofstream o(out);
-    o << text;
-    if (!o) fail(out, ": cannot write");
-  }
-  load_plant_config(out);  // it must read back as a plant configuration
-  std::printf("wrote %s (version %s)\n", out.c_str(), version.c_str());
+  write_learned_plant(config, out, learned);
+  std::printf("wrote %s (version %s)\n", out.c_str(), run.version.c_str());
   return all_ok ? 0 : 2;
 }
 
