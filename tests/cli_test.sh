@@ -26,6 +26,13 @@ check "extract has empty rows where no stripe" grep -q ",$" "$work/peaks.csv"
 "$ctl" process "$work/rec" --out "$work/out" >/dev/null || fails=$((fails + 1))
 check "thickness png" test -s "$work/out/lane0/thickness.png"
 check "summary json" grep -q '"valid_thickness_fraction"' "$work/out/summary.json"
+# The recording's name goes into summary.json as a JSON string, whatever it holds.
+odd="$work/rec \"quoted\" back\\slash"
+ln -s "$work/rec" "$odd"
+"$ctl" process "$odd" --out "$work/out_odd" --images none >/dev/null 2>&1 || fails=$((fails + 1))
+check "summary json names a recording whose name holds quotes and a backslash" python3 -c \
+  "import json,sys; sys.exit(0 if json.load(open(sys.argv[1]))['recording'] == sys.argv[2] else 1)" \
+  "$work/out_odd/summary.json" "$odd"
 json=$("$ctl" eval "$work/rec" "$work/out" --json)
 mae=$(sed -E 's/.*"thickness_mm": \{[^}]*"mean_abs": ([0-9.e+-]+).*/\1/' <<<"$json")
 check "eval thickness mean |error| <= 0.3 mm (got $mae)" awk -v m="$mae" 'BEGIN{exit !(m <= 0.3)}'
