@@ -6,7 +6,6 @@
 #include <fstream>
 #include <functional>
 #include <limits>
-#include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
 
@@ -17,6 +16,7 @@
 #include "core/error.h"
 #include "core/png_io.h"
 #include "f32_file.h"
+#include "json_text.h"
 #include "offline/detection_eval.h"
 #include "offline/evaluation.h"
 #include "offline/fillet_records.h"
@@ -339,8 +339,8 @@ int cmd_process(int argc, char** argv) {
   std::printf("line stages on %s: %s (%s)\n", backend.name.c_str(), backend.device.c_str(),
               backend.driver.c_str());
   std::ostringstream js;
-  js << "{\"recording\": " << nlohmann::json(rec.dir()).dump()
-     << ", \"calibration_id\": " << nlohmann::json(plant.calibration_id).dump() << ", \"lanes\": [";
+  js << "{\"recording\": " << json_text(rec.dir())
+     << ", \"calibration_id\": " << json_text(plant.calibration_id) << ", \"lanes\": [";
   for (size_t li = 0; li < lanes.size(); ++li) {
     const LaneReplay& r = lanes[li];
     const ProcessedLane p = write_processed_lane(out, r, rec, images);

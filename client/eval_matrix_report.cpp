@@ -10,6 +10,7 @@
 
 #include "core/learned_detection.h"
 #include "eval_steps.h"
+#include "json_text.h"
 #include "offline/acceptance.h"
 #include "offline/fragment_chance.h"
 #include "offline/miss_margin.h"
@@ -322,7 +323,7 @@ std::string learned_json(const MatrixRow& r) {
      << ", \"drift\": " << drift_json(r.drift) << "}"
      << ", \"sensitivity\": [";
   for (size_t q = 0; q < r.sensitivity.size(); ++q)
-    os << (q ? ", " : "") << nlohmann::json(r.sensitivity[q]).dump();
+    os << (q ? ", " : "") << json_text(r.sensitivity[q]);
   os << "], \"missed\": [" << missed_json(l, -1) << "]";
   if (r.claims_measured) os << ", \"claims_on_fragments\": " << claims_json(r.fragment_claims);
   bool first = true;
@@ -346,7 +347,7 @@ std::string matrix_json(const std::vector<MatrixRow>& rows) {
       os << nlohmann::json{{"name", r.name}, {"failed", r.failed}}.dump();
       continue;
     }
-    os << "{\"name\": " << nlohmann::json(r.name).dump() << ", " << fixed_json(r);
+    os << "{\"name\": " << json_text(r.name) << ", " << fixed_json(r);
     if (r.learned_run) os << ", \"learned\": " << learned_json(r);
     os << "}";
   }

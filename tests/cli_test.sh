@@ -33,6 +33,13 @@ ln -s "$work/rec" "$odd"
 check "summary json names a recording whose name holds quotes and a backslash" python3 -c \
   "import json,sys; sys.exit(0 if json.load(open(sys.argv[1]))['recording'] == sys.argv[2] else 1)" \
   "$work/out_odd/summary.json" "$odd"
+# A path need not be UTF-8: what is not is written as U+FFFD, and the file is still JSON.
+bad="$work/rec_$(printf '\377')_latin"
+ln -s "$work/rec" "$bad"
+"$ctl" process "$bad" --out "$work/out_bad" --images none >/dev/null 2>&1 || fails=$((fails + 1))
+check "summary json names a recording whose name is not UTF-8" python3 -c \
+  "import json,sys; sys.exit(0 if json.load(open(sys.argv[1]))['recording'].endswith('rec_\ufffd_latin') else 1)" \
+  "$work/out_bad/summary.json"
 json=$("$ctl" eval "$work/rec" "$work/out" --json)
 mae=$(sed -E 's/.*"thickness_mm": \{[^}]*"mean_abs": ([0-9.e+-]+).*/\1/' <<<"$json")
 check "eval thickness mean |error| <= 0.3 mm (got $mae)" awk -v m="$mae" 'BEGIN{exit !(m <= 0.3)}'
