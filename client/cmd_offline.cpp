@@ -264,6 +264,10 @@ ProcessedLane write_processed_lane(const fs::path& out, const LaneReplay& r,
   return p;
 }
 
+double lines_per_second(const LaneReplay& r) {
+  return r.seconds > 0 ? double(r.lines) / r.seconds : 0;
+}
+
 // The lane's entry in summary.json; with learned thresholds, what its drift monitor would
 // have said of this product (`drift`, its sentence).
 std::string processed_lane_json(const LaneReplay& r, const ProcessedLane& p,
@@ -278,7 +282,7 @@ std::string processed_lane_json(const LaneReplay& r, const ProcessedLane& p,
      << ", \"reject\": " << count_decision(p.ours, "reject")
      << ", \"not_inspected\": " << count_decision(p.ours, "not_inspected")
      << ", \"debris\": " << r.assembly.debris << ", \"pipeline_seconds\": " << r.seconds
-     << ", \"lines_per_second\": " << (r.seconds > 0 ? double(r.lines) / r.seconds : 0)
+     << ", \"lines_per_second\": " << lines_per_second(r)
      << ", \"inspection_seconds\": " << r.inspection_seconds;
   if (const LearnedDetection& L = plant.lane(r.lane).inspection.learned; L.active()) {
     const RecordedDrift d = recorded_drift(L, {p.ours}, r.lane);
@@ -355,8 +359,7 @@ int cmd_process(int argc, char** argv) {
         "lines/s (%s)\n",
         r.lane, (long long)r.lines, thickness, p.ours.fillets.size(),
         count_decision(p.ours, "pass"), count_decision(p.ours, "reject"),
-        count_decision(p.ours, "not_inspected"), r.seconds > 0 ? double(r.lines) / r.seconds : 0,
-        backend.name.c_str());
+        count_decision(p.ours, "not_inspected"), lines_per_second(r), backend.name.c_str());
     if (!drift.empty()) std::printf("%s\n", drift.c_str());
   }
   js << "]}\n";

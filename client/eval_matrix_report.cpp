@@ -344,7 +344,9 @@ std::string matrix_json(const std::vector<MatrixRow>& rows) {
     const MatrixRow& r = rows[i];
     os << (i ? ",\n  " : "\n  ");
     if (!r.failed.empty()) {
-      os << nlohmann::json{{"name", r.name}, {"failed", r.failed}}.dump();
+      // The error may name a path, which may hold bytes that are not UTF-8.
+      os << nlohmann::json{{"name", r.name}, {"failed", r.failed}}.dump(
+          -1, ' ', false, nlohmann::json::error_handler_t::replace);
       continue;
     }
     os << "{\"name\": " << json_text(r.name) << ", " << fixed_json(r);

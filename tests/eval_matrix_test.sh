@@ -10,9 +10,11 @@ source "$(dirname "$0")/script_checks.sh"
 mkdir -p vars
 cp "$(dirname "$RANGEX_CONFIG")"/variants/{strong_blur,steep_edges}.yaml vars/
 printf 'name: broken\nbones: {probability: 7}\n' >vars/broken.yaml
+# The same in a file whose name is not UTF-8 (a failed variant is named by its file).
+cp vars/broken.yaml vars/$'broken\xff.yaml'
 # And one whose name holds a quote and a backslash: matrix.json must still be JSON.
 sed 's/^name: .*/name: '"'"'odd "blur" \\ 2'"'"'/' vars/strong_blur.yaml >vars/odd.yaml
-"$ctl" eval-matrix --out m --variants vars --only broken,strong_blur,steep_edges,odd --fillets 8 \
+"$ctl" eval-matrix --out m --variants vars --only broken,$'broken\xff',strong_blur,steep_edges,odd --fillets 8 \
   --seed 3 --learn 0 >run.txt 2>&1
 rc=$?
 [ -s m/matrix.json ] || { echo "FAIL eval-matrix (status $rc)"; cat run.txt; exit 1; }
@@ -21,7 +23,8 @@ py() { python3 -c "import json,sys; m=json.load(open('m/matrix.json')); v={x['na
 check "a variant that fails says so by the exit status" test "$rc" -eq 2
 check "it is reported failed, naming what is wrong" py "'probability' in v['broken']['failed']"
 check "the matrix text names it" grep -q "failed: broken" m/matrix.txt
-check "the variants evaluated" py "set(v) - {'broken'} == {'strong_blur', 'steep_edges', 'odd \"blur\" \\\\ 2'} and all('failed' not in x for k, x in v.items() if k != 'broken')"
+check "a name that is not UTF-8 is written with U+FFFD for its byte" py "'probability' in v['broken\\ufffd']['failed']"
+check "the variants evaluated" py "set(v) - {'broken', 'broken\\ufffd'} == {'strong_blur', 'steep_edges', 'odd \"blur\" \\\\ 2'} and all('failed' not in x for k, x in v.items() if not k.startswith('broken'))"
 check "every figure is a number" py "all(isinstance(x[k], (int, float)) for x in v.values() if 'failed' not in x for k in ('thickness_mean_abs_mm', 'residual_std_dn', 'recall_calcified_ge_2mm', 'false_reject_rate', 'position_mean_mm', 'baseline_recall_calcified_ge_2mm'))"
 check "how rough each plant is: its residual's spread in DN, as smooth meat leaves it (the nominal simulator: 18.6)" py "all(5 < v[k]['residual_std_dn'] < 100 for k in ('strong_blur', 'steep_edges'))"
 check "the matrix text gives it" grep -qE "^strong_blur +[0-9.]+ +[-+][0-9.]+ +[0-9]+\.[0-9] \|" m/matrix.txt
