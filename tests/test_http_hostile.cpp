@@ -13,8 +13,10 @@
 #include <chrono>
 #include <cstdlib>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "core/plant_config.h"
@@ -350,6 +352,31 @@ TEST(HttpHostile, AMultiRangeRequestIsRefusedSmallAndOneRangeIsServed) {
   EXPECT_EQ(one->body, whole->body.substr(0, 10));
   // And the server answers as before.
   const auto again = c.Get("/api/statistics");
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->status, 200);
+}
+
+// A value that is not UTF-8 (%FF decodes to the byte 0xFF) is refused naming it, its byte
+// written as U+FFFD: the refusal's JSON once threw as it was written, and the client got no
+// answer at all.
+TEST(HttpHostile, AValueThatIsNotUtf8IsRefusedNamingIt) {
+  Plant plant;
+  httplib::Client& c = plant.client;
+  const std::string fffd = "\xEF\xBF\xBD";
+  const std::vector<std::pair<std::string, std::string>> asked = {
+      {"/api/fillets?limit=%FF", "limit must be an integer (got '" + fffd + "')"},
+      {"/api/fillets?decision=%FF%FE",
+       "decision must be pass, reject or not_inspected (got '" + fffd + fffd + "')"},
+      {"/api/fillets?limit=7%C3", "limit must be an integer (got '7" + fffd + "')"}};
+  for (const auto& [path, said] : asked) {
+    const auto r = c.Get(path);
+    ASSERT_TRUE(r) << path << ": " << httplib::to_string(r.error());
+    EXPECT_EQ(r->status, 400) << path;
+    const nlohmann::json j = nlohmann::json::parse(r->body, nullptr, false);
+    ASSERT_TRUE(j.is_object()) << path << ": " << r->body;
+    EXPECT_EQ(j.value("error", ""), said) << path;
+  }
+  const auto again = c.Get("/api/fillets?limit=3");
   ASSERT_TRUE(again);
   EXPECT_EQ(again->status, 200);
 }

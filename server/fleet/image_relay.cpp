@@ -4,14 +4,17 @@
 
 #include <nlohmann/json.hpp>
 
+#include "service/json_body.h"
+
 namespace rangex {
 
 namespace {
 RelayedImage refusal(int status, const std::string& server, const std::string& why,
                      bool unreachable) {
-  return {status,
-          nlohmann::json{{"error", why}, {"server", server}, {"unreachable", unreachable}}.dump(),
-          "application/json"};
+  return {
+      status,
+      json_body(nlohmann::json{{"error", why}, {"server", server}, {"unreachable", unreachable}}),
+      "application/json"};
 }
 }  // namespace
 

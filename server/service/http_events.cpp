@@ -16,6 +16,7 @@
 #include "service/http_json.h"
 #include "service/http_params.h"
 #include "service/http_server.h"
+#include "service/json_body.h"
 
 namespace rangex {
 
@@ -67,10 +68,10 @@ void HttpServer::event_routes(httplib::Server& s) {
           // The client closes the connection: kept alive, each refusal held one of the few
           // threads for the keep-alive timeout (168 of them once blocked /api/statistics).
           res.set_header("Connection", "close");
-          res.set_content(json{{"error", "too many event streams (" +
-                                             std::to_string(opt_.max_event_streams) + ")"}}
-                              .dump(),
-                          "application/json");
+          res.set_content(
+              json_body(json{{"error", "too many event streams (" +
+                                           std::to_string(opt_.max_event_streams) + ")"}}),
+              "application/json");
           return;
         }
         (*behind)->evicted = true;
@@ -115,7 +116,7 @@ void HttpServer::event_routes(httplib::Server& s) {
             j["images"] = image_kinds(store_, f.uid);
             // Results this client lost (it fell behind its 256) before this one.
             j["lagged"] = lagged;
-            out += "event: fillet\ndata: " + j.dump() + "\n\n";
+            out += "event: fillet\ndata: " + json_body(j) + "\n\n";
           }
           if (hub_.closed(client->sub)) {
             if (!out.empty()) sink.write(out.data(), out.size());

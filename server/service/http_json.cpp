@@ -8,6 +8,7 @@
 #include "pipeline/product_drift.h"
 #include "service/http_server.h"
 #include "service/image_view.h"
+#include "service/json_body.h"
 
 namespace rangex {
 
@@ -196,14 +197,13 @@ std::string server_health_text(Engine& engine, PlantHistory& h, const std::strin
   json lanes = json::array();
   for (const LaneState& l : engine.lanes()) lanes.push_back(lane_json(l, h, b.name));
   const Health health = engine.health();
-  return json{{"version", version},
-              {"serving", health.serving},
-              {"not_serving_because", health.reasons},
-              {"backend", b.name},
-              {"device", b.device},
-              {"lanes", lanes},
-              {"warnings", engine.stats().warnings}}
-      .dump();
+  return json_body(json{{"version", version},
+                        {"serving", health.serving},
+                        {"not_serving_because", health.reasons},
+                        {"backend", b.name},
+                        {"device", b.device},
+                        {"lanes", lanes},
+                        {"warnings", engine.stats().warnings}});
 }
 
 json image_kinds(Store& store, int64_t uid) {
@@ -214,7 +214,7 @@ json image_kinds(Store& store, int64_t uid) {
 }
 
 void send_json(httplib::Response& res, const json& j) {
-  res.set_content(j.dump(), "application/json");
+  res.set_content(json_body(j), "application/json");
 }
 
 }  // namespace rangex

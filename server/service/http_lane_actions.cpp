@@ -9,6 +9,7 @@
 #include "service/http_json.h"
 #include "service/http_params.h"
 #include "service/http_server.h"
+#include "service/json_body.h"
 
 namespace rangex {
 
@@ -18,7 +19,7 @@ namespace {
 
 void answer(httplib::Response& res, int status, const std::string& error) {
   res.status = status;
-  res.set_content(json{{"error", error}}.dump(), "application/json");
+  res.set_content(json_body(json{{"error", error}}), "application/json");
 }
 
 }  // namespace
