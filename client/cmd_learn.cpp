@@ -25,6 +25,7 @@
 #include "calib/lane_calibration_file.h"
 #include "commands.h"
 #include "core/error.h"
+#include "core/json_text.h"
 #include "learn_report.h"
 #include "offline/plant_run.h"
 #include "offline/replay.h"
@@ -277,7 +278,7 @@ int cmd_learn(int argc, char** argv) {
   const auto learned =
       learn_lanes(a, plant, lanes, check, check_rec ? check_rec->dir() : "", run, report, all_ok);
   report["ok"] = all_ok;
-  std::ofstream(run.report_dir / "learn.json") << report.dump(2) << "\n";
+  std::ofstream(run.report_dir / "learn.json") << json_dump(report, 2) << "\n";
   std::printf(
       "report: %s/learn.json and lane*_thresholds.png, lane*_sensitivity.png, lane*_qq.png\n",
       run.report_dir.c_str());

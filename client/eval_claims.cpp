@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/json_text.h"
 #include "core/text_file.h"
 
 namespace rangex::cli {
@@ -78,14 +79,13 @@ std::string claims_json(const FragmentClaims& fc) {
                       {"sphere_mm", c.missed[k].sphere_mm},
                       {"claimed_mm", c.missed[k].claim_mm}});
   }
-  return nlohmann::json{{"found", c.found},
-                        {"covered", c.covered},
-                        {"dense_found", c.dense_found},
-                        {"dense_covered", c.dense_covered},
-                        {"weighed", c.weighed},
-                        {"unknown", c.unknown},
-                        {"missed", missed}}
-      .dump();
+  return json_dump({{"found", c.found},
+                    {"covered", c.covered},
+                    {"dense_found", c.dense_found},
+                    {"dense_covered", c.dense_covered},
+                    {"weighed", c.weighed},
+                    {"unknown", c.unknown},
+                    {"missed", missed}});
 }
 
 }  // namespace rangex::cli

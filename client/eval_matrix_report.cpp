@@ -8,9 +8,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/json_text.h"
 #include "core/learned_detection.h"
 #include "eval_steps.h"
-#include "json_text.h"
 #include "offline/acceptance.h"
 #include "offline/fragment_chance.h"
 #include "offline/miss_margin.h"
@@ -294,9 +294,8 @@ std::string acceptance_json(const MatrixRow& r) {
      << ", \"recall_calcified_ge_2mm\": [" << c.found << ", " << c.present
      << "], \"recall_judged\": " << (a.recall_judged ? "true" : "false")
      << ", \"recall_met\": " << (a.recall_met ? "true" : "false")
-     << ", \"recall_exempt\": " << nlohmann::json(a.recall_exempt).dump()
-     << ", \"needles\": " << c.needles << ", \"ribs\": " << c.ribs
-     << ", \"cartilage\": " << c.cartilage << "}";
+     << ", \"recall_exempt\": " << json_text(a.recall_exempt) << ", \"needles\": " << c.needles
+     << ", \"ribs\": " << c.ribs << ", \"cartilage\": " << c.cartilage << "}";
   return os.str();
 }
 
@@ -344,9 +343,7 @@ std::string matrix_json(const std::vector<MatrixRow>& rows) {
     const MatrixRow& r = rows[i];
     os << (i ? ",\n  " : "\n  ");
     if (!r.failed.empty()) {
-      // The error may name a path, which may hold bytes that are not UTF-8.
-      os << nlohmann::json{{"name", r.name}, {"failed", r.failed}}.dump(
-          -1, ' ', false, nlohmann::json::error_handler_t::replace);
+      os << json_dump({{"name", r.name}, {"failed", r.failed}});
       continue;
     }
     os << "{\"name\": " << json_text(r.name) << ", " << fixed_json(r);

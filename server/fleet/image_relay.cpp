@@ -4,7 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "service/json_body.h"
+#include "core/json_text.h"
 
 namespace rangex {
 
@@ -13,7 +13,7 @@ RelayedImage refusal(int status, const std::string& server, const std::string& w
                      bool unreachable) {
   return {
       status,
-      json_body(nlohmann::json{{"error", why}, {"server", server}, {"unreachable", unreachable}}),
+      json_dump(nlohmann::json{{"error", why}, {"server", server}, {"unreachable", unreachable}}),
       "application/json"};
 }
 }  // namespace

@@ -2,6 +2,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/json_text.h"
+
 namespace rangex {
 
 namespace {
@@ -130,7 +132,7 @@ std::string learned_report_json(int lane, const ProductLearning& L, const Sensit
        "penalised likelihood) has its one-sided claim_confidence lower bound "
        ">= rate there"}};
   if (!tradeoff.empty()) j["tradeoff"] = tradeoff_json(tradeoff);
-  return j.dump();
+  return json_dump(j);
 }
 
 std::string claim_checks_json(const std::string& recording, int fillets,
@@ -176,7 +178,7 @@ std::string claim_checks_json(const std::string& recording, int fillets,
                             {"stated_contradicted", stated_contradicted},
                             {"stated_checks", sentences},
                             {"cells", cells_json(cells)}};
-  return j.dump();
+  return json_dump(j);
 }
 
 LearnedReportStatus check_learned_report(const std::string& report, int lane) {

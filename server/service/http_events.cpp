@@ -12,11 +12,11 @@
 #include <mutex>
 #include <set>
 
+#include "core/json_text.h"
 #include "service/gated_http_server.h"
 #include "service/http_json.h"
 #include "service/http_params.h"
 #include "service/http_server.h"
-#include "service/json_body.h"
 
 namespace rangex {
 
@@ -69,7 +69,7 @@ void HttpServer::event_routes(httplib::Server& s) {
           // threads for the keep-alive timeout (168 of them once blocked /api/statistics).
           res.set_header("Connection", "close");
           res.set_content(
-              json_body(json{{"error", "too many event streams (" +
+              json_dump(json{{"error", "too many event streams (" +
                                            std::to_string(opt_.max_event_streams) + ")"}}),
               "application/json");
           return;
@@ -116,7 +116,7 @@ void HttpServer::event_routes(httplib::Server& s) {
             j["images"] = image_kinds(store_, f.uid);
             // Results this client lost (it fell behind its 256) before this one.
             j["lagged"] = lagged;
-            out += "event: fillet\ndata: " + json_body(j) + "\n\n";
+            out += "event: fillet\ndata: " + json_dump(j) + "\n\n";
           }
           if (hub_.closed(client->sub)) {
             if (!out.empty()) sink.write(out.data(), out.size());

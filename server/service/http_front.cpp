@@ -9,9 +9,9 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/json_text.h"
 #include "service/gated_http_server.h"
 #include "service/http_params.h"
-#include "service/json_body.h"
 #include "web_assets.h"
 
 namespace rangex {
@@ -69,7 +69,7 @@ bool refuse_hostile(const httplib::Request& req, httplib::Response& res) {
   if (req.headers.size() > kMaxHeaders) {
     res.status = 431;
     res.set_content(
-        json_body(json{{"error", "more than " + std::to_string(kMaxHeaders) + " request headers (" +
+        json_dump(json{{"error", "more than " + std::to_string(kMaxHeaders) + " request headers (" +
                                      std::to_string(req.headers.size()) + ")"}}),
         "application/json");
     return true;
@@ -80,7 +80,7 @@ bool refuse_hostile(const httplib::Request& req, httplib::Response& res) {
     const_cast<httplib::Request&>(req).ranges.clear();
     res.status = 416;
     res.set_content(
-        json_body(json{{"error", "multi-range requests are not served (" + std::to_string(parts) +
+        json_dump(json{{"error", "multi-range requests are not served (" + std::to_string(parts) +
                                      " ranges); ask for one range"}}),
         "application/json");
     return true;
@@ -151,10 +151,10 @@ void guard_http(httplib::Server& s, const AccessControl& access) {
     } catch (const Unauthenticated& e) {
       res.status = 401;
       res.set_header("WWW-Authenticate", "Basic realm=\"rangex\", charset=\"UTF-8\"");
-      res.set_content(json_body(json{{"error", e.what()}}), "application/json");
+      res.set_content(json_dump(json{{"error", e.what()}}), "application/json");
     } catch (const PermissionDenied& e) {
       res.status = 403;
-      res.set_content(json_body(json{{"error", e.what()}}), "application/json");
+      res.set_content(json_dump(json{{"error", e.what()}}), "application/json");
     }
     return httplib::Server::HandlerResponse::Handled;
   });
@@ -179,7 +179,7 @@ void guard_http(httplib::Server& s, const AccessControl& access) {
           msg = e.what();
         }
         res.status = status;
-        res.set_content(json_body(json{{"error", msg}}), "application/json");
+        res.set_content(json_dump(json{{"error", msg}}), "application/json");
       });
 }
 

@@ -5,10 +5,10 @@
 #include <utility>
 #include <vector>
 
+#include "core/json_text.h"
 #include "pipeline/product_drift.h"
 #include "service/http_server.h"
 #include "service/image_view.h"
-#include "service/json_body.h"
 
 namespace rangex {
 
@@ -197,7 +197,7 @@ std::string server_health_text(Engine& engine, PlantHistory& h, const std::strin
   json lanes = json::array();
   for (const LaneState& l : engine.lanes()) lanes.push_back(lane_json(l, h, b.name));
   const Health health = engine.health();
-  return json_body(json{{"version", version},
+  return json_dump(json{{"version", version},
                         {"serving", health.serving},
                         {"not_serving_because", health.reasons},
                         {"backend", b.name},
@@ -214,7 +214,7 @@ json image_kinds(Store& store, int64_t uid) {
 }
 
 void send_json(httplib::Response& res, const json& j) {
-  res.set_content(json_body(j), "application/json");
+  res.set_content(json_dump(j), "application/json");
 }
 
 }  // namespace rangex

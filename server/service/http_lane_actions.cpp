@@ -6,10 +6,10 @@
 #include <httplib.h>
 
 #include "core/error.h"
+#include "core/json_text.h"
 #include "service/http_json.h"
 #include "service/http_params.h"
 #include "service/http_server.h"
-#include "service/json_body.h"
 
 namespace rangex {
 
@@ -19,7 +19,7 @@ namespace {
 
 void answer(httplib::Response& res, int status, const std::string& error) {
   res.status = status;
-  res.set_content(json_body(json{{"error", error}}), "application/json");
+  res.set_content(json_dump(json{{"error", error}}), "application/json");
 }
 
 }  // namespace
