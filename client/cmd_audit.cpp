@@ -14,6 +14,8 @@
 namespace rangex::cli {
 
 namespace {
+// Not core/json_text: a link's bytes are written as they are, never replaced, so that the
+// export hashes as the chain did.
 std::string json_string(const std::string& s) {
   std::string out = "\"";
   for (unsigned char c : s) {

@@ -21,6 +21,15 @@ std::string error_of(const std::string& yaml) {
   }
   return "";
 }
+// Why a calibration set uploaded for a lane of the shipped rig is refused ("" if taken).
+std::string calibration_error_of(const std::string& yaml) {
+  try {
+    apply_lane_calibration(default_plant_config(1).lanes[0], yaml, "upload");
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
 }  // namespace
 
 TEST(PlantConfig, HugeDocumentsAreRefusedBeforeParsing) {
@@ -429,15 +438,26 @@ TEST(PlantConfig, AKeyThatIsNotANameIsRefusedNamingWhere) {
                 .find("lanes[0]: has a key that is not a plain name"),
             std::string::npos)
       << error_of("lanes: [{id: 0, [0, 1]: 2}]\n");
-  try {
-    apply_lane_calibration(default_plant_config(1).lanes[0],
-                           "laser_plane: {normal: [0, 1, 0], [0, 1, 0]: 0.05}\n", "upload");
-    ADD_FAILURE() << "taken";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("laser_plane: has a key that is not a plain name"),
-              std::string::npos)
-        << e.what();
-  }
+  const std::string why =
+      calibration_error_of("laser_plane: {normal: [0, 1, 0], [0, 1, 0]: 0.05}\n");
+  EXPECT_NE(why.find("laser_plane: has a key that is not a plain name"), std::string::npos) << why;
+}
+
+// A plant named with a byte that is not UTF-8 was taken, and every gRPC client then failed
+// to read the server's info ("No message returned"): protobuf strings must be UTF-8, and so
+// must YAML. Such a file is refused naming the line and the byte; UTF-8 names are taken.
+TEST(PlantConfig, TextThatIsNotUtf8IsRefusedNamingWhere) {
+  EXPECT_EQ(error_of("plant:\n  name: demo\xffplant\nlanes: [{id: 0}]\n"),
+            "test.yaml: line 2: byte 0xFF is not UTF-8 (YAML is Unicode text: write names and "
+            "notes in UTF-8)");
+  EXPECT_NE(error_of("lanes: [{id: 0, name: \"lane \xc3\"}]\n").find("line 1: byte 0xC3"),
+            std::string::npos);
+  EXPECT_EQ(parse_plant_config("plant:\n  name: \"Fl\xc3\xa6sk \xe2\x82\xac\"\nlanes: [{id: 0}]\n",
+                               "test.yaml")
+                .name,
+            "Fl\xc3\xa6sk \xe2\x82\xac");
+  const std::string why = calibration_error_of("cameras: [{name: \"cam\xed\xa0\x80\"}]\n");
+  EXPECT_NE(why.find("upload: line 1: byte 0xED is not UTF-8"), std::string::npos) << why;
 }
 
 // Found by fuzzing: strings in a stored calibration (camera names, where the scatter

@@ -4,22 +4,11 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/json_text.h"
+
 namespace rangex {
 
 namespace {
-
-std::string quote(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    if (c == '\n') {
-      o += "\\n";
-      continue;
-    }
-    o += c;
-  }
-  return o + "\"";
-}
 
 std::string number(double v) {
   if (!std::isfinite(v)) return "null";
@@ -32,21 +21,21 @@ std::string number(double v) {
 
 std::string SolveReport::json() const {
   std::ostringstream o;
-  o << "{\"solver\": " << quote(solver) << ", \"subject\": " << quote(subject)
+  o << "{\"solver\": " << json_text(solver) << ", \"subject\": " << json_text(subject)
     << ", \"passed\": " << (passed ? "true" : "false") << ",\n  \"parameters\": [";
   for (size_t i = 0; i < parameters.size(); ++i) {
     const Estimate& e = parameters[i];
-    o << (i ? ",\n    " : "\n    ") << "{\"name\": " << quote(e.name)
+    o << (i ? ",\n    " : "\n    ") << "{\"name\": " << json_text(e.name)
       << ", \"value\": " << number(e.value) << ", \"std\": " << number(e.stddev)
-      << ", \"unit\": " << quote(e.unit) << "}";
+      << ", \"unit\": " << json_text(e.unit) << "}";
   }
   o << "],\n  \"figures\": {";
   for (size_t i = 0; i < figures.size(); ++i)
-    o << (i ? ", " : "") << quote(figures[i].first) << ": " << number(figures[i].second);
+    o << (i ? ", " : "") << json_text(figures[i].first) << ": " << number(figures[i].second);
   o << "},\n  \"warnings\": [";
-  for (size_t i = 0; i < warnings.size(); ++i) o << (i ? ", " : "") << quote(warnings[i]);
+  for (size_t i = 0; i < warnings.size(); ++i) o << (i ? ", " : "") << json_text(warnings[i]);
   o << "],\n  \"failures\": [";
-  for (size_t i = 0; i < failures.size(); ++i) o << (i ? ", " : "") << quote(failures[i]);
+  for (size_t i = 0; i < failures.size(); ++i) o << (i ? ", " : "") << json_text(failures[i]);
   o << "]}";
   return o.str();
 }

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/json_text.h"
 
 namespace fs = std::filesystem;
 
@@ -177,14 +178,12 @@ std::string fillets_json(const RecordSet& s) {
   os << "[";
   for (size_t i = 0; i < s.fillets.size(); ++i) {
     const FilletRecord& r = s.fillets[i];
-    std::string reason;
-    for (char ch : r.reason)
-      reason += (ch == '"' || ch == '\\') ? std::string("\\") + ch : std::string(1, ch);
     os << (i ? ",\n " : "\n ") << "{\"lane\": " << r.lane << ", \"fillet\": " << r.fillet
        << ", \"first_line\": " << r.first_line << ", \"rows\": " << r.rows << ", \"belt_mm\": ["
-       << r.y0_mm << ", " << r.y1_mm << "], \"decision\": \"" << r.decision << "\", \"reason\": \""
-       << reason << "\", \"beta0\": " << r.beta0 << ", \"beta1\": " << r.beta1
-       << ", \"scale\": " << r.scale << ", \"iterations\": " << r.iterations
+       << r.y0_mm << ", " << r.y1_mm << "], \"decision\": \"" << r.decision
+       << "\", \"reason\": " << json_text(r.reason) << ", \"beta0\": " << r.beta0
+       << ", \"beta1\": " << r.beta1 << ", \"scale\": " << r.scale
+       << ", \"iterations\": " << r.iterations
        << ", \"converged\": " << (r.converged ? "true" : "false") << ", \"pixels\": " << r.pixels
        << ", \"residual_mean_dn\": " << r.resid_mean_dn
        << ", \"residual_std_dn\": " << r.resid_std_dn << ", \"fragments\": [";
