@@ -17,6 +17,7 @@
 #include "rangex/v1/decision_names.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "server_client.h"
+#include "service/pb_convert.h"
 #include "service/server.h"
 #include "sim/plant_simulator.h"
 #include "temp_dir.h"
@@ -834,4 +835,43 @@ TEST(DecisionNames, EveryDecisionHasOneNameBothWays) {
   }
   EXPECT_EQ(decision_from_name("PASS"), pb::DECISION_UNSPECIFIED);
   EXPECT_EQ(decision_from_name(""), pb::DECISION_UNSPECIFIED);
+}
+
+// A camera's vendor and model are bytes of its registers, a database names its errors in its
+// own encoding, a data folder may be any path: such text reaches the messages as UTF-8 (U+FFFD
+// for a byte that is not), or no client could read GetServerInfo or GetStatistics at all.
+TEST(Server, TextFromOutsideReachesTheMessagesAsUtf8) {
+  const std::string fffd = "\xEF\xBF\xBD";
+  LaneState lane;
+  lane.config = default_plant_config(1).lanes[0];
+  SensorState cam;
+  cam.role = "cam0";
+  cam.device = "cam-\xff";
+  cam.description = "Vend\xe4r M1 #12";
+  cam.error = "lost \xc3";
+  lane.sensors = LaneSensors{};
+  lane.sensors->devices.push_back(cam);
+  pb::LaneInfo info;
+  fill(&info, lane);
+  pb::LaneInfo info_back;
+  ASSERT_TRUE(info_back.ParseFromString(info.SerializeAsString()));
+  const pb::SensorDevice& d = info_back.sensors().devices(0);
+  EXPECT_EQ(d.device(), "cam-" + fffd);
+  EXPECT_EQ(d.description(), "Vend" + fffd + "r M1 #12");
+  EXPECT_EQ(d.error(), "lost " + fffd);
+
+  EngineStats st;
+  st.plc = PlcStatus{};
+  st.plc->error = "\xe4 timeout";
+  st.forwarding = ForwarderStatus{};
+  st.forwarding->last_error = "FATAL: Passwort f\xfcr Benutzer";
+  st.recording.name = "shift";
+  st.recording.dir = "/data/\xff/shift";
+  pb::GetStatisticsResponse stats;
+  fill(&stats, st);
+  pb::GetStatisticsResponse stats_back;
+  ASSERT_TRUE(stats_back.ParseFromString(stats.SerializeAsString()));
+  EXPECT_EQ(stats_back.plc().error(), fffd + " timeout");
+  EXPECT_EQ(stats_back.forwarding().error(), "FATAL: Passwort f" + fffd + "r Benutzer");
+  EXPECT_EQ(stats_back.recording().dir(), "/data/" + fffd + "/shift");
 }

@@ -62,3 +62,19 @@ TEST(Utf8, AgreesWithIconvOnRandomBytes) {
   iconv_close(cd);
   EXPECT_GT(valid, 1000);  // the comparison saw well-formed text too
 }
+
+TEST(Utf8, ValidUtf8ReplacesWhatIconvRefusesAndKeepsTheRest) {
+  iconv_t cd = iconv_open("UTF-32LE", "UTF-8");
+  ASSERT_NE(cd, iconv_t(-1));
+  EXPECT_EQ(valid_utf8("Vend\xe4r #1"), "Vend\xEF\xBF\xBDr #1");
+  EXPECT_EQ(valid_utf8("\xc3\xa6 \xe2\x82"), "\xc3\xa6 \xEF\xBF\xBD\xEF\xBF\xBD");
+  std::mt19937 rng(12);
+  for (int k = 0; k < 20000; ++k) {
+    std::string s(1 + rng() % 8, ' ');
+    for (char& c : s) c = char(rng() % 2 ? 'a' + rng() % 3 : 0x80 + rng() % 128);
+    const std::string v = valid_utf8(s);
+    ASSERT_EQ(iconv_invalid_at(cd, v), std::string::npos) << "case " << k;
+    if (iconv_invalid_at(cd, s) == std::string::npos) ASSERT_EQ(v, s) << "case " << k;
+  }
+  iconv_close(cd);
+}

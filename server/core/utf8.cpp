@@ -39,4 +39,20 @@ size_t invalid_utf8_at(std::string_view s) {
   return std::string::npos;
 }
 
+std::string valid_utf8(std::string_view s) {
+  std::string out;
+  out.reserve(s.size());
+  while (!s.empty()) {
+    const size_t at = invalid_utf8_at(s);
+    if (at == std::string::npos) {
+      out += s;
+      break;
+    }
+    out += s.substr(0, at);
+    out += "\xEF\xBF\xBD";  // U+FFFD
+    s.remove_prefix(at + 1);
+  }
+  return out;
+}
+
 }  // namespace rangex

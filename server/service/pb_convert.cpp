@@ -3,6 +3,7 @@
 #include "core/calibration_report.h"
 #include "core/error.h"
 #include "core/plant_config.h"
+#include "core/utf8.h"
 #include "pipeline/learned_report.h"
 #include "rangex/v1/decision_names.h"
 
@@ -125,13 +126,16 @@ void fill(pb::LaneInfo* o, const LaneState& s) {
     ls->set_lines(s.sensors->lines);
     ls->set_incomplete_lines(s.sensors->incomplete);
     ls->set_refused_lines(s.sensors->refused);
+    // Text from outside (a camera's vendor and model are bytes of its registers, a database
+    // names its own errors) is made UTF-8: a protobuf string that is not would leave every
+    // client unable to read the whole message.
     for (const SensorState& d : s.sensors->devices) {
       pb::SensorDevice* pd = ls->add_devices();
       pd->set_role(d.role);
-      pd->set_device(d.device);
-      pd->set_description(d.description);
+      pd->set_device(valid_utf8(d.device));
+      pd->set_description(valid_utf8(d.description));
       pd->set_state(d.state);
-      pd->set_error(d.error);
+      pd->set_error(valid_utf8(d.error));
       pd->set_frames(d.frames);
       pd->set_incomplete(d.incomplete);
       pd->set_lost_frames(d.lost_frames);
@@ -147,7 +151,7 @@ void fill(pb::LaneInfo* o, const LaneState& s) {
 void fill(pb::RecordingStatus* o, const RecordingStatus& r) {
   o->set_active(r.active);
   o->set_name(r.name);
-  o->set_dir(r.dir);
+  o->set_dir(valid_utf8(r.dir));
   for (int l : r.lanes) o->add_lanes(l);
   o->set_minutes(r.minutes);
   o->set_started_unix_ns(r.started_unix_ns);
@@ -165,7 +169,7 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
     pb::PlcStatus* p = o->mutable_plc();
     p->set_address(s.plc->address);
     p->set_connected(s.plc->connected);
-    p->set_error(s.plc->error);
+    p->set_error(valid_utf8(s.plc->error));
     p->set_released(s.plc->released);
     p->set_diverted(s.plc->diverted);
     p->set_late(s.plc->late);
@@ -181,7 +185,7 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
     p->set_database(f.database);
     p->set_connected(f.connected);
     p->set_state(f.state);
-    p->set_error(f.last_error);
+    p->set_error(valid_utf8(f.last_error));
     p->set_lag_records(f.lag_records);
     p->set_lag_seconds(f.lag_seconds);
     p->set_forwarded_seq(f.forwarded_seq);
