@@ -837,6 +837,71 @@ TEST(DecisionNames, EveryDecisionHasOneNameBothWays) {
   EXPECT_EQ(decision_from_name(""), pb::DECISION_UNSPECIFIED);
 }
 
+// The ids and names a client gives are listed, audited and logged, one line each: an empty
+// one, one of more than 100 bytes and one holding a control character are refused, naming
+// which; one of 100 bytes of UTF-8 is taken.
+TEST(Server, IdsAndNamesAreOneLineOfAtMostAHundredBytes) {
+  test::TempDir t;
+  RangexServer server(plant(), options(t));
+  auto ch = connect(server);
+  auto cal = pb::CalibrationService::NewStub(ch);
+  auto control = pb::ControlService::NewStub(ch);
+  auto upload = [&](const std::string& id) {
+    grpc::ClientContext c;
+    pb::UploadCalibrationRequest up;
+    up.set_lane(0);
+    up.set_id(id);
+    up.set_yaml("laser_plane: {normal: [0, 1, 0], offset_mm: 0.05}\n");
+    pb::UploadCalibrationResponse r;
+    return cal->UploadCalibration(&c, up, &r);
+  };
+  const std::pair<std::string, std::string> refused[] = {
+      {"", "a calibration's id is empty"},
+      {std::string(101, 'x'), "a calibration's id is 101 bytes, more than the 100 allowed"},
+      {"recal\n2026", "a calibration's id 'recal...' holds the control character 0x0A at 5"}};
+  for (const auto& [id, why] : refused) {
+    const grpc::Status s = upload(id);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << why;
+    EXPECT_EQ(s.error_message(), why);
+  }
+  std::string longest;
+  while (longest.size() < 100) longest += "\xc3\xa6";  // ae, two bytes each
+  EXPECT_TRUE(upload(longest).ok());
+  {
+    grpc::ClientContext c;
+    pb::UploadLearnedSettingsRequest up;
+    up.set_lane(0);
+    up.set_id("live\t3");
+    pb::UploadLearnedSettingsResponse r;
+    const grpc::Status s = control->UploadLearnedSettings(&c, up, &r);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_EQ(s.error_message(),
+              "learned settings' id 'live...' holds the control character 0x09 at 4");
+  }
+  {  // the same for a learning on the live lane, before it waits for a fillet
+    grpc::ClientContext c;
+    c.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    pb::LearnProductRequest q;
+    q.set_lane(0);
+    q.set_id(std::string(120, 'v'));
+    pb::LearnProductResponse r;
+    const grpc::Status s = control->LearnProduct(&c, q, &r);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_EQ(s.error_message(), "learned settings' id is 120 bytes, more than the 100 allowed");
+  }
+  {
+    grpc::ClientContext c;
+    pb::StartRecordingRequest q;
+    q.set_minutes(1);
+    q.set_name("shift\r");
+    pb::StartRecordingResponse r;
+    const grpc::Status s = control->StartRecording(&c, q, &r);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_EQ(s.error_message(),
+              "a recording's name 'shift...' holds the control character 0x0D at 5");
+  }
+}
+
 // A camera's vendor and model are bytes of its registers, a database names its errors in its
 // own encoding, a data folder may be any path: such text reaches the messages as UTF-8 (U+FFFD
 // for a byte that is not), or no client could read GetServerInfo or GetStatistics at all.

@@ -23,4 +23,16 @@ void check_size(const std::string& what, size_t bytes, size_t limit) {
          " allowed; refused before parsing");
 }
 
+void check_name(const std::string& what, const std::string& name) {
+  if (name.empty()) fail(what, " is empty");
+  if (name.size() > kMaxNameBytes)
+    fail(what, " is ", human(name.size()), ", more than the ", kMaxNameBytes, " allowed");
+  for (size_t i = 0; i < name.size(); ++i)
+    if (const unsigned char c = static_cast<unsigned char>(name[i]); c < 0x20 || c == 0x7F) {
+      char code[8];
+      std::snprintf(code, sizeof code, "0x%02X", unsigned(c));
+      fail(what, " '", name.substr(0, i), "...' holds the control character ", code, " at ", i);
+    }
+}
+
 }  // namespace rangex

@@ -16,7 +16,14 @@ constexpr size_t kMaxReportBytes = size_t(4) << 20;       // a calibration's or 
 constexpr size_t kMaxKeptLearningBytes = size_t(64) << 20;
 constexpr size_t kMaxYamlBytes = kMaxPlantConfigBytes;  // any YAML document at all
 
+// An id or a name a client gives (a calibration's, learned settings', a recording's): listed,
+// audited and logged, one line each.
+constexpr size_t kMaxNameBytes = 100;
+
 // Throws an Error naming `what`, its size and the bound when bytes > limit.
 void check_size(const std::string& what, size_t bytes, size_t limit);
+// Throws an Error naming `what` unless `name` is 1..kMaxNameBytes bytes without control
+// characters (a line break in an id would break each line that lists, audits or logs it).
+void check_name(const std::string& what, const std::string& name);
 
 }  // namespace rangex

@@ -109,7 +109,7 @@ StoredCalibration Engine::upload_calibration(int id, const std::string& cid,
                                              const std::string& yaml, const std::string& who,
                                              const std::string& report) {
   Lane& l = lane(id);
-  if (cid.empty()) fail("a calibration needs an id");
+  check_name("a calibration's id", cid);
   check_size("calibration '" + cid + "'", yaml.size(), kMaxCalibrationBytes);
   check_size("calibration '" + cid + "' report", report.size(), kMaxReportBytes);
   LaneConfig base;

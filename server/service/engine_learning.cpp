@@ -54,7 +54,7 @@ void Engine::collect_result(Lane& l, const FilletResult& r) {
 StoredSetting Engine::upload_learned(int id, const std::string& vid, const std::string& yaml,
                                      const std::string& report, const std::string& who) {
   lane(id);  // NOT_FOUND for an unknown lane
-  if (vid.empty()) fail("learned settings need an id");
+  check_name("learned settings' id", vid);
   check_size("learned settings '" + vid + "'", yaml.size(), kMaxLearnedBytes);
   check_size("learned settings '" + vid + "' report", report.size(), kMaxReportBytes);
   // Parsed now: a malformed section is refused at upload, naming the key.
@@ -189,6 +189,7 @@ StoredSetting Engine::learn_product(int id, const LearnRequest& req, const std::
   const bool relearn = !req.relearn_from.empty();
   check_learn_request(req);
   const std::string vid = req.id.empty() ? learning_version_name() : req.id;
+  check_name("learned settings' id", vid);
   if (store_.setting(SettingKind::kLearned, id, vid))
     fail_exists("lane ", id, " already has learned settings '", vid, "' (versions are immutable)");
 

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "core/recording.h"
+#include "core/size_limits.h"
 
 namespace fs = std::filesystem;
 
@@ -75,8 +76,8 @@ RecordingStatus ShiftRecorder::start(const RecordingRequest& req, double lines_p
   if (!(req.minutes > 0) || req.minutes > 24 * 60)
     fail("a recording lasts more than 0 and at most 1440 minutes (got ", req.minutes, ")");
   const std::string name = req.name.empty() ? utc_name() : req.name;
-  if (name.find_first_of("/\\") != std::string::npos || name == "." || name == ".." ||
-      name.size() > 100)
+  check_name("a recording's name", name);
+  if (name.find_first_of("/\\") != std::string::npos || name == "." || name == "..")
     fail("recording name '", name, "' is not a plain folder name");
   std::lock_guard<std::mutex> lk(mu_);
   if (status_.active)
