@@ -3,6 +3,7 @@
 // that the lane inspects.
 #include <gtest/gtest.h>
 
+#include "core/error.h"
 #include "core/plant_config.h"
 #include "service/verifications.h"
 #include "store/store.h"
@@ -41,4 +42,31 @@ TEST(Verifications, APieceOnAFilletNotInspectedDoesNotVerifyTheLane) {
   ASSERT_TRUE(r.last);
   EXPECT_TRUE(r.last->passed) << r.last->detail;
   EXPECT_NEAR(r.last->found_x_mm, 22, 1e-9);
+}
+
+// The piece's name is audited and shown, one line: an empty one, one of more than 200 bytes,
+// one with a quote or a control character is refused, naming what is wrong.
+TEST(Verifications, APieceNameIsOneLineWithoutQuotes) {
+  test::TempDir t;
+  const PlantConfig plant = load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml");
+  Store store(t.str());
+  Verifications v(plant, store);
+  auto refusal = [&](const std::string& piece) {
+    try {
+      v.start({0, piece, 20, 5, 2}, "alice");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(refusal(""), "the test piece's name is empty");
+  EXPECT_EQ(refusal(std::string(201, 'p')),
+            "the test piece's name is 201 bytes, more than the 200 allowed");
+  EXPECT_EQ(refusal("2 mm\nsphere"),
+            "the test piece's name '2 mm...' holds the control character 0x0A at 4");
+  EXPECT_EQ(refusal("2 mm 'sphere'"),
+            "the test piece's name holds a quote (name it e.g. 2 mm calcified sphere)");
+  EXPECT_FALSE(v.lane(0).running);
+  EXPECT_EQ(refusal(std::string(200, 'p')), "");
+  EXPECT_TRUE(v.lane(0).running);
 }

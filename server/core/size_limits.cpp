@@ -23,10 +23,10 @@ void check_size(const std::string& what, size_t bytes, size_t limit) {
          " allowed; refused before parsing");
 }
 
-void check_name(const std::string& what, const std::string& name) {
+void check_name(const std::string& what, const std::string& name, size_t max_bytes) {
   if (name.empty()) fail(what, " is empty");
-  if (name.size() > kMaxNameBytes)
-    fail(what, " is ", human(name.size()), ", more than the ", kMaxNameBytes, " allowed");
+  if (name.size() > max_bytes)
+    fail(what, " is ", human(name.size()), ", more than the ", max_bytes, " allowed");
   for (size_t i = 0; i < name.size(); ++i)
     if (const unsigned char c = static_cast<unsigned char>(name[i]); c < 0x20 || c == 0x7F) {
       char code[8];

@@ -22,8 +22,8 @@ constexpr size_t kMaxNameBytes = 100;
 
 // Throws an Error naming `what`, its size and the bound when bytes > limit.
 void check_size(const std::string& what, size_t bytes, size_t limit);
-// Throws an Error naming `what` unless `name` is 1..kMaxNameBytes bytes without control
+// Throws an Error naming `what` unless `name` is 1..max_bytes bytes without control
 // characters (a line break in an id would break each line that lists, audits or logs it).
-void check_name(const std::string& what, const std::string& name);
+void check_name(const std::string& what, const std::string& name, size_t max_bytes = kMaxNameBytes);
 
 }  // namespace rangex

@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "core/size_limits.h"
 
 namespace rangex {
 
@@ -42,10 +43,9 @@ Verifications::Verifications(const PlantConfig& plant, Store& store)
 void Verifications::start(const VerificationRequest& in, const std::string& who) {
   VerificationRequest req = in;
   plant_.lane(req.lane);  // NotFound for an unknown lane
-  if (req.piece.empty() || req.piece.size() > 200 || req.piece.find('\'') != std::string::npos)
-    fail(
-        "the test piece needs a name of 1 to 200 characters without quotes (e.g. '2 mm "
-        "calcified sphere')");
+  check_name("the test piece's name", req.piece, 200);
+  if (req.piece.find('\'') != std::string::npos)
+    fail("the test piece's name holds a quote (name it e.g. 2 mm calcified sphere)");
   if (!std::isfinite(req.x_mm) || std::fabs(req.x_mm) > 2000)
     fail("x_mm ", req.x_mm, " is not a place across the belt");
   if (req.tolerance_mm == 0) req.tolerance_mm = plant_.verification.tolerance_mm;
