@@ -837,6 +837,14 @@ TEST(DecisionNames, EveryDecisionHasOneNameBothWays) {
   EXPECT_EQ(decision_from_name(""), pb::DECISION_UNSPECIFIED);
 }
 
+namespace {
+// A refusal of a bad argument, naming what is wrong.
+void expect_refused(const grpc::Status& s, const std::string& why) {
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << why;
+  EXPECT_EQ(s.error_message(), why);
+}
+}  // namespace
+
 // The ids and names a client gives are listed, audited and logged, one line each: an empty
 // one, one of more than 100 bytes and one holding a control character are refused, naming
 // which; one of 100 bytes of UTF-8 is taken.
@@ -859,11 +867,7 @@ TEST(Server, IdsAndNamesAreOneLineOfAtMostAHundredBytes) {
       {"", "a calibration's id is empty"},
       {std::string(101, 'x'), "a calibration's id is 101 bytes, more than the 100 allowed"},
       {"recal\n2026", "a calibration's id 'recal...' holds the control character 0x0A at 5"}};
-  for (const auto& [id, why] : refused) {
-    const grpc::Status s = upload(id);
-    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << why;
-    EXPECT_EQ(s.error_message(), why);
-  }
+  for (const auto& [id, why] : refused) expect_refused(upload(id), why);
   std::string longest;
   while (longest.size() < 100) longest += "\xc3\xa6";  // ae, two bytes each
   EXPECT_TRUE(upload(longest).ok());
@@ -873,10 +877,8 @@ TEST(Server, IdsAndNamesAreOneLineOfAtMostAHundredBytes) {
     up.set_lane(0);
     up.set_id("live\t3");
     pb::UploadLearnedSettingsResponse r;
-    const grpc::Status s = control->UploadLearnedSettings(&c, up, &r);
-    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-    EXPECT_EQ(s.error_message(),
-              "learned settings' id 'live...' holds the control character 0x09 at 4");
+    expect_refused(control->UploadLearnedSettings(&c, up, &r),
+                   "learned settings' id 'live...' holds the control character 0x09 at 4");
   }
   {  // the same for a learning on the live lane, before it waits for a fillet
     grpc::ClientContext c;
@@ -885,9 +887,8 @@ TEST(Server, IdsAndNamesAreOneLineOfAtMostAHundredBytes) {
     q.set_lane(0);
     q.set_id(std::string(120, 'v'));
     pb::LearnProductResponse r;
-    const grpc::Status s = control->LearnProduct(&c, q, &r);
-    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-    EXPECT_EQ(s.error_message(), "learned settings' id is 120 bytes, more than the 100 allowed");
+    expect_refused(control->LearnProduct(&c, q, &r),
+                   "learned settings' id is 120 bytes, more than the 100 allowed");
   }
   {
     grpc::ClientContext c;
@@ -895,10 +896,8 @@ TEST(Server, IdsAndNamesAreOneLineOfAtMostAHundredBytes) {
     q.set_minutes(1);
     q.set_name("shift\r");
     pb::StartRecordingResponse r;
-    const grpc::Status s = control->StartRecording(&c, q, &r);
-    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-    EXPECT_EQ(s.error_message(),
-              "a recording's name 'shift...' holds the control character 0x0D at 5");
+    expect_refused(control->StartRecording(&c, q, &r),
+                   "a recording's name 'shift...' holds the control character 0x0D at 5");
   }
 }
 
@@ -916,6 +915,7 @@ TEST(Server, TextFromOutsideReachesTheMessagesAsUtf8) {
   cam.error = "lost \xc3";
   lane.sensors = LaneSensors{};
   lane.sensors->devices.push_back(cam);
+  lane.plc = "unreachable: \xe4 timeout";
   pb::LaneInfo info;
   fill(&info, lane);
   pb::LaneInfo info_back;
@@ -924,6 +924,7 @@ TEST(Server, TextFromOutsideReachesTheMessagesAsUtf8) {
   EXPECT_EQ(d.device(), "cam-" + fffd);
   EXPECT_EQ(d.description(), "Vend" + fffd + "r M1 #12");
   EXPECT_EQ(d.error(), "lost " + fffd);
+  EXPECT_EQ(info_back.plc_state(), "unreachable: " + fffd + " timeout");
 
   EngineStats st;
   st.plc = PlcStatus{};
@@ -932,6 +933,7 @@ TEST(Server, TextFromOutsideReachesTheMessagesAsUtf8) {
   st.forwarding->last_error = "FATAL: Passwort f\xfcr Benutzer";
   st.recording.name = "shift";
   st.recording.dir = "/data/\xff/shift";
+  st.warnings.push_back("lane 0 cam0 (cam-\xff) lost: lost \xc3");
   pb::GetStatisticsResponse stats;
   fill(&stats, st);
   pb::GetStatisticsResponse stats_back;
@@ -939,4 +941,6 @@ TEST(Server, TextFromOutsideReachesTheMessagesAsUtf8) {
   EXPECT_EQ(stats_back.plc().error(), fffd + " timeout");
   EXPECT_EQ(stats_back.forwarding().error(), "FATAL: Passwort f" + fffd + "r Benutzer");
   EXPECT_EQ(stats_back.recording().dir(), "/data/" + fffd + "/shift");
+  ASSERT_EQ(stats_back.warnings_size(), 1);
+  EXPECT_EQ(stats_back.warnings(0), "lane 0 cam0 (cam-" + fffd + ") lost: lost " + fffd);
 }

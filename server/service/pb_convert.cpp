@@ -9,6 +9,42 @@
 
 namespace rangex {
 
+namespace {
+
+// Text from outside reaches these messages: a camera's vendor, model and serial are bytes of
+// its registers, a database and a PLC name their own errors, a folder may be any path, and
+// warnings and states repeat them. A protobuf string that is not UTF-8 leaves every client
+// unable to read the whole message, so each string field, nested and repeated ones too, is
+// made UTF-8 (U+FFFD for a byte that is not) once the message is filled.
+void make_strings_utf8(google::protobuf::Message& m) {
+  using google::protobuf::FieldDescriptor;
+  const google::protobuf::Descriptor* d = m.GetDescriptor();
+  const google::protobuf::Reflection* r = m.GetReflection();
+  for (int i = 0; i < d->field_count(); ++i) {
+    const FieldDescriptor* f = d->field(i);
+    if (f->type() == FieldDescriptor::TYPE_STRING) {
+      if (f->is_repeated()) {
+        for (int k = 0; k < r->FieldSize(m, f); ++k)
+          if (const std::string v = r->GetRepeatedString(m, f, k);
+              invalid_utf8_at(v) != std::string::npos)
+            r->SetRepeatedString(&m, f, k, valid_utf8(v));
+      } else if (const std::string v = r->GetString(m, f);
+                 invalid_utf8_at(v) != std::string::npos) {
+        r->SetString(&m, f, valid_utf8(v));
+      }
+    } else if (f->cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE) {
+      if (f->is_repeated()) {
+        for (int k = 0; k < r->FieldSize(m, f); ++k)
+          make_strings_utf8(*r->MutableRepeatedMessage(&m, f, k));
+      } else if (r->HasField(m, f)) {
+        make_strings_utf8(*r->MutableMessage(&m, f));
+      }
+    }
+  }
+}
+
+}  // namespace
+
 namespace pb = rangex::v1;
 
 void fill(pb::FilletResult* o, const StoredFillet& f) {
@@ -126,16 +162,13 @@ void fill(pb::LaneInfo* o, const LaneState& s) {
     ls->set_lines(s.sensors->lines);
     ls->set_incomplete_lines(s.sensors->incomplete);
     ls->set_refused_lines(s.sensors->refused);
-    // Text from outside (a camera's vendor and model are bytes of its registers, a database
-    // names its own errors) is made UTF-8: a protobuf string that is not would leave every
-    // client unable to read the whole message.
     for (const SensorState& d : s.sensors->devices) {
       pb::SensorDevice* pd = ls->add_devices();
       pd->set_role(d.role);
-      pd->set_device(valid_utf8(d.device));
-      pd->set_description(valid_utf8(d.description));
+      pd->set_device(d.device);
+      pd->set_description(d.description);
       pd->set_state(d.state);
-      pd->set_error(valid_utf8(d.error));
+      pd->set_error(d.error);
       pd->set_frames(d.frames);
       pd->set_incomplete(d.incomplete);
       pd->set_lost_frames(d.lost_frames);
@@ -146,12 +179,13 @@ void fill(pb::LaneInfo* o, const LaneState& s) {
       pd->set_reconnects(d.reconnects);
     }
   }
+  make_strings_utf8(*o);
 }
 
 void fill(pb::RecordingStatus* o, const RecordingStatus& r) {
   o->set_active(r.active);
   o->set_name(r.name);
-  o->set_dir(valid_utf8(r.dir));
+  o->set_dir(r.dir);
   for (int l : r.lanes) o->add_lanes(l);
   o->set_minutes(r.minutes);
   o->set_started_unix_ns(r.started_unix_ns);
@@ -161,6 +195,7 @@ void fill(pb::RecordingStatus* o, const RecordingStatus& r) {
   o->set_budget_bytes(r.budget_bytes);
   o->set_estimate_bytes(r.estimate_bytes);
   o->set_ended(r.ended);
+  make_strings_utf8(*o);
 }
 
 void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
@@ -169,7 +204,7 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
     pb::PlcStatus* p = o->mutable_plc();
     p->set_address(s.plc->address);
     p->set_connected(s.plc->connected);
-    p->set_error(valid_utf8(s.plc->error));
+    p->set_error(s.plc->error);
     p->set_released(s.plc->released);
     p->set_diverted(s.plc->diverted);
     p->set_late(s.plc->late);
@@ -185,7 +220,7 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
     p->set_database(f.database);
     p->set_connected(f.connected);
     p->set_state(f.state);
-    p->set_error(valid_utf8(f.last_error));
+    p->set_error(f.last_error);
     p->set_lag_records(f.lag_records);
     p->set_lag_seconds(f.lag_seconds);
     p->set_forwarded_seq(f.forwarded_seq);
@@ -249,6 +284,7 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
   o->set_batches_verified(s.batches.verified);
   o->set_verify_mismatches(s.batches.mismatches);
   o->set_backend_failures(s.batches.failures);
+  make_strings_utf8(*o);
 }
 
 }  // namespace rangex
