@@ -156,7 +156,10 @@ int cmd_status(int argc, char** argv) {
     std::printf(
         "PLC %s %s: %llu released, %llu diverted, %llu late, %llu unreleased, %llu "
         "waiting%s\n",
-        p.address().c_str(), p.connected() ? "connected" : "UNREACHABLE",
+        p.address().c_str(),
+        !p.connected()         ? "UNREACHABLE"
+        : !p.refused().empty() ? "connected, REFUSING registers (the warning says which)"
+                               : "connected",
         (unsigned long long)p.released(), (unsigned long long)p.diverted(),
         (unsigned long long)p.late(), (unsigned long long)p.unreleased(),
         (unsigned long long)p.pending(),

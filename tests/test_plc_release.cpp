@@ -190,3 +190,65 @@ TEST(PlcRelease, APlcRestartedMidRunGetsEveryLaterReleaseOnce) {
   EXPECT_EQ(after, 100);
   EXPECT_EQ(rig.release->status().released, 120u);
 }
+
+// A PLC program whose map ends before the ring answers each release with exception 2. The
+// connection is sound: it is one refusal, named, not a PLC lost and found again each round.
+TEST(PlcRelease, APlcThatRefusesTheRingIsNamedOnceAndReleasesNothing) {
+  Rig rig;
+  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));
+  rig.plc->set_registers(100);  // the heartbeat and lane states (0..139) only in part
+  rig.release->decided(Rig::fillet(21, 0, 100, ReleaseCode::kPass));
+  ASSERT_TRUE(wait_until(10, [&] { return rig.audited("plc.refused") == 1; }));
+  const PlcStatus refused = rig.release->status();
+  EXPECT_TRUE(refused.connected);
+  EXPECT_TRUE(refused.error.empty()) << refused.error;
+  // Which registers (uid 21's slot), the part of the map, what it costs, and where to look.
+  for (const char* said : {"refuses registers 369..375", "release ring", "every one is diverted",
+                           "plant.yaml"})
+    EXPECT_NE(refused.refused.find(said), std::string::npos) << said << ": " << refused.refused;
+  rig.move(0, 1060);  // its deadline passes while the PLC refuses it
+  ASSERT_TRUE(wait_until(10, [&] {
+    return rig.release->status().unreleased == 1 && rig.audited("release.unreleased") == 1;
+  }));
+  EXPECT_EQ(rig.release->status().late, 0u);  // never sent, so not sent late
+  // A window of rounds: the refusal is not a loss, and it is audited once.
+  const uint16_t beat = rig.plc->heartbeat();
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  EXPECT_NE(rig.plc->heartbeat(), beat);  // register 0 is mapped: rangexd's heartbeat goes on
+  EXPECT_EQ(rig.audited("plc.refused"), 1);
+  EXPECT_EQ(rig.audited("plc.lost"), 0);
+  EXPECT_EQ(rig.audited("plc.connected"), 0);
+  EXPECT_EQ(rig.release->status().reconnects, 0u);
+  EXPECT_TRUE(rig.plc->received().empty());
+  EXPECT_EQ(rig.release->status().pending, 0u);
+  // The PLC program mended: the next release reaches it, and the refusal is over.
+  rig.plc->set_registers(65536);
+  rig.release->decided(Rig::fillet(22, 0, 2000, ReleaseCode::kPass));
+  ASSERT_TRUE(wait_until(10, [&] { return rig.plc->received().size() == 1; }));
+  EXPECT_EQ(rig.plc->received()[0].release.first_encoder, 2000);
+  ASSERT_TRUE(wait_until(10, [&] { return rig.audited("plc.accepted") == 1; }));
+  EXPECT_TRUE(rig.release->status().refused.empty()) << rig.release->status().refused;
+  EXPECT_EQ(rig.release->status().released, 1u);
+}
+
+// A PLC that takes the connection and answers nothing: each reconnect succeeds and its first
+// write times out. That is one loss, retried with a growing backoff, until it answers again.
+TEST(PlcRelease, APlcThatStopsAnsweringIsLostOnceWhileItIsRetried) {
+  Rig rig;
+  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));
+  rig.plc->set_silent(true);
+  ASSERT_TRUE(wait_until(10, [&] { return rig.audited("plc.lost") == 1; }));
+  std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // several reconnects
+  const PlcStatus silent = rig.release->status();
+  EXPECT_FALSE(silent.connected);
+  EXPECT_NE(silent.error.find("timed out"), std::string::npos) << silent.error;
+  EXPECT_EQ(rig.audited("plc.lost"), 1);
+  EXPECT_EQ(rig.audited("plc.connected"), 0);
+  EXPECT_EQ(silent.reconnects, 0u);
+  rig.plc->set_silent(false);
+  ASSERT_TRUE(wait_until(15, [&] { return rig.release->status().connected; }));
+  EXPECT_EQ(rig.audited("plc.connected"), 1);
+  EXPECT_EQ(rig.release->status().reconnects, 1u);
+  rig.release->decided(Rig::fillet(31, 1, 100, ReleaseCode::kPass));
+  ASSERT_TRUE(wait_until(10, [&] { return rig.plc->received().size() == 1; }));
+}

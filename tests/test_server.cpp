@@ -14,10 +14,14 @@
 #include "core/recording.h"
 #include "grpc_raw.h"
 #include "offline/replay.h"
+#include "plc/plc_simulator.h"
 #include "rangex/v1/decision_names.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "server_client.h"
+#include "service/http_json.h"
+#include "service/metrics_text.h"
 #include "service/pb_convert.h"
+#include "service/plant_history.h"
 #include "service/server.h"
 #include "sim/plant_simulator.h"
 #include "temp_dir.h"
@@ -943,4 +947,54 @@ TEST(Server, TextFromOutsideReachesTheMessagesAsUtf8) {
   EXPECT_EQ(stats_back.recording().dir(), "/data/" + fffd + "/shift");
   ASSERT_EQ(stats_back.warnings_size(), 1);
   EXPECT_EQ(stats_back.warnings(0), "lane 0 cam0 (cam-" + fffd + ") lost: lost " + fffd);
+}
+
+// A PLC whose program maps fewer registers than plant.yaml's plc section: the PLC answers,
+// so it is connected, and the registers it refuses are named to every client, on every lane,
+// in /metrics and on the dashboard's tiles.
+TEST(Server, APlcThatRefusesRegistersIsNamedToEveryClient) {
+  test::TempDir t;
+  PlantConfig p = default_plant_config(2);
+  p.plc.heartbeat_ms = 20;
+  SimPlc plc(p.plc);
+  plc.set_registers(12);  // lane 0's state (10, 11), not lane 1's (12, 13)
+  p.plc.address = "127.0.0.1:" + std::to_string(plc.port());
+  RangexServer server(p, options(t));
+  auto stub = pb::ControlService::NewStub(connect(server));
+  pb::GetStatisticsResponse stats;
+  ASSERT_TRUE(wait_until(20, [&] {
+    grpc::ClientContext ctx;
+    stats.Clear();
+    return stub->GetStatistics(&ctx, {}, &stats).ok() && !stats.plc().refused().empty();
+  }));
+  EXPECT_TRUE(stats.plc().connected());
+  EXPECT_TRUE(stats.plc().error().empty()) << stats.plc().error();
+  const std::string& refused = stats.plc().refused();
+  for (const char* said : {"refuses registers 12..13", "a lane's state", "plant.yaml"})
+    EXPECT_NE(refused.find(said), std::string::npos) << said << ": " << refused;
+  EXPECT_NE(std::find(stats.warnings().begin(), stats.warnings().end(), refused),
+            stats.warnings().end());
+  grpc::ClientContext ctx;
+  pb::ListLanesResponse lanes;
+  ASSERT_TRUE(stub->ListLanes(&ctx, {}, &lanes).ok());
+  ASSERT_EQ(lanes.lanes_size(), 2);
+  for (const pb::LaneInfo& l : lanes.lanes())
+    EXPECT_EQ(l.plc_state(), "refusing: " + refused) << "lane " << l.id();
+  EXPECT_EQ(plc.lane_state(0), PackMl::kIdle);  // the state it maps was written
+
+  MetricsInput m;
+  m.stats = server.engine().stats();
+  m.lanes = server.engine().lanes();
+  const std::string metrics = prometheus_text(m);
+  EXPECT_NE(metrics.find("rangex_plc_refusing{plc=\"" + p.plc.address + "\"} 1\n"),
+            std::string::npos)
+      << metrics;
+  // A lane fed a moment ago shows it beside its light.
+  LaneState fed = m.lanes[1];
+  fed.fed = true;
+  fed.idle_ms = 100;
+  PlantHistory history;
+  const nlohmann::json tile = lane_json(fed, history, "cpu");
+  EXPECT_EQ(tile.at("light"), "amber") << tile.dump();
+  EXPECT_EQ(tile.at("light_reason"), refused) << tile.dump();
 }

@@ -47,7 +47,11 @@ void ModbusLink::write(int first, const uint16_t* values, int n) {
   const int rc = n == 1 ? modbus_write_register(m, first, values[0])
                         : modbus_write_registers(m, first, n, values);
   if (rc != n) {
-    const std::string why = modbus_strerror(errno);
+    const int err = errno;
+    const std::string why = modbus_strerror(err);
+    if (err >= EMBXILFUN && err <= EMBXGTAR)
+      throw PlcRefusal(join("PLC ", host_, ":", port_, " refuses registers ", first, "..",
+                            first + n - 1, ": ", why));
     close();
     fail("PLC ", host_, ":", port_, ": writing registers ", first, "..", first + n - 1, ": ", why);
   }

@@ -4,7 +4,16 @@
 #include <cstdint>
 #include <string>
 
+#include "core/error.h"
+
 namespace rangex {
+
+// The PLC answered a write with a Modbus exception (an address its program does not map, a
+// value it will not take, busy): the connection is sound and stays open.
+class PlcRefusal : public Error {
+ public:
+  using Error::Error;
+};
 
 class ModbusLink {
  public:
@@ -17,7 +26,9 @@ class ModbusLink {
   void connect();
   bool connected() const { return connected_; }
   void close();
-  // Writes `n` registers from `first` (FC16; FC6 for one); throws Error and closes on failure.
+  // Writes `n` registers from `first` (FC16; FC6 for one). A refusal throws PlcRefusal; any
+  // other failure (no answer in time, the connection gone, a garbled reply) closes the
+  // connection and throws Error.
   void write(int first, const uint16_t* values, int n);
 
  private:

@@ -93,14 +93,17 @@ void PlcRelease::stop() {
   if (thread_.joinable()) thread_.join();
   // The PLC hears that rangex stops (it diverts everything from now on).
   if (link_->connected()) {
-    try {
-      for (const auto& [lane, step] : step_mm_) {
-        (void)step;
-        const uint16_t regs[2] = {uint16_t(PackMl::kStopped), uint16_t(StateReason::kStopping)};
+    for (const auto& [lane, step] : step_mm_) {
+      (void)step;
+      const uint16_t regs[2] = {uint16_t(PackMl::kStopped), uint16_t(StateReason::kStopping)};
+      try {
         link_->write(cfg_.lane_state_base + 2 * lane, regs, 2);
+      } catch (const PlcRefusal& e) {  // this lane's registers: the next lane's may be mapped
+        log::warn("plc_stop", "could not write lane {}'s stopped state: {}", lane, e.what());
+      } catch (const std::exception& e) {  // the connection: no lane's can be written
+        log::warn("plc_stop", "could not write the lanes' stopped state: {}", e.what());
+        break;
       }
-    } catch (const std::exception& e) {
-      log::warn("plc_stop", "could not write the lanes' stopped state: {}", e.what());
     }
     link_->close();
   }
@@ -133,7 +136,8 @@ void PlcRelease::run() {
 
 void PlcRelease::lost(const std::string& why) {
   link_->close();
-  const bool was = status_.connected;
+  const bool was = answered_;
+  answered_ = false;
   {
     std::lock_guard<std::mutex> lk(mu_);
     status_.connected = false;
@@ -144,6 +148,7 @@ void PlcRelease::lost(const std::string& why) {
     if (hooks_.audit) hooks_.audit("plc.lost", why);
   }
   next_connect_ns_ = now_ns() + int64_t(backoff_s_ * 1e9);
+  backoff_s_ = std::min(5.0, backoff_s_ * 2);
 }
 
 void PlcRelease::connect_if_due() {
@@ -159,8 +164,16 @@ void PlcRelease::connect_if_due() {
     backoff_s_ = std::min(5.0, backoff_s_ * 2);
     return;
   }
-  backoff_s_ = 0.2;
+  // Connected is not answering: the heartbeat at once asks the PLC.
+  answered_ = false;
+  next_beat_ns_ = 0;
   written_.clear();  // the PLC may have restarted: every lane's state again
+}
+
+void PlcRelease::answered() {
+  if (answered_) return;
+  answered_ = true;
+  backoff_s_ = 0.2;
   const bool again = ever_connected_;
   ever_connected_ = true;
   {
@@ -168,9 +181,74 @@ void PlcRelease::connect_if_due() {
     status_.connected = true;
     status_.error.clear();
     if (again) ++status_.reconnects;
+    show_refusals();
   }
   log::info("plc_connected", "PLC {} connected", cfg_.address);
   if (again && hooks_.audit) hooks_.audit("plc.connected", cfg_.address);
+}
+
+void PlcRelease::show_refusals() {
+  status_.refused.clear();
+  for (const auto& [area, r] : refusals_)
+    status_.refused += (status_.refused.empty() ? "" : "; ") + r.why;
+}
+
+bool PlcRelease::refused(Area area) const {
+  return refusals_.count(area) > 0;
+}
+
+namespace {
+
+const char* area_name(int area) {
+  static const char* const names[] = {"the heartbeat", "a lane's state", "the release ring",
+                                      "the ring's head"};
+  return names[area];
+}
+
+const char* area_cost(int area) {
+  static const char* const costs[] = {
+      "the PLC cannot tell that rangexd is alive", "the PLC does not see the lanes' states",
+      "no fillet is released: every one is diverted", "releases are taken without it"};
+  return costs[area];
+}
+
+}  // namespace
+
+bool PlcRelease::write(Area area, int first, const uint16_t* values, int n) {
+  const int64_t t = now_ns();
+  const auto it = refusals_.find(area);
+  if (it != refusals_.end() && t < it->second.retry_ns) return false;
+  try {
+    link_->write(first, values, n);
+  } catch (const PlcRefusal& e) {
+    answered();  // a refusal is an answer: the connection is sound
+    const bool starts = it == refusals_.end();
+    Refusal& r = refusals_[area];
+    r.retry_ns = t + 1'000'000'000;
+    r.why = join(e.what(), " (", area_name(int(area)), "; ", area_cost(int(area)),
+                 "): its program must map the registers of plant.yaml's plc section (docs/plc.md)");
+    {
+      std::lock_guard<std::mutex> lk(mu_);
+      show_refusals();
+    }
+    if (starts) {
+      log::warn("plc_refused", "{}", r.why);
+      if (hooks_.audit) hooks_.audit("plc.refused", r.why);
+    }
+    return false;
+  }
+  answered();
+  if (it != refusals_.end()) {
+    refusals_.erase(it);
+    {
+      std::lock_guard<std::mutex> lk(mu_);
+      show_refusals();
+    }
+    const std::string what = join(cfg_.address, ": ", area_name(int(area)), " written again");
+    log::info("plc_accepted", "{}", what);
+    if (hooks_.audit) hooks_.audit("plc.accepted", what);
+  }
+  return true;
 }
 
 void PlcRelease::heartbeat_and_states(const std::vector<PlcLaneView>& lanes) {
@@ -179,7 +257,7 @@ void PlcRelease::heartbeat_and_states(const std::vector<PlcLaneView>& lanes) {
   try {
     if (t >= next_beat_ns_) {
       beat_ = uint16_t(beat_ == 65535 ? 1 : beat_ + 1);
-      link_->write(cfg_.heartbeat_register, &beat_, 1);
+      write(Area::kHeartbeat, cfg_.heartbeat_register, &beat_, 1);
       next_beat_ns_ = t + int64_t(cfg_.heartbeat_ms * 1e6);
     }
     for (const PlcLaneView& v : lanes) {
@@ -192,7 +270,7 @@ void PlcRelease::heartbeat_and_states(const std::vector<PlcLaneView>& lanes) {
       const auto it = written_.find(v.lane);
       if (it != written_.end() && it->second == want) continue;
       const uint16_t regs[2] = {uint16_t(v.state), uint16_t(v.reason)};
-      link_->write(cfg_.lane_state_base + 2 * v.lane, regs, 2);
+      if (!write(Area::kLaneStates, cfg_.lane_state_base + 2 * v.lane, regs, 2)) continue;
       written_[v.lane] = want;
       std::lock_guard<std::mutex> lk(mu_);
       status_.lane_states[v.lane] = packml_name(v.state);
@@ -220,8 +298,9 @@ void PlcRelease::send_due(const std::vector<PlcLaneView>& lanes, size_t count) {
     const std::string what = join("lane ", q.r.lane, " fillet ", q.r.uid, " (lines ",
                                   q.r.first_encoder, "..", q.r.last_encoder, ")");
     if (q.r.code == ReleaseCode::kPass && counted && belt >= dl) {
-      if (!link_->connected()) {
-        // Its deadline passed while the PLC could not be reached: never sent as a pass.
+      if (!link_->connected() || refused(Area::kRing)) {
+        // Its deadline passed while the PLC could not be reached, or refused the ring: never
+        // sent as a pass.
         {
           std::lock_guard<std::mutex> lk(mu_);
           queue_.pop_front();
@@ -229,7 +308,9 @@ void PlcRelease::send_due(const std::vector<PlcLaneView>& lanes, size_t count) {
         }
         if (hooks_.audit)
           hooks_.audit("release.unreleased",
-                       join(what, ": the PLC was unreachable until its deadline; diverted"));
+                       join(what, ": the PLC ",
+                            link_->connected() ? "refused the ring's registers" : "was unreachable",
+                            " until its deadline; diverted"));
         continue;
       }
       q.r.code = ReleaseCode::kLate;
@@ -248,11 +329,13 @@ void PlcRelease::send_due(const std::vector<PlcLaneView>& lanes, size_t count) {
     const int base = cfg_.ring_base + kSlotRegisters * slot;
     try {
       // The slot's fields, then its sequence (the PLC takes a slot when its sequence changes
-      // and its check holds), then the head.
-      link_->write(base + 1, &regs[1], kSlotRegisters - 1);
-      link_->write(base, &regs[0], 1);
+      // and its check holds): refused, the release waits. Then the head, a hint: the slot
+      // is taken without it.
+      if (!write(Area::kRing, base + 1, &regs[1], kSlotRegisters - 1) ||
+          !write(Area::kRing, base, &regs[0], 1))
+        return;
       const uint16_t head = uint16_t(slot);
-      link_->write(cfg_.ring_head_register, &head, 1);
+      write(Area::kRingHead, cfg_.ring_head_register, &head, 1);
     } catch (const std::exception& e) {
       lost(e.what());
       return;

@@ -4,8 +4,14 @@
 // while the belt has not yet carried it to within margin_mm of the gate: the lane's newest
 // encoder count against the fillet's first X-ray line plus the reject station's distance. A
 // pass decided later is sent as late (the PLC diverts it), counted and audited; one still
-// queued at its deadline because the PLC cannot be reached is unreleased, counted and audited.
-// Nothing is ever assumed released.
+// queued at its deadline because the PLC cannot be reached, or refuses the ring's registers,
+// is unreleased, counted and audited. Nothing is ever assumed released.
+//
+// The PLC is connected once it answers a write on a connection, so a PLC that takes the TCP
+// connection and answers nothing is one loss, retried with a growing backoff, not a loss and
+// a reconnect each round. A refusal (a Modbus exception: its program does not map a register)
+// is an answer: the connection stays, the refusal is named in the status, audited when it
+// starts and when it ends, and the refused registers are tried again each second.
 #pragma once
 #include <atomic>
 #include <condition_variable>
@@ -68,6 +74,14 @@ class PlcRelease {
   void send_due(const std::vector<PlcLaneView>& lanes, size_t count);
   void heartbeat_and_states(const std::vector<PlcLaneView>& lanes);
   void lost(const std::string& why);
+  // What the PLC's program maps for rangex, each refused or not on its own.
+  enum class Area { kHeartbeat, kLaneStates, kRing, kRingHead };
+  // Writes registers of `area`; false when the PLC refuses them, or refused them less than a
+  // second ago. A failure of the connection throws.
+  bool write(Area area, int first, const uint16_t* values, int n);
+  bool refused(Area area) const;
+  void answered();       // the PLC answered a write on this connection
+  void show_refusals();  // status_.error from the areas refused (under mu_)
 
   const PlcConfig cfg_;
   std::map<int, int64_t> deadline_lines_;  // by lane: the gate's distance less the margin
@@ -84,7 +98,13 @@ class PlcRelease {
 
   // The writer's own.
   double backoff_s_ = 0.2;
+  bool answered_ = false;  // a write answered on this connection
   bool ever_connected_ = false;
+  struct Refusal {
+    int64_t retry_ns = 0;
+    std::string why;
+  };
+  std::map<Area, Refusal> refusals_;  // the areas the PLC refuses now
   int64_t next_connect_ns_ = 0, next_beat_ns_ = 0;
   uint16_t beat_ = 0;
   std::map<int, std::pair<PackMl, StateReason>> written_;  // lane states the PLC has

@@ -6,6 +6,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <stdexcept>
@@ -92,7 +93,12 @@ void SimPlc::serve() {
         clients.erase(clients.begin() + long(i));
         continue;
       }
+      if (silent_) {
+        ++i;
+        continue;
+      }
       std::lock_guard<std::mutex> lk(mu_);
+      map->nb_registers = registers_;  // libmodbus refuses an address past it (exception 2)
       std::memcpy(map->tab_registers, regs_.data(), regs_.size() * sizeof(uint16_t));
       modbus_reply(ctx, query, rc, map);
       std::memcpy(regs_.data(), map->tab_registers, regs_.size() * sizeof(uint16_t));
@@ -119,6 +125,14 @@ void SimPlc::scan() {
     r.belt = b == belt_.end() ? INT64_MIN : b->second;
     received_.push_back(r);
   }
+}
+
+void SimPlc::set_registers(int count) {
+  registers_ = std::clamp(count, 1, 65536);
+}
+
+void SimPlc::set_silent(bool silent) {
+  silent_ = silent;
 }
 
 void SimPlc::belt(int lane, int64_t count) {

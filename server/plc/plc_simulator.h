@@ -26,6 +26,12 @@ class SimPlc {
   // PLC has lost its registers.
   void stop();
   void start();
+  // Faults of a real PLC, for the tests and an integrator's dry run. A PLC program that maps
+  // fewer holding registers answers a write past them with Modbus exception 2 (illegal data
+  // address); one that stops answering (a stopped CPU behind its communication module, a
+  // gateway with no route) takes each request and replies to none. Both take effect at once.
+  void set_registers(int count);  // 1..65536 (65536 when made)
+  void set_silent(bool silent);
 
   void belt(int lane, int64_t count);  // where the lane's encoder is now
   struct Received {
@@ -49,7 +55,8 @@ class SimPlc {
   std::vector<uint16_t> seen_;  // the sequence last taken from each slot
   std::map<int, int64_t> belt_;
   std::vector<Received> received_;
-  std::atomic<bool> stop_{false}, serving_{false};
+  std::atomic<bool> stop_{false}, serving_{false}, silent_{false};
+  std::atomic<int> registers_{65536};
   std::thread thread_;
 };
 

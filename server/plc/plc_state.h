@@ -10,7 +10,10 @@ struct PlcStatus {
   bool enabled = false;
   std::string address;
   bool connected = false;
-  std::string error;        // why it is not connected ("" when it is)
+  std::string error;  // why it is not connected ("" when it is)
+  // Connected, the registers the PLC answers with a Modbus exception: which, and what that
+  // costs ("" when it takes every write).
+  std::string refused;
   uint64_t released = 0;    // clean fillets released before their deadline
   uint64_t diverted = 0;    // rejected and not-inspected fillets sent (the PLC diverts them)
   uint64_t late = 0;        // clean fillets decided after their deadline: diverted

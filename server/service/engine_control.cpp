@@ -92,8 +92,9 @@ LaneState Engine::lane_state(int id) {
     if (plc_status_) {
       const PlcStatus p = plc_status_();
       const auto it = p.lane_states.find(id);
-      s.plc = !p.connected ? "unreachable: " + p.error
-                           : (it == p.lane_states.end() ? "connected" : it->second);
+      s.plc = !p.connected         ? "unreachable: " + p.error
+              : !p.refused.empty() ? "refusing: " + p.refused
+                                   : (it == p.lane_states.end() ? "connected" : it->second);
     }
   }
   return s;

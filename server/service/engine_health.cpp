@@ -89,6 +89,8 @@ EngineStats Engine::stats() {
         s.warnings.push_back(join("PLC ", s.plc->address, " unreachable: ", s.plc->error, "; ",
                                   s.plc->unreleased, " clean fillets unreleased (diverted), ",
                                   s.plc->pending, " waiting"));
+      else if (!s.plc->refused.empty())
+        s.warnings.push_back(s.plc->refused);
     }
   }
   s.forwarding = forwarding();

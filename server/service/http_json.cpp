@@ -102,6 +102,8 @@ std::pair<std::string, std::string> lane_light(const LaneState& l, double ni_rat
     light = "amber", why = product_drift_warning(l.config.id, l.drift_fillets, l.implied_frr);
   if (l.plc.rfind("unreachable", 0) == 0 && light == "green")
     light = "amber", why = "PLC " + l.plc + ": every fillet is diverted";
+  if (l.plc.rfind("refusing", 0) == 0 && light == "green")
+    light = "amber", why = l.plc.substr(sizeof "refusing: " - 1);  // it says what it costs
   const LaneVerification& ver = l.verification;
   if (ver.overdue && light == "green")
     light = "amber", why = ver.last && !ver.last->passed

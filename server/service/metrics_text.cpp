@@ -134,11 +134,14 @@ void plc_metrics(Writer& w, const PlcStatus& p) {
   w.family("rangex_plc_fillets_total", "counter",
            "Fillets by what the PLC was told: released (clean, in time), diverted (rejected or "
            "not inspected), late (clean, decided after the deadline), unreleased (clean, the "
-           "PLC unreachable until the deadline).");
+           "PLC unreachable, or refusing the release ring, until the deadline).");
   w.sample("rangex_plc_fillets_total", at + ",result=\"released\"", p.released);
   w.sample("rangex_plc_fillets_total", at + ",result=\"diverted\"", p.diverted);
   w.sample("rangex_plc_fillets_total", at + ",result=\"late\"", p.late);
   w.sample("rangex_plc_fillets_total", at + ",result=\"unreleased\"", p.unreleased);
+  w.family("rangex_plc_refusing", "gauge",
+           "1 while the PLC answers writes of some of its registers with a Modbus exception.");
+  w.sample("rangex_plc_refusing", at, uint64_t(!p.refused.empty()));
   w.family("rangex_plc_pending", "gauge", "Releases waiting to be sent.");
   w.sample("rangex_plc_pending", at, p.pending);
   w.family("rangex_plc_least_spare_seconds", "gauge",

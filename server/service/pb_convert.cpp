@@ -212,6 +212,7 @@ void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
     p->set_pending(s.plc->pending);
     p->set_reconnects(s.plc->reconnects);
     p->set_least_spare_ms(s.plc->least_spare_ms);
+    p->set_refused(s.plc->refused);
   }
   if (s.forwarding) {
     const ForwarderStatus& f = *s.forwarding;
