@@ -544,6 +544,25 @@ TEST(PlantConfig, PlcAndVerificationSectionsAreReadAndChecked) {
             std::string::npos);
   EXPECT_NE(error_of("plc: {address: a:1}\nlanes: [{id: 64}]\n").find("lane ids go up to 63"),
             std::string::npos);
+  // A port that is not one, lane states past the last register (lane 18's would be written
+  // to register 0, the heartbeat), a timeout past what a line can wait.
+  EXPECT_NE(error_of("plc: {address: 'a:5o2'}\nlanes: [{id: 0}]\n")
+                .find("plc.address: the port must be a number 1..65535 (got 'a:5o2')"),
+            std::string::npos);
+  EXPECT_NE(error_of("plc: {address: 'a:70000'}\nlanes: [{id: 0}]\n").find("1..65535"),
+            std::string::npos);
+  EXPECT_NE(error_of("plc: {address: 'a:0'}\nlanes: [{id: 0}]\n").find("1..65535"),
+            std::string::npos);
+  EXPECT_NE(error_of("plc: {address: a:1, lane_state_base: 65500}\nlanes: [{id: 0}]\n")
+                .find("plc.lane_state_base: the lane states (2 x 64 lanes) run past register "
+                      "65535"),
+            std::string::npos);
+  EXPECT_NE(error_of("plc: {address: a:1, timeout_ms: 1e7}\nlanes: [{id: 0}]\n")
+                .find("plc.timeout_ms: must be at most 60000"),
+            std::string::npos);
+  EXPECT_NE(error_of("plc: {address: a:1, heartbeat_ms: 1e9}\nlanes: [{id: 0}]\n")
+                .find("plc.heartbeat_ms: must be at most 60000"),
+            std::string::npos);
   EXPECT_NE(error_of("verification: {every_h: -1}\nlanes: [{id: 0}]\n").find("every_h"),
             std::string::npos);
   EXPECT_NE(error_of("verification: {fillets: 0}\nlanes: [{id: 0}]\n").find("fillets"),

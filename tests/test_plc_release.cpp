@@ -27,10 +27,10 @@ struct Rig {
   std::vector<std::pair<std::string, std::string>> audit;
   std::unique_ptr<PlcRelease> release;
 
-  Rig() {
+  explicit Rig(double heartbeat_ms = 20) {
     plant.plc.reject_station_mm = 400;
     plant.plc.margin_mm = 20;
-    plant.plc.heartbeat_ms = 20;
+    plant.plc.heartbeat_ms = heartbeat_ms;
     plant.plc.timeout_ms = 200;
     plc = std::make_unique<SimPlc>(plant.plc);
     plant.plc.address = "127.0.0.1:" + std::to_string(plc->port());
@@ -128,6 +128,19 @@ TEST(PlcRelease, CleanFilletsInTimeAreReleasedAndTheRestDiverted) {
   EXPECT_EQ(s.lane_states.at(0), "execute");
 }
 
+// The writer's round is not the heartbeat's: a plant that beats once a minute still has each
+// release sent as it is decided, and its lanes' states written at once.
+TEST(PlcRelease, AReleaseIsSentWhenDecidedNotAtTheNextHeartbeat) {
+  Rig rig(60000);
+  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));
+  EXPECT_TRUE(wait_until(10, [&] { return rig.plc->lane_state(1) == PackMl::kExecute; }));
+  rig.release->decided(Rig::fillet(41, 0, 100, ReleaseCode::kPass));
+  // Counted after the head's write: wait for both.
+  ASSERT_TRUE(wait_until(
+      10, [&] { return rig.plc->received().size() == 1 && rig.release->status().pending == 0; }));
+  EXPECT_EQ(rig.release->status().released, 1u);
+}
+
 TEST(PlcRelease, APassDecidedAfterItsDeadlineIsSentAsLateAndAudited) {
   Rig rig;
   ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));
@@ -203,8 +216,8 @@ TEST(PlcRelease, APlcThatRefusesTheRingIsNamedOnceAndReleasesNothing) {
   EXPECT_TRUE(refused.connected);
   EXPECT_TRUE(refused.error.empty()) << refused.error;
   // Which registers (uid 21's slot), the part of the map, what it costs, and where to look.
-  for (const char* said : {"refuses registers 369..375", "release ring", "every one is diverted",
-                           "plant.yaml"})
+  for (const char* said :
+       {"refuses registers 369..375", "release ring", "every one is diverted", "plant.yaml"})
     EXPECT_NE(refused.refused.find(said), std::string::npos) << said << ": " << refused.refused;
   rig.move(0, 1060);  // its deadline passes while the PLC refuses it
   ASSERT_TRUE(wait_until(10, [&] {
@@ -224,7 +237,8 @@ TEST(PlcRelease, APlcThatRefusesTheRingIsNamedOnceAndReleasesNothing) {
   // The PLC program mended: the next release reaches it, and the refusal is over.
   rig.plc->set_registers(65536);
   rig.release->decided(Rig::fillet(22, 0, 2000, ReleaseCode::kPass));
-  ASSERT_TRUE(wait_until(10, [&] { return rig.plc->received().size() == 1; }));
+  ASSERT_TRUE(wait_until(
+      10, [&] { return rig.plc->received().size() == 1 && rig.release->status().pending == 0; }));
   EXPECT_EQ(rig.plc->received()[0].release.first_encoder, 2000);
   ASSERT_TRUE(wait_until(10, [&] { return rig.audited("plc.accepted") == 1; }));
   EXPECT_TRUE(rig.release->status().refused.empty()) << rig.release->status().refused;
@@ -246,8 +260,9 @@ TEST(PlcRelease, APlcThatStopsAnsweringIsLostOnceWhileItIsRetried) {
   EXPECT_EQ(rig.audited("plc.connected"), 0);
   EXPECT_EQ(silent.reconnects, 0u);
   rig.plc->set_silent(false);
-  ASSERT_TRUE(wait_until(15, [&] { return rig.release->status().connected; }));
-  EXPECT_EQ(rig.audited("plc.connected"), 1);
+  // The status comes before its audit entry is written: wait for both.
+  ASSERT_TRUE(wait_until(
+      15, [&] { return rig.release->status().connected && rig.audited("plc.connected") == 1; }));
   EXPECT_EQ(rig.release->status().reconnects, 1u);
   rig.release->decided(Rig::fillet(31, 1, 100, ReleaseCode::kPass));
   ASSERT_TRUE(wait_until(10, [&] { return rig.plc->received().size() == 1; }));

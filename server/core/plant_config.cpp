@@ -27,6 +27,10 @@ void read_plc(const ConfigNode& n, PlcConfig& c) {
   const auto colon = c.address.rfind(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == c.address.size())
     n.at("address").bad("must be host:port (got '" + c.address + "')");
+  const std::string port = c.address.substr(colon + 1);
+  if (port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
+      std::stoi(port) < 1 || std::stoi(port) > 65535)
+    n.at("address").bad("the port must be a number 1..65535 (got '" + c.address + "')");
   n.get("unit_id", c.unit_id);
   if (c.unit_id < 0 || c.unit_id > 247) n.at("unit_id").bad("must be 0..247");
   for (const char* k :
@@ -47,8 +51,13 @@ void read_plc(const ConfigNode& n, PlcConfig& c) {
     n.at("margin_mm").bad("must be >= 0 and less than reject_station_mm");
   n.positive("heartbeat_ms", c.heartbeat_ms);
   n.positive("timeout_ms", c.timeout_ms);
+  // Past a minute the line cannot wait (and the timeout's microseconds would overflow).
+  if (c.heartbeat_ms > 60000) n.at("heartbeat_ms").bad("must be at most 60000 (a minute)");
+  if (c.timeout_ms > 60000) n.at("timeout_ms").bad("must be at most 60000 (a minute)");
   // The registers rangex writes must not overlap.
   const int lanes_end = c.lane_state_base + 2 * PlcConfig::kMaxLanes;
+  if (lanes_end > 65536)
+    n.at("lane_state_base").bad("the lane states (2 x 64 lanes) run past register 65535");
   auto overlaps = [](int a0, int a1, int b0, int b1) { return a0 < b1 && b0 < a1; };
   if (overlaps(c.ring_base, c.ring_end(), c.lane_state_base, lanes_end) ||
       overlaps(c.ring_base, c.ring_end(), c.heartbeat_register, c.heartbeat_register + 1) ||

@@ -52,6 +52,7 @@ int64_t PlcRelease::deadline(int lane, int64_t first_encoder) const {
 void PlcRelease::decided(const Release& r) {
   {
     std::lock_guard<std::mutex> lk(mu_);
+    woken_ = true;
     queue_.push_back({r, now_ns()});
     // While the PLC cannot be reached, the oldest informational entries go first: a pass is
     // never dropped here (it is unreleased at its deadline, counted).
@@ -70,6 +71,7 @@ void PlcRelease::flush(double timeout_s) {
     {
       std::lock_guard<std::mutex> lk(mu_);
       if (queue_.empty() || !status_.connected) return;
+      woken_ = true;
     }
     wake_.notify_all();
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -110,11 +112,15 @@ void PlcRelease::stop() {
 }
 
 void PlcRelease::run() {
-  const auto period = std::chrono::duration<double, std::milli>(cfg_.heartbeat_ms / 2);
+  // A round at least every 50 ms (the lanes' states, the deadlines of what waits), and one as
+  // soon as a release is decided; the heartbeat keeps its own period within them.
+  const auto period =
+      std::chrono::duration<double, std::milli>(std::min(cfg_.heartbeat_ms / 2, 50.0));
   while (true) {
     {
       std::unique_lock<std::mutex> lk(mu_);
-      wake_.wait_for(lk, period, [this] { return stop_; });
+      wake_.wait_for(lk, period, [this] { return stop_ || woken_; });
+      woken_ = false;
       if (stop_) break;
     }
     connect_if_due();

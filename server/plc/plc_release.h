@@ -94,6 +94,7 @@ class PlcRelease {
   std::deque<Queued> queue_;
   PlcStatus status_;
   bool stop_ = false;
+  bool woken_ = false;  // a release decided since the writer's last round
   std::thread thread_;
 
   // The writer's own.
