@@ -535,36 +535,27 @@ TEST(PlantConfig, PlcAndVerificationSectionsAreReadAndChecked) {
   EXPECT_EQ(p.verification.every_h, 4);
   EXPECT_EQ(p.verification.fillets, 3);
   EXPECT_FALSE(parse_plant_config("lanes: [{id: 0}]\n", "t").plc.enabled());
-  EXPECT_NE(error_of("plc: {address: plc.local}\nlanes: [{id: 0}]\n").find("host:port"),
-            std::string::npos);
-  EXPECT_NE(error_of("plc: {address: a:1, margin_mm: 2000}\nlanes: [{id: 0}]\n")
-                .find("plc.margin_mm: must be >= 0 and less than reject_station_mm"),
-            std::string::npos);
-  EXPECT_NE(error_of("plc: {address: a:1, ring_base: 20}\nlanes: [{id: 0}]\n").find("overlap"),
-            std::string::npos);
+  // Each section (a one-lane plant's) refused, naming what is wrong.
+  const std::pair<const char*, const char*> refused[] = {
+      {"plc: {address: plc.local}", "host:port"},
+      {"plc: {address: a:1, margin_mm: 2000}",
+       "plc.margin_mm: must be >= 0 and less than reject_station_mm"},
+      {"plc: {address: a:1, ring_base: 20}", "overlap"},
+      // A port that is not one, lane states past the last register (lane 18's would be
+      // written to register 0, the heartbeat), times past what a line can wait.
+      {"plc: {address: 'a:5o2'}", "plc.address: the port must be a number 1..65535 (got 'a:5o2')"},
+      {"plc: {address: 'a:70000'}", "1..65535"},
+      {"plc: {address: 'a:0'}", "1..65535"},
+      {"plc: {address: a:1, lane_state_base: 65500}",
+       "plc.lane_state_base: the lane states (2 x 64 lanes) run past register 65535"},
+      {"plc: {address: a:1, timeout_ms: 1e7}", "plc.timeout_ms: must be at most 60000"},
+      {"plc: {address: a:1, heartbeat_ms: 1e9}", "plc.heartbeat_ms: must be at most 60000"},
+      {"verification: {every_h: -1}", "every_h"},
+      {"verification: {fillets: 0}", "fillets"}};
+  for (const auto& [section, words] : refused) {
+    const std::string why = error_of(std::string(section) + "\nlanes: [{id: 0}]\n");
+    EXPECT_NE(why.find(words), std::string::npos) << section << ": " << why;
+  }
   EXPECT_NE(error_of("plc: {address: a:1}\nlanes: [{id: 64}]\n").find("lane ids go up to 63"),
-            std::string::npos);
-  // A port that is not one, lane states past the last register (lane 18's would be written
-  // to register 0, the heartbeat), a timeout past what a line can wait.
-  EXPECT_NE(error_of("plc: {address: 'a:5o2'}\nlanes: [{id: 0}]\n")
-                .find("plc.address: the port must be a number 1..65535 (got 'a:5o2')"),
-            std::string::npos);
-  EXPECT_NE(error_of("plc: {address: 'a:70000'}\nlanes: [{id: 0}]\n").find("1..65535"),
-            std::string::npos);
-  EXPECT_NE(error_of("plc: {address: 'a:0'}\nlanes: [{id: 0}]\n").find("1..65535"),
-            std::string::npos);
-  EXPECT_NE(error_of("plc: {address: a:1, lane_state_base: 65500}\nlanes: [{id: 0}]\n")
-                .find("plc.lane_state_base: the lane states (2 x 64 lanes) run past register "
-                      "65535"),
-            std::string::npos);
-  EXPECT_NE(error_of("plc: {address: a:1, timeout_ms: 1e7}\nlanes: [{id: 0}]\n")
-                .find("plc.timeout_ms: must be at most 60000"),
-            std::string::npos);
-  EXPECT_NE(error_of("plc: {address: a:1, heartbeat_ms: 1e9}\nlanes: [{id: 0}]\n")
-                .find("plc.heartbeat_ms: must be at most 60000"),
-            std::string::npos);
-  EXPECT_NE(error_of("verification: {every_h: -1}\nlanes: [{id: 0}]\n").find("every_h"),
-            std::string::npos);
-  EXPECT_NE(error_of("verification: {fillets: 0}\nlanes: [{id: 0}]\n").find("fillets"),
             std::string::npos);
 }
