@@ -58,6 +58,10 @@ class PgInstance {
     usleep(200000);
     std::filesystem::remove(dir_ + "/data/postmaster.pid");
   }
+  // Every process of the instance stopped (SIGSTOP) or let go on (SIGCONT): a frozen server
+  // takes connections into its listen queue and answers nothing, as a hung host's would.
+  void freeze() { signal_all("-STOP"); }
+  void thaw() { signal_all("-CONT"); }
   const std::string& dir() const { return dir_; }
 
  private:
@@ -70,6 +74,15 @@ class PgInstance {
     throw std::runtime_error(
         "PostgreSQL's initdb and pg_ctl are not installed (Debian postgresql-15; "
         "scripts/install-deps.sh installs it): the plant-wide tests cannot run");
+  }
+  void signal_all(const std::string& sig) {
+    std::ifstream pidf(dir_ + "/data/postmaster.pid");
+    long pid = 0;
+    pidf >> pid;
+    if (pid <= 0) throw std::runtime_error("PostgreSQL: no postmaster.pid to signal");
+    // The postmaster's children (the backends, their helpers), then the postmaster.
+    run("pkill " + sig + " -P " + std::to_string(pid) + "; kill " + sig + " " +
+        std::to_string(pid));
   }
   static void run(const std::string& cmd) {
     if (std::system(cmd.c_str()) != 0)

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <future>
 #include <map>
 #include <thread>
 
@@ -231,6 +232,33 @@ TEST_F(PlantDb, APostgresKilledMidTransactionLosesAndDoublesNothing) {
   db = std::make_unique<PgConnection>(pg.conninfo());
   expect_all_forwarded(s, *db, "srv-c");
   EXPECT_GE(f.status().failures, 1);
+}
+
+// A database that takes the connection and answers nothing (a hung host): the forwarder's
+// statement waits on it, and a stop must still end, the records left in the store for the
+// next forwarder.
+TEST_F(PlantDb, ADatabaseThatAnswersNothingHoldsNoStop) {
+  TempDir dir;
+  Store s(dir.str());
+  auto f = std::make_unique<Forwarder>(s, options(pg, "srv-h"));
+  f->start();
+  fill(s, 10);
+  ASSERT_TRUE(f->wait_caught_up(60)) << f->status().last_error;
+  pg.freeze();
+  fill(s, 10);  // the next batch's statements wait for an answer
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  auto stopped = std::async(std::launch::async, [&] { f->stop(); });
+  const bool ended = stopped.wait_for(std::chrono::seconds(30)) == std::future_status::ready;
+  pg.thaw();  // a stop still waiting ends now, so that the test fails rather than hangs
+  stopped.get();
+  EXPECT_TRUE(ended) << "the forwarder's stop waited 30 s on a database that answers nothing";
+  f.reset();
+  Forwarder again(s, options(pg, "srv-h"));
+  again.start();
+  ASSERT_TRUE(again.wait_caught_up(60)) << again.status().last_error;
+  again.stop();
+  db = std::make_unique<PgConnection>(pg.conninfo());
+  expect_all_forwarded(s, *db, "srv-h");
 }
 
 TEST_F(PlantDb, TwoServersWithOneIdAndANewStoreUnderAnOldIdAreRefused) {

@@ -53,8 +53,20 @@ void Forwarder::stop() {
     stop_ = true;
   }
   cv_.notify_all();
+  {
+    // A statement may wait on a database that answers nothing: it fails now, not never.
+    std::lock_guard<std::mutex> lock(db_mu_);
+    interrupted_ = true;
+    if (db_) db_->interrupt();
+  }
   if (thread_.joinable()) thread_.join();
-  db_.reset();
+  set_db(nullptr);
+}
+
+void Forwarder::set_db(std::unique_ptr<PgConnection> db) {
+  std::lock_guard<std::mutex> lock(db_mu_);
+  if (db && interrupted_) db->interrupt();
+  db_ = std::move(db);
 }
 
 ForwarderStatus Forwarder::status() const {
@@ -78,8 +90,9 @@ void Forwarder::describe(const std::string& http_url, std::function<std::string(
 }
 
 void Forwarder::connect() {
-  db_.reset();
-  auto db = std::make_unique<PgConnection>(opt_.conninfo, opt_.connect_timeout_s);
+  set_db(nullptr);
+  set_db(std::make_unique<PgConnection>(opt_.conninfo, opt_.connect_timeout_s));
+  PgConnection* db = db_.get();
   require_plant_db_schema(*db);
   const std::string id = opt_.server_id;
   // The server id is this process's while its session lives: a second rangexd with the
@@ -118,7 +131,6 @@ void Forwarder::connect() {
                                         : std::string(),
                                     "): a new store needs its own plant.server_id"));
   }
-  db_ = std::move(db);
   cursor_ = held;
   need_active_ = true;
   store_.set_forwarded(cursor_);
@@ -349,11 +361,15 @@ void Forwarder::run() {
       backoff = 1;
       if (more) continue;
     } catch (const std::exception& e) {
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        if (stop_) break;  // a statement interrupted by stop(): nothing to retry
+      }
       const std::string why = e.what();
       // Refused: the database answers but will not take this server's records as they are
       // (its schema, the id, another store's records); retried, as an operator may fix it.
       const bool refused = dynamic_cast<const FailedPrecondition*>(&e) != nullptr;
-      db_.reset();
+      set_db(nullptr);
       {
         std::lock_guard<std::mutex> lock(mu_);
         status_.connected = false;

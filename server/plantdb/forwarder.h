@@ -56,10 +56,15 @@ class Forwarder {
   void forward(const ForwardBatch& b);    // one transaction; throws Error
   void heartbeat(const ForwardBatch& b);  // the servers row's lag and health
   void note_lag(const ForwardBatch& b);
+  // The connection in use, replaced under db_mu_ so that stop() can interrupt the one a
+  // statement waits on; after stop() each new one is interrupted as it is made.
+  void set_db(std::unique_ptr<PgConnection> db);
 
   Store& store_;
   const ForwarderOptions opt_;
+  std::mutex db_mu_;
   std::unique_ptr<PgConnection> db_;
+  bool interrupted_ = false;  // under db_mu_
   ForwardCursor cursor_;
   bool need_active_ = true;
   std::set<std::string> days_;  // day partitions known to exist

@@ -1,6 +1,7 @@
 #include "plantdb/pg_connection.h"
 
 #include <libpq-fe.h>
+#include <sys/socket.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -100,6 +101,12 @@ PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s)
 
 PgConnection::~PgConnection() {
   if (c_) PQfinish(c_);
+}
+
+void PgConnection::interrupt() noexcept {
+  // shutdown() and not close(): the descriptor stays the connection's until PQfinish, so the
+  // thread in libpq wakes to an ended stream instead of reading a number reused elsewhere.
+  if (c_ && PQsocket(c_) >= 0) ::shutdown(PQsocket(c_), SHUT_RDWR);
 }
 
 bool PgConnection::ok() const {

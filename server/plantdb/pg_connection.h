@@ -46,6 +46,9 @@ class PgConnection {
   PgRows exec(const std::string& sql);
   PgRows exec(const std::string& sql, const std::vector<PgParam>& params);
   bool ok() const;  // the connection still stands (false after a cut or a server restart)
+  // From another thread: a statement waiting on a server that answers nothing (a hung host)
+  // fails at once, and so does each one after it. The connection must outlive the call.
+  void interrupt() noexcept;
   // After a failure inside a transaction: ROLLBACK if the connection stands. Its own failure
   // is dropped: the first one is the one to report.
   void rollback_quietly() noexcept;
