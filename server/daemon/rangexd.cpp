@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "core/error.h"
+#include "core/open_file_limit.h"
 #include "fleet/fleet_server.h"
 #include "plantdb/forwarder.h"
 #include "plantdb/pg_connection.h"
@@ -253,10 +254,31 @@ int serve(const rangex::PlantConfig& plant, const Args& a) {
               (unsigned long long)s.fillets);
   return 0;
 }
+
+// Each client's connection holds an open file: the soft limit up to the hard one, said at
+// start, and a warning where the hard one leaves a plant's clients room to exhaust them.
+void raise_open_files() {
+  const rangex::OpenFileLimit l = rangex::raise_open_file_limit();
+  const auto n = [](uint64_t v) { return (unsigned long long)v; };
+  if (!l.error.empty())
+    std::fprintf(stderr, "rangexd: warning: the open-file limit stays %llu: %s\n", n(l.now),
+                 l.error.c_str());
+  else if (l.now > l.before)
+    std::printf("rangexd: open files: up to %llu (raised from %llu)\n", n(l.now), n(l.before));
+  if (l.now < rangex::kFewOpenFiles)
+    std::fprintf(stderr,
+                 "rangexd: warning: only %llu open files (hard limit %llu): that many idle "
+                 "connections lock every client out; raise the hard limit (systemd: "
+                 "LimitNOFILE=65536)\n",
+                 n(l.now), n(l.hard));
+  std::fflush(stdout);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const Args a = parse_args(argc, argv);
+  raise_open_files();
   try {
     rangex::PlantConfig plant = rangex::load_plant_config(a.config);
     if (a.fleet) return run_fleet(plant, a.http, a.servers_ca);

@@ -29,7 +29,7 @@ from prometheus_client.parser import text_string_to_metric_families
 from selenium.webdriver.common.by import By
 
 from browser import headless_chrome, wait_for
-from checks import check, fail
+from checks import check, fail, terminate
 
 rangexd, rangexctl, plant_yaml, out_dir = sys.argv[1:5]
 os.makedirs(out_dir, exist_ok=True)
@@ -242,9 +242,5 @@ finally:
     driver.quit()
     if feeder and feeder.poll() is None:
         feeder.kill()
-    server.send_signal(signal.SIGTERM)
-    try:
-        server.wait(timeout=60)
-    except subprocess.TimeoutExpired:
-        server.kill()
+    terminate(server)
 print("dashboard: all checks passed; screenshots in", out_dir, flush=True)
