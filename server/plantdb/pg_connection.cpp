@@ -2,6 +2,7 @@
 
 #include <libpq-fe.h>
 #include <sys/socket.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -92,6 +93,9 @@ PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s)
     c_ = nullptr;
     fail("PostgreSQL at ", where_, ": cannot connect: ", why);
   }
+  // Our own descriptor of the connection's socket, for interrupt(): libpq may close its own
+  // at any time, and its number be reused by another socket before we shut it down.
+  wake_fd_ = ::dup(PQsocket(c_));
   // Notices (e.g. "relation already exists, skipping") are not errors; keep them off stderr.
   PQsetNoticeProcessor(
       c_, [](void*, const char*) {}, nullptr);
@@ -101,12 +105,13 @@ PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s)
 
 PgConnection::~PgConnection() {
   if (c_) PQfinish(c_);
+  if (wake_fd_ >= 0) ::close(wake_fd_);
 }
 
 void PgConnection::interrupt() noexcept {
-  // shutdown() and not close(): the descriptor stays the connection's until PQfinish, so the
-  // thread in libpq wakes to an ended stream instead of reading a number reused elsewhere.
-  if (c_ && PQsocket(c_) >= 0) ::shutdown(PQsocket(c_), SHUT_RDWR);
+  // shutdown() ends the socket itself, under every descriptor of it: the thread in libpq
+  // wakes to an ended stream.
+  if (wake_fd_ >= 0) ::shutdown(wake_fd_, SHUT_RDWR);
 }
 
 bool PgConnection::ok() const {

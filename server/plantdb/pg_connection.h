@@ -57,6 +57,7 @@ class PgConnection {
 
  private:
   pg_conn* c_ = nullptr;
+  int wake_fd_ = -1;  // a duplicate of the socket's descriptor, for interrupt()
   std::string where_;
 };
 
