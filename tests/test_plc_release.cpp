@@ -178,6 +178,27 @@ TEST(PlcRelease, AnUnreachablePlcReleasesNothingAndCountsWhatItCouldNot) {
   EXPECT_TRUE(wait_until(5, [&] { return rig.plc->lane_state(0) == PackMl::kExecute; }));
 }
 
+// While the PLC is away a reject waits at the queue's head to be sent; a pass behind it whose
+// deadline passes is counted unreleased then, not sent late once the PLC is back.
+TEST(PlcRelease, APassBehindAWaitingRejectIsUnreleasedAtItsDeadline) {
+  Rig rig;
+  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));
+  rig.plc->stop();
+  rig.release->decided(Rig::fillet(51, 1, 100, ReleaseCode::kReject));
+  rig.release->decided(Rig::fillet(52, 0, 100, ReleaseCode::kPass));
+  ASSERT_TRUE(wait_until(10, [&] { return !rig.release->status().connected; }));
+  rig.move(0, 1060);  // the pass's deadline passes while the PLC is away
+  ASSERT_TRUE(wait_until(10, [&] {
+    return rig.release->status().unreleased == 1 && rig.audited("release.unreleased") == 1;
+  }));
+  EXPECT_EQ(rig.release->status().pending, 1u);  // the reject, still to be sent
+  rig.plc->start();
+  ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().pending == 0; }));
+  ASSERT_EQ(rig.plc->received().size(), 1u);
+  EXPECT_EQ(rig.plc->received()[0].release.code, ReleaseCode::kReject);
+  EXPECT_EQ(rig.release->status().late, 0u);
+}
+
 TEST(PlcRelease, APlcRestartedMidRunGetsEveryLaterReleaseOnce) {
   Rig rig;
   ASSERT_TRUE(wait_until(10, [&] { return rig.release->status().connected; }));

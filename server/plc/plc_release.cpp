@@ -286,9 +286,48 @@ void PlcRelease::heartbeat_and_states(const std::vector<PlcLaneView>& lanes) {
   }
 }
 
+namespace {
+
+std::string release_name(const Release& r) {
+  return join("lane ", r.lane, " fillet ", r.uid, " (lines ", r.first_encoder, "..", r.last_encoder,
+              ")");
+}
+
+}  // namespace
+
+size_t PlcRelease::unreleased_at_deadline(const std::map<int, PlcLaneView>& views, size_t count) {
+  std::vector<std::string> audits;
+  {
+    std::lock_guard<std::mutex> lk(mu_);
+    size_t n = std::min(count, queue_.size());
+    for (size_t i = 0; i < n;) {
+      const Release& r = queue_[i].r;
+      const auto v = views.find(r.lane);
+      if (r.code != ReleaseCode::kPass || v == views.end() || !v->second.has_count ||
+          v->second.belt_count < deadline(r.lane, r.first_encoder)) {
+        ++i;
+        continue;
+      }
+      audits.push_back(join(release_name(r), ": the PLC ",
+                            link_->connected() ? "refused the ring's registers" : "was unreachable",
+                            " until its deadline; diverted"));
+      queue_.erase(queue_.begin() + long(i));
+      --n;
+      ++status_.unreleased;
+    }
+  }
+  if (hooks_.audit)
+    for (const std::string& a : audits) hooks_.audit("release.unreleased", a);
+  return audits.size();
+}
+
 void PlcRelease::send_due(const std::vector<PlcLaneView>& lanes, size_t count) {
   std::map<int, PlcLaneView> views;
   for (const PlcLaneView& v : lanes) views[v.lane] = v;
+  // A pass whose deadline passed while the PLC could not be reached, or refused the ring, is
+  // never sent as a pass: counted unreleased wherever it waits, behind entries still to go.
+  if (!link_->connected() || refused(Area::kRing)) count -= unreleased_at_deadline(views, count);
+  if (!link_->connected()) return;
   const int64_t t = now_ns();
   for (size_t taken = 0; taken < count; ++taken) {
     Queued q;
@@ -301,24 +340,7 @@ void PlcRelease::send_due(const std::vector<PlcLaneView>& lanes, size_t count) {
     const bool counted = v != views.end() && v->second.has_count;
     const int64_t belt = counted ? v->second.belt_count : INT64_MIN;
     const int64_t dl = deadline(q.r.lane, q.r.first_encoder);
-    const std::string what = join("lane ", q.r.lane, " fillet ", q.r.uid, " (lines ",
-                                  q.r.first_encoder, "..", q.r.last_encoder, ")");
     if (q.r.code == ReleaseCode::kPass && counted && belt >= dl) {
-      if (!link_->connected() || refused(Area::kRing)) {
-        // Its deadline passed while the PLC could not be reached, or refused the ring: never
-        // sent as a pass.
-        {
-          std::lock_guard<std::mutex> lk(mu_);
-          queue_.pop_front();
-          ++status_.unreleased;
-        }
-        if (hooks_.audit)
-          hooks_.audit("release.unreleased",
-                       join(what, ": the PLC ",
-                            link_->connected() ? "refused the ring's registers" : "was unreachable",
-                            " until its deadline; diverted"));
-        continue;
-      }
       q.r.code = ReleaseCode::kLate;
       {
         std::lock_guard<std::mutex> lk(mu_);
@@ -326,10 +348,9 @@ void PlcRelease::send_due(const std::vector<PlcLaneView>& lanes, size_t count) {
         ++status_.late;
       }
       if (hooks_.audit)
-        hooks_.audit("release.late",
-                     join(what, ": decided at line ", belt, ", deadline ", dl, "; late: diverted"));
+        hooks_.audit("release.late", join(release_name(q.r), ": decided at line ", belt,
+                                          ", deadline ", dl, "; late: diverted"));
     }
-    if (!link_->connected()) return;
     const SlotRegisters regs = release_registers(q.r);
     const int slot = release_slot(q.r.uid, cfg_.ring_slots);
     const int base = cfg_.ring_base + kSlotRegisters * slot;

@@ -72,6 +72,9 @@ class PlcRelease {
   // The first `count` queued releases, in order, judged against `lanes` (read after they
   // were queued).
   void send_due(const std::vector<PlcLaneView>& lanes, size_t count);
+  // Of the first `count` queued, the passes past their deadline, taken out and counted
+  // unreleased (the PLC cannot be written); how many.
+  size_t unreleased_at_deadline(const std::map<int, PlcLaneView>& views, size_t count);
   void heartbeat_and_states(const std::vector<PlcLaneView>& lanes);
   void lost(const std::string& why);
   // What the PLC's program maps for rangex, each refused or not on its own.
