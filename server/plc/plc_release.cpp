@@ -21,6 +21,26 @@ int64_t now_ns() {
 // Informational entries (rejects, not inspected) kept while the PLC cannot be reached.
 constexpr size_t kMaxQueued = 4096;
 
+// The parts of the register map a PLC program may refuse (PlcRelease::Area), and what a
+// refusal of each costs the line.
+const char* area_name(int area) {
+  static const char* const names[] = {"the heartbeat", "a lane's state", "the release ring",
+                                      "the ring's head"};
+  return names[area];
+}
+
+const char* area_cost(int area) {
+  static const char* const costs[] = {
+      "the PLC cannot tell that rangexd is alive", "the PLC does not see the lanes' states",
+      "no fillet is released: every one is diverted", "releases are taken without it"};
+  return costs[area];
+}
+
+std::string release_name(const Release& r) {
+  return join("lane ", r.lane, " fillet ", r.uid, " (lines ", r.first_encoder, "..", r.last_encoder,
+              ")");
+}
+
 }  // namespace
 
 PlcRelease::PlcRelease(const PlantConfig& plant, PlcHooks hooks)
@@ -203,23 +223,6 @@ bool PlcRelease::refused(Area area) const {
   return refusals_.count(area) > 0;
 }
 
-namespace {
-
-const char* area_name(int area) {
-  static const char* const names[] = {"the heartbeat", "a lane's state", "the release ring",
-                                      "the ring's head"};
-  return names[area];
-}
-
-const char* area_cost(int area) {
-  static const char* const costs[] = {
-      "the PLC cannot tell that rangexd is alive", "the PLC does not see the lanes' states",
-      "no fillet is released: every one is diverted", "releases are taken without it"};
-  return costs[area];
-}
-
-}  // namespace
-
 bool PlcRelease::write(Area area, int first, const uint16_t* values, int n) {
   const int64_t t = now_ns();
   const auto it = refusals_.find(area);
@@ -285,15 +288,6 @@ void PlcRelease::heartbeat_and_states(const std::vector<PlcLaneView>& lanes) {
     lost(e.what());
   }
 }
-
-namespace {
-
-std::string release_name(const Release& r) {
-  return join("lane ", r.lane, " fillet ", r.uid, " (lines ", r.first_encoder, "..", r.last_encoder,
-              ")");
-}
-
-}  // namespace
 
 size_t PlcRelease::unreleased_at_deadline(const std::map<int, PlcLaneView>& views, size_t count) {
   std::vector<std::string> audits;
