@@ -44,16 +44,25 @@ void serve(double period_s, F every) {
 }  // namespace
 
 int cmd_plc_sim(int argc, char** argv) {
-  const Args a(argc, argv, 2, {"list"}, {"config", "port", "port-file", "every"});
-  a.expect_positionals(0, "plc-sim [--port P] [--port-file F] [--list] [--config ...]");
+  const Args a(argc, argv, 2, {"list"}, {"config", "port", "port-file", "every", "registers"});
+  a.expect_positionals(
+      0, "plc-sim [--port P] [--port-file F] [--registers N] [--list] [--config ...]");
   const PlantConfig plant = load_config(a.get("config", ""));
   // The plant's register map; the port from --port, else plant.yaml's plc address, else free.
   int port = int(a.integer("port", 0));
   if (!a.has("port") && plant.plc.enabled())
     port = std::stoi(plant.plc.address.substr(plant.plc.address.rfind(':') + 1));
   SimPlc plc(plant.plc, port);
-  std::printf("plc-sim: a simulated PLC on 127.0.0.1:%d (ring at %d, %d slots; docs/plc.md)\n",
-              plc.port(), plant.plc.ring_base, plant.plc.ring_slots);
+  // A PLC program that maps fewer holding registers refuses writes past them (exception 2):
+  // an integrator's dry run of plant.yaml's plc section against the program's map.
+  const int64_t registers = a.integer("registers", 65536);
+  if (registers < 1 || registers > 65536)
+    fail("--registers must be 1..65536 (got ", registers, ")");
+  plc.set_registers(int(registers));
+  std::printf(
+      "plc-sim: a simulated PLC on 127.0.0.1:%d (ring at %d, %d slots; holding registers "
+      "0..%lld; docs/plc.md)\n",
+      plc.port(), plant.plc.ring_base, plant.plc.ring_slots, (long long)registers - 1);
   std::fflush(stdout);
   if (a.has("port-file")) {
     const std::string f = a.get("port-file", "");

@@ -108,9 +108,10 @@ records, the plant-wide database and access:
       a new bearer token, and the line (its SHA-256) that grants it in plant.yaml
 
 a line without a line (until SIGINT/SIGTERM; docs/sensors.md, docs/plc.md):
-  plc-sim [--port P] [--port-file F] [--list]
+  plc-sim [--port P] [--port-file F] [--registers N] [--list]
       a simulated PLC taking rangexd's releases over Modbus TCP with plant.yaml's register
-      map (the port from --port, else plc.address); --list: every release at the end
+      map (the port from --port, else plc.address); --registers: its program maps holding
+      registers 0..N-1 only (65536), as a PLC's may; --list: every release at the end
   fake-lane RECORDING --addresses CAM0,CAM1,XRAY [--lane L] [--period-us 10000] [--lead 200]
       a lane's three GigE Vision devices (Aravis fake cameras on loopback addresses, added
       to lo) serving the recording's frames, pulsed in step by an encoder of their own
