@@ -84,7 +84,7 @@ class PlcRelease {
   bool write(Area area, int first, const uint16_t* values, int n);
   bool refused(Area area) const;
   void answered();       // the PLC answered a write on this connection
-  void show_refusals();  // status_.error from the areas refused (under mu_)
+  void show_refusals();  // status_.refused from the areas refused (under mu_)
 
   const PlcConfig cfg_;
   std::map<int, int64_t> deadline_lines_;  // by lane: the gate's distance less the margin
