@@ -6,8 +6,10 @@
 #include <httplib.h>
 
 #include <cstdlib>
+#include <future>
 #include <nlohmann/json.hpp>
 #include <thread>
+#include <vector>
 
 #include "core/error.h"
 #include "fleet/fleet_server.h"
@@ -19,6 +21,7 @@
 #include "store/store.h"
 #include "temp_dir.h"
 #include "test_ca.h"
+#include "wait_until.h"
 
 using namespace rangex;
 using json = nlohmann::json;
@@ -269,6 +272,48 @@ TEST(FleetView, HostileQueriesAreRefusedByName) {
   EXPECT_EQ(quoted->status, 200);
   EXPECT_EQ(json::parse(quoted->body)["fillets"].size(), 0u);
   EXPECT_EQ(c.Get("/api/events")->status, 404);
+}
+
+// A database host that takes connections and answers nothing (every PostgreSQL process
+// stopped), read by 40 dashboards at once, more than the view's 16 threads: each is told
+// so (503, naming the database) instead of waiting until its client gives up, and once the
+// database answers, so does the view.
+TEST(FleetView, AHungDatabaseIsNamedToEachReaderAndTheViewAnswersWhenItDoes) {
+  Plant p;
+  FleetOptions o = secured(p);
+  o.security = SecurityConfig{};
+  o.db_statement_timeout_s = 1;  // an answer is waited for 6 s
+  FleetServer fleet(o);
+  {
+    httplib::Client c("127.0.0.1", fleet.port());
+    ASSERT_EQ(c.Get("/api/servers")->status, 200);  // the pool keeps this connection
+  }
+  p.pg.freeze();
+  std::vector<std::future<std::pair<int, std::string>>> readers;
+  for (int i = 0; i < 40; ++i)
+    readers.push_back(std::async(std::launch::async, [&, i] {
+      httplib::Client c("127.0.0.1", fleet.port());
+      c.set_read_timeout(60, 0);  // the bound: a reader held this long fails the test
+      const auto r = c.Get(i % 2 ? "/api/servers" : "/metrics");
+      return r ? std::make_pair(r->status, r->body)
+               : std::make_pair(-1, "no answer: " + httplib::to_string(r.error()));
+    }));
+  std::vector<std::pair<int, std::string>> got;
+  for (auto& r : readers) got.push_back(r.get());
+  p.pg.thaw();
+  int unanswered = 0;
+  for (const auto& [status, body] : got) {
+    EXPECT_EQ(status, 503) << body;
+    EXPECT_NE(body.find("PostgreSQL at " + pg_where(p.pg.conninfo()) + ": "), std::string::npos)
+        << body;
+    unanswered += body.find("no answer within 6 s") != std::string::npos;
+  }
+  EXPECT_GE(unanswered, 1) << "the statement that waited was not named";
+  httplib::Client c("127.0.0.1", fleet.port());
+  EXPECT_TRUE(test::wait_until(30, [&] {
+    const auto r = c.Get("/api/servers");
+    return r && r->status == 200;
+  })) << "the view did not answer again once the database did";
 }
 
 TEST(FleetView, ADatabaseBehindTheBuildsSchemaIsRefusedWithTheCommandToRun) {

@@ -261,6 +261,66 @@ TEST_F(PlantDb, ADatabaseThatAnswersNothingHoldsNoStop) {
   expect_all_forwarded(s, *db, "srv-h");
 }
 
+// One connection to a host that answers nothing: the statement fails within its bound,
+// naming the database, and the connection is closed (nobody knows what the statement did).
+// Several statements in one string keep PQexec's answer: the last result, or the first
+// failure.
+TEST_F(PlantDb, AStatementWithNoAnswerFailsWithinItsBound) {
+  PgConnection c(pg.conninfo(), 5, 1);
+  EXPECT_EQ(c.exec("SELECT 1; SELECT 2").str(0, 0), "2");
+  try {
+    c.exec("SELECT 1; SELECT no_such_column; SELECT 3");
+    ADD_FAILURE() << "a failed statement among three was not reported";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no_such_column"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(c.ok());
+  pg.freeze();
+  auto answered = std::async(std::launch::async, [&]() -> std::string {
+    try {
+      c.exec("SELECT 1");
+      return "answered";
+    } catch (const Unavailable& e) {
+      return e.what();
+    }
+  });
+  const bool ended = answered.wait_for(std::chrono::seconds(60)) == std::future_status::ready;
+  pg.thaw();  // a statement still waiting gets its answer now, so that the test fails
+  const std::string why = answered.get();
+  EXPECT_TRUE(ended) << "a statement waited 60 s on a database that answers nothing";
+  EXPECT_EQ(why.rfind("PostgreSQL at " + pg_where(pg.conninfo()) + ": ", 0), 0u) << why;
+  EXPECT_NE(why.find("'SELECT 1': no answer within 6 s"), std::string::npos) << why;
+  EXPECT_FALSE(c.ok());
+  EXPECT_EQ(c.unanswered(), why);
+  EXPECT_THROW(c.exec("SELECT 1"), Unavailable);
+  EXPECT_EQ(PgConnection(pg.conninfo()).exec("SELECT 1").str(0, 0), "1");
+}
+
+// The same hung host while rangexd runs: the forwarder's statement fails within its bound,
+// its status says why, and once the database answers it carries on, each record once.
+TEST_F(PlantDb, AForwarderOnAHungDatabaseSaysSoAndResumesWhenItAnswers) {
+  TempDir dir;
+  Store s(dir.str());
+  ForwarderOptions o = options(pg, "srv-n");
+  o.statement_timeout_s = 1;
+  Forwarder f(s, o);
+  f.start();
+  fill(s, 10);
+  ASSERT_TRUE(f.wait_caught_up(60)) << f.status().last_error;
+  pg.freeze();
+  fill(s, 10);
+  const bool named = test::wait_until(
+      60, [&] { return f.status().last_error.find("no answer within 6 s") != std::string::npos; });
+  const ForwarderStatus held = f.status();
+  pg.thaw();
+  EXPECT_TRUE(named) << held.last_error;
+  EXPECT_FALSE(held.connected);
+  EXPECT_GT(held.lag_records, 0);
+  ASSERT_TRUE(f.wait_caught_up(60)) << f.status().last_error;
+  f.stop();
+  expect_all_forwarded(s, *db, "srv-n");
+}
+
 TEST_F(PlantDb, TwoServersWithOneIdAndANewStoreUnderAnOldIdAreRefused) {
   TempDir d1, d2, d3;
   Store s1(d1.str()), s2(d2.str());

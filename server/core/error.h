@@ -1,6 +1,7 @@
-// One exception type for every refused input: the message names what is wrong. Two
+// One exception type for every refused input: the message names what is wrong. Its
 // refinements let the service answer with the right status: NotFound (an unknown lane or
-// calibration) and AlreadyExists (a calibration id taken).
+// calibration), AlreadyExists (a calibration id taken), FailedPrecondition (a gate) and
+// Unavailable (a peer it needs, such as the plant-wide database, does not answer).
 #pragma once
 #include <sstream>
 #include <stdexcept>
@@ -21,6 +22,10 @@ class AlreadyExists : public Error {
   using Error::Error;
 };
 class FailedPrecondition : public Error {  // refused in the current state (a gate)
+ public:
+  using Error::Error;
+};
+class Unavailable : public Error {  // a peer does not answer: the same request may work later
  public:
   using Error::Error;
 };

@@ -21,7 +21,7 @@ FleetServer::FleetServer(FleetOptions opt) : opt_(std::move(opt)), access_(opt_.
   if (opt_.conninfo.empty())
     fail("the fleet view needs plant.results_db: the plant-wide PostgreSQL it shows");
   check_listen_security(opt_.listen, opt_.security, "the fleet view");
-  db_ = std::make_unique<PgPool>(opt_.conninfo);
+  db_ = std::make_unique<PgPool>(opt_.conninfo, 4, 5, opt_.db_statement_timeout_s);
   {
     PgPool::Lease db = db_->take();
     require_plant_db_schema(*db);

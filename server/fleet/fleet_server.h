@@ -46,7 +46,10 @@ struct FleetOptions {
   SecurityConfig security;     // who may read, and TLS (plant.yaml security), as rangexd's
   double silent_after_s = 15;  // a server not heard from for longer is shown silent
   double image_timeout_s = 5;  // fetching an image from its server
-  std::string servers_ca;      // verifies servers' https dashboards (empty: system CAs)
+  // A statement of the plant-wide database; one that has no answer 5 s later is a page
+  // that names the database (503), not a reader kept waiting.
+  int db_statement_timeout_s = 10;
+  std::string servers_ca;  // verifies servers' https dashboards (empty: system CAs)
 };
 
 class FleetServer {

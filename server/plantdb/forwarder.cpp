@@ -91,7 +91,8 @@ void Forwarder::describe(const std::string& http_url, std::function<std::string(
 
 void Forwarder::connect() {
   set_db(nullptr);
-  set_db(std::make_unique<PgConnection>(opt_.conninfo, opt_.connect_timeout_s));
+  set_db(std::make_unique<PgConnection>(opt_.conninfo, opt_.connect_timeout_s,
+                                        opt_.statement_timeout_s));
   PgConnection* db = db_.get();
   require_plant_db_schema(*db);
   const std::string id = opt_.server_id;

@@ -30,6 +30,9 @@ struct ForwarderOptions {
   double idle_s = 0.25;     // how often a caught-up forwarder looks for new records
   double retry_max_s = 30;  // backoff after a failure: 1 s, doubling, up to this
   int connect_timeout_s = 5;
+  // A statement longer is cancelled by the server; one with no answer 5 s later (a hung
+  // host) fails, and the forwarder connects again with its backoff.
+  int statement_timeout_s = 60;
   double heartbeat_s = 5;  // how often a caught-up forwarder says it is alive
 };
 

@@ -1,9 +1,13 @@
 #include "plantdb/pg_connection.h"
 
 #include <libpq-fe.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -72,8 +76,10 @@ std::string no_password(const std::string& conninfo, const std::string& what) {
   return conninfo;
 }
 
-PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s)
-    : where_(pg_where(conninfo)) {
+PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s,
+                           int statement_timeout_s)
+    : where_(pg_where(conninfo)), answer_wait_s_(statement_timeout_s + kAnswerGrace_s) {
+  if (statement_timeout_s < 1) fail("PostgreSQL at ", where_, ": a statement needs >= 1 s");
   // A URI takes its timeout as a parameter; a key=value string as one more key. Later keys
   // win in key=value strings, so the user's own connect_timeout is kept by putting ours first.
   const bool uri = conninfo.rfind("postgres://", 0) == 0 || conninfo.rfind("postgresql://", 0) == 0;
@@ -91,7 +97,7 @@ PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s)
     while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
     if (c_) PQfinish(c_);
     c_ = nullptr;
-    fail("PostgreSQL at ", where_, ": cannot connect: ", why);
+    throw Unavailable(join("PostgreSQL at ", where_, ": cannot connect: ", why));
   }
   // Our own descriptor of the connection's socket, for interrupt(): libpq may close its own
   // at any time, and its number be reused by another socket before we shut it down.
@@ -99,8 +105,9 @@ PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s)
   // Notices (e.g. "relation already exists, skipping") are not errors; keep them off stderr.
   PQsetNoticeProcessor(
       c_, [](void*, const char*) {}, nullptr);
-  // No statement of rangex's takes a minute; one that does is waiting on something wrong.
-  exec("SET statement_timeout = '60s'");
+  // Statements are sent and their answers waited for with poll(), within answer_wait_s_.
+  PQsetnonblocking(c_, 1);
+  exec("SET statement_timeout = '" + std::to_string(statement_timeout_s) + "s'");
 }
 
 PgConnection::~PgConnection() {
@@ -130,21 +137,88 @@ PgRows PgConnection::exec(const std::string& sql) {
 }
 
 PgRows PgConnection::exec(const std::string& sql, const std::vector<PgParam>& params) {
+  if (!c_)
+    throw Unavailable(join("PostgreSQL at ", where_, ": '", first_line(sql),
+                           "': not sent, the connection was closed: ", unanswered_));
   std::vector<const char*> values;
   values.reserve(params.size());
   for (const PgParam& p : params) values.push_back(p ? p->c_str() : nullptr);
-  pg_result* r = params.empty() ? PQexec(c_, sql.c_str())
-                                : PQexecParams(c_, sql.c_str(), int(values.size()), nullptr,
-                                               values.data(), nullptr, nullptr, 0);
-  PgRows rows(r);
-  const ExecStatusType st = r ? PQresultStatus(r) : PGRES_FATAL_ERROR;
-  if (st != PGRES_COMMAND_OK && st != PGRES_TUPLES_OK) {
-    std::string why = r ? PQresultErrorMessage(r) : "";
-    if (why.empty()) why = PQerrorMessage(c_);
-    while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
-    fail("PostgreSQL at ", where_, ": '", first_line(sql), "': ", why);
+  const int sent = params.empty() ? PQsendQuery(c_, sql.c_str())
+                                  : PQsendQueryParams(c_, sql.c_str(), int(values.size()), nullptr,
+                                                      values.data(), nullptr, nullptr, 0);
+  if (!sent) fail_statement(sql, nullptr);
+  return PgRows(answer(sql));
+}
+
+namespace {
+using Clock = std::chrono::steady_clock;
+// Until the socket is ready for `events` (an error counts: libpq reads it), or false at
+// the deadline.
+bool wait_socket(int fd, short events, Clock::time_point until) {
+  for (;;) {
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(until - Clock::now()).count();
+    if (left <= 0) return false;
+    pollfd p{fd, events, 0};
+    const int n = ::poll(&p, 1, int(std::min<long long>(left, 60'000)));
+    if (n > 0 || (n < 0 && errno != EINTR)) return true;
   }
-  return rows;
+}
+}  // namespace
+
+// PQexec's semantics (the last result, or the first that failed), with every wait bounded.
+pg_result* PgConnection::answer(const std::string& sql) {
+  const Clock::time_point until = Clock::now() + std::chrono::seconds(answer_wait_s_);
+  // Send all of it, reading meanwhile: a server may answer before it has read everything.
+  for (int f; (f = PQflush(c_)) != 0;) {
+    if (f < 0) fail_statement(sql, nullptr);
+    if (!wait_socket(PQsocket(c_), POLLIN | POLLOUT, until)) give_up(sql);
+    if (!PQconsumeInput(c_)) break;  // PQgetResult reports the broken connection
+  }
+  pg_result* kept = nullptr;
+  for (;;) {
+    while (PQisBusy(c_)) {
+      if (!wait_socket(PQsocket(c_), POLLIN, until)) {
+        if (kept) PQclear(kept);
+        give_up(sql);
+      }
+      if (!PQconsumeInput(c_)) break;
+    }
+    pg_result* r = PQgetResult(c_);
+    if (!r) break;
+    const ExecStatusType st = PQresultStatus(r);
+    const bool failed = st != PGRES_COMMAND_OK && st != PGRES_TUPLES_OK;
+    if (kept && PQresultStatus(kept) != PGRES_COMMAND_OK &&
+        PQresultStatus(kept) != PGRES_TUPLES_OK) {
+      PQclear(r);  // the first failure is the one to report
+    } else {
+      if (kept) PQclear(kept);
+      kept = r;
+    }
+    if (failed && PQstatus(c_) == CONNECTION_BAD) break;
+  }
+  const ExecStatusType st = kept ? PQresultStatus(kept) : PGRES_FATAL_ERROR;
+  if (st != PGRES_COMMAND_OK && st != PGRES_TUPLES_OK) fail_statement(sql, kept);
+  return kept;
+}
+
+void PgConnection::fail_statement(const std::string& sql, pg_result* r) {
+  std::string why = r ? PQresultErrorMessage(r) : "";
+  if (why.empty()) why = PQerrorMessage(c_);
+  if (r) PQclear(r);
+  while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
+  fail("PostgreSQL at ", where_, ": '", first_line(sql), "': ", why);
+}
+
+void PgConnection::give_up(const std::string& sql) {
+  unanswered_ = join("PostgreSQL at ", where_, ": '", first_line(sql), "': no answer within ",
+                     answer_wait_s_, " s (the server, its host or the network holds it)");
+  PQfinish(c_);
+  c_ = nullptr;
+  // Our duplicate of the socket would keep it open: end it. The descriptor stays ours until
+  // the destructor, so that interrupt() from another thread never touches a reused number.
+  if (wake_fd_ >= 0) ::shutdown(wake_fd_, SHUT_RDWR);
+  throw Unavailable(unanswered_);
 }
 
 std::string pg_exact(double v) {

@@ -175,6 +175,8 @@ void guard_http(httplib::Server& s, const AccessControl& access) {
           msg = e.what(), status = 403;
         } catch (const FailedPrecondition& e) {
           msg = e.what(), status = 409;
+        } catch (const Unavailable& e) {
+          msg = e.what(), status = 503;
         } catch (const std::exception& e) {
           msg = e.what();
         }

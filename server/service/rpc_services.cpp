@@ -48,6 +48,7 @@ Status refusal(const std::exception& e) {
   if (dynamic_cast<const AlreadyExists*>(&e)) return Status(StatusCode::ALREADY_EXISTS, e.what());
   if (dynamic_cast<const FailedPrecondition*>(&e))
     return Status(StatusCode::FAILED_PRECONDITION, e.what());
+  if (dynamic_cast<const Unavailable*>(&e)) return Status(StatusCode::UNAVAILABLE, e.what());
   if (dynamic_cast<const Error*>(&e)) return Status(StatusCode::INVALID_ARGUMENT, e.what());
   return Status(StatusCode::INTERNAL, e.what());
 }
