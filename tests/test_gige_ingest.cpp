@@ -483,3 +483,44 @@ TEST(GigeIngest, ADeviceThatRefusesMono8IsNamedAndTheLaneWaits) {
   EXPECT_EQ(server.sensors()[0].lines, 0u);
   EXPECT_EQ(server.engine().lane_state(0).received, 0u);
 }
+
+// Devices whose PayloadSize is not one frame: one giving 4 GB (each of its receive buffers
+// would be allocated that large), one giving half a frame (a frame would not fit). Each is
+// refused at its start, naming the size; the lane waits for them.
+TEST(GigeIngest, ADeviceWhosePayloadSizeIsNotOneFrameIsRefused) {
+  LoopbackAddresses addrs(addresses(1));
+  NEED_ADDRESSES(addrs);
+  TempDir t;
+  const std::regex formula("(<IntSwissKnife Name=\"PayloadSize\"[\\s\\S]*?<Formula>)[^<]*");
+  std::ofstream(t.str("huge.xml"))
+      << std::regex_replace(FakeDevice::genicam_xml(), formula, "$1WIDTH * 0 + 4000000000");
+  std::ofstream(t.str("half.xml")) << std::regex_replace(
+      FakeDevice::genicam_xml(), formula, "$1WIDTH * HEIGHT * ((PIXELFORMAT>>16)&amp;0xFF) / 16");
+  const PlantConfig p = plant(1);
+  const RecordingReader rec(simulate(t, p, 1, 1));
+  ServedLane served(rec, 0);
+  auto fill = [&](int d) {
+    return [&served, d](int64_t c, uint8_t* o, size_t b) { served.fill(d, c, o, b); };
+  };
+  FakeDevice cam0(device_address(0, 0), "huge", kPeriodUs, fill(0), t.str("huge.xml"));
+  FakeDevice cam1(device_address(0, 1), "half", kPeriodUs, fill(1), t.str("half.xml"));
+  FakeDevice xray(device_address(0, 2), "rx02", kPeriodUs, fill(2));
+  RangexServer server(p, options(t));
+  for (int d : {0, 1}) {
+    SCOPED_TRACE(d);
+    ASSERT_TRUE(wait_until(30, [&] {
+      const SensorState* s = device_state(server.sensors(), 0, d);
+      return s && s->state == "refused" && !s->error.empty();
+    })) << "the refusal was not shown within 30 s";
+    const SensorState s = *device_state(server.sensors(), 0, d);
+    EXPECT_NE(s.error.find(d == 0 ? "payload size of 4000000000 bytes"
+                                  : "payload size of " +
+                                        std::to_string(p.lanes[0].frame_width *
+                                                       p.lanes[0].frame_height / 2) +
+                                        " bytes"),
+              std::string::npos)
+        << s.error;
+    EXPECT_NE(s.error.find(device_address(0, d)), std::string::npos) << s.error;
+  }
+  EXPECT_EQ(server.engine().lane_state(0).received, 0u);
+}

@@ -162,6 +162,15 @@ struct GigeDevice::Impl {
     if (!stream) fail("device ", setup.id, " gives no stream: ", take_error(e));
     const guint payload = arv_camera_get_payload(camera, &e);
     if (e) fail("device ", setup.id, " gives no payload size: ", take_error(e));
+    // Each receive buffer is allocated at the payload size the device gives: it must hold
+    // one frame, and be no more than a frame and its chunks (a device giving gigabytes would
+    // have that much reserved a buffer).
+    const size_t frame = frame_bytes();
+    if (payload < frame || payload > 2 * frame + (64u << 10))
+      fail("device ", setup.id, " gives a payload size of ", payload, " bytes for frames of ",
+           setup.width, "x", setup.height, " ", hex(format), " (", frame,
+           " bytes): refused, it must hold one frame and its chunks, at most ", 2 * frame,
+           " + 65536 bytes");
     // The socket's receive buffer for every receive buffer's frame, 1 MiB at least; the kernel
     // holds it to net.core.rmem_max (docs/sensors.md). Aravis's "auto" sizes it to one frame:
     // an X-ray line of 960 bytes then left no room for its own three packets.
@@ -175,6 +184,11 @@ struct GigeDevice::Impl {
     session->stream = stream;
     arv_camera_start_acquisition(camera, &e);
     if (e) refused("AcquisitionStart", "1", e);
+  }
+
+  size_t frame_bytes() const {
+    return size_t(setup.width) * size_t(setup.height) *
+           (format == ARV_PIXEL_FORMAT_MONO_16 ? 2 : 1);
   }
 
   void close() {
@@ -252,7 +266,13 @@ GigeDevice::Got GigeDevice::next(int timeout_ms, DeviceFrame& out, std::string& 
   // The X-ray line's Mono16 is little-endian (PFNC), as the lane takes it: no conversion.
   size_t size = 0;
   const void* data = arv_buffer_get_data(b, &size);
-  size = size_t(w) * size_t(h) * (d.format == ARV_PIXEL_FORMAT_MONO_16 ? 2 : 1);
+  if (size < d.frame_bytes()) {  // a leader's size the data did not fill
+    why = join("frame of ", size, " bytes for ", w, "x", h, " ", hex(pf), " (", d.frame_bytes(),
+               " bytes)");
+    arv_stream_push_buffer(stream, b);
+    return Got::kWrongFormat;
+  }
+  size = d.frame_bytes();  // without any chunk data after the image
   std::shared_ptr<Session> s = d.session;
   std::shared_ptr<void> keep(b, [s](void* p) { s->give_back(static_cast<ArvBuffer*>(p)); });
   out.bytes = LineBytes::lent(static_cast<char*>(const_cast<void*>(data)), size, std::move(keep));
