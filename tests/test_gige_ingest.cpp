@@ -75,6 +75,11 @@ PlantConfig plant(int lanes) {
   return p;
 }
 
+// Device d's frames of a served lane, by the fake's own frame count (no encoder).
+FakeDevice::Fill serve(ServedLane& served, int d) {
+  return [&served, d](int64_t c, uint8_t* o, size_t b) { served.fill(d, c, o, b); };
+}
+
 // A simulated recording of `lanes` lanes, one fillet each, in t/rec.
 std::string simulate(const TempDir& t, const PlantConfig& p, int lanes, uint64_t seed) {
   sim::SimulationParams sp;
@@ -464,12 +469,9 @@ TEST(GigeIngest, ADeviceThatRefusesMono8IsNamedAndTheLaneWaits) {
   const PlantConfig p = plant(1);
   const RecordingReader rec(simulate(t, p, 1, 1));
   ServedLane served(rec, 0);
-  auto fill = [&](int d) {
-    return [&served, d](int64_t c, uint8_t* o, size_t b) { served.fill(d, c, o, b); };
-  };
-  FakeDevice cam0(device_address(0, 0), "colour", kPeriodUs, fill(0), t.str("colour.xml"));
-  FakeDevice cam1(device_address(0, 1), "rx01", kPeriodUs, fill(1));
-  FakeDevice xray(device_address(0, 2), "rx02", kPeriodUs, fill(2));
+  FakeDevice cam0(device_address(0, 0), "colour", kPeriodUs, serve(served, 0), t.str("colour.xml"));
+  FakeDevice cam1(device_address(0, 1), "rx01", kPeriodUs, serve(served, 1));
+  FakeDevice xray(device_address(0, 2), "rx02", kPeriodUs, serve(served, 2));
   RangexServer server(p, options(t));
   ASSERT_TRUE(wait_until(30, [&] {
     const SensorState* d = device_state(server.sensors(), 0, 0);
@@ -499,12 +501,9 @@ TEST(GigeIngest, ADeviceWhosePayloadSizeIsNotOneFrameIsRefused) {
   const PlantConfig p = plant(1);
   const RecordingReader rec(simulate(t, p, 1, 1));
   ServedLane served(rec, 0);
-  auto fill = [&](int d) {
-    return [&served, d](int64_t c, uint8_t* o, size_t b) { served.fill(d, c, o, b); };
-  };
-  FakeDevice cam0(device_address(0, 0), "huge", kPeriodUs, fill(0), t.str("huge.xml"));
-  FakeDevice cam1(device_address(0, 1), "half", kPeriodUs, fill(1), t.str("half.xml"));
-  FakeDevice xray(device_address(0, 2), "rx02", kPeriodUs, fill(2));
+  FakeDevice cam0(device_address(0, 0), "huge", kPeriodUs, serve(served, 0), t.str("huge.xml"));
+  FakeDevice cam1(device_address(0, 1), "half", kPeriodUs, serve(served, 1), t.str("half.xml"));
+  FakeDevice xray(device_address(0, 2), "rx02", kPeriodUs, serve(served, 2));
   RangexServer server(p, options(t));
   for (int d : {0, 1}) {
     SCOPED_TRACE(d);
