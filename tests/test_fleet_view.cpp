@@ -12,11 +12,13 @@
 #include <vector>
 
 #include "core/error.h"
+#include "csv_export.h"
 #include "fleet/fleet_server.h"
 #include "pg_instance.h"
 #include "plantdb/forwarder.h"
 #include "plantdb/pg_connection.h"
 #include "plantdb/plant_db_schema.h"
+#include "service/fillet_csv.h"
 #include "store/sha256_hex.h"
 #include "store/store.h"
 #include "temp_dir.h"
@@ -314,6 +316,32 @@ TEST(FleetView, AHungDatabaseIsNamedToEachReaderAndTheViewAnswersWhenItDoes) {
     const auto r = c.Get("/api/servers");
     return r && r->status == 200;
   })) << "the view did not answer again once the database did";
+}
+
+// An export across servers of more rows than two pages is sent a page at a time, each page
+// read with a connection of its own: every row once, ordered by decision time, then server.
+TEST(FleetView, AnExportOfSeveralPagesHasEveryRowOnceInOrder) {
+  Plant p;
+  constexpr int kRows = 2 * kCsvPage + 7;
+  PgConnection(p.pg.conninfo())
+      .exec(
+          "INSERT INTO fillets (server_id, uid, lane, lane_fillet, first_encoder, rows, "
+          "decision, reason, calibration_id, decided_ns, day) SELECT 'srv-b', g, 2, g, 0, 10, "
+          "'pass', '', 'cal', t.ns + g, t.day FROM (SELECT max(decided_ns) AS ns, max(day) AS "
+          "day FROM fillets) t, generate_series(1, " +
+          std::to_string(kRows) + ") g");
+  FleetOptions o = secured(p);
+  o.security = SecurityConfig{};
+  FleetServer fleet(o);
+  httplib::Client c("127.0.0.1", fleet.port());
+  const std::vector<std::string> lines = test::csv_export_lines(c, "/api/fillets.csv");
+  ASSERT_EQ(lines.size(), size_t(kRows) + 4);  // the header, srv-a's three, srv-b's
+  EXPECT_EQ(lines[0].rfind("server,uid,", 0), 0u) << lines[0];
+  for (int i = 1; i <= 3; ++i)
+    EXPECT_EQ(lines[size_t(i)].rfind("srv-a,", 0), 0u) << lines[size_t(i)];
+  for (int g = 1; g <= kRows; ++g)
+    ASSERT_EQ(lines[size_t(g) + 3].rfind("srv-b," + std::to_string(g) + ",2,", 0), 0u)
+        << lines[size_t(g) + 3];
 }
 
 TEST(FleetView, ADatabaseBehindTheBuildsSchemaIsRefusedWithTheCommandToRun) {

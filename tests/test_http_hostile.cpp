@@ -19,7 +19,9 @@
 #include <utility>
 #include <vector>
 
+#include "core/error.h"
 #include "core/plant_config.h"
+#include "csv_export.h"
 #include "service/http_server.h"
 #include "service/server.h"
 #include "temp_dir.h"
@@ -445,4 +447,28 @@ TEST(HttpHostile, RefusedEventRequestsCloseTheirConnections) {
   EXPECT_EQ(st->status, 200);
   web.stop();  // ends the held stream
   holder.join();
+}
+
+// An export of more rows than two pages is sent a page at a time as the reader takes it
+// (chunked): every row once, in order, and the download ends with its last chunk.
+TEST(HttpHostile, AnExportOfSeveralPagesIsSentWholeAPageAtATime) {
+  test::TempDir dir;
+  RangexServer server{default_plant_config(1), options(dir)};
+  HttpOptions ho = http_options();
+  ho.csv_page = 100;  // pages of 100 rows: the store writes each row with an fsync
+  HttpServer web{server.engine(), server.store(), server.hub(), ho};
+  constexpr int kRows = 2 * 100 + 7;
+  for (int i = 0; i < kRows; ++i) {
+    StoredFillet f;
+    f.lane = 0, f.lane_fillet = i, f.rows = 10, f.decided_ns = now_ns();
+    f.decision = "pass", f.calibration_id = "cal";
+    server.store().add_fillet(f);
+  }
+  httplib::Client c("127.0.0.1", web.port());
+  const std::vector<std::string> lines = test::csv_export_lines(c, "/api/fillets.csv");
+  ASSERT_EQ(lines.size(), size_t(kRows) + 1);
+  EXPECT_EQ(lines[0].rfind("uid,", 0), 0u) << lines[0];
+  for (int i = 0; i < kRows; ++i)  // uids count from 1, in the order they were stored
+    ASSERT_EQ(lines[size_t(i) + 1].rfind(join(i + 1, ",0,", i, ","), 0), 0u)
+        << lines[size_t(i) + 1];
 }

@@ -54,19 +54,21 @@ void FleetServer::fillet_routes(httplib::Server& s) {
                      fq.q.newest_first || last.decided_ns < 0 ? fq.after.text() : last.text()}});
   });
   s.Get("/api/fillets.csv", [this](const httplib::Request& req, httplib::Response& res) {
-    FleetQuery fq = fleet_query(req);
-    fq.q.limit = 5000;
-    fq.q.newest_first = false;
-    PgPool::Lease db = db_->take();
-    std::string csv = "server," + fillet_csv_header();
-    while (true) {
-      const std::vector<FleetFillet> page = fleet_fillets(*db, fq);
-      for (const FleetFillet& f : page) csv += f.server + "," + fillet_csv_row(f.f);
-      if (int(page.size()) < fq.q.limit) break;
-      fq.after = {page.back().f.decided_ns, page.back().server, page.back().f.uid};
-    }
-    res.set_header("Content-Disposition", "attachment; filename=\"rangex-fleet-fillets.csv\"");
-    res.set_content(csv, "text/csv");
+    auto fq = std::make_shared<FleetQuery>(fleet_query(req));  // refused here: 400
+    fq->q.limit = kCsvPage;
+    fq->q.newest_first = false;
+    { PgPool::Lease db = db_->take(); }  // a database that does not answer: 503, not a cut
+    send_csv_pages(
+        res, "rangex-fleet-fillets.csv", "server," + fillet_csv_header(),
+        [this, fq](std::string& out) {
+          PgPool::Lease db = db_->take();  // a page at a time: a slow reader holds none
+          const std::vector<FleetFillet> page = fleet_fillets(*db, *fq);
+          for (const FleetFillet& f : page) out += f.server + "," + fillet_csv_row(f.f);
+          if (int(page.size()) < fq->q.limit) return false;
+          fq->after = {page.back().f.decided_ns, page.back().server, page.back().f.uid};
+          return true;
+        },
+        stopping_);
   });
   s.Get(kFillet, [this](const httplib::Request& req, httplib::Response& res) {
     const std::string server = req.matches[1];

@@ -1,7 +1,12 @@
 #include "service/fillet_csv.h"
 
+#include <httplib.h>
+
 #include <cstdio>
 #include <ctime>
+#include <memory>
+
+#include "core/log.h"
 
 namespace rangex {
 
@@ -61,6 +66,30 @@ std::string fillet_csv_row(const StoredFillet& f) {
     row += field(v);
   }
   return row + "\r\n";
+}
+
+void send_csv_pages(httplib::Response& res, const std::string& filename, std::string header,
+                    std::function<bool(std::string&)> next_page,
+                    const std::atomic<bool>& stopping) {
+  res.set_header("Content-Disposition", "attachment; filename=\"" + filename + "\"");
+  res.set_chunked_content_provider(
+      "text/csv", [header = std::move(header), next_page = std::move(next_page), &stopping,
+                   filename, first = true](size_t, httplib::DataSink& sink) mutable {
+        std::string out = first ? std::move(header) : std::string();
+        first = false;
+        bool more = false;
+        try {
+          if (stopping) return false;
+          more = next_page(out);
+        } catch (const std::exception& e) {
+          log::warn("csv_export_failed", "{}: a page failed, the download ends incomplete: {}",
+                    filename, e.what());
+          return false;
+        }
+        if (!sink.write(out.data(), out.size())) return false;
+        if (!more) sink.done();
+        return true;
+      });
 }
 
 }  // namespace rangex

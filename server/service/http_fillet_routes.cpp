@@ -2,6 +2,7 @@
 // audit), /api/fillets/UID and its images (8-bit views, or the stored record with ?raw=1).
 #include <httplib.h>
 
+#include <algorithm>
 #include <fstream>
 #include <iterator>
 
@@ -30,17 +31,18 @@ void HttpServer::fillet_routes(httplib::Server& s) {
     send_json(res, {{"fillets", list}, {"next_after", last}});
   });
   s.Get("/api/fillets.csv", [this](const httplib::Request& req, httplib::Response& res) {
-    FilletQuery q = fillet_query(req.params);
-    q.limit = 5000;
-    std::string csv = fillet_csv_header();
-    while (true) {
-      const std::vector<StoredFillet> page = store_.list_fillets(q);
-      for (const StoredFillet& f : page) csv += fillet_csv_row(f);
-      if (int(page.size()) < q.limit) break;
-      q.after = page.back().uid;
-    }
-    res.set_header("Content-Disposition", "attachment; filename=\"rangex-fillets.csv\"");
-    res.set_content(csv, "text/csv");
+    auto q = std::make_shared<FilletQuery>(fillet_query(req.params));  // refused here: 400
+    q->limit = std::max(1, opt_.csv_page);
+    send_csv_pages(
+        res, "rangex-fillets.csv", fillet_csv_header(),
+        [this, q](std::string& out) {
+          const std::vector<StoredFillet> page = store_.list_fillets(*q);
+          for (const StoredFillet& f : page) out += fillet_csv_row(f);
+          if (int(page.size()) < q->limit) return false;
+          q->after = page.back().uid;
+          return true;
+        },
+        stopping_);
   });
   s.Get(R"(/api/fillets/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
     const int64_t uid = parse_uid(req.matches[1]);

@@ -31,6 +31,7 @@
 
 #include "service/access_control.h"
 #include "service/engine.h"
+#include "service/fillet_csv.h"
 #include "service/plant_history.h"
 
 namespace httplib {
@@ -48,6 +49,7 @@ struct HttpOptions {
   std::string listen = "127.0.0.1:8080";  // host:port; port 0 picks a free one
   int max_event_streams = 32;             // more are refused with 503
   double history_period_s = 2;            // the charts' sampling period
+  int csv_page = kCsvPage;                // rows an export reads and holds at once
   std::string version = "rangex 0.1.0";
   // TLS and who may read (plant.yaml security): every endpoint needs the viewer role. A
   // client proves itself with a client certificate, or a token as "Bearer T" or as Basic's
