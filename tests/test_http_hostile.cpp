@@ -472,3 +472,23 @@ TEST(HttpHostile, AnExportOfSeveralPagesIsSentWholeAPageAtATime) {
     ASSERT_EQ(lines[size_t(i) + 1].rfind(join(i + 1, ",0,", i, ","), 0), 0u)
         << lines[size_t(i) + 1];
 }
+
+// A listen address whose port is not a number is refused, naming it: std::stoi read
+// "127.0.0.1:80x8" as port 80.
+TEST(HttpHostile, AListenAddressWhosePortIsNotANumberIsRefused) {
+  test::TempDir dir;
+  RangexServer server{default_plant_config(1), options(dir)};
+  for (const char* listen : {"127.0.0.1:80x8", "127.0.0.1:", "127.0.0.1:65536", "127.0.0.1:-1"}) {
+    HttpOptions ho = http_options();
+    ho.listen = listen;
+    try {
+      HttpServer web{server.engine(), server.store(), server.hub(), ho};
+      ADD_FAILURE() << listen << " was taken (port " << web.port() << ")";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("'" + std::string(listen) +
+                                           "': the port must be a number 0..65535"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}

@@ -544,6 +544,10 @@ TEST(PlantConfig, PlcAndVerificationSectionsAreReadAndChecked) {
       // A port that is not one, lane states past the last register (lane 18's would be
       // written to register 0, the heartbeat), times past what a line can wait.
       {"plc: {address: 'a:5o2'}", "plc.address: the port must be a number 1..65535 (got 'a:5o2')"},
+      {"plant: {http: '127.0.0.1:80x8'}",
+       "plant.http: must be host:port (a port 0..65535; 0: any free one) or off (got "
+       "'127.0.0.1:80x8')"},
+      {"plant: {http: '127.0.0.1:65536'}", "plant.http: must be host:port"},
       {"plc: {address: 'a:70000'}", "1..65535"},
       {"plc: {address: 'a:0'}", "1..65535"},
       {"plc: {address: a:1, lane_state_base: 65500}",

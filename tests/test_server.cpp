@@ -624,6 +624,29 @@ TEST(Server, RestartKeepsResultsAndCalibrations) {
   EXPECT_FALSE(resp.next_page_token().empty());
 }
 
+// A page token is the last uid a page held, given back whole: "2abc" was read as 2.
+TEST(Server, AMalformedPageTokenIsRefusedNamingIt) {
+  test::TempDir t;
+  RangexServer server(plant(), options(t));
+  auto results = pb::ResultsService::NewStub(connect(server));
+  auto list = [&](const std::string& token) {
+    grpc::ClientContext c;
+    pb::ListFilletsRequest req;
+    req.set_lane(-1);
+    req.set_page_token(token);
+    pb::ListFilletsResponse resp;
+    return results->ListFillets(&c, req, &resp);
+  };
+  for (const std::string token : {"2abc", "-1", "99999999999999999999", " 2", "0x10"}) {
+    const grpc::Status s = list(token);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << token;
+    EXPECT_NE(s.error_message().find("malformed page token '" + token + "'"), std::string::npos)
+        << s.error_message();
+  }
+  EXPECT_TRUE(list("2").ok());
+  EXPECT_TRUE(list("").ok());
+}
+
 TEST(Server, RestartContinuesFilletNumbersAndIdleCountsLinesReceived) {
   test::TempDir t;
   const PlantConfig p = plant();

@@ -12,6 +12,7 @@
 
 #include "core/config_yaml.h"
 #include "core/error.h"
+#include "core/host_port.h"
 #include "core/size_limits.h"
 
 namespace rangex {
@@ -27,9 +28,7 @@ void read_plc(const ConfigNode& n, PlcConfig& c) {
   const auto colon = c.address.rfind(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == c.address.size())
     n.at("address").bad("must be host:port (got '" + c.address + "')");
-  const std::string port = c.address.substr(colon + 1);
-  if (port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
-      std::stoi(port) < 1 || std::stoi(port) > 65535)
+  if (port_of(c.address) < 1)
     n.at("address").bad("the port must be a number 1..65535 (got '" + c.address + "')");
   n.get("unit_id", c.unit_id);
   if (c.unit_id < 0 || c.unit_id > 247) n.at("unit_id").bad("must be 0..247");
@@ -191,8 +190,9 @@ PlantConfig parse_plant_config(const std::string& text, const std::string& origi
     n.get("device", p.device);
     n.get("listen", p.listen);
     n.get("http", p.http);
-    if (p.http != "off" && p.http.rfind(':') == std::string::npos)
-      n.at("http").bad("must be host:port or off (got '" + p.http + "')");
+    if (p.http != "off" && port_of(p.http) < 0)
+      n.at("http").bad("must be host:port (a port 0..65535; 0: any free one) or off (got '" +
+                       p.http + "')");
     n.get("storage", p.storage);
     n.get("results_db", p.results_db);
     // A password in plant.yaml is a password every reader of the file has: libpq's password

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/host_port.h"
 #include "core/json_text.h"
 #include "service/gated_http_server.h"
 #include "service/http_params.h"
@@ -97,12 +98,8 @@ HttpFront make_http_front(const std::string& listen, const SecurityConfig& secur
   if (colon == std::string::npos)
     fail(what, " '", listen, "' must be host:port (port 0: any free one)");
   f.host = listen.substr(0, colon);
-  try {
-    f.want_port = std::stoi(listen.substr(colon + 1));
-  } catch (const std::exception&) {
-    fail(what, " '", listen, "': the port is not a number");
-  }
-  if (f.want_port < 0 || f.want_port > 65535) fail(what, " '", listen, "': port out of range");
+  f.want_port = port_of(listen);
+  if (f.want_port < 0) fail(what, " '", listen, "': the port must be a number 0..65535");
   GateOptions g;
   g.workers = workers;
   SSL_CTX* tls = nullptr;

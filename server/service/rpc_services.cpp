@@ -2,10 +2,12 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <charconv>
 #include <fstream>
 #include <sstream>
 
 #include "core/error.h"
+#include "core/utf8.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "service/access_control.h"
 #include "service/pb_convert.h"
@@ -110,15 +112,13 @@ class ResultsImpl final
   Status ListFillets(ServerContext* ctx, const pb::ListFilletsRequest* req,
                      pb::ListFilletsResponse* resp) override {
     return guarded(access_, ctx, Role::viewer, "ListFillets", [&](const Identity&) {
+      // The token is the last uid a page held, given back whole ("12abc" is not 12).
       int64_t after = 0;
-      if (!req->page_token().empty()) {
-        try {
-          after = std::stoll(req->page_token());
-        } catch (const std::exception&) {
-          return Status(StatusCode::INVALID_ARGUMENT,
-                        "malformed page token '" + req->page_token() + "'");
-        }
-      }
+      const std::string& t = req->page_token();
+      const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), after);
+      if (!t.empty() && (ec != std::errc() || end != t.data() + t.size() || after < 0))
+        return Status(StatusCode::INVALID_ARGUMENT,
+                      "malformed page token '" + valid_utf8(t) + "' (give back next_page_token)");
       const int size = req->page_size() <= 0 ? 100 : std::min(req->page_size(), 1000);
       const auto list =
           store_.list_fillets(req->from_ns(), req->to_ns(), req->lane(), after, size + 1);
