@@ -107,7 +107,13 @@ PgConnection::PgConnection(const std::string& conninfo, int connect_timeout_s,
       c_, [](void*, const char*) {}, nullptr);
   // Statements are sent and their answers waited for with poll(), within answer_wait_s_.
   PQsetnonblocking(c_, 1);
-  exec("SET statement_timeout = '" + std::to_string(statement_timeout_s) + "s'");
+  try {
+    exec("SET statement_timeout = '" + std::to_string(statement_timeout_s) + "s'");
+  } catch (...) {  // no destructor runs for a constructor that throws
+    if (c_) PQfinish(c_);
+    ::close(wake_fd_);
+    throw;
+  }
 }
 
 PgConnection::~PgConnection() {
@@ -170,14 +176,16 @@ bool wait_socket(int fd, short events, Clock::time_point until) {
 pg_result* PgConnection::answer(const std::string& sql) {
   const Clock::time_point until = Clock::now() + std::chrono::seconds(answer_wait_s_);
   // Send all of it, reading meanwhile: a server may answer before it has read everything.
+  // A connection that broke has no socket (-1): PQgetResult then reports it at once, where
+  // poll() would wait out the deadline on it.
   for (int f; (f = PQflush(c_)) != 0;) {
-    if (f < 0) fail_statement(sql, nullptr);
+    if (f < 0 || PQsocket(c_) < 0) fail_statement(sql, nullptr);
     if (!wait_socket(PQsocket(c_), POLLIN | POLLOUT, until)) give_up(sql);
-    if (!PQconsumeInput(c_)) break;  // PQgetResult reports the broken connection
+    if (!PQconsumeInput(c_)) break;
   }
   pg_result* kept = nullptr;
   for (;;) {
-    while (PQisBusy(c_)) {
+    while (PQisBusy(c_) && PQsocket(c_) >= 0) {
       if (!wait_socket(PQsocket(c_), POLLIN, until)) {
         if (kept) PQclear(kept);
         give_up(sql);

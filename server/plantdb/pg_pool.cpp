@@ -54,6 +54,10 @@ PgPool::Lease PgPool::take() {
     if (probe) probing_ = false;
     hold(e.what());
     throw;
+  } catch (...) {  // refused otherwise (a bad string): the next request may try again
+    std::lock_guard<std::mutex> lock(mu_);
+    if (probe) probing_ = false;
+    throw;
   }
 }
 
