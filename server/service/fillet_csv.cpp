@@ -4,7 +4,6 @@
 
 #include <cstdio>
 #include <ctime>
-#include <memory>
 
 #include "core/log.h"
 
