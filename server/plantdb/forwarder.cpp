@@ -371,16 +371,17 @@ void Forwarder::run() {
       // (its schema, the id, another store's records); retried, as an operator may fix it.
       const bool refused = dynamic_cast<const FailedPrecondition*>(&e) != nullptr;
       set_db(nullptr);
+      // The lag first: a reader that sees the failure sees the records it holds back.
+      try {
+        note_lag(store_.forward_batch(cursor_, 1, false));
+      } catch (const std::exception&) {
+      }
       {
         std::lock_guard<std::mutex> lock(mu_);
         status_.connected = false;
         status_.state = refused ? "refused" : "unreachable";
         status_.last_error = why;
         ++status_.failures;
-      }
-      try {
-        note_lag(store_.forward_batch(cursor_, 1, false));
-      } catch (const std::exception&) {
       }
       if (why != last_logged)
         log::error("forwarding_failed",
