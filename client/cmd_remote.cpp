@@ -182,9 +182,12 @@ int cmd_status(int argc, char** argv) {
       (unsigned long long)s.lines_received(), (unsigned long long)s.lines_accepted(),
       (unsigned long long)s.lines_processed(), s.lines_per_second(), s.queue_depth(),
       s.queue_capacity(), s.ingest_streams());
-  std::printf("fillets: %llu (%llu rejected, %llu not inspected); %d subscribers\n",
+  std::printf("fillets: %llu (%llu rejected, %llu not inspected); %d subscribers",
               (unsigned long long)s.fillets(), (unsigned long long)s.rejects(),
               (unsigned long long)s.not_inspected(), s.subscribers());
+  if (s.subscribers_dropped())  // clients that stopped reading, ended for newer ones
+    std::printf(" (%llu fell behind and gave way)", (unsigned long long)s.subscribers_dropped());
+  std::printf("\n");
   for (const auto& d : s.refused())
     std::printf("refused %-22s %llu lines\n", d.reason().c_str(), (unsigned long long)d.lines());
   for (const auto& d : s.dropped())

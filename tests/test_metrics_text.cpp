@@ -219,6 +219,7 @@ MetricsInput busy_plant() {
     m.lanes.push_back(l);
   }
   m.subscribers = 3;
+  m.subscribers_dropped = 4;
   m.http_clients = 1;
   m.ingest_streams = 2;
   return m;
@@ -229,6 +230,8 @@ TEST(MetricsText, AScraperReadsEveryFamilyOnceAndEverySampleInItsFamily) {
   EXPECT_EQ(e.types.at("rangex_lines_received_total"), "counter");
   EXPECT_EQ(e.types.at("rangex_stage_latency_seconds"), "histogram");
   EXPECT_EQ(e.types.at("rangex_queue_depth_lines"), "gauge");
+  EXPECT_EQ(e.types.at("rangex_subscribers_dropped_total"), "counter");
+  EXPECT_EQ(value(e, "rangex_subscribers_dropped_total", {}), 4);
   EXPECT_GE(e.families.size(), 40u);
 }
 

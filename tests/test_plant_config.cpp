@@ -126,6 +126,15 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
   EXPECT_NE(error_of("server: {stall_s: 1}\nlanes: [{id: 0}]\nserver: {stall_s: 2}\n")
                 .find("duplicate key 'server'"),
             std::string::npos);
+  EXPECT_EQ(parse_plant_config("lanes: [{id: 0}]\n", "test").engine.max_subscriptions, 64);
+  EXPECT_EQ(parse_plant_config("server: {max_subscriptions: 8}\nlanes: [{id: 0}]\n", "test")
+                .engine.max_subscriptions,
+            8);
+  for (const char* bad : {"0", "-1", "10001", "many"})
+    EXPECT_NE(error_of("server: {max_subscriptions: " + std::string(bad) + "}\nlanes: [{id: 0}]\n")
+                  .find("server.max_subscriptions: "),
+              std::string::npos)
+        << bad;
   EXPECT_NE(error_of("server: {auto_reset: maybe}\nlanes: [{id: 0}]\n")
                 .find("server.auto_reset: expected true or false"),
             std::string::npos);

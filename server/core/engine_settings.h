@@ -28,6 +28,11 @@ struct EngineSettings {
   // reconnects when it has lines again. Streams that never send would otherwise be held
   // for ever.
   double stream_idle_s = 300;
+  // Result subscriptions over gRPC at once (dashboards, reject gates, `rangexctl watch`).
+  // When full, the one furthest behind (more than 16 results waiting: a client that stopped
+  // reading) gives way to a new one; with none behind, a new one is refused
+  // (RESOURCE_EXHAUSTED). Each holds up to 256 results waiting for it.
+  int max_subscriptions = 64;
   // Statistics warn when the store's volume has less free than this, before a full disk
   // stops the store (0: never).
   double store_reserve_mb = 1024;

@@ -70,7 +70,7 @@ void read_plc(const ConfigNode& n, PlcConfig& c) {
 void read_engine(const ConfigNode& n, EngineSettings& e) {
   n.only_keys({"queue_lines", "batch_lines", "batch_wait_ms", "inspectors", "dedup_window",
                "auto_reset", "idle_close_s", "stall_s", "exit_after_s", "drain_timeout_s",
-               "verify_fraction", "stream_idle_s", "store_reserve_mb"});
+               "verify_fraction", "stream_idle_s", "store_reserve_mb", "max_subscriptions"});
   int queue = int(e.queue_lines);
   n.positive("queue_lines", queue);
   if (queue > 1 << 20) n.at("queue_lines").bad("must be <= 1048576");
@@ -88,6 +88,8 @@ void read_engine(const ConfigNode& n, EngineSettings& e) {
   if (e.exit_after_s < 0) n.at("exit_after_s").bad("must be >= 0 (0: never)");
   n.positive("drain_timeout_s", e.drain_timeout_s);
   n.positive("stream_idle_s", e.stream_idle_s);
+  n.positive("max_subscriptions", e.max_subscriptions);
+  if (e.max_subscriptions > 10000) n.at("max_subscriptions").bad("must be <= 10000");
   n.get("store_reserve_mb", e.store_reserve_mb);
   if (!(e.store_reserve_mb >= 0)) n.at("store_reserve_mb").bad("must be >= 0 (0: no warning)");
   n.get("verify_fraction", e.verify_fraction);

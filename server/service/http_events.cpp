@@ -82,6 +82,7 @@ void HttpServer::event_routes(httplib::Server& s) {
         (*behind)->cv.notify_all();
         event_clients_.erase(behind);
         ++events_dropped_;
+        hub_.note_dropped();
       }
       event_clients_.push_back(client);
       event_streams_ = int(event_clients_.size());

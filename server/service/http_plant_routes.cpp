@@ -47,6 +47,7 @@ void HttpServer::plant_routes(httplib::Server& s) {
     v1::GetStatisticsResponse st;
     fill(&st, engine_.stats());
     st.set_subscribers(hub_.subscribers());
+    st.set_subscribers_dropped(hub_.dropped());
     st.set_ingest_streams(opt_.ingest_streams ? opt_.ingest_streams() : 0);
     res.set_content(to_json(st), "application/json");
   });
@@ -74,6 +75,7 @@ void HttpServer::plant_routes(httplib::Server& s) {
     m.stats = engine_.stats();
     m.lanes = engine_.lanes();
     m.subscribers = hub_.subscribers();
+    m.subscribers_dropped = hub_.dropped();
     m.ingest_streams = opt_.ingest_streams ? opt_.ingest_streams() : 0;
     m.http_clients = event_streams_;
     res.set_content(prometheus_text(m), "text/plain; version=0.0.4; charset=utf-8");

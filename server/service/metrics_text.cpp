@@ -280,6 +280,9 @@ void gauges(Writer& w, const MetricsInput& m) {
   w.family("rangex_subscribers", "gauge",
            "Live result subscribers (gRPC streams and the dashboard's event streams).");
   w.sample("rangex_subscribers", "", uint64_t(m.subscribers));
+  w.family("rangex_subscribers_dropped_total", "counter",
+           "Result subscribers that fell behind and gave way to a new one.");
+  w.sample("rangex_subscribers_dropped_total", "", m.subscribers_dropped);
   w.family("rangex_http_event_streams", "gauge", "The dashboard's open event streams.");
   w.sample("rangex_http_event_streams", "", uint64_t(m.http_clients));
   w.family("rangex_ingest_streams", "gauge", "Open StreamLines calls.");

@@ -3,6 +3,7 @@
 // the backend and each lane's active calibration. Built from the same engine statistics as
 // GetStatistics, so the two always agree.
 #pragma once
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -13,9 +14,10 @@ namespace rangex {
 struct MetricsInput {
   EngineStats stats;
   std::vector<LaneState> lanes;
-  int subscribers = 0;     // results subscribers over gRPC
-  int ingest_streams = 0;  // open StreamLines calls
-  int http_clients = 0;    // live event streams of the web dashboard
+  int subscribers = 0;               // results subscribers (gRPC streams and event streams)
+  uint64_t subscribers_dropped = 0;  // of them, those that fell behind and gave way
+  int ingest_streams = 0;            // open StreamLines calls
+  int http_clients = 0;              // live event streams of the web dashboard
 };
 
 std::string prometheus_text(const MetricsInput& m);

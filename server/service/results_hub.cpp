@@ -30,6 +30,7 @@ void ResultsHub::unsubscribe(const std::shared_ptr<Subscription>& s) {
 
 void ResultsHub::publish(const StoredFillet& f) {
   std::vector<std::shared_ptr<Subscription>> woken;
+  const auto shared = std::make_shared<const StoredFillet>(f);
   {
     std::lock_guard<std::mutex> lock(mu_);
     for (auto& s : subs_) {
@@ -39,7 +40,7 @@ void ResultsHub::publish(const StoredFillet& f) {
         s->queue.pop_front();  // the slow subscriber loses its oldest, and is told
         ++s->lagged;
       }
-      s->queue.push_back(f);
+      s->queue.push_back(shared);
       if (s->wake) woken.push_back(s);
     }
   }
@@ -47,13 +48,22 @@ void ResultsHub::publish(const StoredFillet& f) {
 }
 
 bool ResultsHub::take(const std::shared_ptr<Subscription>& s, StoredFillet& out, uint64_t& lagged) {
-  std::lock_guard<std::mutex> lock(mu_);
-  if (s->queue.empty()) return false;
-  out = std::move(s->queue.front());
-  s->queue.pop_front();
-  lagged = s->lagged;
-  s->lagged = 0;
+  std::shared_ptr<const StoredFillet> next;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (s->queue.empty()) return false;
+    next = std::move(s->queue.front());
+    s->queue.pop_front();
+    lagged = s->lagged;
+    s->lagged = 0;
+  }
+  out = *next;  // copied outside the lock: the publisher does not wait on it
   return true;
+}
+
+uint64_t ResultsHub::backlog(const std::shared_ptr<Subscription>& s) {
+  std::lock_guard<std::mutex> lock(mu_);
+  return s->queue.size() + s->lagged;
 }
 
 bool ResultsHub::closed(const std::shared_ptr<Subscription>& s) {

@@ -89,8 +89,9 @@ class IngestImpl final : public pb::IngestService::CallbackService {
 class ResultsImpl final
     : public pb::ResultsService::WithCallbackMethod_SubscribeFillets<pb::ResultsService::Service> {
  public:
-  ResultsImpl(const AccessControl& a, Store& s, ResultsHub& h, StreamCounters& c)
-      : access_(a), store_(s), hub_(h), counters_(c) {}
+  ResultsImpl(const AccessControl& a, Store& s, ResultsHub& h, StreamCounters& c,
+              int max_subscriptions)
+      : access_(a), store_(s), hub_(h), counters_(c), max_subscriptions_(max_subscriptions) {}
   grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>* SubscribeFillets(
       grpc::CallbackServerContext* ctx, const pb::SubscribeFilletsRequest* req) override {
     try {
@@ -98,7 +99,7 @@ class ResultsImpl final
     } catch (const std::exception& e) {
       return refused_subscription(refusal(e));
     }
-    return new_subscription(hub_, *req, counters_);
+    return new_subscription(hub_, *req, counters_, ctx, max_subscriptions_);
   }
   Status GetFillet(ServerContext* ctx, const pb::GetFilletRequest* req,
                    pb::GetFilletResponse* resp) override {
@@ -149,6 +150,7 @@ class ResultsImpl final
   Store& store_;
   ResultsHub& hub_;
   StreamCounters& counters_;
+  const int max_subscriptions_;
 };
 
 class CalibrationImpl final : public pb::CalibrationService::Service {
@@ -317,6 +319,7 @@ class ControlImpl final : public pb::ControlService::Service {
     return guarded(access_, ctx, Role::viewer, "GetStatistics", [&](const Identity&) {
       fill(resp, engine_.stats());
       resp->set_subscribers(hub_.subscribers());
+      resp->set_subscribers_dropped(hub_.dropped());
       resp->set_ingest_streams(counters_.ingest);
       return Status::OK;
     });
@@ -359,7 +362,7 @@ struct RpcServices::Impl {
 RpcServices::RpcServices(const AccessControl& access, Engine& engine, Store& store, ResultsHub& hub,
                          StreamCounters& counters, const ServerOptions& opt, int64_t started_ns)
     : impl_(new Impl{IngestImpl(access, engine, counters),
-                     ResultsImpl(access, store, hub, counters),
+                     ResultsImpl(access, store, hub, counters, opt.engine.max_subscriptions),
                      CalibrationImpl(access, engine, store),
                      ControlImpl(access, engine, hub, counters, opt, started_ns)}) {}
 

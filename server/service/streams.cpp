@@ -23,6 +23,10 @@ namespace {
 // Acknowledgements waiting to be written before reading pauses.
 constexpr size_t kMaxPendingAcks = 256;
 
+// A subscription with more results than this waiting for it has fallen behind: it may give
+// way to a new one. One that keeps up has none waiting, or the one being written.
+constexpr uint64_t kBehindResults = 16;
+
 // gRPC runs a reactor's reactions after the handler that created it returned, and OnDone
 // after every other reaction returned; it orders them with its own (uninstrumented)
 // synchronisation. A Reaction at the top of each says so to ThreadSanitizer.
@@ -229,28 +233,63 @@ class IngestStream final
   std::shared_ptr<IngestStream> self_;
 };
 
-// Owned by itself (self_) until OnDone; the hub's wake holds only a weak reference, so a
-// wake that races OnDone keeps the reactor alive until it returns.
-class Subscription final : public grpc::ServerWriteReactor<pb::SubscribeFilletsResponse> {
+// Owned by itself (self_) until OnDone; the hub's wake and the registry of subscriptions
+// hold only weak references, so a wake or an eviction that races OnDone keeps the reactor
+// alive until it returns.
+class Subscription final : public grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>,
+                           public Evictable,
+                           public std::enable_shared_from_this<Subscription> {
  public:
-  static Subscription* start(ResultsHub& hub, const pb::SubscribeFilletsRequest& req,
-                             StreamCounters& counters) {
-    std::shared_ptr<Subscription> s(new Subscription(hub, counters));
+  // Made under the registry's lock, started (subscribed to the hub) outside it.
+  static std::shared_ptr<Subscription> make(ResultsHub& hub, StreamCounters& counters,
+                                            grpc::CallbackServerContext* ctx) {
+    return std::shared_ptr<Subscription>(new Subscription(hub, counters, ctx));
+  }
+
+  Subscription* start(const pb::SubscribeFilletsRequest& req) {
     std::set<int> lanes(req.lanes().begin(), req.lanes().end());
     std::set<std::string> decisions;
     for (int d : req.decisions()) decisions.insert(decision_name(pb::Decision(d)));
-    std::weak_ptr<Subscription> weak = s;
-    auto sub = hub.subscribe(std::move(lanes), std::move(decisions), 256, [weak] {
+    std::weak_ptr<Subscription> weak = shared_from_this();
+    auto sub = hub_.subscribe(std::move(lanes), std::move(decisions), 256, [weak] {
       if (auto p = weak.lock()) p->deliver();
     });
     {
-      std::lock_guard<std::mutex> lock(s->mu_);
-      s->sub_ = std::move(sub);
-      s->self_ = s;
+      std::lock_guard<std::mutex> lock(mu_);
+      sub_ = std::move(sub);
+      self_ = shared_from_this();
     }
-    RANGEX_HAPPENS_BEFORE(s.get());  // gRPC runs the reactions after the handler returns
-    s->deliver();                    // results or a close that came before sub_ was set
-    return s.get();
+    RANGEX_HAPPENS_BEFORE(this);  // gRPC runs the reactions after the handler returns
+    deliver();                    // results or a close that came before sub_ was set
+    return this;
+  }
+
+  uint64_t backlog() override {
+    std::shared_ptr<ResultsHub::Subscription> sub;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (finished_ || evicted_) return 0;
+      sub = sub_;
+    }
+    return sub ? hub_.backlog(sub) : 0;
+  }
+
+  // The call is cancelled (a client that stopped reading has a write pending that would
+  // never end, and with it the stream) and then finished. Finish waits until TryCancel has
+  // returned: until Finish, gRPC does not call OnDone, so the context is alive. No lock is
+  // held across TryCancel, as gRPC may run this stream's reactions inside it.
+  void give_way() override {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (finished_ || evicted_) return;
+      evicted_ = cancelling_ = true;
+    }
+    ctx_->TryCancel();
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      cancelling_ = false;
+    }
+    deliver();
   }
 
   void OnWriteDone(bool ok) override {
@@ -284,7 +323,8 @@ class Subscription final : public grpc::ServerWriteReactor<pb::SubscribeFilletsR
   }
 
  private:
-  Subscription(ResultsHub& hub, StreamCounters& counters) : hub_(hub), counters_(counters) {
+  Subscription(ResultsHub& hub, StreamCounters& counters, grpc::CallbackServerContext* ctx)
+      : hub_(hub), counters_(counters), ctx_(ctx) {
     ++counters_.subscribers;
   }
 
@@ -293,10 +333,14 @@ class Subscription final : public grpc::ServerWriteReactor<pb::SubscribeFilletsR
     grpc::Status end;
     {
       std::lock_guard<std::mutex> lock(mu_);
-      if (writing_ || finished_ || !sub_) return;
+      if (writing_ || finished_ || cancelling_ || !sub_) return;
       StoredFillet f;
       uint64_t lagged = 0;
-      if (cancelled_) {
+      if (evicted_) {
+        end = grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                           "this subscription fell behind and gave way to a new one (the "
+                           "server holds server.max_subscriptions at once)");
+      } else if (cancelled_) {
         end = grpc::Status::CANCELLED;
       } else if (hub_.take(sub_, f, lagged)) {
         resp_.Clear();
@@ -315,11 +359,14 @@ class Subscription final : public grpc::ServerWriteReactor<pb::SubscribeFilletsR
 
   ResultsHub& hub_;
   StreamCounters& counters_;
+  grpc::CallbackServerContext* const ctx_;
   std::mutex mu_;
   std::shared_ptr<ResultsHub::Subscription> sub_;
   std::shared_ptr<Subscription> self_;
   pb::SubscribeFilletsResponse resp_;
   bool writing_ = false, cancelled_ = false, finished_ = false;
+  bool evicted_ = false;     // gave way to a new subscription
+  bool cancelling_ = false;  // in give_way's TryCancel: not to be finished yet
 };
 
 }  // namespace
@@ -328,8 +375,14 @@ namespace {
 // A stream refused before it starts (its caller may not open it): finished at once.
 template <typename Base>
 struct Refused final : Base {
-  explicit Refused(const grpc::Status& s) { this->Finish(s); }
-  void OnDone() override { delete this; }
+  explicit Refused(const grpc::Status& s) {
+    this->Finish(s);
+    RANGEX_HAPPENS_BEFORE(this);  // gRPC runs OnDone after the handler returns
+  }
+  void OnDone() override {
+    RANGEX_HAPPENS_AFTER(this);
+    delete this;
+  }
 };
 }  // namespace
 
@@ -365,8 +418,37 @@ int close_idle_ingest_streams(StreamCounters& counters, double idle_s) {
 }
 
 grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>* new_subscription(
-    ResultsHub& hub, const pb::SubscribeFilletsRequest& request, StreamCounters& counters) {
-  return Subscription::start(hub, request, counters);
+    ResultsHub& hub, const pb::SubscribeFilletsRequest& request, StreamCounters& counters,
+    grpc::CallbackServerContext* ctx, int max_subscriptions) {
+  std::shared_ptr<Evictable> behind;
+  std::shared_ptr<Subscription> s;
+  {
+    std::lock_guard<std::mutex> lock(counters.subs_mu);
+    std::erase_if(counters.subs, [](const auto& w) { return w.expired(); });
+    if (int(counters.subs.size()) >= max_subscriptions) {
+      // Full: the stream furthest behind gives way, if one is behind at all (a client that
+      // stopped reading); streams that keep up are never cut for a newcomer.
+      auto most = counters.subs.end();
+      uint64_t furthest = kBehindResults;
+      for (auto it = counters.subs.begin(); it != counters.subs.end(); ++it)
+        if (auto live = it->lock())
+          if (const uint64_t b = live->backlog(); b > furthest) furthest = b, most = it;
+      if (most == counters.subs.end())
+        return refused_subscription(
+            grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                         "too many result subscriptions (" + std::to_string(max_subscriptions) +
+                             ", server.max_subscriptions), and none has fallen behind"));
+      behind = most->lock();
+      counters.subs.erase(most);  // so that no other newcomer takes the same place
+    }
+    s = Subscription::make(hub, counters, ctx);
+    counters.subs.push_back(s);  // counted at once: newcomers at the same time see it
+  }
+  if (behind) {
+    behind->give_way();  // outside the registry's lock: it may run reactions
+    hub.note_dropped();
+  }
+  return s->start(request);
 }
 
 }  // namespace rangex

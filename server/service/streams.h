@@ -30,11 +30,21 @@ class IdleClosable {
   virtual bool close_if_idle(int64_t now_ns, int64_t idle_ns) = 0;
 };
 
+// A result subscription as a newcomer sees it when the server holds as many as it may.
+class Evictable {
+ public:
+  virtual ~Evictable() = default;
+  virtual uint64_t backlog() = 0;  // results waiting for it (queued and lost)
+  virtual void give_way() = 0;     // ends it (RESOURCE_EXHAUSTED), cancelling a pending write
+};
+
 struct StreamCounters {
   std::atomic<int> ingest{0}, subscribers{0};
   std::atomic<int> feeding{0};  // ingest streams that have sent a line
   std::mutex live_mu;
   std::vector<std::weak_ptr<IdleClosable>> live;  // open ingest streams (expired: gone)
+  std::mutex subs_mu;
+  std::vector<std::weak_ptr<Evictable>> subs;  // open subscriptions (expired: gone)
 };
 
 // Closes the ingest streams that have had no request for idle_s; returns how many.
@@ -42,8 +52,11 @@ int close_idle_ingest_streams(StreamCounters& counters, double idle_s);
 
 grpc::ServerBidiReactor<v1::StreamLinesRequest, v1::StreamLinesResponse>* new_ingest_stream(
     Engine& engine, StreamCounters& counters);
+// A new subscription, when the server holds fewer than max_subscriptions or one of them has
+// fallen behind (it gives way); else refused with RESOURCE_EXHAUSTED.
 grpc::ServerWriteReactor<v1::SubscribeFilletsResponse>* new_subscription(
-    ResultsHub& hub, const v1::SubscribeFilletsRequest& request, StreamCounters& counters);
+    ResultsHub& hub, const v1::SubscribeFilletsRequest& request, StreamCounters& counters,
+    grpc::CallbackServerContext* ctx, int max_subscriptions);
 
 // A stream its caller may not open, finished at once with `status`.
 grpc::ServerBidiReactor<v1::StreamLinesRequest, v1::StreamLinesResponse>* refused_ingest_stream(

@@ -175,6 +175,8 @@ try:
     check(total("rangex_verify_mismatches_total") == g("verify_mismatches"), "mismatches = GetStatistics")
     check(total("rangex_queue_capacity_lines") == g("queue_capacity"), "queue capacity = GetStatistics")
     check(total("rangex_subscribers") == g("subscribers") >= 1, "subscribers = GetStatistics")
+    check(total("rangex_subscribers_dropped_total") == g("subscribers_dropped"),
+          "subscribers that gave way = GetStatistics")
     lat = {l["stage"]: l for l in stats["latencies"]}
     check(total("rangex_decision_latency_seconds_count") == int(lat["last_line_to_decision"]["samples"])
           == g("fillets"), "decision latency histogram counts every decision")
