@@ -38,6 +38,17 @@ TEST(HttpParams, AFilletQueryIsReadAndBadValuesAreNamed) {
               fillet_query({{"from_ns", "1e9"}});
             }),
             "from_ns must be an integer (got '1e9')");
+  // Digits after one optional sign, whole: std::stoll took a leading space.
+  for (const char* bad : {" 2", "2 ", "", "+", "-", "+-5", "0x10", "2abc"})
+    EXPECT_EQ(refusal([&] {
+                fillet_query({{"lane", bad}});
+              }),
+              "lane must be an integer (got '" + std::string(bad) + "')")
+        << "'" << bad << "'";
+  EXPECT_EQ(fillet_query({{"lane", "+4"}}).lane, 4);
+  EXPECT_EQ(parse_int("x", "-3", -5, 5), -3);
+  EXPECT_EQ(refusal([] { parse_int("x", "-99999999999999999999", INT64_MIN, 0); }),
+            "x must be within -9223372036854775808..0 (got -99999999999999999999)");
   EXPECT_EQ(refusal([] {
               fillet_query({{"decision", "maybe"}});
             }),

@@ -1,9 +1,12 @@
 #include "service/http_params.h"
 
+#include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <string_view>
 
 #include "service/image_view.h"
 
@@ -17,20 +20,17 @@ const std::string* value(const QueryParams& p, const char* name) {
 }  // namespace
 
 int64_t parse_int(const char* name, const std::string& v, int64_t lo, int64_t hi) {
-  size_t used = 0;
+  // Digits after one optional sign, nothing else: std::stoll took " 2" (a leading space).
+  std::string_view s(v);
+  const bool plus = !s.empty() && s[0] == '+';
+  if (plus) s.remove_prefix(1);  // from_chars reads '-' but not '+'
+  const size_t first = !plus && !s.empty() && s[0] == '-' ? 1 : 0;
+  const bool digits = s.size() > first && std::all_of(s.begin() + first, s.end(),
+                                                      [](char c) { return c >= '0' && c <= '9'; });
+  if (!digits) throw BadRequest(std::string(name) + " must be an integer (got '" + v + "')");
   int64_t n = 0;
-  bool too_big = false;
-  try {
-    n = std::stoll(v, &used);
-  } catch (const std::out_of_range&) {
-    too_big = v.find_first_not_of("+-0123456789") == std::string::npos;
-    used = 0;
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (!too_big && (v.empty() || used != v.size()))
-    throw BadRequest(std::string(name) + " must be an integer (got '" + v + "')");
-  if (too_big || n < lo || n > hi)
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), n);
+  if (r.ec != std::errc() || n < lo || n > hi)
     throw BadRequest(std::string(name) + " must be within " + std::to_string(lo) + ".." +
                      std::to_string(hi) + " (got " + v + ")");
   return n;
