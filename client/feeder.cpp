@@ -34,6 +34,9 @@ bool retryable(const grpc::Status& s) {
     case grpc::StatusCode::UNKNOWN:
     case grpc::StatusCode::INTERNAL:
     case grpc::StatusCode::ABORTED:
+    // A server shedding load: gRPC cuts streams when its memory quota is full
+    // (server.grpc_memory_mb), whichever stream made it so.
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
       return true;
     default:
       return false;

@@ -135,6 +135,15 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
                   .find("server.max_subscriptions: "),
               std::string::npos)
         << bad;
+  EXPECT_EQ(parse_plant_config("lanes: [{id: 0}]\n", "test").engine.grpc_memory_mb, 256);
+  EXPECT_EQ(parse_plant_config("server: {grpc_memory_mb: 16}\nlanes: [{id: 0}]\n", "test")
+                .engine.grpc_memory_mb,
+            16);
+  for (const char* bad : {"0", "15", "-1", "1048577", "lots"})
+    EXPECT_NE(error_of("server: {grpc_memory_mb: " + std::string(bad) + "}\nlanes: [{id: 0}]\n")
+                  .find("server.grpc_memory_mb: "),
+              std::string::npos)
+        << bad;
   EXPECT_NE(error_of("server: {auto_reset: maybe}\nlanes: [{id: 0}]\n")
                 .find("server.auto_reset: expected true or false"),
             std::string::npos);

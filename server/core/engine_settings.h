@@ -33,6 +33,12 @@ struct EngineSettings {
   // reading) gives way to a new one; with none behind, a new one is refused
   // (RESOURCE_EXHAUSTED). Each holds up to 256 results waiting for it.
   int max_subscriptions = 64;
+  // What gRPC may hold for the gRPC port's connections, all together: messages as they
+  // arrive and the connections' buffers. gRPC holds a message whole before it checks its
+  // size (up to 4 GiB, whatever the bound), so without this one client could take the
+  // server's memory. Past it gRPC cancels streams (RESOURCE_EXHAUSTED) until it is under
+  // again; feeders reconnect and resend. A 4-lane plant fed at full speed holds under 16 MB.
+  int grpc_memory_mb = 256;
   // Statistics warn when the store's volume has less free than this, before a full disk
   // stops the store (0: never).
   double store_reserve_mb = 1024;

@@ -3,6 +3,7 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/resource_quota.h>
 
 #include <chrono>
 #include <fstream>
@@ -111,6 +112,10 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
   grpc::ServerBuilder b;
   b.AddListeningPort(opt_.listen, server_credentials(plant_.security), &port_);
   b.SetMaxReceiveMessageSize(opt_.max_message_bytes);
+  // The size check comes only once a message is whole: the quota is what bounds memory.
+  grpc::ResourceQuota quota("rangexd-grpc");
+  quota.Resize(size_t(opt_.engine.grpc_memory_mb) << 20);
+  b.SetResourceQuota(quota);
   b.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
                        opt_.min_ping_interval_ms);
   b.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
