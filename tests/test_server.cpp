@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <climits>
 #include <map>
 #include <set>
 #include <thread>
@@ -19,6 +20,7 @@
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "server_client.h"
 #include "service/http_json.h"
+#include "service/line_shape.h"
 #include "service/metrics_text.h"
 #include "service/pb_convert.h"
 #include "service/plant_history.h"
@@ -310,22 +312,30 @@ TEST(Server, CalibrationActivatesBetweenFillets) {
     EXPECT_EQ(cal->UploadCalibration(&c2, bad, &r).error_code(),
               grpc::StatusCode::INVALID_ARGUMENT);
   }
-  {  // a 50 MB calibration is refused by its size before it is parsed (it once took minutes
-     // and 6.4 GB): the answer comes within the deadline, and the server goes on
+  for (const int mib : {10, 50}) {
+    // A calibration of 10 MB is refused by its size before it is parsed (a 50 MB one once
+    // took minutes and 6.4 GB); one of 50 MB, past the largest message this plant's server
+    // takes (16 MiB), by gRPC before it reaches the service. Each answer comes within the
+    // deadline, and the server goes on.
     grpc::ClientContext c;
     c.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
     pb::UploadCalibrationRequest huge;
     huge.set_lane(0);
     huge.set_id("huge");
     std::string yaml;
-    while (yaml.size() < (size_t(50) << 20)) yaml += "laser_plane: {normal: [0, 1, 0]}\n";
+    while (yaml.size() < (size_t(mib) << 20)) yaml += "laser_plane: {normal: [0, 1, 0]}\n";
     huge.set_yaml(std::move(yaml));
     pb::UploadCalibrationResponse r;
     const grpc::Status s = cal->UploadCalibration(&c, huge, &r);
-    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-    EXPECT_NE(s.error_message().find("calibration 'huge' is 50.0 MiB, more than the 1.0 MiB"),
-              std::string::npos)
-        << s.error_message();
+    if (mib == 10) {
+      EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+      EXPECT_NE(s.error_message().find("calibration 'huge' is 10.0 MiB, more than the 1.0 MiB"),
+                std::string::npos)
+          << s.error_message();
+    } else {
+      EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+      EXPECT_NE(s.error_message().find("vs. 16777216"), std::string::npos) << s.error_message();
+    }
   }
   {
     grpc::ClientContext c;
@@ -1020,4 +1030,15 @@ TEST(Server, APlcThatRefusesRegistersIsNamedToEveryClient) {
   const nlohmann::json tile = lane_json(fed, history, "cpu");
   EXPECT_EQ(tile.at("light"), "amber") << tile.dump();
   EXPECT_EQ(tile.at("light_reason"), refused) << tile.dump();
+}
+
+TEST(Server, TheLargestMessageTakenFollowsThePlantsLines) {
+  // At least 16 MiB for the uploads; past that, eight of the largest line (four are still
+  // refused in-band as OVERSIZED) and the message's framing.
+  EXPECT_EQ(max_message_bytes({}), 16 << 20);
+  EXPECT_EQ(max_message_bytes({{0, 640, 200, 480, 1}}), 16 << 20);  // the demo plant's lanes
+  const LaneShape big{3, 4096, 2048, 2048, 2};                      // 16 MiB + 8 kB a line
+  EXPECT_EQ(line_bytes(big), size_t(16785408));
+  EXPECT_EQ(max_message_bytes({{0, 640, 200, 480, 1}, big}), 8 * 16785408 + (64 << 10));
+  EXPECT_EQ(max_message_bytes({{0, 65536, 65536, 1, 1}}), INT_MAX);  // clamped, not wrapped
 }

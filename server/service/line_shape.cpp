@@ -1,15 +1,34 @@
 #include "service/line_shape.h"
 
+#include <algorithm>
+#include <climits>
+
 #include "core/error.h"
 
 namespace rangex {
 
+namespace {
+constexpr size_t kOversizedLines = 4;  // a line past this many of its lane's is OVERSIZED
+constexpr size_t kMinMessageBytes = size_t(16) << 20;
+}  // namespace
+
+size_t line_bytes(const LaneShape& l) {
+  return 2 * size_t(l.width) * size_t(l.height) + size_t(l.pixels) * 2 * size_t(l.energies);
+}
+
+int max_message_bytes(const std::vector<LaneShape>& lanes) {
+  size_t most = kMinMessageBytes;
+  for (const LaneShape& l : lanes)
+    most = std::max(most, 2 * kOversizedLines * line_bytes(l) + (size_t(64) << 10));
+  return int(std::min<size_t>(most, INT_MAX));
+}
+
 std::optional<ShapeRefusal> check_line_shape(const LaneShape& l, const IncomingLine& line) {
   const size_t frame = size_t(l.width) * size_t(l.height);
-  const size_t expected = 2 * frame + size_t(l.pixels) * 2 * size_t(l.energies);
+  const size_t expected = line_bytes(l);
   const size_t size =
       line.cam0.size() + line.cam1.size() + line.xray.size() + line.xray_high.size();
-  if (size > 4 * expected)
+  if (size > kOversizedLines * expected)
     return ShapeRefusal{Refusal::kOversized, join("line of ", size, " bytes; lane ", l.lane,
                                                   " lines are ", expected, " bytes")};
   if (line.cam0.size() != frame || line.cam1.size() != frame)

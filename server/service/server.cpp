@@ -19,6 +19,7 @@
 #include "rangex/v1/decision_names.h"
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "service/access_control.h"
+#include "service/line_shape.h"
 #include "service/rpc_services.h"
 #include "service/streams.h"
 
@@ -57,6 +58,12 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
     : plant_(plant), opt_(std::move(opt)) {
   if (opt_.listen.empty()) opt_.listen = plant_.listen;
   if (opt_.data_dir.empty()) opt_.data_dir = plant_.storage;
+  if (opt_.max_message_bytes <= 0) {
+    std::vector<LaneShape> shapes;
+    for (const LaneConfig& l : plant_.lanes)
+      shapes.push_back({l.id, l.frame_width, l.frame_height, l.xray.pixels, l.xray.energies});
+    opt_.max_message_bytes = max_message_bytes(shapes);
+  }
   check_listen_security(opt_.listen, plant_.security, "gRPC");
   if (opt_.heap_trim_s > 0) set_server_heap_policy();
   started_ns_ = now_ns();

@@ -34,7 +34,9 @@ struct ServerOptions {
   std::string listen;    // host:port; empty takes plant.yaml's
   std::string data_dir;  // empty takes plant.yaml's storage
   EngineOptions engine;
-  int max_message_bytes = 64 << 20;  // oversized lines are refused in-band, below this
+  // The largest message gRPC takes; 0: from the plant's lanes (line_shape.h), so that an
+  // oversized line is refused in-band and one far larger ends its call before it is parsed.
+  int max_message_bytes = 0;
   // Connections older than this are closed (GOAWAY) after a grace period; feeders reconnect.
   // 0: never. Useful behind load balancers, and how tests drop connections.
   int max_connection_age_ms = 0;
