@@ -126,24 +126,24 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
   EXPECT_NE(error_of("server: {stall_s: 1}\nlanes: [{id: 0}]\nserver: {stall_s: 2}\n")
                 .find("duplicate key 'server'"),
             std::string::npos);
-  EXPECT_EQ(parse_plant_config("lanes: [{id: 0}]\n", "test").engine.max_subscriptions, 64);
-  EXPECT_EQ(parse_plant_config("server: {max_subscriptions: 8}\nlanes: [{id: 0}]\n", "test")
-                .engine.max_subscriptions,
-            8);
-  for (const char* bad : {"0", "-1", "10001", "many"})
-    EXPECT_NE(error_of("server: {max_subscriptions: " + std::string(bad) + "}\nlanes: [{id: 0}]\n")
-                  .find("server.max_subscriptions: "),
-              std::string::npos)
-        << bad;
-  EXPECT_EQ(parse_plant_config("lanes: [{id: 0}]\n", "test").engine.grpc_memory_mb, 256);
-  EXPECT_EQ(parse_plant_config("server: {grpc_memory_mb: 16}\nlanes: [{id: 0}]\n", "test")
-                .engine.grpc_memory_mb,
-            16);
-  for (const char* bad : {"0", "15", "-1", "1048577", "lots"})
-    EXPECT_NE(error_of("server: {grpc_memory_mb: " + std::string(bad) + "}\nlanes: [{id: 0}]\n")
-                  .find("server.grpc_memory_mb: "),
-              std::string::npos)
-        << bad;
+  // A bound of `server:`: its default, a value taken, and values refused naming the key.
+  const auto bound = [&](const std::string& key, int EngineSettings::*field, int fallback,
+                         int taken, std::initializer_list<const char*> refused) {
+    const auto with = [&](const std::string& v) {
+      return "server: {" + key + ": " + v + "}\nlanes: [{id: 0}]\n";
+    };
+    EXPECT_EQ(parse_plant_config("lanes: [{id: 0}]\n", "test").engine.*field, fallback) << key;
+    EXPECT_EQ(parse_plant_config(with(std::to_string(taken)), "test").engine.*field, taken) << key;
+    for (const char* bad : refused)
+      EXPECT_NE(error_of(with(bad)).find("server." + key + ": "), std::string::npos)
+          << key << ": " << bad;
+  };
+  bound("max_subscriptions", &EngineSettings::max_subscriptions, 64, 8,
+        {"0", "-1", "10001", "many"});
+  bound("max_ingest_streams", &EngineSettings::max_ingest_streams, 256, 4,
+        {"0", "-1", "10001", "all"});
+  bound("grpc_memory_mb", &EngineSettings::grpc_memory_mb, 256, 16,
+        {"0", "15", "-1", "1048577", "lots"});
   EXPECT_NE(error_of("server: {auto_reset: maybe}\nlanes: [{id: 0}]\n")
                 .find("server.auto_reset: expected true or false"),
             std::string::npos);

@@ -33,6 +33,11 @@ struct EngineSettings {
   // reading) gives way to a new one; with none behind, a new one is refused
   // (RESOURCE_EXHAUSTED). Each holds up to 256 results waiting for it.
   int max_subscriptions = 64;
+  // Ingest streams at once; a new one past it is refused (RESOURCE_EXHAUSTED) and a feeder
+  // tries again. Each costs about 20 kB held (20,000 took rangexd from 100 to 490 MB); a
+  // plant needs one a feeder, and a stream left by a feeder that went is closed after
+  // stream_idle_s.
+  int max_ingest_streams = 256;
   // What gRPC may hold for the gRPC port's connections, all together: messages as they
   // arrive and the connections' buffers. gRPC holds a message whole before it checks its
   // size (up to 4 GiB, whatever the bound), so without this one client could take the

@@ -47,10 +47,16 @@ class IngestStream final
     : public grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>,
       public IdleClosable {
  public:
-  static IngestStream* start(Engine& engine, StreamCounters& counters) {
-    std::shared_ptr<IngestStream> s(new IngestStream(engine, counters));
+  // nullptr when the server holds max_streams already.
+  static IngestStream* start(Engine& engine, StreamCounters& counters, int max_streams) {
+    std::shared_ptr<IngestStream> s;
     {
+      // Counted (the constructor) under the registry's lock: newcomers at the same time see
+      // each other. A stream stops counting in OnDone.
       std::lock_guard<std::mutex> lock(counters.live_mu);
+      if (counters.ingest >= max_streams) return nullptr;
+      std::erase_if(counters.live, [](const auto& w) { return w.expired(); });
+      s.reset(new IngestStream(engine, counters));
       counters.live.push_back(s);
     }
     std::lock_guard<std::mutex> lock(s->mu_);
@@ -398,8 +404,12 @@ grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>* refused_subscription(
 }
 
 grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>* new_ingest_stream(
-    Engine& engine, StreamCounters& counters) {
-  return IngestStream::start(engine, counters);
+    Engine& engine, StreamCounters& counters, int max_streams) {
+  if (auto* s = IngestStream::start(engine, counters, max_streams)) return s;
+  return refused_ingest_stream(
+      grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                   "too many ingest streams (" + std::to_string(max_streams) +
+                       ", server.max_ingest_streams); try again when one has ended"));
 }
 
 int close_idle_ingest_streams(StreamCounters& counters, double idle_s) {

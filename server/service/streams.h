@@ -50,8 +50,10 @@ struct StreamCounters {
 // Closes the ingest streams that have had no request for idle_s; returns how many.
 int close_idle_ingest_streams(StreamCounters& counters, double idle_s);
 
+// A new ingest stream, when the server holds fewer than max_streams; else refused with
+// RESOURCE_EXHAUSTED.
 grpc::ServerBidiReactor<v1::StreamLinesRequest, v1::StreamLinesResponse>* new_ingest_stream(
-    Engine& engine, StreamCounters& counters);
+    Engine& engine, StreamCounters& counters, int max_streams);
 // A new subscription, when the server holds fewer than max_subscriptions or one of them has
 // fallen behind (it gives way); else refused with RESOURCE_EXHAUSTED.
 grpc::ServerWriteReactor<v1::SubscribeFilletsResponse>* new_subscription(
