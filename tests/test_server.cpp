@@ -696,7 +696,9 @@ TEST(Server, RestartContinuesFilletNumbersAndIdleCountsLinesReceived) {
 TEST(Server, StreamsThatSendNothingTakeNoCredit) {
   test::TempDir t;
   const PlantConfig p = plant();
-  RangexServer server(p, options(t));
+  ServerOptions o = options(t);
+  o.engine.max_ingest_streams = 1000;  // past the default (256): these are what is tested
+  RangexServer server(p, o);
   auto ch = connect(server);
   // 500 StreamLines calls that never send a line: once they cut a real feeder's credit from
   // 512 to 4.
@@ -709,7 +711,8 @@ TEST(Server, StreamsThatSendNothingTakeNoCredit) {
     contexts.push_back(std::make_unique<grpc::ClientContext>());
     idle.push_back(stub->StreamLines(contexts.back().get()));
   }
-  while (server.ingest_streams() < 500) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_TRUE(test::wait_until(120, [&] { return server.ingest_streams() == 500; }))
+      << server.ingest_streams() << " of 500 streams open";
   const Lines lines(p, 1, 3);
   int max_credit = 0;
   for (const auto& a : stream(ch, lines.lines)) max_credit = std::max(max_credit, a.credit());
