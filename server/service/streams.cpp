@@ -55,7 +55,6 @@ class IngestStream final
       // each other. A stream stops counting in OnDone.
       std::lock_guard<std::mutex> lock(counters.live_mu);
       if (counters.ingest >= max_streams) return nullptr;
-      std::erase_if(counters.live, [](const auto& w) { return w.expired(); });
       s.reset(new IngestStream(engine, counters));
       counters.live.push_back(s);
     }

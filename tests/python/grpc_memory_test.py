@@ -11,8 +11,8 @@ past it gRPC cuts streams, and clients see RESOURCE_EXHAUSTED.
 Here rangexd runs with a 16 MB bound. Three clients at once each send one message of 128 MB
 (two StreamLines, one UploadCalibration), while `rangexctl feed` feeds two lanes. Every
 large message must be refused, rangexd's memory must grow by less than one of them (without
-the bound it grew by 332 MB), and the feed must settle every line: a feeder whose stream is cut reconnects and
-resends. Afterwards the server still answers.
+the bound it grew by 332 MB), and the feed must settle every line: a feeder whose stream is
+cut reconnects and resends. Afterwards the server still answers.
 
 usage: grpc_memory_test.py RANGEXD RANGEXCTL PLANT.yaml
 """
