@@ -79,4 +79,19 @@ std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address, const 
   return grpc::CreateCustomChannel(address, creds, args);
 }
 
+bool worth_reconnecting(const grpc::Status& s) {
+  switch (s.error_code()) {
+    case grpc::StatusCode::UNAVAILABLE:
+    case grpc::StatusCode::CANCELLED:
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+    case grpc::StatusCode::UNKNOWN:
+    case grpc::StatusCode::INTERNAL:
+    case grpc::StatusCode::ABORTED:
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      return true;
+    default:
+      return false;
+  }
+}
+
 }  // namespace rangex

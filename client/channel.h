@@ -33,4 +33,10 @@ std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address,
                                               const ClientSecurity& security = {},
                                               int keepalive_ms = kClientKeepaliveMs);
 
+// A call that ended so is worth making again once connected: the server went away, restarted,
+// was stopping, or shed load (gRPC cuts streams when its memory quota is full,
+// server.grpc_memory_mb, whichever stream made it so). A refusal of the caller or of what it
+// asked (a role, an argument) is not.
+bool worth_reconnecting(const grpc::Status& s);
+
 }  // namespace rangex

@@ -19,6 +19,7 @@
 #include "rangex/v1/rangex.grpc.pb.h"
 #include "remote_call.h"
 #include "sim/plant_simulator.h"
+#include "watcher.h"
 
 namespace rangex::cli {
 
@@ -95,40 +96,32 @@ int cmd_feed(int argc, char** argv) {
 }
 
 int cmd_watch(int argc, char** argv) {
-  const Args a(argc, argv, 2, {}, remote_options({"lane", "decision", "count", "seconds"}));
-  auto stub = pb::ResultsService::NewStub(server_channel(a));
-  pb::SubscribeFilletsRequest req;
-  if (a.has("lane")) req.add_lanes(int(a.integer("lane", 0)));
+  const Args a(argc, argv, 2, {},
+               remote_options({"lane", "decision", "count", "seconds", "reconnect-for"}));
+  WatchOptions wo;
+  if (a.has("lane")) wo.filter.add_lanes(int(a.integer("lane", 0)));
   if (a.has("decision")) {
     const std::string d = a.get("decision", "");
     const pb::Decision value = decision_from_name(d);
     if (value == pb::DECISION_UNSPECIFIED)
       fail("--decision must be pass, reject or not_inspected (got '", d, "')");
-    req.add_decisions(value);
+    wo.filter.add_decisions(value);
   }
   const long count = a.integer("count", 0);
-  grpc::ClientContext ctx;
+  if (count < 0) fail("--count must be >= 0 (got ", count, ")");
+  wo.count = uint64_t(count);
   if (a.has("seconds"))
-    ctx.set_deadline(std::chrono::system_clock::now() +
-                     std::chrono::seconds(a.integer("seconds", 0)));
-  auto reader = stub->SubscribeFillets(&ctx, req);
-  pb::SubscribeFilletsResponse r;
-  long seen = 0;
-  while (reader->Read(&r)) {
-    if (r.lagged())
-      std::printf("(this watcher was too slow: %llu results skipped)\n",
-                  (unsigned long long)r.lagged());
-    print_fillet(r.fillet());
+    wo.until = std::chrono::system_clock::now() + std::chrono::seconds(a.integer("seconds", 0));
+  wo.reconnect_for_s = std::stod(a.get("reconnect-for", "60"));
+  if (wo.reconnect_for_s < 0) fail("--reconnect-for must be >= 0");
+  wo.show = [](const pb::FilletResult& f) {
+    print_fillet(f);
     std::fflush(stdout);
-    if (count && ++seen >= count) {
-      ctx.TryCancel();
-      break;
-    }
-  }
-  const grpc::Status st = reader->Finish();
-  if (!st.ok() && st.error_code() != grpc::StatusCode::DEADLINE_EXCEEDED &&
-      st.error_code() != grpc::StatusCode::CANCELLED)
-    check_status(st, "watch");
+  };
+  wo.log = [](const std::string& m) { std::fprintf(stderr, "watch: %s\n", m.c_str()); };
+  std::fprintf(stderr, "watch: %s, decisions from now on\n", server_address(a).c_str());
+  const WatchReport r = Watcher(server_channel(a), wo).run();
+  if (!r.status.ok()) check_status(r.status, "watch");
   return 0;
 }
 

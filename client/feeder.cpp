@@ -26,23 +26,6 @@ Feeder::Feeder(std::shared_ptr<grpc::Channel> channel, FeedOptions opt)
 
 namespace {
 
-bool retryable(const grpc::Status& s) {
-  switch (s.error_code()) {
-    case grpc::StatusCode::UNAVAILABLE:
-    case grpc::StatusCode::CANCELLED:
-    case grpc::StatusCode::DEADLINE_EXCEEDED:
-    case grpc::StatusCode::UNKNOWN:
-    case grpc::StatusCode::INTERNAL:
-    case grpc::StatusCode::ABORTED:
-    // A server shedding load: gRPC cuts streams when its memory quota is full
-    // (server.grpc_memory_mb), whichever stream made it so.
-    case grpc::StatusCode::RESOURCE_EXHAUSTED:
-      return true;
-    default:
-      return false;
-  }
-}
-
 // Shared with the writer while it writes: the reader may drop its own reference as soon as
 // the line is acknowledged.
 struct InFlight {
@@ -462,7 +445,7 @@ FeedReport Feeder::run(LineSource& source) {
       }
       break;
     }
-    if (!retryable(rep.status) && !rep.status.ok()) break;
+    if (!worth_reconnecting(rep.status) && !rep.status.ok()) break;
     if (Clock::now() - sh.progress > std::chrono::duration<double>(opt_.reconnect_for_s)) {
       tell(opt_, "no progress for " + std::to_string(int(opt_.reconnect_for_s)) + " s; giving up");
       break;

@@ -124,7 +124,9 @@ server commands (--server HOST:PORT, default: plant.yaml's listen address; over 
       [--window N] [--reconnect-for S] [--settle-for S]: at the end, waits until every lane's
       outcomes are stored; exit 5: lines refused, 6: lanes not settled (their counts named)
   watch [--lane L] [--decision pass|reject|not_inspected] [--count N] [--seconds S]
-      live fillet decisions
+      [--reconnect-for S]: live fillet decisions, each once; when the stream is lost, connects
+      again (giving up after S s, default 60; 0: at once) and shows from the store what was
+      decided meanwhile
   status [--json]             statistics: lines/s, latencies, queue, drops by reason
   fillets [--lane L] [--limit N] [--from-ns T] [--to-ns T]  |  fillets --uid U
   image --uid U [--kind overlay|xray|thickness|pseudo_xray|residual] --out FILE.png

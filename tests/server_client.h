@@ -17,6 +17,15 @@ namespace rangex::test {
 
 namespace pb = rangex::v1;
 
+// A server on a free loopback port, storing under data_dir, on the CPU backend's one thread.
+inline ServerOptions loopback_options(const std::string& data_dir) {
+  ServerOptions o;
+  o.listen = "127.0.0.1:0";
+  o.data_dir = data_dir;
+  o.engine.backend = cpu_request(1);
+  return o;
+}
+
 inline std::shared_ptr<grpc::Channel> connect(const RangexServer& s) {
   grpc::ChannelArguments args;
   args.SetMaxSendMessageSize(64 << 20);

@@ -53,10 +53,7 @@ class Feed {
 TEST(IngestStreamsBound, OnePastTheBoundIsRefusedAndTheNextTakesAPlaceThatEnds) {
   using ingest_bound_test::Feed;
   test::TempDir t;
-  ServerOptions o;
-  o.listen = "127.0.0.1:0";
-  o.data_dir = t.str("data");
-  o.engine.backend = cpu_request(1);
+  ServerOptions o = test::loopback_options(t.str("data"));
   o.engine.max_ingest_streams = 2;
   RangexServer server(load_plant_config(RANGEX_SOURCE_DIR "/config/plant.yaml"), o);
   auto ch = test::connect(server);

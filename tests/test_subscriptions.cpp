@@ -26,10 +26,7 @@ namespace subscriptions_test {
 using test::TempDir;
 
 ServerOptions options(const TempDir& t, int max_subscriptions) {
-  ServerOptions o;
-  o.listen = "127.0.0.1:0";
-  o.data_dir = t.str("data");
-  o.engine.backend = cpu_request(1);
+  ServerOptions o = test::loopback_options(t.str("data"));
   o.engine.max_subscriptions = max_subscriptions;
   return o;
 }

@@ -338,6 +338,7 @@ class ControlImpl final : public pb::ControlService::Service {
       resp->set_backend_note(engine_.backend_note());
       resp->set_storage(opt_.data_dir);
       resp->set_started_ns(started_);
+      resp->set_now_ns(now_ns());
       return Status::OK;
     });
   }

@@ -6,12 +6,14 @@ feeder sends them to the next server, so a stop, like a crash, loses nothing.
 
 First a reference run with no kill, on a store of its own. Then, for each seed, a crash run: a calibration
 is activated on lane 1, the feeder (`rangexctl feed`, which reconnects and resends what the
-server has not made durable) streams the same plant, a subscriber (`rangexctl watch`,
-restarted with the server) records every decision it is sent, and rangexd is killed KILLS
-times at random points and restarted.
+server has not made durable) streams the same plant, a subscriber (one `rangexctl watch`
+for the whole run: it connects again after each kill) records every decision it is shown, and
+rangexd is killed KILLS times at random points and restarted.
 
 Checks:
-- every decision a subscriber saw is in the store, as it was sent;
+- every decision the subscriber saw is in the store, as it was sent, and it saw every stored
+  decision exactly once, in the store's order (what was decided while it was away it takes
+  from the store);
 - the record chain verifies;
 - the active calibration is the one activated;
 - no fillet was decided twice (no two records of a lane share an encoder count);
@@ -203,24 +205,27 @@ def crash_run(seed):
     ctl("calib", "upload", "--server", server.addr, "--lane", "1", "--id", "crash-cal", "--file", cal)
     ctl("calib", "activate", "--server", server.addr, "--lane", "1", "--id", "crash-cal", "--force")
 
-    seen, stop_watching = [], threading.Event()
+    # One watcher for the whole run: it reconnects after each kill and takes what was decided
+    # while it was away from the store, so it must show every stored decision exactly once.
+    seen = []
+    watcher = subprocess.Popen([rangexctl, "watch", "--server", server.addr, "--reconnect-for",
+                                "120"], stdout=subprocess.PIPE,
+                               stderr=open(os.path.join(tmp, "watch-%d.log" % seed), "w"),
+                               text=True)
 
     def watch():
-        while not stop_watching.is_set():
-            p = subprocess.Popen([rangexctl, "watch", "--server", server.addr], stdout=subprocess.PIPE,
-                                 stderr=subprocess.DEVNULL, text=True)
-            for line in p.stdout:
-                m = re.match(r"lane (\d+) fillet (\d+)\s+uid (\d+)\s+(PASS|REJECT|NOT INSPECTED)", line)
-                if m:
-                    seen.append((int(m.group(3)), int(m.group(1)), m.group(4)))
-                if stop_watching.is_set():
-                    break
-            p.kill()
-            p.wait()
-            time.sleep(0.05)
+        for line in watcher.stdout:
+            m = re.match(r"lane (\d+) fillet (\d+)\s+uid (\d+)\s+(PASS|REJECT|NOT INSPECTED)", line)
+            if m:
+                seen.append((int(m.group(3)), int(m.group(1)), m.group(4)))
 
-    watcher = threading.Thread(target=watch, daemon=True)
-    watcher.start()
+    reader = threading.Thread(target=watch, daemon=True)
+    reader.start()
+    end = time.time() + 30
+    while not re.search(r"; [1-9]\d* subscribers", ctl("status", "--server", server.addr).stdout):
+        if time.time() > end or watcher.poll() is not None:
+            fail("`rangexctl watch` did not subscribe within 30 s")
+        time.sleep(0.1)
     # Paced (about 13 s of lines), so that the kills fall mid-stream on a fast machine too.
     feeder = subprocess.Popen([rangexctl, "feed", "--server", server.addr, "--reconnect-for", "90",
                                "--rate", "300"] + FEED,
@@ -263,16 +268,27 @@ def crash_run(seed):
           "the feeder reconnected after the kills and resent what was not durable (%s)"
           % (m.group(0) if m else feed_out))
     settle(server)
-    time.sleep(0.5)
-    stop_watching.set()
-    server.stop()
-    watcher.join(timeout=10)
-
     stored = fillets(server.data)
+    end = time.time() + 30
+    while len(seen) < len(stored) and time.time() < end and watcher.poll() is None:
+        time.sleep(0.1)
+    time.sleep(0.5)  # a decision shown twice would come now
+    watcher.kill()
+    watcher.wait()
+    reader.join(timeout=10)
+    server.stop()
+
     by_uid = {f[0]: f for f in stored}
     missing = [s for s in seen if s[0] not in by_uid]
-    check(len(seen) > 0 and not missing, "every one of the %d decisions subscribers saw is in the store"
-          " (missing: %s)" % (len(seen), missing[:5]))
+    check(len(seen) > 0 and not missing, "every one of the %d decisions the watcher saw is in the "
+          "store (missing: %s)" % (len(seen), missing[:5]))
+    uids = [s[0] for s in seen]
+    unseen = sorted(set(by_uid) - set(uids))
+    twice = sorted({u for u in uids if uids.count(u) > 1})
+    check(not unseen and not twice and uids == sorted(uids),
+          "the watcher, one `rangexctl watch` through every %s, showed each of the %d stored "
+          "decisions once, in order (not shown: %s; twice: %s)"
+          % ("kill" if how == "KILL" else "stop", len(stored), unseen[:5], twice[:5]))
     names = {"PASS": "pass", "REJECT": "reject", "NOT INSPECTED": "not_inspected"}
     changed = [s for s in seen if by_uid[s[0]][1] != s[1] or by_uid[s[0]][4] != names[s[2]]]
     check(not changed, "each as it was sent (%s)" % changed[:5])
