@@ -181,6 +181,9 @@ int cmd_status(int argc, char** argv) {
   if (s.subscribers_dropped())  // clients that stopped reading, ended for newer ones
     std::printf(" (%llu fell behind and gave way)", (unsigned long long)s.subscribers_dropped());
   std::printf("\n");
+  if (s.open_files_limit())  // a server before the field says nothing
+    std::printf("open files: %lld of %llu\n", (long long)s.open_files(),
+                (unsigned long long)s.open_files_limit());
   for (const auto& d : s.refused())
     std::printf("refused %-22s %llu lines\n", d.reason().c_str(), (unsigned long long)d.lines());
   for (const auto& d : s.dropped())

@@ -222,6 +222,8 @@ MetricsInput busy_plant() {
   m.subscribers_dropped = 4;
   m.http_clients = 1;
   m.ingest_streams = 2;
+  m.stats.open_files = 17;
+  m.stats.open_files_limit = 20000;
   return m;
 }
 
@@ -232,6 +234,9 @@ TEST(MetricsText, AScraperReadsEveryFamilyOnceAndEverySampleInItsFamily) {
   EXPECT_EQ(e.types.at("rangex_queue_depth_lines"), "gauge");
   EXPECT_EQ(e.types.at("rangex_subscribers_dropped_total"), "counter");
   EXPECT_EQ(value(e, "rangex_subscribers_dropped_total", {}), 4);
+  EXPECT_EQ(e.types.at("rangex_open_files"), "gauge");
+  EXPECT_EQ(value(e, "rangex_open_files", {}), 17);
+  EXPECT_EQ(value(e, "rangex_open_files_limit", {}), 20000);
   EXPECT_GE(e.families.size(), 40u);
 }
 

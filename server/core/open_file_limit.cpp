@@ -1,5 +1,6 @@
 #include "core/open_file_limit.h"
 
+#include <dirent.h>
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -31,6 +32,20 @@ OpenFileLimit raise_open_file_limit(uint64_t ceiling) {
     return out;
   }
   out.now = want;
+  return out;
+}
+
+OpenFiles open_files() {
+  OpenFiles out;
+  rlimit r{};
+  if (getrlimit(RLIMIT_NOFILE, &r) == 0) out.limit = as_u64(r.rlim_cur);
+  DIR* d = opendir("/proc/self/fd");
+  if (!d) return out;
+  int64_t n = 0;
+  while (const dirent* e = readdir(d))
+    if (e->d_name[0] != '.') ++n;
+  closedir(d);
+  out.open = n - 1;  // less the listing's own
   return out;
 }
 

@@ -103,6 +103,8 @@ struct EngineStats {
   std::optional<PlcStatus> plc;               // with a PLC (plant.yaml plc)
   std::optional<ForwarderStatus> forwarding;  // with a plant-wide database (plant.results_db)
   RecordingStatus recording;                  // the shift recording running or last ended
+  int64_t open_files = -1;                    // the process's, now (-1: unknown)
+  uint64_t open_files_limit = 0;              // its soft limit (0: unknown)
 };
 
 // What a stop does with the fillets still coming in: the end of a recording closes them (one

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/open_file_limit.h"
 #include "service/engine.h"
 #include "service/steady_ns.h"
 
@@ -104,6 +105,15 @@ EngineStats Engine::stats() {
     else if (f.lag_seconds > kForwardLagWarnS)
       s.warnings.push_back(join("forwarding to PostgreSQL behind: ", f.lag_records, " records (",
                                 int64_t(f.lag_seconds), " s) wait in the local store"));
+  }
+  {
+    const OpenFiles f = open_files();
+    s.open_files = f.open;
+    s.open_files_limit = f.limit;
+    if (f.open >= 0 && f.limit > 0 && double(f.open) >= kOpenFilesWarnShare * double(f.limit))
+      s.warnings.push_back(join("open files: ", f.open, " of the limit of ", f.limit,
+                                ": near it, new connections and files are refused (\"Too many "
+                                "open files\"); a client may be holding many connections"));
   }
   if (opt_.store_reserve_mb > 0) {
     std::error_code ec;

@@ -287,6 +287,16 @@ void gauges(Writer& w, const MetricsInput& m) {
   w.sample("rangex_http_event_streams", "", uint64_t(m.http_clients));
   w.family("rangex_ingest_streams", "gauge", "Open StreamLines calls.");
   w.sample("rangex_ingest_streams", "", uint64_t(m.ingest_streams));
+  if (s.open_files >= 0) {
+    w.family("rangex_open_files", "gauge",
+             "Files the process holds, each client connection one (near the limit, new "
+             "connections are refused).");
+    w.sample("rangex_open_files", "", uint64_t(s.open_files));
+  }
+  if (s.open_files_limit > 0) {
+    w.family("rangex_open_files_limit", "gauge", "The process's soft limit on open files.");
+    w.sample("rangex_open_files_limit", "", s.open_files_limit);
+  }
   w.family("rangex_serving", "gauge", "1 when the server can inspect (health SERVING).");
   w.sample("rangex_serving", "", uint64_t(s.health.serving ? 1 : 0));
   w.family("rangex_backend_info", "gauge", "The backend running the line stages (value 1).");

@@ -1,5 +1,7 @@
 #include "service/pb_convert.h"
 
+#include <algorithm>
+
 #include "core/calibration_report.h"
 #include "core/error.h"
 #include "core/plant_config.h"
@@ -199,6 +201,8 @@ void fill(pb::RecordingStatus* o, const RecordingStatus& r) {
 }
 
 void fill(pb::GetStatisticsResponse* o, const EngineStats& s) {
+  o->set_open_files(std::max<int64_t>(s.open_files, 0));
+  o->set_open_files_limit(s.open_files_limit);
   if (!s.recording.name.empty()) fill(o->mutable_recording(), s.recording);
   if (s.plc) {
     pb::PlcStatus* p = o->mutable_plc();

@@ -177,6 +177,10 @@ try:
     check(total("rangex_subscribers") == g("subscribers") >= 1, "subscribers = GetStatistics")
     check(total("rangex_subscribers_dropped_total") == g("subscribers_dropped"),
           "subscribers that gave way = GetStatistics")
+    check(total("rangex_open_files_limit") == g("open_files_limit") > 0,
+          "the open-file limit = GetStatistics (%d)" % g("open_files_limit"))
+    check(0 < total("rangex_open_files") <= total("rangex_open_files_limit"),
+          "open files counted (%d)" % total("rangex_open_files"))
     lat = {l["stage"]: l for l in stats["latencies"]}
     check(total("rangex_decision_latency_seconds_count") == int(lat["last_line_to_decision"]["samples"])
           == g("fillets"), "decision latency histogram counts every decision")
