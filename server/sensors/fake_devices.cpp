@@ -132,6 +132,12 @@ void FakeDevice::set_packet_loss(double ratio) {
   g_object_set(impl_->gv, "gvsp-lost-ratio", ratio, nullptr);
 }
 
+void FakeDevice::set_genicam_url(const std::string& url) {
+  if (url.size() >= 512) throw std::runtime_error("a GenICam URL register holds 511 bytes");
+  arv_fake_camera_write_memory(arv_gv_fake_camera_get_fake_camera(impl_->gv), 0x200,
+                               guint32(url.size() + 1), url.c_str());
+}
+
 void FakeDevice::trigger() {
   arv_fake_camera_write_register(arv_gv_fake_camera_get_fake_camera(impl_->gv),
                                  ARV_FAKE_CAMERA_REGISTER_TRIGGER_SOFTWARE, 1);

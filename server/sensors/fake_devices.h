@@ -67,6 +67,8 @@ class FakeDevice {
              const std::string& genicam_file = "");
   ~FakeDevice();
   void set_packet_loss(double ratio);
+  // Writes its first GenICam URL register (0x200), as a device naming another description.
+  void set_genicam_url(const std::string& url);
   void trigger();                // an encoder pulse
   bool trigger_pending() const;  // not yet taken
   bool acquiring() const;        // a controller started acquisition

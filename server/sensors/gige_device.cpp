@@ -1,5 +1,6 @@
 #include "sensors/gige_device.h"
 
+#include <arpa/inet.h>
 #include <arv.h>
 
 #include <algorithm>
@@ -10,6 +11,8 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "sensors/frame_counts.h"
+#include "sensors/genicam_url.h"
+#include "sensors/gvcp_read.h"
 
 namespace rangex {
 
@@ -40,6 +43,38 @@ std::string hex(uint32_t v) {
   char b[16];
   std::snprintf(b, sizeof b, "0x%08x", v);
   return b;
+}
+
+// The device's IPv4 address: the id itself, or what Aravis's discovery gives for it.
+std::optional<std::string> device_ipv4(const std::string& id) {
+  in_addr a{};
+  if (inet_pton(AF_INET, id.c_str(), &a) == 1) return id;
+  arv_update_device_list();
+  for (unsigned i = 0; i < arv_get_n_devices(); ++i)
+    for (const char* name :
+         {arv_get_device_id(i), arv_get_device_physical_id(i), arv_get_device_serial_nbr(i)}) {
+      const char* address = arv_get_device_address(i);
+      if (name && id == name && address && inet_pton(AF_INET, address, &a) == 1) return address;
+    }
+  return std::nullopt;
+}
+
+// What the device names as its GenICam description, checked before Aravis reads it whole.
+void check_description(const std::string& id) {
+  const std::optional<std::string> ip = device_ipv4(id);
+  if (!ip) return;  // not on the network: arv_camera_new says so
+  std::string text = gvcp_read_memory(*ip, kGvcpXmlUrl0, kGvcpReadMax);
+  text.resize(std::min(text.find('\0'), text.size()));
+  GenicamUrl url;
+  try {
+    url = parse_genicam_url(text);
+  } catch (const Error& e) {
+    fail("device ", id, ": ", e.what());
+  }
+  const std::string why = genicam_url_refusal(url);
+  if (!why.empty())
+    fail("device ", id, " names its GenICam description '", text.substr(0, 120), "': refused, ",
+         why);
 }
 
 void on_control_lost(ArvDevice*, gpointer flag) {
@@ -89,6 +124,7 @@ struct GigeDevice::Impl {
   }
 
   void open() {
+    check_description(setup.id);
     GError* e = nullptr;
     camera = arv_camera_new(setup.id.c_str(), &e);
     if (!camera) fail("device ", setup.id, " cannot be opened: ", take_error(e));

@@ -1,0 +1,102 @@
+#include "sensors/gvcp_read.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <vector>
+
+#include "core/error.h"
+
+namespace rangex {
+
+namespace {
+
+constexpr uint16_t kGvcpPort = 3956;
+constexpr uint8_t kGvcpKey = 0x42, kAckRequired = 0x01;
+constexpr uint16_t kReadMemCmd = 0x0084, kReadMemAck = 0x0085;
+
+void put16(uint8_t* p, uint16_t v) {
+  p[0] = uint8_t(v >> 8);
+  p[1] = uint8_t(v);
+}
+void put32(uint8_t* p, uint32_t v) {
+  put16(p, uint16_t(v >> 16));
+  put16(p + 2, uint16_t(v));
+}
+uint16_t get16(const uint8_t* p) {
+  return uint16_t(p[0] << 8 | p[1]);
+}
+
+std::string as_hex(uint32_t v) {
+  char b[16];
+  std::snprintf(b, sizeof b, "0x%x", v);
+  return b;
+}
+
+struct Socket {
+  int fd = -1;
+  ~Socket() {
+    if (fd >= 0) close(fd);
+  }
+};
+
+}  // namespace
+
+std::string gvcp_read_memory(const std::string& ipv4, uint32_t address, uint16_t count,
+                             int timeout_ms, int tries) {
+  if (count == 0 || count % 4 != 0 || count > kGvcpReadMax)
+    fail("GVCP read of ", count, " bytes: 4 to ", kGvcpReadMax, " in steps of 4");
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(kGvcpPort);
+  if (inet_pton(AF_INET, ipv4.c_str(), &to.sin_addr) != 1)
+    fail("GVCP: '", ipv4, "' is not an IPv4 address");
+  Socket s;
+  s.fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (s.fd < 0) fail("GVCP: socket: ", std::strerror(errno));
+  if (connect(s.fd, reinterpret_cast<const sockaddr*>(&to), sizeof to) != 0)
+    fail("GVCP: device ", ipv4, ": ", std::strerror(errno));
+  for (int t = 0; t < tries; ++t) {
+    const uint16_t id = uint16_t(1 + t);
+    uint8_t cmd[16];
+    cmd[0] = kGvcpKey;
+    cmd[1] = kAckRequired;
+    put16(cmd + 2, kReadMemCmd);
+    put16(cmd + 4, 8);
+    put16(cmd + 6, id);
+    put32(cmd + 8, address);
+    put16(cmd + 12, 0);
+    put16(cmd + 14, count);
+    if (send(s.fd, cmd, sizeof cmd, 0) != ssize_t(sizeof cmd)) continue;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+    for (;;) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+                            end - std::chrono::steady_clock::now())
+                            .count();
+      pollfd p{s.fd, POLLIN, 0};
+      if (left <= 0 || poll(&p, 1, int(left)) <= 0) break;
+      std::vector<uint8_t> ack(12 + kGvcpReadMax);
+      const ssize_t n = recv(s.fd, ack.data(), ack.size(), 0);
+      if (n < 12 || get16(ack.data() + 2) != kReadMemAck || get16(ack.data() + 6) != id)
+        continue;  // another answer (a late one to an earlier try)
+      if (const uint16_t status = get16(ack.data()); status != 0)
+        fail("GVCP: device ", ipv4, " refuses to read ", count, " bytes at ", as_hex(address),
+             " (status ", as_hex(status), ")");
+      if (size_t(n) < 12 + size_t(count))
+        fail("GVCP: device ", ipv4, " answered ", n - 12, " of ", count, " bytes at ",
+             as_hex(address));
+      return std::string(reinterpret_cast<const char*>(ack.data()) + 12, count);
+    }
+  }
+  fail("GVCP: device ", ipv4, " did not answer a read of its memory (", tries, " tries of ",
+       timeout_ms, " ms)");
+}
+
+}  // namespace rangex
