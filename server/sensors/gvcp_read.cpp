@@ -61,8 +61,6 @@ std::string gvcp_read_memory(const std::string& ipv4, uint32_t address, uint16_t
   Socket s;
   s.fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   if (s.fd < 0) fail("GVCP: socket: ", std::strerror(errno));
-  if (connect(s.fd, reinterpret_cast<const sockaddr*>(&to), sizeof to) != 0)
-    fail("GVCP: device ", ipv4, ": ", std::strerror(errno));
   for (int t = 0; t < tries; ++t) {
     const uint16_t id = uint16_t(1 + t);
     uint8_t cmd[16];
@@ -74,7 +72,10 @@ std::string gvcp_read_memory(const std::string& ipv4, uint32_t address, uint16_t
     put32(cmd + 8, address);
     put16(cmd + 12, 0);
     put16(cmd + 14, count);
-    if (send(s.fd, cmd, sizeof cmd, 0) != ssize_t(sizeof cmd)) continue;
+    // Not connected: a device may answer from another port than the one asked.
+    if (sendto(s.fd, cmd, sizeof cmd, 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) !=
+        ssize_t(sizeof cmd))
+      continue;
     const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
     for (;;) {
       const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
@@ -83,9 +84,13 @@ std::string gvcp_read_memory(const std::string& ipv4, uint32_t address, uint16_t
       pollfd p{s.fd, POLLIN, 0};
       if (left <= 0 || poll(&p, 1, int(left)) <= 0) break;
       std::vector<uint8_t> ack(12 + kGvcpReadMax);
-      const ssize_t n = recv(s.fd, ack.data(), ack.size(), 0);
-      if (n < 12 || get16(ack.data() + 2) != kReadMemAck || get16(ack.data() + 6) != id)
-        continue;  // another answer (a late one to an earlier try)
+      sockaddr_in from{};
+      socklen_t from_len = sizeof from;
+      const ssize_t n =
+          recvfrom(s.fd, ack.data(), ack.size(), 0, reinterpret_cast<sockaddr*>(&from), &from_len);
+      if (n < 12 || from.sin_addr.s_addr != to.sin_addr.s_addr ||
+          get16(ack.data() + 2) != kReadMemAck || get16(ack.data() + 6) != id)
+        continue;  // another host's datagram, or a late answer to an earlier try
       if (const uint16_t status = get16(ack.data()); status != 0)
         fail("GVCP: device ", ipv4, " refuses to read ", count, " bytes at ", as_hex(address),
              " (status ", as_hex(status), ")");
