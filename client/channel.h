@@ -3,6 +3,7 @@
 #pragma once
 #include <grpcpp/grpcpp.h>
 
+#include <chrono>
 #include <memory>
 #include <string>
 
@@ -38,5 +39,11 @@ std::shared_ptr<grpc::Channel> rangex_channel(const std::string& address,
 // server.grpc_memory_mb, whichever stream made it so). A refusal of the caller or of what it
 // asked (a role, an argument) is not.
 bool worth_reconnecting(const grpc::Status& s);
+
+// A unary call that cannot hang a client: a server that does not answer in 15 s is reported
+// as such.
+struct UnaryCall : grpc::ClientContext {
+  UnaryCall() { set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(15)); }
+};
 
 }  // namespace rangex

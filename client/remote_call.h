@@ -3,12 +3,12 @@
 #pragma once
 #include <grpcpp/grpcpp.h>
 
-#include <chrono>
 #include <memory>
 #include <set>
 #include <string>
 
 #include "args.h"
+#include "channel.h"
 #include "rangex/v1/rangex.pb.h"
 
 namespace rangex::cli {
@@ -23,12 +23,6 @@ std::string server_address(const Args& a);
 // RANGEX_KEY and RANGEX_TOKEN or RANGEX_TOKEN_FILE (a token is never an argument: `ps` would
 // show it).
 std::shared_ptr<grpc::Channel> server_channel(const Args& a);
-
-// A unary call that cannot hang the command line: a server that does not answer in 15 s is
-// reported as such.
-struct UnaryCall : grpc::ClientContext {
-  UnaryCall() { set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(15)); }
-};
 
 // Fails with `what`, the server's message and a hint where TLS is the likely cause.
 void check_status(const grpc::Status& s, const char* what);

@@ -23,10 +23,6 @@ std::string said(const grpc::Status& s) {
   return "code " + std::to_string(int(s.error_code())) +
          (s.error_message().empty() ? "" : ": " + s.error_message());
 }
-
-struct Call : grpc::ClientContext {  // a unary call that cannot hang the watch
-  Call() { set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(15)); }
-};
 }  // namespace
 
 struct Watcher::State {
@@ -64,7 +60,7 @@ bool Watcher::begin(State& st) {
   auto stub = pb::ControlService::NewStub(channel_);
   // Waits for the connection: a call that fails at once while the channel is between attempts
   // had the watch reconnect 7 s after the server was back, this 1.6 s.
-  Call c;
+  UnaryCall c;
   c.set_wait_for_ready(true);
   if (opt_.until && *opt_.until < c.deadline()) c.set_deadline(*opt_.until);
   pb::GetServerInfoResponse info;
@@ -96,7 +92,7 @@ bool Watcher::fill(State& st, int64_t below_uid, WatchReport& rep) {
   q.set_page_size(kFillPage);
   if (st.last_uid > 0) q.set_page_token(std::to_string(st.last_uid));
   for (;;) {
-    Call c;
+    UnaryCall c;
     pb::ListFilletsResponse page;
     st.status = stub->ListFillets(&c, q, &page);
     if (!st.status.ok()) return false;

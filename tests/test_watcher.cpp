@@ -134,7 +134,9 @@ TEST(Watcher, OneWhoseServerWentAwayTakesWhatWasDecidedMeanwhile) {
   const WatchReport r = run.get();
   EXPECT_TRUE(r.status.ok()) << r.status.error_message();
   EXPECT_EQ(r.shown, 9u);
-  EXPECT_EQ(r.filled, 4u);
+  // The four from the store; the next server's two may be too, if they were stored before the
+  // watcher's fill asked.
+  EXPECT_GE(r.filled, 4u);
   EXPECT_GE(r.reconnects, 1u);
   EXPECT_EQ(uids, watcher_test::one_to(9));
   server->shutdown();

@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cstdio>
 #include <mutex>
 
 #include "core/error.h"
@@ -13,6 +12,7 @@
 #include "sensors/frame_counts.h"
 #include "sensors/genicam_url.h"
 #include "sensors/gvcp_read.h"
+#include "sensors/hex_text.h"
 
 namespace rangex {
 
@@ -38,12 +38,6 @@ struct Session {
       g_object_unref(b);
   }
 };
-
-std::string hex(uint32_t v) {
-  char b[16];
-  std::snprintf(b, sizeof b, "0x%08x", v);
-  return b;
-}
 
 // The device's IPv4 address: the id itself, or what Aravis's discovery gives for it.
 std::optional<std::string> device_ipv4(const std::string& id) {
@@ -156,7 +150,7 @@ struct GigeDevice::Impl {
     const ArvPixelFormat want =
         setup.role == DeviceRole::kXray ? ARV_PIXEL_FORMAT_MONO_16 : ARV_PIXEL_FORMAT_MONO_8;
     if (format != want)
-      fail("device ", setup.id, " refuses PixelFormat=", pf, ": it keeps ", hex(format));
+      fail("device ", setup.id, " refuses PixelFormat=", pf, ": it keeps ", hex32(format));
     arv_camera_set_acquisition_mode(camera, ARV_ACQUISITION_MODE_CONTINUOUS, &e);
     if (e) refused("AcquisitionMode", "Continuous", e);
     if (has("TriggerSelector")) set_string("TriggerSelector", "FrameStart");
@@ -204,7 +198,7 @@ struct GigeDevice::Impl {
     const size_t frame = frame_bytes();
     if (payload < frame || payload > 2 * frame + (64u << 10))
       fail("device ", setup.id, " gives a payload size of ", payload, " bytes for frames of ",
-           setup.width, "x", setup.height, " ", hex(format), " (", frame,
+           setup.width, "x", setup.height, " ", hex32(format), " (", frame,
            " bytes): refused, it must hold one frame and its chunks, at most ", 2 * frame,
            " + 65536 bytes");
     // The socket's receive buffer for every receive buffer's frame, 1 MiB at least; the kernel
@@ -280,8 +274,8 @@ GigeDevice::Got GigeDevice::next(int timeout_ms, DeviceFrame& out, std::string& 
   const ArvPixelFormat pf = arv_buffer_get_image_pixel_format(b);
   const int w = arv_buffer_get_image_width(b), h = arv_buffer_get_image_height(b);
   if (pf != d.format || w != d.setup.width || h != d.setup.height) {
-    why = join("frame of ", w, "x", h, " pixel format ", hex(pf), " (expected ", d.setup.width, "x",
-               d.setup.height, " ", hex(d.format), ")");
+    why = join("frame of ", w, "x", h, " pixel format ", hex32(pf), " (expected ", d.setup.width,
+               "x", d.setup.height, " ", hex32(d.format), ")");
     arv_stream_push_buffer(stream, b);
     return Got::kWrongFormat;
   }
@@ -303,7 +297,7 @@ GigeDevice::Got GigeDevice::next(int timeout_ms, DeviceFrame& out, std::string& 
   size_t size = 0;
   const void* data = arv_buffer_get_data(b, &size);
   if (size < d.frame_bytes()) {  // a leader's size the data did not fill
-    why = join("frame of ", size, " bytes for ", w, "x", h, " ", hex(pf), " (", d.frame_bytes(),
+    why = join("frame of ", size, " bytes for ", w, "x", h, " ", hex32(pf), " (", d.frame_bytes(),
                " bytes)");
     arv_stream_push_buffer(stream, b);
     return Got::kWrongFormat;

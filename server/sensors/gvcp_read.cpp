@@ -8,11 +8,11 @@
 
 #include <cerrno>
 #include <chrono>
-#include <cstdio>
 #include <cstring>
 #include <vector>
 
 #include "core/error.h"
+#include "sensors/hex_text.h"
 
 namespace rangex {
 
@@ -32,12 +32,6 @@ void put32(uint8_t* p, uint32_t v) {
 }
 uint16_t get16(const uint8_t* p) {
   return uint16_t(p[0] << 8 | p[1]);
-}
-
-std::string as_hex(uint32_t v) {
-  char b[16];
-  std::snprintf(b, sizeof b, "0x%x", v);
-  return b;
 }
 
 struct Socket {
@@ -92,11 +86,11 @@ std::string gvcp_read_memory(const std::string& ipv4, uint32_t address, uint16_t
           get16(ack.data() + 2) != kReadMemAck || get16(ack.data() + 6) != id)
         continue;  // another host's datagram, or a late answer to an earlier try
       if (const uint16_t status = get16(ack.data()); status != 0)
-        fail("GVCP: device ", ipv4, " refuses to read ", count, " bytes at ", as_hex(address),
-             " (status ", as_hex(status), ")");
+        fail("GVCP: device ", ipv4, " refuses to read ", count, " bytes at ", hex32(address),
+             " (status ", hex32(status), ")");
       if (size_t(n) < 12 + size_t(count))
         fail("GVCP: device ", ipv4, " answered ", n - 12, " of ", count, " bytes at ",
-             as_hex(address));
+             hex32(address));
       return std::string(reinterpret_cast<const char*>(ack.data()) + 12, count);
     }
   }
