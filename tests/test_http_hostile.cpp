@@ -332,6 +332,39 @@ TEST(HttpHostile, AnAnnouncedBodyIsRefusedBeforeItIsWaitedFor) {
   EXPECT_EQ(st->status, 200);
 }
 
+// httplib's own SO_REUSEPORT let a second server start on a port another one listens on and
+// take some of its connections. A restart must still take its port back at once, though the
+// connections it closed wait in TIME_WAIT there.
+TEST(HttpHostile, APortAnotherServerListensOnIsRefusedAndARestartTakesItBack) {
+  Plant plant;
+  HttpOptions same = http_options();
+  same.listen = "127.0.0.1:" + std::to_string(plant.web.port());
+  try {
+    HttpServer second(plant.server.engine(), plant.server.store(), plant.server.hub(), same);
+    ADD_FAILURE() << "a second server listens on " << same.listen;
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot listen on " + same.listen), std::string::npos)
+        << e.what();
+  }
+  // The server closes this connection first, so its side of it waits in TIME_WAIT.
+  const int fd = connect_to(plant.web.port());
+  ASSERT_GE(fd, 0);
+  const std::string head = "GET /api/info HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  ASSERT_EQ(::send(fd, head.data(), head.size(), MSG_NOSIGNAL), ssize_t(head.size()));
+  char buf[4096];
+  std::string answer;
+  for (ssize_t n; (n = ::recv(fd, buf, sizeof buf, 0)) > 0;) answer.append(buf, size_t(n));
+  ::close(fd);
+  EXPECT_EQ(answer.rfind("HTTP/1.1 200", 0), 0u) << answer.substr(0, 80);
+  plant.web.stop();
+  HttpServer again(plant.server.engine(), plant.server.store(), plant.server.hub(), same);
+  httplib::Client c("127.0.0.1", again.port());
+  c.set_read_timeout(10, 0);
+  const auto r = c.Get("/api/info");
+  ASSERT_TRUE(r) << httplib::to_string(r.error());
+  EXPECT_EQ(r->status, 200);
+}
+
 TEST(HttpHostile, AMultiRangeRequestIsRefusedSmallAndOneRangeIsServed) {
   Plant plant;
   httplib::Client& c = plant.client;

@@ -634,6 +634,26 @@ TEST(Server, RestartKeepsResultsAndCalibrations) {
   EXPECT_FALSE(resp.next_page_token().empty());
 }
 
+// gRPC's default SO_REUSEPORT let a second rangexd start on the first's address and take
+// some of its clients.
+TEST(Server, AnAddressAnotherServerListensOnIsRefusedNotShared) {
+  test::TempDir t, u;
+  RangexServer first(plant(), options(t));
+  ServerOptions o = options(u);
+  o.listen = first.address();
+  try {
+    RangexServer second(plant(), o);
+    ADD_FAILURE() << "a second rangexd listens on " << o.listen;
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot listen on " + o.listen), std::string::npos)
+        << e.what();
+  }
+  auto control = pb::ControlService::NewStub(connect(first));
+  grpc::ClientContext c;
+  pb::GetServerInfoResponse info;
+  EXPECT_TRUE(control->GetServerInfo(&c, pb::GetServerInfoRequest(), &info).ok());
+}
+
 // A page token is the last uid a page held, given back whole: "2abc" was read as 2.
 TEST(Server, AMalformedPageTokenIsRefusedNamingIt) {
   test::TempDir t;

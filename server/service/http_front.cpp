@@ -4,6 +4,7 @@
 #include <openssl/err.h>
 #include <openssl/ssl.h>
 #include <openssl/x509.h>
+#include <sys/socket.h>
 
 #include <chrono>
 #include <nlohmann/json.hpp>
@@ -112,6 +113,13 @@ HttpFront make_http_front(const std::string& listen, const SecurityConfig& secur
     }
   }
   f.server = std::make_unique<GatedHttpServer>(g, tls);
+  // httplib binds with SO_REUSEPORT, which lets a second server on this port start and take
+  // half of the browsers' connections. SO_REUSEADDR alone still rebinds at once after a
+  // restart left connections in TIME_WAIT, and refuses a port that another one listens on.
+  f.server->set_socket_options([](socket_t sock) {
+    const int yes = 1;
+    ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
   f.server->set_read_timeout(10, 0);
   f.server->set_write_timeout(10, 0);
   return f;

@@ -118,6 +118,9 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder b;
   b.AddListeningPort(opt_.listen, server_credentials(plant_.security), &port_);
+  // gRPC binds with SO_REUSEPORT by default: a second rangexd on this address would start
+  // and take half of the clients' connections. It must fail to listen instead.
+  b.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   b.SetMaxReceiveMessageSize(opt_.max_message_bytes);
   // The size check comes only once a message is whole: the quota is what bounds memory.
   grpc::ResourceQuota quota("rangexd-grpc");
@@ -137,7 +140,8 @@ RangexServer::RangexServer(const PlantConfig& plant, ServerOptions opt)
   server_ = b.BuildAndStart();
   if (!server_ || port_ == 0) {
     engine_->drain_and_stop();
-    fail("cannot listen on ", opt_.listen);
+    fail("cannot listen on ", opt_.listen,
+         " (in use, e.g. by another rangexd, or no such address)");
   }
   set_health(engine_->health());
   store_->audit("rangexd", "server.start", "listening on " + address());
