@@ -14,7 +14,7 @@ packages=(
   ocl-icd-opencl-dev opencl-headers pocl-opencl-icd
   python3-statsmodels python3-grpcio python3-protobuf python3-yaml
   chromium chromium-driver python3-selenium python3-prometheus-client
-  libaravis-dev libusb-1.0-0-dev aravis-tools iproute2 libmodbus-dev
+  libaravis-dev libusb-1.0-0-dev aravis-tools iproute2 libmodbus-dev zlib1g-dev
   libpq-dev postgresql-15
 )
 

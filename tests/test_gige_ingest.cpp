@@ -30,6 +30,7 @@
 #include "sim/plant_simulator.h"
 #include "temp_dir.h"
 #include "wait_until.h"
+#include "zip_archive.h"
 
 using namespace rangex;
 using namespace rangex::test;
@@ -547,5 +548,40 @@ TEST(GigeIngest, ADeviceNamingADescriptionNotItsOwnOrTooLargeIsRefused) {
   EXPECT_TRUE(wait_until(30, [&] {
     return device_state(server.sensors(), 0, 2)->state == "streaming";
   })) << "the X-ray detector, whose description is its own, did not stream";
+  EXPECT_EQ(server.engine().lane_state(0).received, 0u);
+}
+
+// Devices naming zipped descriptions: Aravis unzips on the archive's word. One whose
+// directory puts its file 2 GiB past the archive crashed the process that opened it (the
+// whole rangexd); it is refused, naming the lie. One zipped as devices ship them streams.
+TEST(GigeIngest, ADeviceWhoseZippedDescriptionLiesIsRefusedAndAWholeOneStreams) {
+  LoopbackAddresses addrs(addresses(1));
+  NEED_ADDRESSES(addrs);
+  TempDir t;
+  ZipLayout l;
+  const std::string whole = zip_archive("arv-fake-camera.xml", FakeDevice::genicam_xml(), true, &l);
+  std::string lying = whole;
+  zip_put(lying, l.entry + 42, 0x7FFFFFFFu, 4);  // where its local header is
+  std::ofstream(t.str("lying.zip"), std::ios::binary) << lying;
+  std::ofstream(t.str("whole.zip"), std::ios::binary) << whole;
+  const auto url = [](const std::string& name, size_t size) {
+    char hex[32];
+    std::snprintf(hex, sizeof hex, "%zx", size);
+    return "Local:" + name + ";10000;" + hex;
+  };
+  const PlantConfig p = plant(1);
+  const RecordingReader rec(simulate(t, p, 1, 1));
+  ServedLane served(rec, 0);
+  FakeDevice cam0(device_address(0, 0), "lying", kPeriodUs, serve(served, 0), t.str("lying.zip"));
+  FakeDevice cam1(device_address(0, 1), "whole", kPeriodUs, serve(served, 1), t.str("whole.zip"));
+  FakeDevice xray(device_address(0, 2), "rx02", kPeriodUs, serve(served, 2));
+  cam0.set_genicam_url(url("lying.zip", lying.size()));
+  cam1.set_genicam_url(url("whole.zip", whole.size()));
+  RangexServer server(p, options(t));
+  expect_refused(server, 0, "'arv-fake-camera.xml' has no header where the directory says");
+  for (const int d : {1, 2})
+    EXPECT_TRUE(
+        wait_until(30, [&] { return device_state(server.sensors(), 0, d)->state == "streaming"; }))
+        << "device " << d << " did not stream";
   EXPECT_EQ(server.engine().lane_state(0).received, 0u);
 }

@@ -9,8 +9,10 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "core/text_file.h"
 #include "sensors/frame_counts.h"
 #include "sensors/genicam_url.h"
+#include "sensors/genicam_zip.h"
 #include "sensors/gvcp_read.h"
 #include "sensors/hex_text.h"
 
@@ -65,7 +67,11 @@ void check_description(const std::string& id) {
   } catch (const Error& e) {
     fail("device ", id, ": ", e.what());
   }
-  const std::string why = genicam_url_refusal(url);
+  std::string why = genicam_url_refusal(url);
+  if (why.empty() && genicam_is_zip(url.path))
+    why = genicam_zip_refusal(url.scheme == "local"
+                                  ? gvcp_read_range(*ip, url.address, url.size)
+                                  : read_text_file(url.path, "a GenICam description"));
   if (!why.empty())
     fail("device ", id, " names its GenICam description '", text.substr(0, 120), "': refused, ",
          why);

@@ -6,6 +6,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -96,6 +97,25 @@ std::string gvcp_read_memory(const std::string& ipv4, uint32_t address, uint16_t
   }
   fail("GVCP: device ", ipv4, " did not answer a read of its memory (", tries, " tries of ",
        timeout_ms, " ms)");
+}
+
+std::string gvcp_read_range(const std::string& ipv4, uint64_t address, uint64_t size,
+                            double limit_s) {
+  if (address + size > (uint64_t(1) << 32))
+    fail("GVCP: ", size, " bytes at ", address, " run past the device's 32-bit addresses");
+  const auto start = std::chrono::steady_clock::now();
+  std::string out;
+  out.reserve(size);
+  for (uint64_t done = 0; done < size;) {
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > limit_s)
+      fail("GVCP: device ", ipv4, " took more than ", limit_s, " s to give ", size, " bytes (",
+           done, " read)");
+    const uint64_t want = std::min<uint64_t>(size - done, kGvcpReadMax);
+    const uint16_t count = uint16_t((want + 3) / 4 * 4);  // reads are whole registers
+    out += gvcp_read_memory(ipv4, uint32_t(address + done), count).substr(0, want);
+    done += want;
+  }
+  return out;
 }
 
 }  // namespace rangex

@@ -16,4 +16,10 @@ constexpr uint16_t kGvcpReadMax = 512;    // bytes one READMEM may ask for
 std::string gvcp_read_memory(const std::string& ipv4, uint32_t address, uint16_t count,
                              int timeout_ms = 500, int tries = 3);
 
+// `size` bytes at `address`, read kGvcpReadMax at a time. Throws Error as gvcp_read_memory
+// does, when the range does not fit the device's 32-bit addresses, or when the whole takes
+// longer than `limit_s` (a device answering each read just in time would take hours).
+std::string gvcp_read_range(const std::string& ipv4, uint64_t address, uint64_t size,
+                            double limit_s = 60);
+
 }  // namespace rangex

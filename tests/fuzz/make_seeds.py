@@ -5,9 +5,11 @@ the corpus is committed, this script is how it was made.
 
 usage: make_seeds.py [CORPUS_DIR]
 """
+import io
 import os
 import struct
 import sys
+import zipfile
 
 here = os.path.dirname(os.path.abspath(__file__))
 out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "corpus")
@@ -128,4 +130,18 @@ for i, q in enumerate(["12/overlay?lane=1&decision=reject&limit=5",
                        '{"x_mm": 1}',
                        "POST /x HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n5\r\n"]):
     put("query_params", "q%d" % i, q)
+# zipped GenICam descriptions as devices ship them: deflated, stored, two files, bytes before
+xml = (b'<?xml version="1.0"?><RegisterDescription ModelName="Seed" VendorName="rangex">'
+       b'<Category Name="Root"/></RegisterDescription>')
+for name, method, files, prefix in [("deflated", zipfile.ZIP_DEFLATED, 1, b""),
+                                    ("stored", zipfile.ZIP_STORED, 1, b""),
+                                    ("two_files", zipfile.ZIP_DEFLATED, 2, b""),
+                                    ("prefixed", zipfile.ZIP_DEFLATED, 1, b"MZ" * 20)]:
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", method) as z:
+        for f in range(files):
+            info = zipfile.ZipInfo("desc%d.xml" % f, date_time=(2026, 12, 8, 0, 0, 0))
+            info.compress_type = method
+            z.writestr(info, xml * (f + 1))
+    put("genicam_zip", name, prefix + buf.getvalue())
 print("seeds written to", out)
