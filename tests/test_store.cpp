@@ -1,6 +1,9 @@
 // The store keeps every field of a decision, and opens stores written by earlier versions.
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sqlite3.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -218,4 +221,48 @@ TEST(Store, ImagesStagedForDecisionsNotStoredAreGoneWhenItOpensAgain) {
   EXPECT_FALSE(std::filesystem::exists(std::filesystem::path(staged).parent_path()));
   EXPECT_TRUE(std::filesystem::exists(image));  // stored images stay
   EXPECT_EQ(s.list_fillets(0, 0, -1, 0, 10).size(), 1u);
+}
+
+// One writer to a data directory: a second rangexd given the same --data had started and
+// removed the first's staged images. Another process's store is refused naming its pid, and
+// its lock goes with it however it ends (here SIGKILL).
+TEST(Store, AStoreAnotherProcessHasOpenIsRefusedNamingIt) {
+  test::TempDir t;
+  {
+    Store first(t.str());
+    try {
+      Store second(t.str());
+      ADD_FAILURE() << "two stores opened one directory";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("the store is in use by another process (pid " +
+                                           std::to_string(getpid()) + ")"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  int ready[2];
+  ASSERT_EQ(pipe(ready), 0);
+  const pid_t child = fork();
+  if (child == 0) {
+    Store held(t.str());
+    [[maybe_unused]] const ssize_t n = write(ready[1], "x", 1);
+    pause();
+    _exit(0);
+  }
+  char c = 0;
+  ASSERT_EQ(read(ready[0], &c, 1), 1);
+  try {
+    Store refused(t.str());
+    ADD_FAILURE() << "a store another process holds opened";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("(pid " + std::to_string(child) + ")"), std::string::npos)
+        << e.what();
+  }
+  kill(child, SIGKILL);
+  int status = 0;
+  waitpid(child, &status, 0);
+  close(ready[0]);
+  close(ready[1]);
+  Store after(t.str());
+  EXPECT_GT(after.add_fillet(sample()), 0);
 }

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "store/directory_lock.h"
 #include "store/record_chain.h"
 #include "store/sqlite_stmt.h"
 
@@ -83,7 +84,7 @@ std::string Store::damage(sqlite3* db) {
   return out;
 }
 
-Store::Store(const std::string& dir) : dir_(dir) {
+Store::Store(const std::string& dir) : dir_(dir), lock_(std::make_unique<DirectoryLock>(dir)) {
   fs::create_directories(fs::path(dir) / "images");
   const std::string path = (fs::path(dir) / "rangex.sqlite").string();
   if (sqlite3_open(path.c_str(), &db_) != SQLITE_OK) {

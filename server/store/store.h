@@ -70,9 +70,12 @@ struct PruneReport {
   std::string checkpoint_hash;
 };
 
+class DirectoryLock;
+
 class Store {
  public:
-  // Opens (creating if needed) <dir>/rangex.sqlite and <dir>/images/.
+  // Opens (creating if needed) <dir>/rangex.sqlite and <dir>/images/, the only writer of
+  // them: a store another process has open is refused, naming its pid (directory_lock.h).
   explicit Store(const std::string& dir);
   ~Store();
   Store(const Store&) = delete;
@@ -182,6 +185,7 @@ class Store {
   std::string append_audit(const AuditEntry& e, const std::string& prev);
   int64_t prune_images(int64_t before_ns, int max_rows, std::vector<std::string>& files);
   std::string dir_;
+  std::unique_ptr<DirectoryLock> lock_;  // null in a read-only view
   sqlite3* db_ = nullptr;
   std::mutex mu_;
   std::string head_;  // the chain's last hash
