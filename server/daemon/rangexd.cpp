@@ -1,5 +1,5 @@
 // rangexd: the inspection server. Loads the plant configuration, opens its store, serves
-// rangex.v1 over gRPC (loopback by default) until SIGINT/SIGTERM, then drains and stops.
+// rangex.v1 over gRPC (loopback by default) until SIGINT/SIGTERM/SIGHUP, then drains and stops.
 // Exits non-zero when it cannot inspect for `server.exit_after_s` (a stalled worker, a failed
 // store) or cannot drain within `server.drain_timeout_s`, so that a supervisor (systemd,
 // Kubernetes) restarts it; results and calibrations survive in the store.
@@ -21,9 +21,31 @@
 #include "service/server.h"
 
 namespace {
-volatile std::sig_atomic_t g_stop = 0;
-void on_signal(int) {
-  g_stop = 1;
+volatile std::sig_atomic_t g_stop = 0;  // the signal that asked for the stop
+void on_signal(int sig) {
+  g_stop = sig;
+}
+
+// SIGINT, SIGTERM and SIGHUP stop rangexd the same way: it decides what it accepted and hands
+// the rest back. SIGHUP's default had ended it at once, undrained (exit 129): a terminal
+// closing on a hand-started rangexd, or a reload sent to a service that has none to do.
+// SIGPIPE is ignored: a reader of its output that went away fails that write, not the line.
+void stop_on_signals() {
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, on_signal);
+  std::signal(SIGPIPE, SIG_IGN);
+}
+
+const char* signal_name(int sig) {
+  switch (sig) {
+    case SIGINT:
+      return "SIGINT";
+    case SIGTERM:
+      return "SIGTERM";
+    case SIGHUP:
+      return "SIGHUP";
+    default:
+      return "a signal";
+  }
 }
 
 constexpr const char* kUsage =
@@ -45,7 +67,7 @@ void print_stats(rangex::RangexServer& server) {
                (unsigned long long)s.received, (unsigned long long)s.accepted,
                (unsigned long long)s.processed, s.queue_depth);
 }
-// The fleet view: every server's records from the plant-wide database, until SIGINT/SIGTERM.
+// The fleet view: every server's records from the plant-wide database, until SIGINT/SIGTERM/SIGHUP.
 int run_fleet(const rangex::PlantConfig& plant, const std::string& http,
               const std::string& servers_ca) {
   rangex::FleetOptions fo;
@@ -55,8 +77,7 @@ int run_fleet(const rangex::PlantConfig& plant, const std::string& http,
   fo.security = plant.security;
   fo.servers_ca = servers_ca;
   rangex::FleetServer fleet(fo);
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  stop_on_signals();
   std::printf("rangexd: fleet view of plant '%s' over PostgreSQL at %s, at %s://%s/\n",
               plant.name.c_str(), rangex::pg_where(plant.results_db).c_str(),
               fleet.tls() ? "https" : "http", fleet.address().c_str());
@@ -212,7 +233,7 @@ void print_banner(rangex::RangexServer& server, const rangex::PlantConfig& plant
   std::fflush(stdout);
 }
 
-// Serves until SIGINT/SIGTERM, then decides the queued lines and stops.
+// Serves until SIGINT/SIGTERM/SIGHUP, then decides the queued lines and stops.
 int serve(const rangex::PlantConfig& plant, const Args& a) {
   const rangex::ServerOptions opt = server_options(plant, a);
   rangex::RangexServer server(plant, opt);
@@ -230,13 +251,13 @@ int serve(const rangex::PlantConfig& plant, const Args& a) {
     rangex::RangexServer& s;
     ~Undescribe() { s.describe_for_fleet("", nullptr); }
   } undescribe{server};
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  stop_on_signals();
   print_banner(server, plant, a.data.empty() ? plant.storage : a.data, web.get());
   while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   std::printf(
-      "rangexd: stopping: deciding the queued lines; new lines and the fillets still coming "
-      "in are handed back to the feeders\n");
+      "rangexd: stopping (%s): deciding the queued lines; new lines and the fillets still "
+      "coming in are handed back to the feeders\n",
+      signal_name(g_stop));
   std::fflush(stdout);
   if (!server.shutdown(rangex::OpenFillets::kHandBack)) {
     print_stats(server);

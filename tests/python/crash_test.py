@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Crash and stop consistency: rangexd killed with SIGKILL (or stopped with SIGTERM) at random
-moments while a simulated plant streams into it, restarted each time on the same store and
+"""Crash and stop consistency: rangexd killed with SIGKILL (or stopped with SIGTERM and SIGHUP)
+at random moments while a simulated plant streams into it, restarted each time on the same store and
 port. A stop refuses new lines and hands them back with the fillets still coming in; the
 feeder sends them to the next server, so a stop, like a crash, loses nothing.
 
@@ -88,14 +88,17 @@ class Server:
         self.proc.send_signal(signal.SIGKILL)
         self.proc.wait(timeout=30)
 
-    def interrupt(self):
-        """SIGKILL or SIGTERM, as the test was asked; a stop must end cleanly."""
+    def interrupt(self, k):
+        """SIGKILL, or a stop that must end cleanly: SIGTERM, and every second one SIGHUP (a
+        terminal that closed; it once ended rangexd undrained, exit 129)."""
         if how == "KILL":
             return self.kill()
-        self.proc.send_signal(signal.SIGTERM)
+        sig = signal.SIGHUP if k % 2 else signal.SIGTERM
+        self.proc.send_signal(sig)
         rc = self.proc.wait(timeout=90)
         if rc != 0:
-            fail("rangexd stopped with %d (see %s)" % (rc, os.path.join(tmp, "rangexd.log")))
+            fail("rangexd stopped by %s with %d (see %s)"
+                 % (sig.name, rc, os.path.join(tmp, "rangexd.log")))
 
     def stop(self):
         self.proc.send_signal(signal.SIGTERM)
@@ -244,7 +247,7 @@ def crash_run(seed):
         time.sleep(rng.uniform(0.8, 2.5))
         if feeder.poll() is not None:
             break
-        server.interrupt()
+        server.interrupt(k)
         done_kills += 1
         print("%s rangexd (%d) after %d decisions seen"
               % ("killed" if how == "KILL" else "stopped", done_kills, len(seen)), flush=True)
