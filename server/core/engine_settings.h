@@ -33,11 +33,14 @@ struct EngineSettings {
   // reading) gives way to a new one; with none behind, a new one is refused
   // (RESOURCE_EXHAUSTED). Each holds up to 256 results waiting for it.
   int max_subscriptions = 64;
-  // Ingest streams at once; a new one past it is refused (RESOURCE_EXHAUSTED) and a feeder
-  // tries again. Each costs about 20 kB held (20,000 took rangexd from 100 to 490 MB); a
-  // plant needs one a feeder, and a stream left by a feeder that went is closed after
-  // stream_idle_s.
+  // Ingest streams at once. Each costs about 20 kB held (20,000 took rangexd from 100 to
+  // 490 MB); a plant needs one a feeder, and a stream left by a feeder that went is closed
+  // after stream_idle_s. When full, the one with no request for longest gives way to a new
+  // one if that is at least stream_gives_way_s (a leaked stream; a feeder whose belt stands
+  // reconnects when it has lines); streams that feed are never cut for it. With none so
+  // quiet, a new one is refused (RESOURCE_EXHAUSTED) and a feeder tries again.
   int max_ingest_streams = 256;
+  double stream_gives_way_s = 30;
   // What gRPC may hold for the gRPC port's connections, all together: messages as they
   // arrive and the connections' buffers. gRPC holds a message whole before it checks its
   // size (up to 4 GiB, whatever the bound), so without this one client could take the

@@ -71,7 +71,7 @@ void read_engine(const ConfigNode& n, EngineSettings& e) {
   n.only_keys({"queue_lines", "batch_lines", "batch_wait_ms", "inspectors", "dedup_window",
                "auto_reset", "idle_close_s", "stall_s", "exit_after_s", "drain_timeout_s",
                "verify_fraction", "stream_idle_s", "store_reserve_mb", "max_subscriptions",
-               "max_ingest_streams", "grpc_memory_mb"});
+               "max_ingest_streams", "stream_gives_way_s", "grpc_memory_mb"});
   int queue = int(e.queue_lines);
   n.positive("queue_lines", queue);
   if (queue > 1 << 20) n.at("queue_lines").bad("must be <= 1048576");
@@ -93,6 +93,7 @@ void read_engine(const ConfigNode& n, EngineSettings& e) {
   if (e.max_subscriptions > 10000) n.at("max_subscriptions").bad("must be <= 10000");
   n.positive("max_ingest_streams", e.max_ingest_streams);
   if (e.max_ingest_streams > 10000) n.at("max_ingest_streams").bad("must be <= 10000");
+  n.positive("stream_gives_way_s", e.stream_gives_way_s);
   n.get("grpc_memory_mb", e.grpc_memory_mb);
   if (e.grpc_memory_mb < 16 || e.grpc_memory_mb > 1 << 20)
     n.at("grpc_memory_mb").bad("must be 16..1048576 (MB)");

@@ -68,8 +68,8 @@ Status guarded(const AccessControl& access, const ServerContext* ctx, Role neede
 
 class IngestImpl final : public pb::IngestService::CallbackService {
  public:
-  IngestImpl(const AccessControl& a, Engine& e, StreamCounters& c, int max_streams)
-      : access_(a), engine_(e), counters_(c), max_streams_(max_streams) {}
+  IngestImpl(const AccessControl& a, Engine& e, StreamCounters& c, IngestBound bound)
+      : access_(a), engine_(e), counters_(c), bound_(bound) {}
   grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>* StreamLines(
       grpc::CallbackServerContext* ctx) override {
     try {
@@ -77,14 +77,14 @@ class IngestImpl final : public pb::IngestService::CallbackService {
     } catch (const std::exception& e) {
       return refused_ingest_stream(refusal(e));
     }
-    return new_ingest_stream(engine_, counters_, max_streams_);
+    return new_ingest_stream(engine_, counters_, bound_);
   }
 
  private:
   const AccessControl& access_;
   Engine& engine_;
   StreamCounters& counters_;
-  const int max_streams_;
+  const IngestBound bound_;
 };
 
 class ResultsImpl final
@@ -363,7 +363,8 @@ struct RpcServices::Impl {
 
 RpcServices::RpcServices(const AccessControl& access, Engine& engine, Store& store, ResultsHub& hub,
                          StreamCounters& counters, const ServerOptions& opt, int64_t started_ns)
-    : impl_(new Impl{IngestImpl(access, engine, counters, opt.engine.max_ingest_streams),
+    : impl_(new Impl{IngestImpl(access, engine, counters,
+                                {opt.engine.max_ingest_streams, opt.engine.stream_gives_way_s}),
                      ResultsImpl(access, store, hub, counters, opt.engine.max_subscriptions),
                      CalibrationImpl(access, engine, store),
                      ControlImpl(access, engine, hub, counters, opt, started_ns)}) {}

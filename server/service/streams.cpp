@@ -6,6 +6,7 @@
 #include <memory>
 #include <mutex>
 
+#include "core/error.h"
 #include "rangex/v1/decision_names.h"
 #include "service/engine.h"
 #include "service/line_from_proto.h"
@@ -41,20 +42,52 @@ class Reaction {
   const void* r_;
 };
 
+// On a full server: the stream with no request for longest gives way to a newcomer, if that
+// is at least gives_way_s. Streams that feed are never cut for it. False when none gave way.
+bool give_way_quietest(const std::vector<std::shared_ptr<IdleClosable>>& open,
+                       const IngestBound& bound) {
+  std::vector<std::pair<int64_t, IdleClosable*>> by_quiet;
+  for (const auto& s : open) by_quiet.emplace_back(s->last_request_ns(), s.get());
+  std::sort(by_quiet.begin(), by_quiet.end());
+  const int64_t now = steady_ns(), quiet = int64_t(bound.gives_way_s * 1e9);
+  const std::string why =
+      join("no request for ", bound.gives_way_s, " s while the server held its ", bound.max_streams,
+           " ingest streams (server.max_ingest_streams): closed for a new one; reconnect to feed");
+  // Another newcomer may take the same one first: then the next quietest.
+  for (const auto& [last, s] : by_quiet) {
+    if (now - last < quiet) return false;
+    if (s->close_if_idle(now, quiet, why)) return true;
+  }
+  return false;
+}
+
 // Owned by itself (self_) until OnDone; the idle sweep holds only a weak reference, so a
 // sweep that races OnDone keeps the reactor alive until it returns.
 class IngestStream final
     : public grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>,
       public IdleClosable {
  public:
-  // nullptr when the server holds max_streams already.
-  static IngestStream* start(Engine& engine, StreamCounters& counters, int max_streams) {
+  // nullptr when the server holds max_streams already and none of them gives way.
+  static IngestStream* start(Engine& engine, StreamCounters& counters, const IngestBound& bound) {
     std::shared_ptr<IngestStream> s;
+    std::vector<std::shared_ptr<IdleClosable>> open;
     {
       // Counted (the constructor) under the registry's lock: newcomers at the same time see
       // each other. A stream stops counting in OnDone.
       std::lock_guard<std::mutex> lock(counters.live_mu);
-      if (counters.ingest >= max_streams) return nullptr;
+      if (counters.ingest < bound.max_streams) {
+        s.reset(new IngestStream(engine, counters));
+        counters.live.push_back(s);
+      } else {
+        for (const auto& w : counters.live)
+          if (auto live = w.lock()) open.push_back(std::move(live));
+      }
+    }
+    if (!s) {
+      // Outside the registry's lock: Finish may run reactions of its own. The one that gave
+      // way counts until its OnDone, so the server holds one more meanwhile.
+      if (!give_way_quietest(open, bound)) return nullptr;
+      std::lock_guard<std::mutex> lock(counters.live_mu);
       s.reset(new IngestStream(engine, counters));
       counters.live.push_back(s);
     }
@@ -66,7 +99,7 @@ class IngestStream final
     return s.get();
   }
 
-  bool close_if_idle(int64_t now_ns, int64_t idle_ns) override {
+  bool close_if_idle(int64_t now_ns, int64_t idle_ns, const std::string& why) override {
     {
       std::lock_guard<std::mutex> lock(mu_);
       // A stream writing acks is not idle; one already ending is left to end.
@@ -74,11 +107,13 @@ class IngestStream final
       broken_ = expired_ = finished_ = true;
     }
     // The pending read then completes with ok = false; nothing else is started.
-    Finish(grpc::Status(grpc::StatusCode::UNAVAILABLE,
-                        "no request for " + std::to_string(idle_ns / 1'000'000'000) +
-                            " s (server.stream_idle_s): idle ingest stream closed; reconnect "
-                            "to feed"));
+    Finish(grpc::Status(grpc::StatusCode::UNAVAILABLE, why));
     return true;
+  }
+
+  int64_t last_request_ns() override {
+    std::lock_guard<std::mutex> lock(mu_);
+    return last_ns_;
   }
 
   void OnReadDone(bool ok) override {
@@ -403,12 +438,13 @@ grpc::ServerWriteReactor<pb::SubscribeFilletsResponse>* refused_subscription(
 }
 
 grpc::ServerBidiReactor<pb::StreamLinesRequest, pb::StreamLinesResponse>* new_ingest_stream(
-    Engine& engine, StreamCounters& counters, int max_streams) {
-  if (auto* s = IngestStream::start(engine, counters, max_streams)) return s;
-  return refused_ingest_stream(
-      grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
-                   "too many ingest streams (" + std::to_string(max_streams) +
-                       ", server.max_ingest_streams); try again when one has ended"));
+    Engine& engine, StreamCounters& counters, const IngestBound& bound) {
+  if (auto* s = IngestStream::start(engine, counters, bound)) return s;
+  return refused_ingest_stream(grpc::Status(
+      grpc::StatusCode::RESOURCE_EXHAUSTED,
+      join("too many ingest streams (", bound.max_streams,
+           ", server.max_ingest_streams), none without a request for ", bound.gives_way_s,
+           " s (server.stream_gives_way_s); try again when one has ended")));
 }
 
 int close_idle_ingest_streams(StreamCounters& counters, double idle_s) {
@@ -421,8 +457,11 @@ int close_idle_ingest_streams(StreamCounters& counters, double idle_s) {
   }
   // Closed outside the registry's lock: Finish may run reactions of its own.
   const int64_t now = steady_ns(), idle = int64_t(idle_s * 1e9);
+  const std::string why = join("no request for ", idle_s,
+                               " s (server.stream_idle_s): idle ingest stream closed; reconnect "
+                               "to feed");
   int closed = 0;
-  for (const auto& s : open) closed += s->close_if_idle(now, idle);
+  for (const auto& s : open) closed += s->close_if_idle(now, idle, why);
   return closed;
 }
 

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <vector>
 
 #include "rangex/v1/rangex.pb.h"
@@ -22,12 +23,14 @@ namespace rangex {
 class Engine;
 class ResultsHub;
 
-// An ingest stream as the idle sweep sees it.
+// An ingest stream as the idle sweep and a newcomer to a full server see it.
 class IdleClosable {
  public:
   virtual ~IdleClosable() = default;
-  // Finishes the stream (UNAVAILABLE) when no request came for idle_ns; false when it was not.
-  virtual bool close_if_idle(int64_t now_ns, int64_t idle_ns) = 0;
+  // Finishes the stream (UNAVAILABLE, `why`) when no request came for idle_ns; false when one
+  // did, or it is already ending.
+  virtual bool close_if_idle(int64_t now_ns, int64_t idle_ns, const std::string& why) = 0;
+  virtual int64_t last_request_ns() = 0;  // steady clock; the start when none came
 };
 
 // A result subscription as a newcomer sees it when the server holds as many as it may.
@@ -50,10 +53,17 @@ struct StreamCounters {
 // Closes the ingest streams that have had no request for idle_s; returns how many.
 int close_idle_ingest_streams(StreamCounters& counters, double idle_s);
 
-// A new ingest stream, when the server holds fewer than max_streams; else refused with
-// RESOURCE_EXHAUSTED.
+// How many ingest streams a server holds, and which gives way when it holds that many.
+struct IngestBound {
+  int max_streams = 256;    // server.max_ingest_streams
+  double gives_way_s = 30;  // server.stream_gives_way_s
+};
+
+// A new ingest stream, when the server holds fewer than max_streams, or when one of them has
+// had no request for gives_way_s (the one quiet longest gives way: a leaked stream, a feeder
+// whose belt stands); else refused with RESOURCE_EXHAUSTED.
 grpc::ServerBidiReactor<v1::StreamLinesRequest, v1::StreamLinesResponse>* new_ingest_stream(
-    Engine& engine, StreamCounters& counters, int max_streams);
+    Engine& engine, StreamCounters& counters, const IngestBound& bound);
 // A new subscription, when the server holds fewer than max_subscriptions or one of them has
 // fallen behind (it gives way); else refused with RESOURCE_EXHAUSTED.
 grpc::ServerWriteReactor<v1::SubscribeFilletsResponse>* new_subscription(
