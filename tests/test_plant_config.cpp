@@ -144,6 +144,15 @@ TEST(PlantConfig, BadInputNamesKeyAndReason) {
         {"0", "-1", "10001", "all"});
   bound("grpc_memory_mb", &EngineSettings::grpc_memory_mb, 256, 16,
         {"0", "15", "-1", "1048577", "lots"});
+  EXPECT_EQ(parse_plant_config("lanes: [{id: 0}]\n", "test").engine.stream_gives_way_s, 30);
+  EXPECT_EQ(parse_plant_config("server: {stream_gives_way_s: 2.5}\nlanes: [{id: 0}]\n", "test")
+                .engine.stream_gives_way_s,
+            2.5);
+  for (const char* bad : {"0", "-1", "soon"})
+    EXPECT_NE(error_of("server: {stream_gives_way_s: " + std::string(bad) + "}\nlanes: [{id: 0}]\n")
+                  .find("server.stream_gives_way_s: "),
+              std::string::npos)
+        << bad;
   EXPECT_NE(error_of("server: {auto_reset: maybe}\nlanes: [{id: 0}]\n")
                 .find("server.auto_reset: expected true or false"),
             std::string::npos);
