@@ -563,7 +563,8 @@ TEST(Server, AVerificationPassesWhereThePieceIsAndFailsWhereItIsNot) {
   sp.seed = 9;
   sp.scene.test_cards = sim::TestCard{};
   sp.scene.test_cards->piece_x_mm = 20;
-  RangexServer server(p, options(t));
+  auto first = std::make_unique<RangexServer>(p, options(t));
+  RangexServer& server = *first;
   auto control = pb::ControlService::NewStub(connect(server));
   auto verify = [&](double at, int fillets) {
     grpc::ClientContext ctx;
@@ -598,7 +599,9 @@ TEST(Server, AVerificationPassesWhereThePieceIsAndFailsWhereItIsNot) {
     if (e.what.rfind("verification.", 0) == 0) audited.push_back(e.what);
   EXPECT_EQ(audited, (std::vector<std::string>{"verification.start", "verification.pass",
                                                "verification.start", "verification.fail"}));
-  // A restarted server knows the lane's last result.
+  // A restarted server knows the lane's last result (one store to a directory: the first
+  // lets go of it).
+  first.reset();
   RangexServer restarted(p, options(t));
   const LaneVerification back = restarted.engine().lane_state(0).verification;
   ASSERT_TRUE(back.last);

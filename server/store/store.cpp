@@ -235,6 +235,8 @@ StoredFillet Store::read_fillet(int64_t uid) {
   return f;
 }
 
+Store::Store() = default;  // here, where DirectoryLock is whole
+
 Store::~Store() {
   sqlite3_close(db_);
 }

@@ -167,7 +167,7 @@ class Store {
   // An image's row and its log entry, in the open transaction (mu_ held).
   void register_image(int64_t uid, const std::string& kind, const std::string& path);
   void rollback() noexcept;  // the open transaction, if SQLite has not rolled it back itself
-  Store() = default;         // a view of a read-only connection (verify_chain, chain_links)
+  Store();  // a view of a read-only connection (verify_chain, chain_links); no lock
   static std::unique_ptr<Store> read_only(const std::string& dir);
   // The tables whose pages or indexes are damaged, with SQLite's first complaint for each
   // ("" when all check out).
