@@ -35,19 +35,6 @@ void stop_on_signals() {
   std::signal(SIGPIPE, SIG_IGN);
 }
 
-const char* signal_name(int sig) {
-  switch (sig) {
-    case SIGINT:
-      return "SIGINT";
-    case SIGTERM:
-      return "SIGTERM";
-    case SIGHUP:
-      return "SIGHUP";
-    default:
-      return "a signal";
-  }
-}
-
 constexpr const char* kUsage =
     "usage: rangexd [--config PLANT.yaml] [--listen HOST:PORT] [--http HOST:PORT|off]\n"
     "               [--data DIR] [--threads N]\n"
@@ -255,9 +242,9 @@ int serve(const rangex::PlantConfig& plant, const Args& a) {
   print_banner(server, plant, a.data.empty() ? plant.storage : a.data, web.get());
   while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   std::printf(
-      "rangexd: stopping (%s): deciding the queued lines; new lines and the fillets still "
+      "rangexd: stopping (SIG%s): deciding the queued lines; new lines and the fillets still "
       "coming in are handed back to the feeders\n",
-      signal_name(g_stop));
+      sigabbrev_np(g_stop));
   std::fflush(stdout);
   if (!server.shutdown(rangex::OpenFillets::kHandBack)) {
     print_stats(server);
